@@ -1,0 +1,5 @@
+"""``python -m motorid`` runs the command-line interface."""
+
+from motorid.cli import main
+
+main()

@@ -1,0 +1,224 @@
+"""The capture data types: raw samples of one oscilloscope acquisition plus its metadata.
+
+A *capture* is one acquisition of the step experiment: CH1 = the step input (volts),
+CH2 = the measured quantity (volts).  Readers in :mod:`motorid.io` produce captures; the
+virtual trainer produces them too; conditioning consumes them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+
+import numpy as np
+
+from motorid.errors import CaptureDataError
+
+__all__ = ["ChannelInfo", "ScopeInfo", "Capture", "validate_samples", "ROLES"]
+
+#: The measured quantities a capture's output channel can be.
+ROLES: tuple[str, ...] = ("position", "velocity", "current")
+
+
+@dataclass(frozen=True, slots=True)
+class ChannelInfo:
+    """Metadata of one recorded channel.
+
+    Attributes
+    ----------
+    name : str
+        ``"CH1"``, ``"CH2"`` … for scope files, the column header for plain CSV.
+    units : str
+        Vertical units as recorded (``"V"`` for scope channels).
+    vertical_scale : float or None
+        Volts per division (the 8-bit LSB is ``vertical_scale / 25``).
+    vertical_offset : float or None
+        Vertical offset in volts.
+    probe_atten : float or None
+        Probe attenuation factor as set on the scope (values are already scaled by it).
+    yzero : float or None
+        The scope's ``Yzero`` field.
+    """
+
+    name: str
+    units: str = "V"
+    vertical_scale: float | None = None
+    vertical_offset: float | None = None
+    probe_atten: float | None = None
+    yzero: float | None = None
+
+    @property
+    def lsb(self) -> float | None:
+        """Quantisation step in volts (8-bit, 25 levels per division), if known."""
+        return None if self.vertical_scale is None else self.vertical_scale / 25.0
+
+
+@dataclass(frozen=True, slots=True)
+class ScopeInfo:
+    """Acquisition metadata common to the channels of one capture.
+
+    Attributes
+    ----------
+    model, serial, firmware : str or None
+        ``Model Number``, ``Serial Number``, ``Firmware Version`` as written by the scope.
+    record_length : int or None
+        ``Record Length`` (2500 on the TDS1000/2000 series).
+    horizontal_scale_s : float or None
+        Seconds per division.
+    trigger_index : int or None
+        ``Trigger Point``: 0-based sample index of t = 0 on the file's time axis.
+    """
+
+    model: str | None = None
+    serial: str | None = None
+    firmware: str | None = None
+    record_length: int | None = None
+    horizontal_scale_s: float | None = None
+    trigger_index: int | None = None
+
+
+def _frozen_array(a: np.ndarray | None) -> np.ndarray | None:
+    if a is None:
+        return None
+    out = np.array(a, dtype=float, copy=True)
+    out.setflags(write=False)
+    return out
+
+
+@dataclass(frozen=True, slots=True)
+class Capture:
+    """One oscilloscope acquisition (or one logged experiment) as raw samples.
+
+    Attributes
+    ----------
+    source : str
+        The file or folder it was read from (``"<trainer>"`` for simulated data).
+    format : str
+        ``"tds2000-csv"``, ``"xlsx"``, ``"plain-csv"`` or ``"trainer"``.
+    time_s : ndarray, shape (n,)
+        Strictly increasing sample times, on the file's own time axis.
+    output_v : ndarray, shape (n,)
+        The measured channel (CH2), in its recorded units (volts for scope files).
+    output_info : ChannelInfo
+        Metadata of the output channel.
+    input_v : ndarray or None
+        The step input (CH1), or ``None`` when no input channel was recorded.
+    input_info : ChannelInfo or None
+        Metadata of the input channel.
+    scope : ScopeInfo
+        Acquisition metadata.
+    role_hint : str or None
+        Role declared by the file itself (column names, channel labels): one of
+        :data:`ROLES`, else ``None``.  Guessing from the signal is done elsewhere.
+    extra : Mapping[str, ndarray]
+        Further channels of the same acquisition (plain CSV logs with more columns, CH3/CH4),
+        keyed by their name.
+    warnings : tuple of str
+        Problems noticed while reading (clipping at the rails, re-saved files, …).
+    """
+
+    source: str
+    format: str
+    time_s: np.ndarray
+    output_v: np.ndarray
+    output_info: ChannelInfo
+    input_v: np.ndarray | None = None
+    input_info: ChannelInfo | None = None
+    scope: ScopeInfo = field(default_factory=ScopeInfo)
+    role_hint: str | None = None
+    extra: Mapping[str, np.ndarray] = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        t = _frozen_array(self.time_s)
+        y = _frozen_array(self.output_v)
+        u = _frozen_array(self.input_v)
+        if t.ndim != 1 or y.shape != t.shape or (u is not None and u.shape != t.shape):
+            raise CaptureDataError(
+                "time and channel columns have different lengths", file=self.source
+            )
+        if t.size < 2:
+            raise CaptureDataError("fewer than 2 samples: not a usable capture", file=self.source)
+        extra = {k: _frozen_array(v) for k, v in self.extra.items()}
+        for k, v in extra.items():
+            if v.shape != t.shape:
+                raise CaptureDataError(f"channel {k!r} has a different length", file=self.source)
+        if self.role_hint is not None and self.role_hint not in ROLES:
+            raise ValueError(f"role_hint must be one of {ROLES}, got {self.role_hint!r}")
+        object.__setattr__(self, "time_s", t)
+        object.__setattr__(self, "output_v", y)
+        object.__setattr__(self, "input_v", u)
+        object.__setattr__(self, "extra", MappingProxyType(extra))
+        object.__setattr__(self, "warnings", tuple(self.warnings))
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples in the record."""
+        return int(self.time_s.size)
+
+    @property
+    def sample_interval_s(self) -> float:
+        """Sample interval in seconds (median spacing of the time axis)."""
+        return float(np.median(np.diff(self.time_s)))
+
+
+def validate_samples(
+    time_s: np.ndarray,
+    channels: Mapping[str, np.ndarray],
+    *,
+    file: str,
+    first_row: int = 1,
+    rel_jitter: float = 0.01,
+) -> None:
+    """Check a record's samples and raise naming the first bad row.
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Sample times as read.
+    channels : Mapping[str, ndarray]
+        The value columns, by name, same length as ``time_s``.
+    file : str
+        File name for the error message.
+    first_row : int
+        1-based file row of sample 0, so that errors name the row a user can open.
+    rel_jitter : float
+        Allowed deviation of any time step from the median step, relative.  Scope and DAQ
+        records are uniformly sampled; a larger deviation means a gap or a corrupt file.
+
+    Raises
+    ------
+    CaptureDataError
+        On NaN/inf, non-increasing or duplicated times, or a non-uniform time axis.
+    """
+    t = np.asarray(time_s, dtype=float)
+    for name, col in (("time", t), *channels.items()):
+        col = np.asarray(col, dtype=float)
+        if col.shape != t.shape:
+            raise CaptureDataError(
+                f"column {name!r} has {col.size} values but time has {t.size}", file=file
+            )
+        bad = np.flatnonzero(~np.isfinite(col))
+        if bad.size:
+            raise CaptureDataError(
+                f"{name} is not a finite number (NaN or inf)", file=file, row=first_row + int(bad[0])
+            )
+    if t.size < 2:
+        raise CaptureDataError("fewer than 2 samples: not a usable capture", file=file)
+    dt = np.diff(t)
+    bad = np.flatnonzero(dt <= 0)
+    if bad.size:
+        i = int(bad[0]) + 1
+        what = "duplicated" if dt[bad[0]] == 0 else "goes backwards"
+        raise CaptureDataError(f"time {what} ({t[i - 1]!r} then {t[i]!r})", file=file, row=first_row + i)
+    med = float(np.median(dt))
+    bad = np.flatnonzero(np.abs(dt - med) > rel_jitter * med + 1e-12 * max(1.0, float(np.max(np.abs(t)))))
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise CaptureDataError(
+            f"time step {dt[bad[0]]:.6g} s differs from the sample interval {med:.6g} s "
+            "(gap or corrupt record)",
+            file=file,
+            row=first_row + i,
+        )

@@ -1,0 +1,75 @@
+"""User-facing error types.
+
+Every user mistake (a bad file, a bad option, data that cannot give a model) raises a
+subclass of :class:`MotorIdError`.  The CLI turns these into one line on stderr and exit
+code 2; any other exception is a bug (exit 1, traceback behind ``--debug``).
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "MotorIdError",
+    "CaptureFormatError",
+    "CaptureDataError",
+    "StepNotFoundError",
+    "ConditioningError",
+    "OutputExistsError",
+    "OptionError",
+]
+
+
+class MotorIdError(Exception):
+    """Base class of every error caused by the user's input.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong and, where possible, what would fix it.
+    file : str, optional
+        The file (or folder) the problem is in.
+    row : int, optional
+        1-based line/row number in ``file`` for parse errors.
+    """
+
+    def __init__(self, message: str, *, file: str | None = None, row: int | None = None) -> None:
+        self.message = message
+        self.file = None if file is None else str(file)
+        self.row = row
+        super().__init__(self.__str__())
+
+    def __str__(self) -> str:
+        where = ""
+        if self.file is not None:
+            where = self.file if self.row is None else f"{self.file}:{self.row}"
+            where += ": "
+        return f"{where}{self.message}"
+
+    def with_file(self, file: str) -> "MotorIdError":
+        """Return a copy of this error that names ``file`` (if it names none yet)."""
+        if self.file is not None:
+            return self
+        return type(self)(self.message, file=file, row=self.row)
+
+
+class CaptureFormatError(MotorIdError):
+    """The file is not a capture in any supported format, or it cannot be parsed."""
+
+
+class CaptureDataError(MotorIdError):
+    """The file parses but its samples are unusable (NaN, bad time axis, mismatched channels)."""
+
+
+class StepNotFoundError(MotorIdError):
+    """No usable step edge in the input channel (or in the response, without one)."""
+
+
+class ConditioningError(MotorIdError):
+    """A conditioning step cannot be applied to these data with these settings."""
+
+
+class OutputExistsError(MotorIdError):
+    """Refusing to overwrite an existing file without ``--force``."""
+
+
+class OptionError(MotorIdError):
+    """A command-line option or a function argument has an invalid value."""

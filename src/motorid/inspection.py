@@ -1,0 +1,145 @@
+"""What ``motorid inspect`` says about a capture: format, timing, step, role, encoder wraps.
+
+This module only combines the readers (:mod:`motorid.io`) with the conditioning steps
+(:mod:`motorid.conditioning`); it holds no signal processing of its own.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from motorid.capture import Capture
+from motorid.conditioning.edge import StepEdge, response_onset, step_edge
+from motorid.conditioning.role import guess_role
+from motorid.conditioning.unwrap import unwrap_position
+from motorid.errors import MotorIdError, StepNotFoundError
+
+__all__ = ["CaptureSummary", "describe_capture"]
+
+
+@dataclass(frozen=True, slots=True)
+class CaptureSummary:
+    """The facts ``motorid inspect`` reports for one capture (CONTRACT.md, Inspect JSON).
+
+    Attributes
+    ----------
+    file : str
+        The file or folder the capture came from.
+    format : str
+        ``tds2000-csv``, ``xlsx`` or ``plain-csv``.
+    sample_interval_s : float
+        Sample interval in seconds.
+    n_samples : int
+        Number of samples.
+    step : StepEdge or None
+        The step found (on the file's own time axis), ``None`` if there is none.
+    step_volts : float or None
+        Step amplitude in volts: from the input channel, or ``--step-volts`` when the capture
+        has no input channel (``None`` if unknown).
+    role, role_reason : str
+        Guessed role (``position``, ``velocity``, ``current`` or ``unknown``) and why.
+    wraps : int
+        Encoder wraps found in the output channel (0 unless the role is ``position``).
+    warnings : tuple of str
+        Everything a user should know (clipping, no step, no input channel, …).
+    """
+
+    file: str
+    format: str
+    sample_interval_s: float
+    n_samples: int
+    step: StepEdge | None
+    step_volts: float | None
+    role: str
+    role_reason: str
+    wraps: int
+    warnings: tuple[str, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        """The CONTRACT.md ``inspect --json`` object (extra keys are additions)."""
+        step = None
+        if self.step is not None:
+            step = {
+                "time": self.step.time_s,
+                "volts": self.step_volts,
+                "index": self.step.index,
+                "baseline": self.step.baseline_v,
+                "method": self.step.method,
+            }
+        return {
+            "file": self.file,
+            "format": self.format,
+            "sample_interval": self.sample_interval_s,
+            "n_samples": self.n_samples,
+            "step": step,
+            "role": self.role,
+            "role_reason": self.role_reason,
+            "wraps": self.wraps,
+            "warnings": list(self.warnings),
+        }
+
+
+def _find_step(capture: Capture, step_volts: float | None) -> tuple[StepEdge | None, float | None, list[str]]:
+    warnings: list[str] = []
+    try:
+        if capture.input_v is not None:
+            edge = step_edge(capture.time_s, capture.input_v, file=capture.source)
+            return edge, edge.amplitude_v, warnings
+        if step_volts is not None:
+            edge = response_onset(capture.time_s, capture.output_v, file=capture.source)
+            return edge, float(step_volts), warnings
+        # A lone channel: it may be the step input itself (CH1 saved alone).
+        try:
+            edge = step_edge(capture.time_s, capture.output_v, file=capture.source)
+            warnings.append("no input channel: the single channel is read as the step itself")
+            return edge, edge.amplitude_v, warnings
+        except StepNotFoundError:
+            edge = response_onset(capture.time_s, capture.output_v, file=capture.source)
+            warnings.append("no input channel: step instant from the response onset; "
+                            "step volts unknown (give --step-volts)")
+            return edge, None, warnings
+    except StepNotFoundError as exc:
+        warnings.append(f"no step: {exc.message}")
+        return None, None, warnings
+
+
+def describe_capture(capture: Capture, *, step_volts: float | None = None) -> CaptureSummary:
+    """Describe one capture for ``motorid inspect``.
+
+    Parameters
+    ----------
+    capture : Capture
+        A capture from any reader.
+    step_volts : float, optional
+        The step level, for captures without an input channel (``--step-volts``).
+
+    Returns
+    -------
+    CaptureSummary
+        Format, timing, step, role (with the reason) and encoder wraps.  A capture with no
+        step is described too: ``step`` is ``None`` and a warning says so.
+    """
+    edge, volts, warnings = _find_step(capture, step_volts)
+    guess = guess_role(capture)
+    wraps = 0
+    if guess.role == "position":
+        try:
+            unwrapped = unwrap_position(capture.output_v, file=capture.source)
+        except MotorIdError as exc:
+            warnings.append(f"position not unwrapped: {exc.message}")
+        else:
+            wraps = unwrapped.wraps
+            warnings.extend(unwrapped.warnings)
+    return CaptureSummary(
+        file=capture.source,
+        format=capture.format,
+        sample_interval_s=capture.sample_interval_s,
+        n_samples=capture.n_samples,
+        step=edge,
+        step_volts=volts,
+        role=guess.role,
+        role_reason=guess.reason,
+        wraps=wraps,
+        warnings=tuple(capture.warnings) + tuple(warnings),
+    )

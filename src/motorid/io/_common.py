@@ -1,0 +1,298 @@
+"""Helpers shared by the capture readers and writers: file access, numbers, row-exact errors.
+
+Private to :mod:`motorid.io`.  Every function here turns a problem with the user's file into
+a :class:`~motorid.errors.MotorIdError` subclass that names the file (and the row).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from motorid.capture import ChannelInfo, validate_samples
+from motorid.errors import CaptureDataError, CaptureFormatError, OutputExistsError
+
+__all__ = [
+    "PathLike",
+    "read_bytes",
+    "read_text",
+    "split_lines",
+    "binary_kind",
+    "parse_number",
+    "column_to_floats",
+    "validate_rows",
+    "check_writable",
+    "rail_clipping_warning",
+    "TEXT_SNIFF_BYTES",
+]
+
+PathLike = str | os.PathLike
+
+#: Bytes read to recognise a file's kind (magic numbers, first lines).
+TEXT_SNIFF_BYTES = 8192
+
+# Magic numbers of files users commonly pick up by mistake next to their captures (the scope's
+# own .JPG/.BMP screenshots and .SET/.ISF files, MATLAB exports, PDFs of the lab sheet).
+_MAGIC: tuple[tuple[bytes, str], ...] = (
+    (b"\x89PNG", "a PNG image"),
+    (b"\xff\xd8\xff", "a JPEG image (the scope's screenshot?)"),
+    (b"GIF8", "a GIF image"),
+    (b"BM", "a BMP image (the scope's screenshot?)"),
+    (b"%PDF", "a PDF document"),
+    (b"\xd0\xcf\x11\xe0", "a legacy .xls/.doc file; save it as .xlsx or CSV"),
+    (b"MATLAB 5.0 MAT-file", "a MATLAB .mat file; export the variables as CSV"),
+    (b":WFMPRE:", "a Tektronix .ISF binary waveform; save it as a spreadsheet (.CSV) on the scope"),
+    (b"\x1f\x8b", "a gzip archive"),
+    (b"PK\x03\x04", "a zip archive"),
+)
+
+
+def read_bytes(path: PathLike) -> bytes:
+    """Read a whole file, turning OS errors into :class:`CaptureFormatError`.
+
+    Raises
+    ------
+    CaptureFormatError
+        When the file is missing, is a folder or cannot be read.
+    """
+    p = Path(path)
+    if not p.exists():
+        raise CaptureFormatError("no such file; check the path", file=str(path))
+    if p.is_dir():
+        raise CaptureFormatError("is a folder, not a capture file", file=str(path))
+    try:
+        return p.read_bytes()
+    except OSError as exc:
+        raise CaptureFormatError(f"cannot read the file ({exc.strerror or exc})", file=str(path)) from exc
+
+
+def binary_kind(head: bytes) -> str | None:
+    """Describe a binary (non-text) file from its first bytes, or ``None`` for text."""
+    for magic, what in _MAGIC:
+        if head.startswith(magic):
+            return what
+    if head.startswith((b"\xff\xfe", b"\xfe\xff")):
+        return None  # UTF-16 text (Excel's "Unicode text" export)
+    if b"\x00" in head:
+        return "a binary file"
+    return None
+
+
+def decode_text(data: bytes, *, file: str) -> str:
+    """Decode a text capture: UTF-8 (with or without BOM), UTF-16 with BOM, else Latin-1.
+
+    Raises
+    ------
+    CaptureFormatError
+        On a binary file (image, archive, …): ``not a capture: …``.
+    """
+    kind = binary_kind(data[:TEXT_SNIFF_BYTES])
+    if kind is not None:
+        raise CaptureFormatError(f"not a capture: {kind}", file=file)
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        try:
+            return data.decode("utf-16")
+        except UnicodeDecodeError as exc:
+            raise CaptureFormatError("not a capture: unreadable UTF-16 text", file=file) from exc
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        # Spreadsheets on Windows save in a legacy code page; Latin-1 maps every byte, and
+        # only the header names (never the numbers) can contain non-ASCII characters.
+        return data.decode("latin-1")
+
+
+def read_text(path: PathLike) -> str:
+    """Read a text capture file (see :func:`read_bytes` and :func:`decode_text`).
+
+    Raises
+    ------
+    CaptureFormatError
+        Missing file, folder, binary file or empty file.
+    """
+    text = decode_text(read_bytes(path), file=str(path))
+    if not text.strip():
+        raise CaptureFormatError("empty file: not a capture", file=str(path))
+    return text
+
+
+def split_lines(text: str) -> list[str]:
+    """Split into lines the way an editor numbers them (LF, CRLF or lone CR endings).
+
+    Trailing blank lines are dropped; ``str.splitlines`` is not used because it also
+    breaks at form feeds and Unicode separators, which would shift the row numbers.
+    """
+    sep = "\n" if "\n" in text else "\r"
+    lines = [ln[:-1] if ln.endswith("\r") else ln for ln in text.split(sep)]
+    while lines and not lines[-1].strip():
+        lines.pop()
+    return lines
+
+
+def parse_number(cell: object, *, decimal_comma: bool = False) -> float | None:
+    """A spreadsheet/CSV cell as a float, or ``None`` if it is not a number.
+
+    ``int``/``float`` cells are returned as floats (``bool`` is not a number); text is
+    stripped (and quotes removed) and read with :func:`float`, after turning a decimal comma
+    into a point when ``decimal_comma``.
+    """
+    if isinstance(cell, bool):
+        return None
+    if isinstance(cell, (int, float, np.integer, np.floating)):
+        return float(cell)
+    if not isinstance(cell, str):
+        return None
+    s = cell.strip().strip('"').strip()
+    if not s or "_" in s:  # float() accepts "1_000"; no instrument writes that
+        return None
+    if decimal_comma:
+        s = s.replace(",", ".")
+    try:
+        return float(s)
+    except ValueError:
+        return None
+
+
+def column_to_floats(
+    cells: Sequence[object],
+    rows: Sequence[int] | np.ndarray,
+    *,
+    file: str,
+    what: str,
+    decimal_comma: bool = False,
+) -> np.ndarray:
+    """Convert one column of cells to floats, naming the first bad cell's row.
+
+    Parameters
+    ----------
+    cells : sequence
+        The cells (text or numbers), one per sample.
+    rows : sequence of int
+        1-based file row of each cell.
+    file : str
+        File name for the error message.
+    what : str
+        The column's name in the message (``"column D (time)"``).
+    decimal_comma : bool
+        Read ``1,5`` as 1.5.
+
+    Returns
+    -------
+    ndarray of float
+
+    Raises
+    ------
+    CaptureFormatError
+        On an empty or non-numeric cell: ``file:row: <what>: cannot read 'abc' as a number``.
+    """
+    if not decimal_comma and all(isinstance(c, str) for c in cells):
+        try:
+            # numpy's C conversion is ~30x faster than a Python loop; it raises on the first
+            # bad cell without saying which, so the slow loop below then finds it.
+            out = np.array(cells, dtype=float)
+            if not any("_" in c for c in cells):
+                return out
+        except ValueError:
+            pass
+    out = np.empty(len(cells), dtype=float)
+    for i, cell in enumerate(cells):
+        v = parse_number(cell, decimal_comma=decimal_comma)
+        if v is None:
+            text = "" if cell is None else str(cell).strip()
+            problem = "empty cell" if not text else f"cannot read {_short(text)!r} as a number"
+            raise CaptureFormatError(f"{what}: {problem}", file=file, row=int(rows[i]))
+        out[i] = v
+    return out
+
+
+def _short(text: str, limit: int = 40) -> str:
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+def validate_rows(
+    time_s: np.ndarray,
+    channels: Mapping[str, np.ndarray],
+    *,
+    file: str,
+    rows: Sequence[int] | np.ndarray,
+) -> None:
+    """:func:`motorid.capture.validate_samples` with the real file row of every sample.
+
+    ``validate_samples`` assumes consecutive rows from ``first_row``; readers that skip a
+    header, comments or blank lines pass the row of each sample here instead.
+
+    Raises
+    ------
+    CaptureDataError
+        As :func:`~motorid.capture.validate_samples`, with the row a user can open.
+    """
+    try:
+        validate_samples(time_s, channels, file=file, first_row=0)
+    except CaptureDataError as exc:
+        if exc.row is None or not 0 <= exc.row < len(rows):
+            raise
+        raise CaptureDataError(exc.message, file=file, row=int(rows[exc.row])) from None
+
+
+def check_writable(paths: Sequence[Path], *, force: bool) -> None:
+    """Refuse to overwrite existing files unless ``force``.
+
+    Raises
+    ------
+    OutputExistsError
+        Naming the first existing file.
+    """
+    if force:
+        return
+    for p in paths:
+        if p.exists():
+            raise OutputExistsError("already exists; use --force (force=True) to overwrite it", file=str(p))
+
+
+def rail_clipping_warning(values_v: np.ndarray, info: ChannelInfo, label: str) -> str | None:
+    """A warning when a scope channel sits at the 8-bit ADC rails for much of the record.
+
+    The TDS1000/2000 digitise -128…127 levels at 25 levels per division around the screen
+    centre, whose value is ``yzero - vertical_offset`` (programmer manual, WFMPre:YOFf:
+    ``value = (code - yoff)·ymult + yzero``).  A channel is clipped when at least 5 % of its
+    samples equal its maximum (or minimum) and that value is within 3 levels of a rail.
+
+    Parameters
+    ----------
+    values_v : ndarray
+        The channel's samples (volts).
+    info : ChannelInfo
+        Its metadata; nothing is checked without ``vertical_scale``.
+    label : str
+        How the message names the channel (``"F0000CH2.CSV (CH2)"``).
+
+    Returns
+    -------
+    str or None
+        ``"<label> clipped at the scope rails on N% of the record; increase V/div"``.
+    """
+    scale = info.vertical_scale
+    if scale is None or not math.isfinite(scale) or scale <= 0 or values_v.size == 0:
+        return None
+    lsb = scale / 25.0
+    yzero = info.yzero or 0.0
+    offset = info.vertical_offset or 0.0
+    # Which sign the CSV's "Vertical Offset" carries cannot be confirmed from the samples we
+    # have, so both screen centres are tried; a false hit needs a flat stretch more than 4 div
+    # off screen anyway, where "increase V/div" is still the right advice.
+    centres = {yzero - offset, yzero + offset}
+    n = values_v.size
+    clipped = 0
+    for extreme, sign, levels in ((float(values_v.max()), 1.0, 127), (float(values_v.min()), -1.0, 128)):
+        at = int(np.count_nonzero(np.abs(values_v - extreme) <= 0.01 * lsb))
+        near_rail = any(abs(extreme - (c + sign * levels * lsb)) <= 3.0 * lsb for c in centres)
+        if near_rail and at >= 0.05 * n:
+            clipped += at
+    if clipped == 0:
+        return None
+    pct = 100.0 * min(clipped, n) / n
+    return f"{label} clipped at the scope rails on {pct:.0f}% of the record; increase V/div"

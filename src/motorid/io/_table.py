@@ -1,0 +1,302 @@
+"""A capture from a table of named columns (plain CSV logs, spreadsheets without scope blocks).
+
+Private to :mod:`motorid.io`.  Decides which column is the time, the step input and the
+measured output — from a user's mapping (``--columns time=t,input=u,velocity=rpm``) or by
+keywords in the header names — and builds the :class:`~motorid.capture.Capture`.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from motorid.capture import ROLES, Capture, ChannelInfo
+from motorid.errors import CaptureFormatError, OptionError
+from motorid.io._common import column_to_floats, parse_number, validate_rows
+
+__all__ = ["COLUMN_KEYS", "check_role", "classify_name", "role_from_name", "capture_from_table"]
+
+#: The keys a column mapping may use.
+COLUMN_KEYS: tuple[str, ...] = ("time", "input", "position", "velocity", "current", "output")
+
+# Keywords per category.  "Long" keywords match anywhere in the lower-cased name (German
+# compounds such as "Motorspannung", "Sollgeschwindigkeit"); "short" ones must be a whole
+# token of the name split at non-letters ("t", "u", "pos"), so that "t" does not match "tacho".
+_SETPOINT = (("setpoint", "soll", "reference", "target", "demand"), ("ref", "sp", "cmd", "command", "r"))
+_KEYWORDS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
+    "time": (("time", "zeit", "timestamp"), ("t", "sec", "secs", "seconds", "s", "ms", "millis", "us", "micros")),
+    "velocity": (("speed", "velocity", "tacho", "geschwindigkeit", "drehzahl", "omega"), ("rpm", "vel")),
+    "position": (("position", "angle", "theta", "encoder", "winkel"), ("pos", "phi", "enc", "deg")),
+    "current": (("current", "strom"), ("ia", "amp", "amps", "ampere")),
+    "output": (("output", "response"), ("y", "out", "ch2")),
+    "input": (("input", "voltage", "volt", "spannung", "step"), ("u", "vin", "ch1", "uin", "ua")),
+}
+# Checked in this order: a setpoint is never the input; "tacho_voltage" is a velocity, not
+# the input; "time" first so that "t" is taken before the other categories look at it.
+_ORDER = ("time", "velocity", "position", "current", "output", "input")
+
+_TIME_SCALE = {"ms": 1e-3, "millis": 1e-3, "msec": 1e-3, "us": 1e-6, "micros": 1e-6, "usec": 1e-6}
+_UNITS = {"v": "V", "mv": "mV", "a": "A", "ma": "mA", "rpm": "rpm", "deg": "deg", "rad": "rad",
+          "raw": "raw", "counts": "counts", "s": "s", "ms": "ms"}
+
+
+def _tokens(name: str) -> list[str]:
+    return [t for t in re.split(r"[^0-9a-zäöüß]+", name.lower()) if t]
+
+
+def _matches(name: str, words: tuple[tuple[str, ...], tuple[str, ...]], *, first_token_only: bool = False) -> bool:
+    low = name.lower()
+    long_words, short_words = words
+    toks = _tokens(name)
+    if first_token_only:
+        toks = toks[:1]
+    return any(w in low for w in long_words) or any(t in short_words for t in toks)
+
+
+def classify_name(name: str) -> str | None:
+    """The category a column name suggests.
+
+    Returns
+    -------
+    str or None
+        ``"setpoint"``, one of ``time``/``velocity``/``position``/``current``/``output``/
+        ``input``, or ``None`` when no keyword matches.
+    """
+    if _matches(name, _SETPOINT):
+        return "setpoint"
+    toks = _tokens(name)
+    if len(toks) > 1 and toks[0] == "i":
+        return "current"  # "i_a", "I motor"; a lone "i" is a loop index, not a current
+    for cat in _ORDER:
+        # A unit token names a time column only in front ("t_ms", "s"): "speed_s" is a speed.
+        if _matches(name, _KEYWORDS[cat], first_token_only=cat == "time"):
+            return cat
+    return None
+
+
+def role_from_name(name: str) -> str | None:
+    """The output role (:data:`~motorid.capture.ROLES`) a channel label names, if any."""
+    cat = classify_name(name)
+    return cat if cat in ROLES else None
+
+
+def check_role(role: str | None) -> str | None:
+    """Check a user-declared role.
+
+    Raises
+    ------
+    OptionError
+        When ``role`` is not one of :data:`~motorid.capture.ROLES`.
+    """
+    if role is not None and role not in ROLES:
+        raise OptionError(f"role {role!r} is not one of {', '.join(ROLES)}")
+    return role
+
+
+def _units_from_name(name: str) -> str:
+    bracket = re.search(r"[\[(]\s*([^\])]+?)\s*[\])]\s*$", name)
+    if bracket:
+        return bracket.group(1)
+    toks = re.split(r"[_\s]+", name.strip())
+    if len(toks) > 1 and toks[-1].lower() in _UNITS:
+        return _UNITS[toks[-1].lower()]
+    return ""
+
+
+def _time_scale(name: str) -> float:
+    """Seconds per unit of a time column named in ms or µs (Arduino ``millis()`` logs)."""
+    for tok in _tokens(name):
+        if tok in _TIME_SCALE:
+            return _TIME_SCALE[tok]
+    return 1.0
+
+
+@dataclass(frozen=True, slots=True)
+class _Assignment:
+    """Column index of each category chosen."""
+
+    time: int
+    input: int | None
+    output: int
+    role_hint: str | None
+    role_columns: dict[str, int]  # further role columns (position when output is velocity…)
+
+
+def _resolve_mapping(
+    names: Sequence[str], columns: Mapping[str, str] | None, file: str
+) -> dict[str, int]:
+    if not columns:
+        return {}
+    available = ", ".join(repr(n) for n in names)
+    out: dict[str, int] = {}
+    for key, col in columns.items():
+        if key not in COLUMN_KEYS:
+            raise OptionError(
+                f"unknown column role {key!r}: use {', '.join(COLUMN_KEYS)} (columns: {available})",
+                file=file,
+            )
+        idx = [i for i, n in enumerate(names) if n == col]
+        if not idx:
+            idx = [i for i, n in enumerate(names) if n.lower() == str(col).strip().lower()]
+        if len(idx) != 1:
+            why = "is not a column" if not idx else "names several columns"
+            raise OptionError(f"{key}={col!r} {why} of this file; available columns: {available}", file=file)
+        if idx[0] in out.values():
+            raise OptionError(f"column {col!r} is mapped to two roles", file=file)
+        out[key] = idx[0]
+    return out
+
+
+def _assign(
+    names: Sequence[str], numeric: Sequence[bool], mapping: dict[str, int], role: str | None, file: str
+) -> _Assignment:
+    used = set(mapping.values())
+    cats: dict[str, list[int]] = {c: [] for c in (*_ORDER, "setpoint", None)}
+    for i, n in enumerate(names):
+        if i not in used and numeric[i]:
+            cats[classify_name(n)].append(i)
+
+    def pick(cat: str) -> int | None:
+        if cat in mapping:
+            return mapping[cat]
+        return cats[cat][0] if cats[cat] else None
+
+    available = ", ".join(repr(n) for n in names)
+    time = pick("time")
+    if time is None:
+        raise CaptureFormatError(
+            f"no time column among {available}: name it 'time' or map it with --columns time=NAME",
+            file=file,
+        )
+    role_cols = {r: c for r in ROLES if (c := pick(r)) is not None and c != time}
+    generic = pick("output")
+    inp = pick("input")
+    if role is not None and role in role_cols:
+        output, hint = role_cols[role], role
+    elif "output" in mapping:
+        output, hint = mapping["output"], role
+    elif mapped := [r for r in ("velocity", "position", "current") if r in mapping]:
+        # a role the user mapped by name wins over one guessed from the other names
+        output, hint = mapping[mapped[0]], role or mapped[0]
+    else:
+        first = next((r for r in ("velocity", "position", "current") if r in role_cols), None)
+        if first is not None:
+            output, hint = role_cols[first], role or first
+        elif generic is not None:
+            output, hint = generic, role
+        else:
+            rest = [i for i in cats[None] if i not in (time, inp)]
+            if len(rest) == 1:
+                output, hint = rest[0], role
+            elif inp is not None and not rest and "input" not in mapping:
+                # "time, value": a lone channel is the measured quantity, not the step.
+                output, inp, hint = inp, None, role
+            else:
+                raise CaptureFormatError(
+                    f"cannot tell which column is the measured output among {available}: "
+                    "map it with --columns velocity=NAME (or position=, current=, output=)",
+                    file=file,
+                )
+    if inp == output:
+        inp = None
+    role_cols = {r: c for r, c in role_cols.items() if c not in (output, inp)}
+    return _Assignment(time, inp, output, hint, role_cols)
+
+
+def capture_from_table(
+    names: Sequence[str],
+    cells: Sequence[Sequence[object]],
+    rows: Sequence[int] | np.ndarray,
+    *,
+    file: str,
+    fmt: str,
+    columns: Mapping[str, str] | None = None,
+    role: str | None = None,
+    decimal_comma: bool = False,
+    warnings: Sequence[str] = (),
+    where: str = "column",
+) -> Capture:
+    """Build a capture from header names and their cell columns.
+
+    Parameters
+    ----------
+    names : sequence of str
+        Header names, one per column.
+    cells : sequence of sequences
+        ``cells[j][i]`` is column ``j`` at sample ``i`` (text or numbers).
+    rows : sequence of int
+        1-based file row of each sample (for error messages).
+    file, fmt : str
+        Source file name and the capture's ``format``.
+    columns : Mapping[str, str], optional
+        Role → column name (keys :data:`COLUMN_KEYS`); unmapped roles are guessed.
+    role : str, optional
+        The output's role when the user declares it.
+    decimal_comma : bool
+        Cells use a decimal comma.
+    warnings : sequence of str
+        Warnings to carry into the capture.
+    where : str
+        How a column is named in messages (``"column"``).
+
+    Returns
+    -------
+    Capture
+
+    Raises
+    ------
+    OptionError
+        Unknown mapping key, a mapped column not in the header, an invalid role.
+    CaptureFormatError
+        No time or output column, a non-numeric cell (naming the row).
+    CaptureDataError
+        NaN, non-increasing or non-uniform time (naming the row).
+    """
+    check_role(role)
+    names = [str(n).strip() for n in names]
+    mapping = _resolve_mapping(names, columns, file)
+    # A column is numeric when its first cell is a number; then all of it must be (checked
+    # when converting), else the column is text (a date, a comment) and is left out.
+    numeric = [bool(col) and parse_number(col[0], decimal_comma=decimal_comma) is not None for col in cells]
+    asg = _assign(names, numeric, mapping, role, file)
+
+    def values(j: int) -> np.ndarray:
+        return column_to_floats(cells[j], rows, file=file, what=f"{where} {names[j]!r}", decimal_comma=decimal_comma)
+
+    time_s = values(asg.time) * _time_scale(names[asg.time])
+    output = values(asg.output)
+    inp = None if asg.input is None else values(asg.input)
+    checked = {names[asg.output]: output}
+    if inp is not None:
+        checked[names[asg.input]] = inp
+    extra: dict[str, np.ndarray] = {}
+    for r, j in asg.role_columns.items():
+        extra[r] = checked[names[j]] = values(j)
+    taken = {asg.time, asg.output, asg.input, *asg.role_columns.values()}
+    for j, name in enumerate(names):
+        if j in taken or not numeric[j]:
+            continue
+        key = name or f"column{j + 1}"
+        while key in extra:
+            key += "_"
+        extra[key] = values(j)
+    validate_rows(time_s, checked, file=file, rows=rows)
+
+    def info(j: int) -> ChannelInfo:
+        return ChannelInfo(name=names[j], units=_units_from_name(names[j]))
+
+    return Capture(
+        source=file,
+        format=fmt,
+        time_s=time_s,
+        output_v=output,
+        output_info=info(asg.output),
+        input_v=inp,
+        input_info=None if asg.input is None else info(asg.input),
+        role_hint=asg.role_hint,
+        extra=extra,
+        warnings=tuple(warnings),
+    )

@@ -1,0 +1,153 @@
+"""Plain CSV captures: a header row naming ``time`` and the channel columns (DAQ/Arduino logs).
+
+Delimiters: comma, semicolon, tab or spaces; a decimal comma is read with a semicolon or tab
+delimiter (the European spreadsheet default).  Leading ``#`` comment lines and blank lines
+are skipped; every error names the line a user opens in an editor.
+"""
+
+from __future__ import annotations
+
+import csv
+import re
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from motorid.capture import Capture
+from motorid.errors import CaptureFormatError
+from motorid.io._common import PathLike, parse_number, read_text, split_lines
+from motorid.io._table import capture_from_table, check_role
+
+__all__ = ["PLAIN_FORMAT", "read_plain_csv", "sniff_table"]
+
+PLAIN_FORMAT = "plain-csv"
+
+_DECIMAL_COMMA_CELL = re.compile(r"^\s*[+-]?\d*,\d+([eE][+-]?\d+)?\s*$")
+
+
+def _delimiter(header: str) -> str | None:
+    """The delimiter of a header line: the most frequent of ``,`` ``;`` tab; ``None`` = spaces."""
+    counts = {d: header.count(d) for d in (",", ";", "\t")}
+    best = max(counts, key=lambda d: counts[d])
+    return best if counts[best] else None
+
+
+def _split(line: str, delim: str | None) -> list[str]:
+    if delim is None:
+        return line.split()
+    if '"' not in line:
+        return line.split(delim)
+    return next(csv.reader([line], delimiter=delim))
+
+
+def _content_lines(lines: Sequence[str]) -> list[int]:
+    """Indices of the lines that hold data or the header (no blank or ``#`` comment lines)."""
+    return [i for i, ln in enumerate(lines) if ln.strip() and not ln.lstrip().startswith("#")]
+
+
+def sniff_table(lines: Sequence[str]) -> tuple[str | None, bool] | None:
+    """Whether text lines are a headed numeric table; its delimiter and decimal-comma flag.
+
+    Returns
+    -------
+    tuple or None
+        ``(delimiter, decimal_comma)`` (delimiter ``None`` means runs of spaces) when the
+        first content line names at least two columns, not all numbers, and the next has the
+        same number of fields, mostly numbers; else ``None``.
+    """
+    idx = _content_lines(lines[:200])
+    if len(idx) < 2:
+        return None
+    header, first = lines[idx[0]], lines[idx[1]]
+    delim = _delimiter(header)
+    names = _split(header, delim)
+    cells = _split(first, delim)
+    if len(names) < 2 or len(cells) != len(names):
+        return None
+    decimal_comma = delim in (";", "\t", None) and any(_DECIMAL_COMMA_CELL.match(c) for c in cells)
+    if all(parse_number(n, decimal_comma=decimal_comma) is not None for n in names if n.strip()):
+        return None
+    numbers = sum(parse_number(c, decimal_comma=decimal_comma) is not None for c in cells)
+    return (delim, decimal_comma) if numbers >= max(2, (len(cells) + 1) // 2) else None
+
+
+def read_plain_csv(
+    path: PathLike,
+    *,
+    columns: Mapping[str, str] | None = None,
+    role: str | None = None,
+) -> Capture:
+    """Read a plain CSV log whose header row names the time and channel columns.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The CSV file.
+    columns : Mapping[str, str], optional
+        Role → column name, keys ``time``, ``input``, ``position``, ``velocity``,
+        ``current``, ``output`` (e.g. ``{"time": "t", "input": "u", "velocity": "rpm"}``).
+        Roles not mapped are guessed from the header names (case-insensitive keywords:
+        time/t/zeit/sec/s; input/u/voltage/volt/vin/ch1/Motorspannung; speed/velocity/rpm/
+        tacho/omega; position/angle/theta/pos/encoder; current/ia/amp/strom).  Setpoint
+        columns (setpoint, soll, ref) are never the input.  A time column named in ms or µs
+        (``t_ms``, ``millis``) is converted to seconds.
+    role : str, optional
+        The output's role when several measured columns exist or the names do not say it.
+
+    Returns
+    -------
+    Capture
+        ``format = "plain-csv"``.  With both a velocity and a position column the output is
+        the velocity (``role_hint = "velocity"``) and the position goes to
+        ``extra["position"]``; every other numeric column goes to ``extra`` by its header.
+
+    Raises
+    ------
+    OptionError
+        Unknown mapping key, a mapped column not in the header (listing the columns), a bad
+        ``role``.
+    CaptureFormatError
+        Missing, binary or empty file, no header row, no time or output column, a row with
+        another number of fields than the header, a non-numeric cell (naming ``file:row``).
+    CaptureDataError
+        NaN, duplicated, backwards or non-uniform time (naming ``file:row``).
+    """
+    check_role(role)
+    file = str(path)
+    lines = split_lines(read_text(Path(path)))
+    idx = _content_lines(lines)
+    if len(idx) < 2:
+        raise CaptureFormatError("not a capture: fewer than two non-blank lines", file=file)
+    h = idx[0]
+    delim = _delimiter(lines[h])
+    names = _split(lines[h], delim)
+    if len(names) < 2:
+        raise CaptureFormatError(
+            "not a capture: one column only; a plain CSV needs a header naming time and channel columns",
+            file=file, row=h + 1,
+        )
+    if all(parse_number(n) is not None for n in names if n.strip()):
+        raise CaptureFormatError(
+            "no header row: the first line must name the columns (e.g. time,input,velocity)",
+            file=file, row=h + 1,
+        )
+    data_idx = idx[1:]
+    rows_split = [_split(lines[i], delim) for i in data_idx]
+    width = len(names)
+    if not names[-1].strip() and all(len(r) == width and not r[-1].strip() for r in rows_split):
+        names = names[:-1]  # a trailing delimiter on every line
+        rows_split = [r[:-1] for r in rows_split]
+        width -= 1
+    bad = next((k for k, r in enumerate(rows_split) if len(r) != width), None)
+    if bad is not None:
+        raise CaptureFormatError(
+            f"{len(rows_split[bad])} fields but the header has {width}", file=file, row=data_idx[bad] + 1
+        )
+    decimal_comma = delim in (";", "\t", None) and any(
+        _DECIMAL_COMMA_CELL.match(c) for r in rows_split[:20] for c in r
+    )
+    cells = [[r[j] for r in rows_split] for j in range(width)]
+    rows = np.asarray(data_idx) + 1
+    return capture_from_table(names, cells, rows, file=file, fmt=PLAIN_FORMAT, columns=columns, role=role,
+                              decimal_comma=decimal_comma)
