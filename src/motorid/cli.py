@@ -28,7 +28,8 @@ _state = {"debug": False}
 
 
 def _console() -> Console:
-    return Console(highlight=False)
+    # piped output (graders' scripts, tests) gets a wide fixed width, not rich's 80 columns
+    return Console(highlight=False, width=None if sys.stdout.isatty() else 120)
 
 
 @app.callback()
@@ -79,10 +80,10 @@ def inspect(
     con = _console()
     table = Table(title="captures", show_lines=False)
     for head in ("file", "format", "Δt (s)", "samples", "step at (s)", "step (V)", "role", "wraps"):
-        table.add_column(head)
+        table.add_column(head, overflow="fold")
     for s in summaries:
         table.add_row(
-            s.file,
+            Path(s.file).name,
             s.format,
             f"{s.sample_interval_s:.6g}",
             str(s.n_samples),
@@ -143,10 +144,10 @@ def main() -> None:
     except SystemExit:
         raise
     except Exception as exc:  # noqa: BLE001 - every other exception is a bug: exit 1
-        import click
-
-        if isinstance(exc, click.ClickException):
-            exc.show()
+        # typer vendors its own click (typer._click): recognise its usage errors by shape
+        if hasattr(exc, "show") and isinstance(getattr(exc, "exit_code", None), int):
+            if type(exc).__name__ != "NoArgsIsHelpError":
+                exc.show()
             raise SystemExit(exc.exit_code) from None
         if _state["debug"] or "--debug" in sys.argv:
             traceback.print_exc()

@@ -1,0 +1,137 @@
+"""A capture as a step response: time zero at the step edge, pre-step baseline removed."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from motorid.capture import ROLES, Capture
+from motorid.conditioning.edge import StepEdge, response_onset, step_edge
+from motorid.conditioning.unwrap import unwrap_position
+from motorid.errors import ConditioningError, StepNotFoundError
+
+__all__ = ["StepResponse", "step_response"]
+
+
+@dataclass(frozen=True, slots=True)
+class StepResponse:
+    """One capture's step response.
+
+    Attributes
+    ----------
+    source : str
+        The capture's file.
+    role : str
+        ``position``, ``velocity`` or ``current``.
+    time_s : ndarray
+        Time from the step edge (negative before it).
+    input_v : ndarray
+        Input increment (CH1 minus its pre-step baseline); a clean step of ``step_volts``
+        when the capture has no input channel.
+    output_v : ndarray
+        Output increment (unwrapped for a position, minus its pre-step baseline).
+    step_volts : float
+        Step amplitude.
+    edge : StepEdge
+        The edge on the file's own time axis.
+    wraps : int
+        Encoder wraps removed (position only).
+    warnings : tuple of str
+        What the user should know.
+    """
+
+    source: str
+    role: str
+    time_s: np.ndarray
+    input_v: np.ndarray
+    output_v: np.ndarray
+    step_volts: float
+    edge: StepEdge
+    wraps: int
+    warnings: tuple[str, ...]
+
+    @property
+    def sample_interval_s(self) -> float:
+        """Sample interval in seconds."""
+        return float(np.median(np.diff(self.time_s)))
+
+
+def step_response(
+    capture: Capture,
+    role: str,
+    *,
+    step_volts: float | None = None,
+    t0_s: float | None = None,
+    encoder_span_v: float | None = None,
+) -> StepResponse:
+    """Turn a capture into a step response.
+
+    Parameters
+    ----------
+    capture : Capture
+        The capture (CH1 = step input when present).
+    role : str
+        What the output channel measures.
+    step_volts : float, optional
+        The step level, required when the capture has no input channel.
+    t0_s : float, optional
+        Step instant on the file's time axis (overrides detection).
+    encoder_span_v : float, optional
+        Volts per turn of the position sensor (estimated from the data when omitted).
+
+    Returns
+    -------
+    StepResponse
+        Time from the edge, increments of input and output.
+
+    Raises
+    ------
+    ConditioningError, StepNotFoundError
+        Unknown role, no step, or no step level for a capture without input channel.
+    """
+    if role not in ROLES:
+        raise ConditioningError(f"unknown role {role!r}; use one of {', '.join(ROLES)}", file=capture.source)
+    warnings: list[str] = list(capture.warnings)
+    y = capture.output_v
+    wraps = 0
+    if role == "position":
+        unwrapped = unwrap_position(y, span_v=encoder_span_v, file=capture.source)
+        y = unwrapped.position_v
+        wraps = unwrapped.wraps
+        warnings.extend(unwrapped.warnings)
+    t = capture.time_s
+    if capture.input_v is not None:
+        edge = step_edge(t, capture.input_v, file=capture.source)
+        amp = edge.amplitude_v if step_volts is None else float(step_volts)
+    else:
+        if step_volts is None:
+            raise StepNotFoundError(
+                "no input channel: give the step level with --step-volts", file=capture.source
+            )
+        amp = float(step_volts)
+        edge = response_onset(t, y, file=capture.source)
+    if t0_s is not None:
+        idx = int(np.searchsorted(t, t0_s))
+        if not 0 < idx < t.size:
+            raise ConditioningError(f"--t0 {t0_s:g} s is outside the record", file=capture.source)
+        edge = StepEdge(idx, float(t0_s), edge.baseline_v, edge.level_v, edge.amplitude_v, edge.noise_v, "given")
+    k = max(1, edge.index)
+    if k < 5:
+        warnings.append(f"only {k} samples before the step: baseline uncertain")
+    base_y = float(np.mean(y[:k]))
+    if capture.input_v is not None:
+        u = capture.input_v - float(np.mean(capture.input_v[:k]))
+    else:
+        u = np.where(t >= edge.time_s, amp, 0.0)
+    return StepResponse(
+        source=capture.source,
+        role=role,
+        time_s=t - edge.time_s,
+        input_v=u,
+        output_v=y - base_y,
+        step_volts=float(amp),
+        edge=edge,
+        wraps=wraps,
+        warnings=tuple(warnings),
+    )

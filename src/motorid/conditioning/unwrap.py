@@ -1,0 +1,202 @@
+"""Unwrapping of the position potentiometer/encoder sawtooth, with glitch removal.
+
+The output-shaft potentiometer jumps from about +10 V to about −10 V at each turn, often
+through a few near-zero samples while the wiper crosses the gap (Masoud 2019, Figs. 22/24;
+lab report Fig. 2).  The paper unwraps with two spreadsheet snippets that add a hard-coded
+20.4 V at each jump.  This generalises them: jumps are found from the data, samples inside a
+jump are treated as glitches and interpolated, and the span is estimated from all samples at
+once as the value that makes the unwrapped signal smooth — a linear least-squares problem:
+``y_i = s(t_i) − span · W_i`` with ``s`` a cubic B-spline and ``W_i`` the cumulative wrap
+count.  ``numpy.unwrap`` needs the period in advance and knows nothing about glitches, hence
+this module.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import BSpline
+
+from motorid.conditioning.edge import noise_level
+from motorid.errors import ConditioningError
+
+__all__ = ["UnwrapResult", "unwrap_position", "count_wraps"]
+
+
+@dataclass(frozen=True, slots=True)
+class UnwrapResult:
+    """An unwrapped position record.
+
+    Attributes
+    ----------
+    position_v : ndarray
+        Continuous position in the channel's volts (glitch samples interpolated).
+    wraps : int
+        Number of wraps (jumps of one span) found.
+    span_v : float or None
+        The span of one turn in volts (``None`` when there was no wrap and none was given).
+    jump_indices : ndarray of int
+        Index of the first good sample after each wrap.
+    glitch_indices : ndarray of int
+        Samples replaced by interpolation (inside jumps, or isolated spikes).
+    warnings : tuple of str
+        Ambiguous jumps and the like.
+    """
+
+    position_v: np.ndarray
+    wraps: int
+    span_v: float | None
+    jump_indices: np.ndarray
+    glitch_indices: np.ndarray
+    warnings: tuple[str, ...]
+
+
+def _events(y: np.ndarray, threshold: float, max_glitch: int) -> list[tuple[int, int]]:
+    """Group large first differences into events (a, b): a = last good, b = first good."""
+    big = np.flatnonzero(np.abs(np.diff(y)) > threshold)
+    events: list[tuple[int, int]] = []
+    for j in big:
+        if events and j - events[-1][1] < max_glitch + 1:
+            events[-1] = (events[-1][0], int(j) + 1)
+        else:
+            events.append((int(j), int(j) + 1))
+    return events
+
+
+def _fit_span(t: np.ndarray, y: np.ndarray, w: np.ndarray, good: np.ndarray) -> float:
+    """Least-squares span with a smooth cubic B-spline for the continuous position.
+
+    The number of knots is chosen by BIC among a few spacings: too many knots let the spline
+    follow the 8-bit quantisation staircase and bias the span; too few cannot follow the
+    acceleration of the motor.
+    """
+    tg, yg, wg = t[good], y[good], w[good]
+    best: tuple[float, float] | None = None
+    for spacing in (100, 50, 25):
+        n_knots = int(np.clip(tg.size // spacing, 2, 400))
+        inner = np.linspace(tg[0], tg[-1], n_knots)
+        knots = np.r_[[tg[0]] * 3, inner, [tg[-1]] * 3]
+        design = BSpline.design_matrix(tg, knots, 3).toarray()
+        cols = np.column_stack([design, -wg])
+        sol, *_ = np.linalg.lstsq(cols, yg, rcond=None)
+        rss = float(np.sum((cols @ sol - yg) ** 2))
+        bic = tg.size * np.log(max(rss, 1e-300) / tg.size) + cols.shape[1] * np.log(tg.size)
+        if best is None or bic < best[0]:
+            best = (bic, float(sol[-1]))
+    assert best is not None
+    return best[1]
+
+
+def unwrap_position(
+    y: np.ndarray,
+    *,
+    span_v: float | None = None,
+    jump_fraction: float = 0.5,
+    max_glitch: int = 4,
+    file: str | None = None,
+) -> UnwrapResult:
+    """Unwrap a sawtooth position record.
+
+    Parameters
+    ----------
+    y : ndarray
+        Position channel samples (uniformly sampled).
+    span_v : float, optional
+        Volts per turn; estimated from the data when omitted.
+    jump_fraction : float
+        A jump is a change of more than this fraction of the span (of the signal's range
+        while the span is unknown) within ``max_glitch + 1`` samples.
+    max_glitch : int
+        Most glitch samples expected inside one jump.
+    file : str, optional
+        Named in error messages.
+
+    Returns
+    -------
+    UnwrapResult
+        The continuous position and what was done to get it.
+
+    Raises
+    ------
+    ConditioningError
+        When the record is too short or the span cannot be estimated.
+
+    References
+    ----------
+    Masoud 2019, section V-2 (the two unwrapping snippets, generalised).
+    """
+    y = np.asarray(y, dtype=float)
+    n = y.size
+    if n < 8:
+        raise ConditioningError(f"position record of {n} samples is too short to unwrap", file=file)
+    lo, hi = np.percentile(y, [0.5, 99.5])
+    rng = float(hi - lo)
+    noise = noise_level(y)
+    warnings: list[str] = []
+    ref = span_v if span_v is not None else rng
+    d = np.abs(np.diff(y))
+    nonzero = d[d > 0]
+    quantum = float(nonzero.min()) if nonzero.size else 0.0
+    # a wrap is a change far above the ordinary sample-to-sample motion (noise, one code of
+    # the 8-bit quantiser, the motion itself); with glitches a jump is split into several
+    # steps of about half the span each, hence 0.3 of the span
+    typical = float(np.percentile(d, 90)) if d.size else 0.0
+    threshold = max(0.3 * ref, 10.0 * noise, 10.0 * quantum, 5.0 * typical)
+    if rng <= threshold:
+        return UnwrapResult(y.copy(), 0, span_v, np.array([], int), np.array([], int), ())
+    events = _events(y, threshold, max_glitch)
+    t = np.arange(n, dtype=float)
+    glitches: list[int] = []
+    for a, b in events:
+        glitches.extend(range(a + 1, b))
+    steps = []
+    for a, b in events:
+        # expected motion across the event from the local slope on both sides
+        left = y[max(0, a - 4) : a + 1]
+        right = y[b : min(n, b + 5)]
+        slope = 0.0
+        if left.size >= 2 and right.size >= 2:
+            slope = 0.5 * (np.polyfit(np.arange(left.size), left, 1)[0] + np.polyfit(np.arange(right.size), right, 1)[0])
+        steps.append(float(y[b] - y[a] - slope * (b - a)))
+    steps_arr = np.asarray(steps)
+    if span_v is None:
+        wrapping = np.abs(steps_arr) > jump_fraction * rng
+        if not np.any(wrapping):
+            span0 = None
+        else:
+            span0 = float(np.median(np.abs(steps_arr[wrapping])))
+    else:
+        span0 = float(span_v)
+    counts = np.zeros(len(events), dtype=int)
+    if span0 is not None:
+        ratio = -steps_arr / span0
+        counts = np.rint(ratio).astype(int)
+        frac = np.abs(ratio - counts)
+        for (a, b), fr in zip(events, frac):
+            if fr > 0.25:
+                warnings.append(f"ambiguous jump at sample {b} ({fr:.2f} of a span off a whole turn)")
+    w = np.zeros(n)
+    for (a, b), c in zip(events, counts):
+        w[b:] += c
+    glitch_idx = np.array(sorted(set(glitches)), dtype=int)
+    good = np.ones(n, dtype=bool)
+    good[glitch_idx] = False
+    wraps = int(np.sum(np.abs(counts)))
+    span = span0
+    if wraps and span_v is None:
+        span = _fit_span(t, y, w, good)
+        if not np.isfinite(span) or span <= 0:
+            raise ConditioningError("could not estimate the encoder span from the jumps; give it", file=file)
+    out = y + (span or 0.0) * w
+    if glitch_idx.size:
+        out[glitch_idx] = np.interp(t[glitch_idx], t[good], out[good])
+    if len(glitch_idx) > max_glitch * max(1, len(events)):
+        warnings.append(f"{len(glitch_idx)} glitch samples interpolated")
+    jump_idx = np.array([b for (a, b), c in zip(events, counts) if c != 0], dtype=int)
+    return UnwrapResult(out, wraps, span, jump_idx, glitch_idx, tuple(warnings))
+
+
+def count_wraps(y: np.ndarray, **kwargs: object) -> int:
+    """Number of wraps in a position record (see :func:`unwrap_position`)."""
+    return unwrap_position(y, **kwargs).wraps  # type: ignore[arg-type]

@@ -1,0 +1,47 @@
+"""What every identification method shares: its error type and small numeric helpers."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from motorid.errors import MotorIdError
+
+__all__ = ["IdentificationError", "equilibrated_condition"]
+
+
+class IdentificationError(MotorIdError):
+    """The data cannot give a model with the requested method and settings.
+
+    Raised, for example, when too few samples remain for the requested order or when the
+    step response never rises; the message says what would fix it.
+    """
+
+
+def equilibrated_condition(regressor: np.ndarray) -> float:
+    """Condition number of a regressor after scaling its columns to unit 2-norm.
+
+    Parameters
+    ----------
+    regressor : ndarray, shape (N, p)
+        The least-squares matrix (one row per equation).
+
+    Returns
+    -------
+    float
+        2-norm condition number of the column-equilibrated matrix; ``inf`` when a column
+        is zero or the matrix is rank deficient.
+
+    Notes
+    -----
+    Raw condition numbers depend on the units of each column (position volts vs. input
+    volts, seconds vs. milliseconds); equilibrating first makes the number a property of
+    the data, not of the units, so the same warning threshold works everywhere.
+    """
+    q = np.asarray(regressor, dtype=float)
+    norms = np.linalg.norm(q, axis=0)
+    if q.size == 0 or np.any(norms == 0.0) or not np.all(np.isfinite(q)):
+        return float("inf")
+    sv = np.linalg.svd(q / norms, compute_uv=False)
+    if sv[-1] <= sv[0] * np.finfo(float).eps:
+        return float("inf")
+    return float(sv[0] / sv[-1])
