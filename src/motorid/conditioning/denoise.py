@@ -4,8 +4,8 @@ The current monitor of a PWM H-bridge carries switching noise far above the moto
 (Masoud 2019, Fig. 18, section V-5).  The record is made periodic by removing the straight
 line through its end points (so the FFT sees no jump at the wrap-around), transformed with
 ``numpy.fft.rfft``, multiplied by a raised-cosine low-pass and transformed back.  The cut-off,
-when not given, is chosen from the data: the frequency above which the spectrum stays at the
-noise floor (median power of the upper half of the band).  No library picks that cut-off,
+when not given, is chosen from the data: where the low-frequency band of the spectrum first
+falls to the noise floor (median power of the upper half of the band).  No library picks that cut-off,
 hence this module.
 """
 
@@ -45,10 +45,11 @@ def _auto_cutoff(freq: np.ndarray, power: np.ndarray, floor_factor: float) -> fl
     # smooth the periodogram over a few bins before comparing with the floor
     k = max(3, freq.size // 200)
     smooth = np.convolve(power, np.ones(k) / k, mode="same")
-    above = np.flatnonzero(smooth > floor_factor * floor)
-    if above.size == 0:
-        return float(freq[min(freq.size - 1, 4)])
-    return float(freq[max(above[-1], 4)])
+    # the motor's band is the contiguous low-frequency part above the floor; PWM tones and
+    # their harmonics stand above the floor too, but far out, past a gap: stop at the gap
+    below = np.flatnonzero(smooth[1:] <= floor_factor * floor)
+    end = int(below[0]) + 1 if below.size else freq.size - 1
+    return float(freq[max(end, 4)])
 
 
 def fft_denoise(
@@ -89,7 +90,9 @@ def fft_denoise(
     n = y.size
     if cutoff_hz is not None and (not np.isfinite(cutoff_hz) or cutoff_hz <= 0):
         raise OptionError(f"denoise cut-off must be a positive frequency, got {cutoff_hz!r}")
-    line = y[0] + (y[-1] - y[0]) * np.arange(n) / max(n - 1, 1)
+    m = max(1, n // 100)  # end levels from 1% of the record, not one noisy sample
+    y0, y1 = float(np.mean(y[:m])), float(np.mean(y[-m:]))
+    line = y0 + (y1 - y0) * (np.arange(n) - (m - 1) / 2) / max(n - m, 1)
     spec = np.fft.rfft(y - line)
     freq = np.fft.rfftfreq(n, dt)
     auto = cutoff_hz is None

@@ -109,8 +109,9 @@ def step_edge(
     Raises
     ------
     StepNotFoundError
-        When the record is no step: the two-level fit explains less than 90% of the
-        variance (a sine, a ramp, noise) or the jump is below 8 noise standard deviations.
+        When the record is no step: the residual of the two-level fit is far above the
+        sample-to-sample noise (a sine, a ramp) or the jump is below 8 noise standard
+        deviations.
 
     References
     ----------
@@ -129,11 +130,17 @@ def step_edge(
     level = float(np.mean(u[k:]))
     amp = level - base
     noise = noise_level(u)
-    explained = 1.0 - sse / total if total > 0 else 0.0
-    if total == 0 or explained < 0.9 or abs(amp) < 8.0 * max(noise, 1e-12):
+    d = np.abs(np.diff(u))
+    small = d[(d > 0) & (d < 0.25 * abs(amp))]
+    quantum = float(small.min()) if small.size else 0.0
+    noise_eff = max(noise, quantum / np.sqrt(12.0), 1e-12)
+    resid_rms = float(np.sqrt(max(sse, 0.0) / n))
+    # a step leaves white residuals at the noise level; a sine, ramp or triangle leaves a
+    # structured residual far above the sample-to-sample noise
+    if total == 0 or resid_rms > max(4.0 * noise_eff, 0.1 * abs(amp)) or abs(amp) < 8.0 * resid_rms:
         raise StepNotFoundError(
-            f"no step in the input channel (a two-level fit explains {100 * explained:.0f}% "
-            f"of it, jump {amp:.3g} V vs noise {noise:.2g} V)",
+            f"no step in the input channel (two-level fit residual {resid_rms:.3g} V, "
+            f"jump {amp:.3g} V, noise {noise_eff:.2g} V)",
             file=file,
         )
     # The change point can land one sample early/late when an edge sample sits halfway

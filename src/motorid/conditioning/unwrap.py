@@ -151,15 +151,34 @@ def unwrap_position(
     for a, b in events:
         glitches.extend(range(a + 1, b))
     steps = []
-    for a, b in events:
-        # expected motion across the event from the local slope on both sides
-        left = y[max(0, a - 4) : a + 1]
-        right = y[b : min(n, b + 5)]
-        slope = 0.0
-        if left.size >= 2 and right.size >= 2:
-            slope = 0.5 * (np.polyfit(np.arange(left.size), left, 1)[0] + np.polyfit(np.arange(right.size), right, 1)[0])
+    continuous = []
+    bounds = [0] + [b for _, b in events]
+    ends = [a for a, _ in events] + [n - 1]
+    noise_eff = max(noise, quantum / np.sqrt(12.0))
+    for k, (a, b) in enumerate(events):
+        # the shaft moves on through a wrap: the slopes on both sides agree.  A step of a
+        # velocity or current signal (flat before, rising or decaying after) does not.
+        left = y[max(bounds[k], a - 19) : a + 1]
+        right = y[b : min(ends[k + 1], b + 19) + 1]
+        s_left = np.polyfit(np.arange(left.size), left, 1)[0] if left.size >= 3 else np.nan
+        s_right = np.polyfit(np.arange(right.size), right, 1)[0] if right.size >= 3 else np.nan
+        if np.isnan(s_left) or np.isnan(s_right):
+            slope = 0.0 if np.isnan(s_left) and np.isnan(s_right) else float(np.nanmean([s_left, s_right]))
+            continuous.append(True)
+        else:
+            m = min(left.size, right.size)
+            se = noise_eff * np.sqrt(12.0 / m**3)
+            continuous.append(abs(s_left - s_right) <= 0.5 * max(abs(s_left), abs(s_right)) + 6.0 * se)
+            slope = 0.5 * (s_left + s_right)
         steps.append(float(y[b] - y[a] - slope * (b - a)))
     steps_arr = np.asarray(steps)
+    keep = [i for i, c in enumerate(continuous) if c]
+    for i, c in enumerate(continuous):
+        if not c:
+            warnings.append(f"jump at sample {events[i][1]} is a step of the signal, not a wrap: left as is")
+    events = [events[i] for i in keep]
+    steps_arr = steps_arr[keep]
+    glitches = [g for a, b in events for g in range(a + 1, b)]
     if span_v is None:
         wrapping = np.abs(steps_arr) > jump_fraction * rng
         if not np.any(wrapping):

@@ -1,0 +1,66 @@
+"""Step-edge and response-onset detection against analytic signals."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from motorid.conditioning.edge import noise_level, response_onset, step_edge
+from motorid.errors import StepNotFoundError
+
+
+def quantise(x, lsb):
+    return np.round(x / lsb) * lsb
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    k=st.integers(min_value=150, max_value=2300),
+    amp=st.floats(min_value=0.5, max_value=9.0),
+    sign=st.sampled_from([-1.0, 1.0]),
+    base=st.floats(min_value=-2.0, max_value=2.0),
+    seed=st.integers(0, 2**31 - 1),
+)
+def test_step_edge_found_within_one_sample_with_noise_and_8bit(k, amp, sign, base, seed):
+    rng = np.random.default_rng(seed)
+    n, dt = 2500, 4e-3
+    t = (np.arange(n) - 250) * dt
+    lsb = 2.0 / 25  # 2 V/div on a TDS2000: 25 codes per division
+    u = base + np.where(np.arange(n) >= k, sign * amp, 0.0) + rng.normal(0, 0.02, n)
+    e = step_edge(t, quantise(u, lsb))
+    assert abs(e.index - k) <= 1
+    # amplitude: mean of ~thousands of quantised samples, within 1% (brief) of the true jump
+    assert e.amplitude_v == pytest.approx(sign * amp, rel=0.01, abs=lsb / 2)
+    assert e.time_s == pytest.approx(t[e.index])
+
+
+def test_step_edge_rejects_a_sine():
+    t = np.linspace(0, 10, 2500)
+    with pytest.raises(StepNotFoundError, match="no step"):
+        step_edge(t, 6.4 * np.sin(2 * np.pi * 0.1 * t + 0.3) + 0.0 * t, file="sine.csv")
+
+
+def test_step_edge_rejects_pure_noise():
+    rng = np.random.default_rng(0)
+    with pytest.raises(StepNotFoundError):
+        step_edge(np.arange(1000.0), rng.normal(0, 1, 1000))
+
+
+def test_noise_level_of_white_noise():
+    rng = np.random.default_rng(1)
+    y = np.cumsum(np.ones(20000)) * 0.01 + rng.normal(0, 0.3, 20000)
+    # MAD-based estimate of a Gaussian's sigma: within 3% for 20000 samples
+    assert noise_level(y) == pytest.approx(0.3, rel=0.03)
+
+
+@pytest.mark.parametrize("t0", [1.0, 2.345, 4.0])
+def test_response_onset_of_first_order_response(t0):
+    rng = np.random.default_rng(2)
+    dt, tau = 4e-3, 0.43
+    t = np.arange(2500) * dt - 1.0
+    y = 5.36 * (1 - np.exp(-np.clip(t - t0, 0, None) / tau)) + 0.3 + rng.normal(0, 0.01, t.size)
+    e = response_onset(t, quantise(y, 0.08))
+    # the line through 10-30% of the rise extrapolates to the exact onset for a first-order
+    # response; quantisation and curvature leave a few samples
+    assert abs(e.time_s - t0) < 3 * dt
+    assert e.baseline_v == pytest.approx(0.3, abs=0.05)
+    assert e.method == "onset"
