@@ -40,10 +40,15 @@ def test_unwrap_counts_turns_and_tracks_every_sample(turns):
     # with the span given, only quantisation (0.5 LSB) and glitch interpolation remain
     known = np.abs(unwrap_position(y, span_v=SPAN).position_v - pos) / LSB
     assert known.max() <= 2.0
-    # with the span estimated from the data, its error accumulates over the wraps; the
-    # estimate's standard error is ~0.3 LSB·sqrt(8/samples-per-wrap)/sqrt(wraps), so the
-    # last sample is off by ~sqrt(wraps) times that: within 2 LSB up to 25 wraps and
-    # within 4 LSB at 50 wraps (measured worst over 20 seeds: 3.5 LSB)
+    # with the span estimated from the data its error accumulates over the wraps (the
+    # span's standard error falls as 1/sqrt(wraps), the accumulated error grows as
+    # sqrt(wraps)).  The brief's criterion: within 2 LSB on every sample after a baseline
+    # shift (the constant that best aligns the two records).
+    e = res.position_v - pos
+    shifted = np.abs(e - 0.5 * (e.max() + e.min())) / LSB
+    assert shifted.max() <= 2.0
+    # anchored at the first sample: within 2 LSB up to 25 wraps; at 50 wraps the 8-bit
+    # data cannot pin the span closer than ~0.03% (measured worst of 20 seeds: 3.5 LSB)
     assert err.max() <= (2.0 if turns <= 25 else 4.0)
     if turns:
         assert res.span_v == pytest.approx(SPAN, rel=2e-3)

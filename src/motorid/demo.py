@@ -1,0 +1,125 @@
+"""``motorid demo``: record an example experiment on the virtual trainer, write it as scope
+files, and read it back as a user's captures would be read.
+
+The example is the paper's procedure (Masoud 2019, section V): three separate acquisitions of
+the same step — position (``ALL0000``), velocity (``ALL0001``), armature current
+(``ALL0002``) — and the onboard sine, triangle and square test signals for validation
+(``ALL0003``–``ALL0005``), each in the TDS2000 'Save All' layout, plus ``truth.json`` with the
+exact linearised transfer functions and, per capture, the true step instant, level and
+number of encoder wraps.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from motorid.inspection import CaptureSummary, describe_capture
+from motorid.errors import OutputExistsError
+from motorid.io import read_capture, write_tds_capture
+
+__all__ = ["DemoRow", "DemoResult", "CAPTURE_ORDER", "run_demo"]
+
+#: Folder index of each capture of the example experiment.
+CAPTURE_ORDER: tuple[str, ...] = ("position", "velocity", "current", "sine", "triangle", "square")
+
+
+@dataclass(frozen=True, slots=True)
+class DemoRow:
+    """One written capture: what the trainer knows and what was read back."""
+
+    name: str
+    folder: str
+    true_step_time_s: float
+    true_step_volts: float
+    true_wraps: int
+    read: CaptureSummary
+
+
+@dataclass(frozen=True, slots=True)
+class DemoResult:
+    """What ``run_demo`` wrote and read back."""
+
+    out: Path
+    rows: tuple[DemoRow, ...]
+    truth_path: Path
+    experiment: Any
+
+
+def _targets(out: Path) -> list[Path]:
+    return [out / f"ALL{i:04d}" for i in range(len(CAPTURE_ORDER))] + [out / "truth.json"]
+
+
+def run_demo(
+    out: Path | str,
+    *,
+    preset: str = "paper",
+    seed: int = 0,
+    step_volts: float = 5.92,
+    force: bool = False,
+) -> DemoResult:
+    """Generate, write and read back the example experiment.
+
+    Parameters
+    ----------
+    out : path
+        Folder to write into (created if needed).
+    preset : str
+        Virtual trainer preset (see :data:`motorid.trainer.PRESET_NAMES`).
+    seed : int
+        Seed of the simulated noise and trigger offsets.
+    step_volts : float
+        Step level.
+    force : bool
+        Overwrite existing files; without it nothing is written when any target exists.
+
+    Returns
+    -------
+    DemoResult
+        The written folders with the truth and what ``inspect`` reads from them.
+
+    Raises
+    ------
+    OutputExistsError
+        A target exists and ``force`` is false.
+    """
+    from motorid.trainer import run_experiment
+
+    out = Path(out)
+    existing = [p for p in _targets(out) if p.exists()]
+    if existing and not force:
+        raise OutputExistsError(
+            f"{len(existing)} output(s) exist (e.g. {existing[0].name}); use --force to overwrite",
+            file=str(out),
+        )
+    exp = run_experiment(preset, step_volts=step_volts, seed=seed)
+    out.mkdir(parents=True, exist_ok=True)
+    captures = dict(exp.captures)
+    captures.update(exp.validation)
+    rows: list[DemoRow] = []
+    truth_caps: dict[str, Any] = {}
+    for i, name in enumerate(CAPTURE_ORDER):
+        if name not in captures:
+            continue
+        folder = write_tds_capture(out, captures[name], index=i, force=force)
+        truth = exp.capture_truth.get(name)
+        read = describe_capture(read_capture(folder))
+        st = truth.step_time_s if truth is not None else float("nan")
+        sv = truth.step_volts if truth is not None else float("nan")
+        wr = truth.wraps if truth is not None else 0
+        rows.append(DemoRow(name, str(folder), st, sv, wr, read))
+        truth_caps[name] = {"folder": folder.name, "step_time": st, "step_volts": sv, "wraps": wr}
+    truth_path = out / "truth.json"
+    doc = {
+        "schema": "motorid.trainer-truth/1",
+        "preset": preset,
+        "seed": seed,
+        "step_volts": step_volts,
+        "captures": truth_caps,
+        "transfer_functions": exp.truth.to_json(),
+        "config": asdict(exp.config),
+    }
+    truth_path.write_text(json.dumps(doc, indent=2, default=float) + "\n", encoding="utf-8")
+    return DemoResult(out, tuple(rows), truth_path, exp)
