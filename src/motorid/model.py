@@ -47,6 +47,9 @@ CHANNELS = ("position", "velocity", "current")
 #: than 2 % of the fastest pole's magnitude are treated as one numerical artefact
 #: (paper eq. 39: the pair at -0.0189/-0.0048 is 0.6 % of 2.30 apart).
 CANCEL_TOL_REL = 0.02
+#: Pole-zero pairs closer than this (relative to the fastest pole) are one and the same
+#: root split by round-off, and are always removed from a channel's transfer function.
+EXACT_CANCEL_TOL = 1e-8
 
 
 class ModelFormatError(MotorIdError):
@@ -397,7 +400,11 @@ class MotorModel:
 
     def _row_tf(self, channel: str) -> tuple[np.ndarray, np.ndarray]:
         c, d = self._row(channel)
-        return _tf_coeffs(control.ss2tf(self.A, self.B, c, d))
+        num, den = _tf_coeffs(control.ss2tf(self.A, self.B, c, d))
+        # ss2tf does not remove states the channel cannot see (e.g. the position integrator
+        # seen from the velocity row); cancel pairs that coincide to round-off.
+        num, den, _ = _cancel_pairs(num, den, EXACT_CANCEL_TOL, "leading")
+        return _normalise_tf(num, den)
 
     def velocity_tf(self) -> control.TransferFunction:
         """Input volts → velocity-channel volts, ``den[0] == 1`` (Masoud 2019, eq. 9)."""
@@ -528,7 +535,7 @@ class MotorModel:
         if not isinstance(order, (int, np.integer)) or order < 1:
             raise OptionError(f"reduce needs an order >= 1, got {order!r}")
         num, den = self._row_tf("velocity")
-        num, den, n_exact = _cancel_pairs(num, den, 1e-9, "leading")
+        num, den, n_exact = _cancel_pairs(num, den, EXACT_CANCEL_TOL, "leading")
         if den.size - 1 <= order:
             if n_exact == 0:
                 return self

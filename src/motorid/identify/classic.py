@@ -1,0 +1,139 @@
+"""Classic first-order identification: steady-state gain and the 63.2 % time constant.
+
+The baseline students start from (lab report §1.1; Masoud 2019, Fig. 1 and eq. 43): the
+velocity step response is taken as ``K·V0·(1 − e^(−t/τ))``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from motorid.errors import OptionError
+from motorid.identify.result import IdentificationError
+
+__all__ = ["ClassicResult", "classic_first_order", "SETTLE_WARN"]
+
+#: Change over the last 20 % of the record, relative to the final value, above which the
+#: record is reported as not settled.
+SETTLE_WARN = 0.02
+_RISE = 1.0 - math.exp(-1.0)  # 0.632…
+
+
+@dataclass(frozen=True, slots=True)
+class ClassicResult:
+    """Outcome of :func:`classic_first_order`.
+
+    Attributes
+    ----------
+    dc_gain : float
+        Steady-state velocity per input volt.
+    time_constant_s : float
+        Time from the step to 63.2 % of the final value.
+    final_value : float
+        Steady-state velocity in volts (mean of the last 10 % of the record).
+    step_volts : float
+    warnings : tuple of str
+    """
+
+    dc_gain: float
+    time_constant_s: float
+    final_value: float
+    step_volts: float
+    warnings: tuple[str, ...]
+
+    @property
+    def k(self) -> float:
+        """The paper's ``k`` in ``k/(s+p)`` (eq. 43): ``dc_gain / τ``."""
+        return self.dc_gain / self.time_constant_s
+
+    @property
+    def p(self) -> float:
+        """The paper's ``p`` in ``k/(s+p)``: ``1/τ``."""
+        return 1.0 / self.time_constant_s
+
+    def to_model(self) -> Any:
+        """The result as a :class:`motorid.model.MotorModel` with the state ``velocity``."""
+        from motorid.model import MotorModel
+
+        return MotorModel(
+            A=[[-self.p]], B=[[self.k]], C=[[1.0]], D=[[0.0]], states=("velocity",),
+            outputs=("velocity",), step_volts=self.step_volts, method="classic",
+            settings={"final_fraction": 0.1, "rise_fraction": _RISE}, warnings=self.warnings,
+        )
+
+
+def classic_first_order(time_s: Any, y: Any, step_volts: float, *, t0: float = 0.0) -> ClassicResult:
+    """Gain and 63.2 % time constant of a velocity step response.
+
+    Parameters
+    ----------
+    time_s : array_like
+        Sample times in seconds.
+    y : array_like
+        Velocity channel in volts, starting from 0 before the step.
+    step_volts : float
+        Input step level.
+    t0 : float
+        Time of the step edge.
+
+    Returns
+    -------
+    ClassicResult
+        ``dc_gain = y_ss / step_volts`` with ``y_ss`` the mean of the last 10 % of the
+        record; ``τ`` = first crossing of ``0.632·y_ss`` after ``t0`` (linear interpolation
+        between samples) minus ``t0``.  Warns when the record has not settled (the change
+        over its last 20 %, from a straight-line fit, exceeds ``SETTLE_WARN`` of ``y_ss``).
+
+    Raises
+    ------
+    OptionError
+        On mismatched arrays or a zero step level.
+    IdentificationError
+        When the response has no steady state or never reaches 63.2 % of it.
+
+    References
+    ----------
+    Tsiolakis 2022, §1.1; Masoud 2019, Fig. 1 and eq. 43.
+    """
+    t = np.asarray(time_s, dtype=float).ravel()
+    v = np.asarray(y, dtype=float).ravel()
+    if t.size != v.size:
+        raise OptionError(f"time and velocity arrays differ in length ({t.size} vs {v.size})")
+    if not step_volts or not math.isfinite(step_volts):
+        raise OptionError(f"the step level must be a non-zero number of volts, got {step_volts!r}")
+    after = t >= t0
+    t, v = t[after], v[after]
+    if t.size < 10:
+        raise IdentificationError(f"the classic method needs at least 10 samples after the step, got {t.size}")
+    warnings: list[str] = []
+    n_tail = max(1, t.size // 10)
+    final = float(np.mean(v[-n_tail:]))
+    if final == 0.0:
+        raise IdentificationError("the velocity has no steady state (mean of the last 10 % is 0)")
+    n_settle = max(2, t.size // 5)
+    slope = np.polyfit(t[-n_settle:], v[-n_settle:], 1)[0]
+    drift = abs(slope * (t[-1] - t[-n_settle])) / abs(final)
+    if drift > SETTLE_WARN:
+        warnings.append(f"velocity has not settled: it changes {100 * drift:.1f}% over the last 20% of the "
+                        "record; record longer for a reliable gain")
+    level = _RISE * final
+    rel = (v - level) * np.sign(final)
+    idx = np.flatnonzero(rel >= 0)
+    if idx.size == 0:
+        raise IdentificationError("the velocity never reaches 63.2 % of its final value")
+    i = int(idx[0])
+    if i == 0:
+        t63 = t[0]
+        warnings.append("velocity is already above 63.2 % at the step; time constant is unreliable")
+    else:
+        # Linear interpolation between the samples around the crossing.
+        t63 = t[i - 1] + (t[i] - t[i - 1]) * (level - v[i - 1]) / (v[i] - v[i - 1])
+    tau = float(t63 - t0)
+    if tau <= 0:
+        raise IdentificationError("the 63.2 % crossing is at the step edge; cannot estimate a time constant")
+    return ClassicResult(dc_gain=final / float(step_volts), time_constant_s=tau, final_value=final,
+                         step_volts=float(step_volts), warnings=tuple(warnings))
