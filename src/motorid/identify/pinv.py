@@ -24,7 +24,13 @@ COND_WARN = 1e8
 #: |x(0)| above this fraction of the state's range triggers a warning (eq. 14 assumes x(0)=0).
 INITIAL_STATE_WARN = 0.05
 
-_STATES = {"reduced": ("position", "velocity"), "extended": ("position", "velocity", "current")}
+_STATES = {
+    "reduced": ("position", "velocity"),
+    "extended": ("position", "velocity", "current"),
+    # without a position capture (a tacho-only or tacho + current-shunt set-up)
+    "velocity": ("velocity",),
+    "velocity_current": ("velocity", "current"),
+}
 
 
 @dataclass(frozen=True, slots=True)
@@ -33,8 +39,9 @@ class PinvSettings:
 
     Parameters
     ----------
-    states : {"reduced", "extended"}
-        ``[θ, θ̇]`` (paper §V-4, eq. 38) or ``[θ, θ̇, Ia]`` (eq. 46).
+    states : {"reduced", "extended", "velocity", "velocity_current"}
+        ``[θ, θ̇]`` (paper §V-4, eq. 38) or ``[θ, θ̇, Ia]`` (eq. 46); without a position
+        capture ``[θ̇]`` or ``[θ̇, Ia]``.
     structure : {"free", "known"}
         ``free``: every entry of ``A`` and ``B`` is unknown (eq. 13 as printed);
         ``known``: the θ row is fixed to ``ẋ₁ = x₂`` (first row of ``A`` = [0 1 0…],
@@ -50,7 +57,9 @@ class PinvSettings:
 
     def __post_init__(self) -> None:
         if self.states not in _STATES:
-            raise OptionError(f"states must be 'reduced' or 'extended', got {self.states!r}")
+            raise OptionError(f"states must be one of {', '.join(_STATES)}, got {self.states!r}")
+        if self.structure == "known" and _STATES[self.states][:2] != ("position", "velocity"):
+            raise OptionError("the known structure (θ row of A) needs the position and velocity states")
         if self.structure not in ("free", "known"):
             raise OptionError(f"structure must be 'free' or 'known', got {self.structure!r}")
         if not isinstance(self.drop_edges, (int, np.integer)) or self.drop_edges < 0:

@@ -1,0 +1,287 @@
+"""``motorid identify``: captures → conditioning → one of the paper's methods → a MotorModel.
+
+This module only chains the stages (io → conditioning → identify → model) and picks among
+methods; the signal processing lives in :mod:`motorid.conditioning`, the estimators in
+:mod:`motorid.identify`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import asdict, dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from motorid.capture import Capture
+from motorid.conditioning.derivative import derivative
+from motorid.conditioning.pipeline import ConditionedExperiment, ConditioningSettings, condition_experiment
+from motorid.errors import OptionError
+from motorid.identify.classic import classic_first_order
+from motorid.identify.markov import MarkovSettings, markov_identify
+from motorid.identify.pinv import PinvSettings, pinv_identify
+from motorid.identify.result import IdentificationError
+from motorid.model import MotorModel, step_nrmse
+
+__all__ = ["METHODS", "IdentifySettings", "Identification", "identify_experiment", "identify_conditioned"]
+
+#: Methods of ``--method`` (``auto`` picks among the others).
+METHODS: tuple[str, ...] = ("auto", "pinv", "markov", "classic")
+
+
+@dataclass(frozen=True, slots=True)
+class IdentifySettings:
+    """Everything that decides how a model is obtained (defaults: the paper's).
+
+    Attributes
+    ----------
+    method : str
+        One of :data:`METHODS`.
+    order : str or int
+        ``"auto"`` or 1–3: the number of states (= order of the velocity TF).  For
+        ``pinv`` it chooses the state vector: 1 → [θ̇]; 2 → [θ, θ̇] (or [θ̇, Ia] without a
+        position capture); 3 → [θ, θ̇, Ia] (the paper's extended state).
+    conditioning : ConditioningSettings
+        Sample reduction, record length, synchronisation.
+    derivative : str
+        Differentiation formula for pinv (paper: ``five_point``, eq. 17).
+    structure : str
+        pinv: ``free`` (all coefficients unknown) or ``known`` (θ̇ row known).
+    markov_params : int
+        Markov parameters ``Lm`` (paper: 11).
+    markov_window_s : float or None
+        Markov window ``Tε``; ``None`` picks about one dominant time constant (the Taylor
+        series of the step response does not converge usefully on longer windows).
+    """
+
+    method: str = "auto"
+    order: str | int = "auto"
+    conditioning: ConditioningSettings = field(default_factory=ConditioningSettings)
+    derivative: str = "five_point"
+    structure: str = "free"
+    markov_params: int = 11
+    markov_window_s: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Identification:
+    """The chosen model and how it was chosen.
+
+    Attributes
+    ----------
+    model : MotorModel
+        The identified model, ``fit.velocity_nrmse`` filled in.
+    conditioned : ConditionedExperiment
+        The conditioned data it was identified from.
+    candidates : dict[str, MotorModel]
+        Every method tried (``auto``) with its model.
+    failures : dict[str, str]
+        Methods that could not run, with the reason.
+    reason : str
+        Why this model was chosen.
+    """
+
+    model: MotorModel
+    conditioned: ConditionedExperiment
+    candidates: dict[str, MotorModel]
+    failures: dict[str, str]
+    reason: str
+
+
+def _velocity(cond: ConditionedExperiment, full: bool) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """Velocity step response (full rate or reduced), derived from position if needed."""
+    t = cond.full_time_s if full else cond.time_s
+    outs = cond.full_outputs if full else cond.outputs
+    if "velocity" in outs:
+        return t, outs["velocity"], []
+    dt = float(t[1] - t[0])
+    v = derivative(outs["position"], dt, "savgol")
+    return t, v, ["no velocity capture: velocity is the derivative of the position (position volts per second)"]
+
+
+def _settled_warning(t: np.ndarray, v: np.ndarray) -> list[str]:
+    n = v.size
+    tail = v[-max(3, n // 5):]
+    final = float(np.mean(v[-max(2, n // 10):]))
+    if final == 0:
+        return []
+    drift = float(np.polyfit(t[-tail.size:], tail, 1)[0]) * (t[-1] - t[-tail.size])
+    if abs(drift) > 0.02 * abs(final):
+        return [f"the velocity has not settled: it still changes by {100 * abs(drift / final):.1f}% over the last "
+                "fifth of the record; record longer for a trustworthy gain"]
+    return []
+
+
+def _pinv(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
+    have = set(cond.outputs)
+    order = s.order
+    if order == "auto":
+        states = [r for r in ("position", "velocity", "current") if r in have]
+        if "velocity" not in have:
+            raise IdentificationError("pinv needs a velocity capture (--velocity)")
+    else:
+        order = int(order)
+        if order == 1:
+            states = ["velocity"]
+        elif order == 2:
+            states = ["position", "velocity"] if "position" in have else ["velocity", "current"]
+        else:
+            states = ["position", "velocity", "current"]
+        missing = [r for r in states if r not in have]
+        if missing or "velocity" not in have:
+            raise IdentificationError(
+                f"pinv of order {order} needs the {', '.join(missing or ['velocity'])} capture(s) "
+                f"(--{(missing or ['velocity'])[0]})"
+            )
+    dt = cond.sample_interval_s
+    x = np.vstack([cond.outputs[r] for r in states])
+    needed = len(states) + 1 + 4
+    if x.shape[1] < needed:
+        raise IdentificationError(
+            f"only {x.shape[1]} samples after reduction; pinv of order {len(states)} needs at "
+            f"least {needed}: use a shorter --sample-interval or a longer --record-length"
+        )
+    x_dot = np.vstack([derivative(row, dt, s.derivative) for row in x])
+    kind = {
+        ("position", "velocity"): "reduced",
+        ("position", "velocity", "current"): "extended",
+        ("velocity",): "velocity",
+        ("velocity", "current"): "velocity_current",
+    }[tuple(states)]
+    pset = PinvSettings(states=kind, structure=s.structure)
+    # drop the samples the finite-difference stencil could not reach (NaN); pinv itself
+    # then drops the paper's first and last two
+    ok = np.all(np.isfinite(x_dot), axis=0)
+    first, last = int(np.argmax(ok)), int(ok.size - np.argmax(ok[::-1]))
+    sl = slice(max(0, first - 2), min(ok.size, last + 2))
+    x_dot = np.where(np.isfinite(x_dot), x_dot, 0.0)
+    res = pinv_identify(x[:, sl], x_dot[:, sl], cond.input_v[sl], pset)
+    model = res.to_model(step_volts=cond.step_volts, sample_interval_s=dt)
+    return model.replace(states=tuple(states), outputs=tuple(states))
+
+
+def _markov(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
+    t, v, notes = _velocity(cond, full=True)
+    window = s.markov_window_s
+    if window is None:
+        c = classic_first_order(t, v, cond.step_volts)
+        window = float(np.clip(c.time_constant_s, 5 * (t[1] - t[0]), t[-1]))
+    mset = MarkovSettings(
+        n_params=s.markov_params, window_s=window,
+        order=s.order if s.order == "auto" else int(s.order),
+    )
+    res = markov_identify(t, v, cond.step_volts, mset)
+    model = res.to_model()
+    return model.replace(warnings=tuple(model.warnings) + tuple(notes), sample_interval_s=float(t[1] - t[0]))
+
+
+def _classic(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
+    if s.order not in ("auto", 1, "1"):
+        raise OptionError(f"the classic method gives a first-order model only, not order {s.order}")
+    t, v, notes = _velocity(cond, full=True)
+    res = classic_first_order(t, v, cond.step_volts)
+    model = res.to_model()
+    return model.replace(warnings=tuple(model.warnings) + tuple(notes), sample_interval_s=float(t[1] - t[0]))
+
+
+_RUNNERS: dict[str, Callable[[ConditionedExperiment, IdentifySettings], MotorModel]] = {
+    "pinv": _pinv,
+    "markov": _markov,
+    "classic": _classic,
+}
+
+
+def _with_fit(model: MotorModel, cond: ConditionedExperiment) -> MotorModel:
+    t, v, _ = _velocity(cond, full=True)
+    fit = dict(model.fit)
+    fit["velocity_nrmse"] = float(step_nrmse(model, t, v, channel="velocity", step_volts=cond.step_volts))
+    if "position" in cond.full_outputs and "position" in model.outputs:
+        fit["position_nrmse"] = float(
+            step_nrmse(model, t, cond.full_outputs["position"], channel="position", step_volts=cond.step_volts)
+        )
+    return model.replace(fit=fit)
+
+
+def identify_conditioned(cond: ConditionedExperiment, settings: IdentifySettings = IdentifySettings()) -> Identification:
+    """Identify a model from conditioned data (see :func:`identify_experiment`)."""
+    if settings.method not in METHODS:
+        raise OptionError(f"unknown method {settings.method!r}; use one of {', '.join(METHODS)}")
+    if settings.order not in ("auto", 1, 2, 3):
+        raise OptionError(f"--order must be auto, 1, 2 or 3, not {settings.order!r}")
+    names = [m for m in _RUNNERS] if settings.method == "auto" else [settings.method]
+    t, v, notes = _velocity(cond, full=True)
+    extra_warn = list(cond.warnings) + notes + _settled_warning(t, v)
+    candidates: dict[str, MotorModel] = {}
+    failures: dict[str, str] = {}
+    for name in names:
+        try:
+            m = _RUNNERS[name](cond, settings)
+        except (IdentificationError, OptionError) as exc:
+            if settings.method != "auto":
+                raise
+            failures[name] = exc.message
+            continue
+        candidates[name] = _with_fit(m, cond)
+    if not candidates:
+        raise IdentificationError("no method could identify a model: " + "; ".join(f"{k}: {v}" for k, v in failures.items()))
+    ranked = sorted(candidates, key=lambda k: candidates[k].fit.get("velocity_nrmse", np.inf))
+    best = ranked[0]
+    if settings.method == "auto":
+        scores = ", ".join(f"{k} {100 * candidates[k].fit['velocity_nrmse']:.2f}%" for k in ranked)
+        reason = f"auto: smallest velocity step-response NRMSE ({scores})"
+        if failures:
+            reason += "; not run: " + "; ".join(f"{k} ({v})" for k, v in failures.items())
+    else:
+        reason = f"method {best} as asked"
+    model = candidates[best]
+    settings_doc = dict(model.settings)
+    settings_doc.update(
+        conditioning=asdict(settings.conditioning), derivative=settings.derivative,
+        reduction_ratio=cond.ratio, sources=dict(cond.sources),
+    )
+    model = model.replace(
+        settings=settings_doc,
+        step_volts=cond.step_volts,
+        warnings=tuple(dict.fromkeys(tuple(model.warnings) + tuple(extra_warn))),
+        extras={**dict(model.extras), "choice": reason},
+    )
+    return Identification(model, cond, candidates, failures, reason)
+
+
+def identify_experiment(
+    captures: Mapping[str, Capture],
+    settings: IdentifySettings = IdentifySettings(),
+    *,
+    step_volts: float | None = None,
+    t0_s: float | None = None,
+) -> Identification:
+    """Identify a motor model from the captures of one step experiment.
+
+    Parameters
+    ----------
+    captures : Mapping[str, Capture]
+        Captures keyed by role; ``velocity`` or ``position`` is required.
+    settings : IdentifySettings
+        Method, order, conditioning.
+    step_volts, t0_s : float, optional
+        For captures without an input channel.
+
+    Returns
+    -------
+    Identification
+        The model with its fit, and the alternatives considered.
+
+    Raises
+    ------
+    OptionError, IdentificationError, ConditioningError
+        Bad options, unusable data; messages name the file and what would fix it.
+    """
+    if "velocity" not in captures and "position" not in captures:
+        raise OptionError("give at least --velocity or --position")
+    cond = condition_experiment(captures, settings.conditioning, step_volts=step_volts, t0_s=t0_s)
+    return identify_conditioned(cond, settings)
+
+
+def with_conditioning(settings: IdentifySettings, **changes: Any) -> IdentifySettings:
+    """A copy of ``settings`` with conditioning fields changed (used by the sweep)."""
+    return replace(settings, conditioning=replace(settings.conditioning, **changes))
