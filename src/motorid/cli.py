@@ -16,7 +16,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from motorid.errors import MotorIdError, OptionError
+from motorid.errors import MotorIdError, OptionError, OutputExistsError
 
 app = typer.Typer(
     add_completion=False,
@@ -127,6 +127,207 @@ def demo(
     con.print(table)
     con.print(f"ground truth: {result.truth_path}")
     con.print(f"inspect them: motorid inspect {out}/ALL0000 {out}/ALL0001 {out}/ALL0002")
+
+
+def _read_roles(
+    position: Optional[str], velocity: Optional[str], current: Optional[str], columns: Optional[str]
+) -> dict:
+    from motorid.io import read_capture
+
+    colmap = _parse_columns(columns)
+    given = {"position": position, "velocity": velocity, "current": current}
+    if not (velocity or position):
+        raise OptionError("give at least --velocity CAP or --position CAP")
+    return {
+        role: read_capture(_capture_paths(spec), columns=colmap, role=role)
+        for role, spec in given.items()
+        if spec
+    }
+
+
+def _writable(path: Optional[Path], force: bool) -> None:
+    if path is not None and path.exists() and not force:
+        raise OutputExistsError(f"{path.name} exists; use --force to overwrite", file=str(path))
+
+
+def _conditioning(ratio, sample_interval, record_length, reduction, sync):
+    from motorid.conditioning.pipeline import ConditioningSettings
+
+    if ratio is not None and ratio < 1:
+        raise OptionError(f"--ratio must be a whole number ≥ 1, got {ratio}")
+    return ConditioningSettings(
+        sample_interval_s=None if ratio is not None else sample_interval,
+        ratio=ratio,
+        reduction=reduction,
+        record_length_s=record_length,
+        sync=sync,
+    )
+
+
+def _poly(coeffs) -> str:
+    """A polynomial in s, highest power first, in the paper's notation."""
+    import numpy as np
+
+    c = [float(x) for x in np.atleast_1d(coeffs)]
+    n = len(c) - 1
+    parts = []
+    for i, a in enumerate(c):
+        p = n - i
+        if a == 0 and len(c) > 1:
+            continue
+        mag = f"{abs(a):.4g}"
+        term = mag if p == 0 else ("" if mag == "1" else mag) + ("s" if p == 1 else f"s^{p}")
+        parts.append(("-" if a < 0 else "+") + " " + term)
+    text = " ".join(parts) or "0"
+    return text[2:] if text.startswith("+ ") else "-" + text[2:]
+
+
+def _print_model(con: Console, model, title: str) -> None:
+    import numpy as np
+
+    fo = model.first_order()
+    con.print(f"[bold]{title}[/bold]: method {model.method}, order {model.order}, states {list(model.states)}, "
+              f"step {model.step_volts:.4g} V")
+    np.set_printoptions(precision=5, suppress=False)
+    con.print(f"A = {np.array2string(model.A, precision=5)}")
+    con.print(f"B = {np.array2string(model.B.ravel(), precision=5)}ᵀ")
+    for name in ("velocity", "position", "current"):
+        try:
+            tf = getattr(model, f"{name}_tf")()
+        except Exception:  # noqa: BLE001 - a channel the model does not have
+            tf = None
+        if tf is None:
+            continue
+        num, den = np.ravel(tf.num[0][0]), np.ravel(tf.den[0][0])
+        con.print(f"H_{name}(s) = ({_poly(num)}) / ({_poly(den)})")
+    poles = ", ".join(f"{p.real:.4g}{p.imag:+.4g}j" if abs(p.imag) > 1e-12 else f"{p.real:.4g}" for p in model.poles())
+    con.print(f"poles: {poles}")
+    con.print(f"first order: k/(s+p) = {fo.k:.4g}/(s + {fo.p:.4g}); dc gain {fo.dc_gain:.4g} V/V, "
+              f"τ = {fo.time_constant_s:.4g} s")
+    for key, val in model.fit.items():
+        con.print(f"fit {key}: {100 * val:.2f}%")
+    for w in model.warnings:
+        con.print(f"[yellow]warning:[/yellow] {w}")
+
+
+@app.command()
+def identify(
+    position: Annotated[Optional[str], typer.Option(help="Position (potentiometer/encoder) capture.")] = None,
+    velocity: Annotated[Optional[str], typer.Option(help="Velocity (tachogenerator) capture.")] = None,
+    current: Annotated[Optional[str], typer.Option(help="Armature-current capture.")] = None,
+    method: Annotated[str, typer.Option(help="auto, pinv, markov or classic.")] = "auto",
+    order: Annotated[str, typer.Option(help="auto, 1, 2 or 3 (number of states).")] = "auto",
+    ratio: Annotated[Optional[int], typer.Option(help="Sample reduction ratio (overrides --sample-interval).")] = None,
+    sample_interval: Annotated[float, typer.Option("--sample-interval", help="Sample interval after reduction, s (paper: 0.1).")] = 0.1,
+    record_length: Annotated[Optional[float], typer.Option("--record-length", help="Seconds kept after the step (default: all).")] = None,
+    reduction: Annotated[str, typer.Option(help="subsample (paper), block_mean or fir.")] = "subsample",
+    derivative: Annotated[str, typer.Option(help="euler, central, five_point (paper) or savgol.")] = "five_point",
+    structure: Annotated[str, typer.Option(help="pinv: free, or known (θ row of A known).")] = "free",
+    markov_params: Annotated[int, typer.Option("--markov-params", help="Markov parameters Lm (paper: 11).")] = 11,
+    markov_window: Annotated[Optional[float], typer.Option("--markov-window", help="Markov window Tε in s (default: about one time constant).")] = None,
+    sync: Annotated[str, typer.Option(help="Synchronisation: interp or index (the paper's).")] = "interp",
+    step_volts: Annotated[Optional[float], typer.Option("--step-volts", help="Step level for captures without an input channel.")] = None,
+    t0: Annotated[Optional[float], typer.Option("--t0", help="Step instant on the files' time axis.")] = None,
+    columns: Annotated[Optional[str], typer.Option(help="Plain CSV column map, e.g. time=t,input=u,velocity=rpm.")] = None,
+    json_out: Annotated[Optional[Path], typer.Option("--json", help="Write the model JSON (CONTRACT.md) here.")] = None,
+    matlab_out: Annotated[Optional[Path], typer.Option("--matlab", help="Write a MATLAB/Octave script defining A, B, C, D.")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite existing output files.")] = False,
+) -> None:
+    """Identify the motor model from step captures (paper sections III-VI)."""
+    from motorid.identification import IdentifySettings, identify_experiment
+
+    if order not in ("auto", "1", "2", "3"):
+        raise OptionError(f"--order must be auto, 1, 2 or 3, not {order!r}")
+    for path in (json_out, matlab_out):
+        _writable(path, force)
+    settings = IdentifySettings(
+        method=method,
+        order=order if order == "auto" else int(order),
+        conditioning=_conditioning(ratio, sample_interval, record_length, reduction, sync),
+        derivative=derivative,
+        structure=structure,
+        markov_params=markov_params,
+        markov_window_s=markov_window,
+    )
+    caps = _read_roles(position, velocity, current, columns)
+    result = identify_experiment(caps, settings, step_volts=step_volts, t0_s=t0)
+    con = _console()
+    _print_model(con, result.model, "identified model")
+    con.print(f"choice: {result.reason}")
+    if json_out is not None:
+        json_out.write_text(result.model.to_json_text(), encoding="utf-8")
+        con.print(f"model JSON: {json_out}")
+    if matlab_out is not None:
+        matlab_out.write_text(result.model.to_matlab(), encoding="utf-8")
+        con.print(f"MATLAB/Octave script: {matlab_out}")
+
+
+def _floats(spec: str, option: str) -> list[float]:
+    try:
+        vals = [float(x) for x in spec.split(",") if x.strip()]
+    except ValueError:
+        raise OptionError(f"{option}: {spec!r} is not a comma-separated list of numbers") from None
+    if not vals or any(not v > 0 for v in vals):
+        raise OptionError(f"{option}: give positive numbers, e.g. 1.9,2.4,2.9")
+    return vals
+
+
+@app.command()
+def sweep(
+    position: Annotated[Optional[str], typer.Option(help="Position capture.")] = None,
+    velocity: Annotated[Optional[str], typer.Option(help="Velocity capture.")] = None,
+    current: Annotated[Optional[str], typer.Option(help="Armature-current capture.")] = None,
+    lengths: Annotated[str, typer.Option(help="Record lengths in s (paper: 1.9,2.4,2.9).")] = "1.9,2.4,2.9",
+    intervals: Annotated[str, typer.Option(help="Sample intervals in s (paper: 0.04..0.12).")] = "0.04,0.06,0.08,0.1,0.12",
+    method: Annotated[str, typer.Option(help="Identification method (paper: pinv).")] = "pinv",
+    order: Annotated[str, typer.Option(help="auto, 1, 2 or 3.")] = "auto",
+    reduction: Annotated[str, typer.Option(help="subsample (paper), block_mean or fir.")] = "subsample",
+    step_volts: Annotated[Optional[float], typer.Option("--step-volts", help="Step level for captures without an input channel.")] = None,
+    columns: Annotated[Optional[str], typer.Option(help="Plain CSV column map.")] = None,
+    json_out: Annotated[Optional[Path], typer.Option("--json", help="Write the table as JSON here.")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite an existing JSON file.")] = False,
+) -> None:
+    """The paper's Tables 1-3: k and τ over record length × sample interval."""
+    from rich.progress import Progress
+
+    from motorid.conditioning.pipeline import ConditioningSettings
+    from motorid.identification import IdentifySettings
+    from motorid.sweep import sensitivity_table
+
+    if order not in ("auto", "1", "2", "3"):
+        raise OptionError(f"--order must be auto, 1, 2 or 3, not {order!r}")
+    _writable(json_out, force)
+    lens, ints = _floats(lengths, "--lengths"), _floats(intervals, "--intervals")
+    settings = IdentifySettings(
+        method=method, order=order if order == "auto" else int(order),
+        conditioning=ConditioningSettings(reduction=reduction),
+    )
+    caps = _read_roles(position, velocity, current, columns)
+    con = _console()
+    with Progress(console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task("identifying", total=len(lens) * len(ints))
+        res = sensitivity_table(
+            caps, lengths_s=lens, intervals_s=ints, settings=settings, step_volts=step_volts,
+            progress=lambda done, total: bar.update(task, completed=done),
+        )
+    table = Table(title=f"k/(s+p) and τ by record length × sample interval (method {method})")
+    table.add_column("ΔT")
+    for length in res.lengths_s:
+        table.add_column(f"{length:g} s")
+    for i, dt in enumerate(res.intervals_s):
+        table.add_row(
+            f"{1000 * dt:g} ms",
+            *(f"k = {res.k[i, j]:.4f} τ = {res.tau_s[i, j]:.4f}" for j in range(len(res.lengths_s))),
+        )
+    con.print(table)
+    sp = res.spread()
+    con.print(f"spread (half-range / median): k ±{100 * sp['k']:.1f}%, τ ±{100 * sp['tau']:.1f}%, "
+              f"dc gain ±{100 * sp['dc_gain']:.1f}%")
+    for cell, why in res.failures.items():
+        con.print(f"[yellow]failed[/yellow] {cell}: {why}")
+    if json_out is not None:
+        json_out.write_text(json.dumps(res.to_json(), indent=2) + "\n", encoding="utf-8")
+        con.print(f"table JSON: {json_out}")
 
 
 def main() -> None:

@@ -604,7 +604,8 @@ class MotorModel:
         after = t >= 0
         x = np.zeros((t.size, n))
         if np.any(after):
-            e = scipy.linalg.expm(m[None, :, :] * t[after, None, None])
+            with np.errstate(over="ignore", invalid="ignore"):  # unstable models overflow
+                e = scipy.linalg.expm(m[None, :, :] * t[after, None, None])
             x[after] = e[:, :n, n] * step
         y = x @ self.C.T + np.where(after[:, None], self.D[:, 0] * step, 0.0)
         return {name: y[:, i] for i, name in enumerate(self.outputs)}
@@ -843,4 +844,7 @@ def step_nrmse(
     final = float(np.mean(tail))
     if final == 0.0:
         raise OptionError(f"the measured {channel} has a zero steady state; NRMSE is undefined")
-    return float(np.sqrt(np.mean((y - yhat) ** 2)) / abs(final))
+    # an unstable model's response overflows: its NRMSE is infinite, not a warning
+    with np.errstate(over="ignore", invalid="ignore"):
+        value = float(np.sqrt(np.mean((y - yhat) ** 2)) / abs(final))
+    return value if np.isfinite(value) else float("inf")

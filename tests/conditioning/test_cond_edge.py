@@ -64,3 +64,10 @@ def test_response_onset_of_first_order_response(t0):
     assert abs(e.time_s - t0) < 3 * dt
     assert e.baseline_v == pytest.approx(0.3, abs=0.05)
     assert e.method == "onset"
+
+
+@pytest.mark.parametrize("k, where", [(2490, "end"), (5, "start")])
+def test_step_at_the_very_end_or_start_is_refused(k, where):
+    u = np.where(np.arange(2500) >= k, 5.92, 0.0)
+    with pytest.raises(StepNotFoundError, match=f"very {where}.*cap.csv|cap.csv.*very {where}"):
+        step_edge(np.arange(2500) * 4e-3, u, file="cap.csv")

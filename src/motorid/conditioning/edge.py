@@ -124,8 +124,18 @@ def step_edge(
     hi = n - lo + 1
     if hi <= lo:
         raise StepNotFoundError(f"only {n} samples: too few to find a step", file=file)
+    k_any, _ = _best_split(u, 1, n)
     k, sse = _best_split(u, lo, hi)
     total = float(np.sum((u - u.mean()) ** 2))
+    if not lo <= k_any < hi and total > 0:
+        where = "end" if k_any >= hi else "start"
+        d_any = float(np.mean(u[k_any:]) - np.mean(u[:k_any]))
+        if abs(d_any) > 8.0 * max(noise_level(u), 1e-12):
+            raise StepNotFoundError(
+                f"the step is at the very {where} of the record (sample {k_any} of {n}): "
+                "trigger so that the step sits early in the record, with the response after it",
+                file=file,
+            )
     base = float(np.mean(u[:k]))
     level = float(np.mean(u[k:]))
     amp = level - base
