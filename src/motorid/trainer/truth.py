@@ -1,0 +1,86 @@
+"""Ground truth of the virtual trainer: exact transfer functions of the linearised plant."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import control
+import numpy as np
+
+from motorid.trainer.presets import TrainerConfig
+
+__all__ = ["Truth", "truth_of"]
+
+
+@dataclass(frozen=True, slots=True)
+class Truth:
+    """Linearised trainer: input volts → measured volts, per channel (python-control TFs).
+
+    Attributes
+    ----------
+    velocity, position, current : control.TransferFunction
+        Input V → tacho V, → unwrapped position V, → current-monitor V.
+    dc_gain : float
+        Velocity DC gain, V/V.
+    time_constant_s : float
+        Dominant first-order time constant of the velocity channel by the method of moments
+        (mean residence time ``Σ1/p − Σ1/z``).
+    equivalent_input_offset_v : float
+        Dead-zone plus Coulomb friction referred to the input (volts of step lost to them in
+        steady state), approximate.
+    """
+
+    velocity: control.TransferFunction
+    position: control.TransferFunction
+    current: control.TransferFunction
+    dc_gain: float
+    time_constant_s: float
+    equivalent_input_offset_v: float
+
+    def to_json(self) -> dict[str, Any]:
+        """Numerators/denominators (highest power first, ``den[0] = 1``) and first order."""
+        def poly(tf: control.TransferFunction) -> dict[str, list[float]]:
+            num = np.atleast_1d(np.squeeze(tf.num[0][0])).astype(float)
+            den = np.atleast_1d(np.squeeze(tf.den[0][0])).astype(float)
+            return {"num": (num / den[0]).tolist(), "den": (den / den[0]).tolist()}
+
+        return {
+            "velocity_tf": poly(self.velocity),
+            "position_tf": poly(self.position),
+            "current_tf": poly(self.current),
+            "first_order": {"dc_gain": self.dc_gain, "time_constant": self.time_constant_s},
+            "velocity_poles": [[float(p.real), float(p.imag)] for p in control.poles(self.velocity)],
+            "velocity_zeros": [[float(z.real), float(z.imag)] for z in control.zeros(self.velocity)],
+            "equivalent_input_offset_v": self.equivalent_input_offset_v,
+        }
+
+
+def truth_of(config: TrainerConfig) -> Truth:
+    """Linearise the trainer (no dead-zone, Coulomb friction, rails) and build its TFs.
+
+    Parameters
+    ----------
+    config : TrainerConfig
+        Any configuration; its nonlinear parts are ignored.
+
+    Returns
+    -------
+    Truth
+        The exact transfer functions of the linear part.
+    """
+    c = config
+    s = control.tf("s")
+    amp = c.amp_gain * ((1 + c.amp_lead_s * s) / (1 + c.amp_lag_s * s) if c.amp_lag_s > 0 or c.amp_lead_s > 0 else 1)
+    den = (c.la_h * s + c.ra_ohm) * (c.j_kgm2 * s + c.b_nms) + c.k_motor**2
+    omega = amp * c.k_motor / den
+    current = amp * (c.j_kgm2 * s + c.b_nms) / den
+    velocity = control.minreal(c.tacho_v_per_rad_s * omega, verbose=False)
+    position = control.minreal(c.pot_span_v / (2 * math.pi) * c.gear_ratio * omega / s, verbose=False)
+    current = control.minreal(c.current_v_per_a * current, verbose=False)
+    poles = control.poles(velocity)
+    zeros = control.zeros(velocity)
+    tau = float(np.real(np.sum(-1.0 / poles) - np.sum(-1.0 / zeros)))
+    offset = c.amp_dead_zone_v + c.ra_ohm * c.coulomb_nm / (c.k_motor * c.amp_gain)
+    return Truth(velocity, position, current, float(np.real(control.dcgain(velocity))), tau, float(offset))
