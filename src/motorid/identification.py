@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from motorid.capture import Capture
+from motorid.conditioning.denoise import fft_denoise
 from motorid.conditioning.derivative import derivative
 from motorid.conditioning.pipeline import ConditionedExperiment, ConditioningSettings, condition_experiment
 from motorid.errors import OptionError
@@ -47,11 +48,11 @@ class IdentifySettings:
         Differentiation formula for pinv (paper: ``five_point``, eq. 17).
     structure : str
         pinv: ``free`` (all coefficients unknown) or ``known`` (θ̇ row known).
-    markov_params : int
-        Markov parameters ``Lm`` (paper: 11).
+    markov_params : int or None
+        Markov parameters ``Lm`` (paper: 11); ``None`` chooses among 5, 7, 9, 11.
     markov_window_s : float or None
-        Markov window ``Tε``; ``None`` picks about one dominant time constant (the Taylor
-        series of the step response does not converge usefully on longer windows).
+        Markov window ``Tε``; ``None`` chooses among ¼, ½ and 1 dominant time constant.
+        Automatic choices are made by the fit of the resulting model to the whole record.
     """
 
     method: str = "auto"
@@ -59,7 +60,7 @@ class IdentifySettings:
     conditioning: ConditioningSettings = field(default_factory=ConditioningSettings)
     derivative: str = "five_point"
     structure: str = "free"
-    markov_params: int = 11
+    markov_params: int | None = None
     markov_window_s: float | None = None
 
 
@@ -114,25 +115,41 @@ def _settled_warning(t: np.ndarray, v: np.ndarray) -> list[str]:
 
 def _pinv(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
     have = set(cond.outputs)
-    order = s.order
-    if order == "auto":
-        states = [r for r in ("position", "velocity", "current") if r in have]
-        if "velocity" not in have:
-            raise IdentificationError("pinv needs a velocity capture (--velocity)")
+    if "velocity" not in have:
+        raise IdentificationError("pinv needs a velocity capture (--velocity)")
+    if s.order == "auto":
+        # every state vector the captures allow; keep the one whose step response fits the
+        # measured velocity best (the extended state needs a current that starts from zero
+        # on the reduced grid, which a fast armature rarely gives at 100 ms)
+        best: MotorModel | None = None
+        tried = []
+        for order in (1, 2, 3):
+            try:
+                m = _with_fit(_pinv(cond, replace(s, order=order)), cond)
+            except (IdentificationError, OptionError):
+                continue
+            tried.append(f"order {order} {100 * m.fit['velocity_nrmse']:.2f}%")
+            if best is None or m.fit["velocity_nrmse"] < best.fit["velocity_nrmse"]:
+                best = m
+        assert best is not None  # order 1 needs only the velocity, which is present
+        return best.replace(extras={**dict(best.extras), "pinv_orders": "; ".join(tried)})
+    return _pinv_states(cond, s)
+
+
+def _pinv_states(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
+    have = set(cond.outputs)
+    order = int(s.order)
+    if order == 1:
+        states = ["velocity"]
+    elif order == 2:
+        states = ["position", "velocity"] if "position" in have else ["velocity", "current"]
     else:
-        order = int(order)
-        if order == 1:
-            states = ["velocity"]
-        elif order == 2:
-            states = ["position", "velocity"] if "position" in have else ["velocity", "current"]
-        else:
-            states = ["position", "velocity", "current"]
-        missing = [r for r in states if r not in have]
-        if missing or "velocity" not in have:
-            raise IdentificationError(
-                f"pinv of order {order} needs the {', '.join(missing or ['velocity'])} capture(s) "
-                f"(--{(missing or ['velocity'])[0]})"
-            )
+        states = ["position", "velocity", "current"]
+    missing = [r for r in states if r not in have]
+    if missing:
+        raise IdentificationError(
+            f"pinv of order {order} needs the {', '.join(missing)} capture(s) (--{missing[0]})"
+        )
     dt = cond.sample_interval_s
     x = np.vstack([cond.outputs[r] for r in states])
     needed = len(states) + 1 + 4
@@ -161,18 +178,43 @@ def _pinv(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
 
 
 def _markov(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
-    t, v, notes = _velocity(cond, full=True)
-    window = s.markov_window_s
-    if window is None:
-        c = classic_first_order(t, v, cond.step_volts)
-        window = float(np.clip(c.time_constant_s, 5 * (t[1] - t[0]), t[-1]))
-    mset = MarkovSettings(
-        n_params=s.markov_params, window_s=window,
-        order=s.order if s.order == "auto" else int(s.order),
-    )
-    res = markov_identify(t, v, cond.step_volts, mset)
-    model = res.to_model()
-    return model.replace(warnings=tuple(model.warnings) + tuple(notes), sample_interval_s=float(t[1] - t[0]))
+    t, v_meas, notes = _velocity(cond, full=True)
+    dt = float(t[1] - t[0])
+    # the k-th Markov parameter amplifies noise like k!: take the 8-bit quantisation noise and
+    # ripple out first with the paper's own FFT denoiser (its band edge found from the data)
+    v = fft_denoise(v_meas, dt).values
+    tau = classic_first_order(t, v, cond.step_volts).time_constant_s
+    if not np.isfinite(tau) or tau <= 0:
+        tau = 0.2 * float(t[-1])
+    # The paper leaves Lm and Tε to the student.  The truncated Taylor series behind the
+    # Markov parameters only converges on windows short against the time constant, and
+    # noise grows like k! in the k-th parameter: choose both by the fit of the resulting
+    # model to the whole measured step response (unless the user fixed them).
+    params = [s.markov_params] if s.markov_params is not None else [5, 7, 9, 11]
+    windows = [s.markov_window_s] if s.markov_window_s is not None else [f * tau for f in (0.25, 0.5, 1.0)]
+    best: tuple[float, MotorModel] | None = None
+    errors: list[str] = []
+    for n_params in params:
+        for window in windows:
+            window = float(np.clip(window, (n_params + 2) * dt, t[-1]))
+            mset = MarkovSettings(
+                n_params=n_params, window_s=window, order=s.order if s.order == "auto" else int(s.order),
+            )
+            try:
+                res = markov_identify(t, v, cond.step_volts, mset)
+            except (IdentificationError, OptionError) as exc:
+                errors.append(exc.message)
+                continue
+            model = res.to_model()
+            score = step_nrmse(model, t, v_meas, channel="velocity", step_volts=cond.step_volts)
+            if best is None or score < best[0]:
+                extras = {**dict(model.extras), "markov_choice": f"Lm = {n_params}, Tε = {window:.4g} s "
+                          f"(velocity NRMSE {100 * score:.2f}%, best of {len(params) * len(windows)})"}
+                best = (score, model.replace(extras=extras))
+    if best is None:
+        raise IdentificationError("Markov method failed for every window: " + (errors[0] if errors else "no data"))
+    model = best[1]
+    return model.replace(warnings=tuple(model.warnings) + tuple(notes), sample_interval_s=dt)
 
 
 def _classic(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:

@@ -606,8 +606,9 @@ class MotorModel:
         if np.any(after):
             with np.errstate(over="ignore", invalid="ignore"):  # unstable models overflow
                 e = scipy.linalg.expm(m[None, :, :] * t[after, None, None])
-            x[after] = e[:, :n, n] * step
-        y = x @ self.C.T + np.where(after[:, None], self.D[:, 0] * step, 0.0)
+                x[after] = e[:, :n, n] * step
+        with np.errstate(over="ignore", invalid="ignore"):
+            y = x @ self.C.T + np.where(after[:, None], self.D[:, 0] * step, 0.0)
         return {name: y[:, i] for i, name in enumerate(self.outputs)}
 
     def fit_nrmse(self, time_s: Any, measured: Any, channel: str = "velocity",
