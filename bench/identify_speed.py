@@ -39,7 +39,8 @@ def era_model(cond, order: int):
     t, v = cond.time_s, cond.outputs["velocity"]
     dt = float(t[1] - t[0])
     markov = np.diff(np.r_[0.0, v]) / cond.step_volts  # impulse response of the ZOH system
-    sysd, _ = control.eigensys_realization(markov.reshape(1, 1, -1), r=order, dt=dt)
+    # python-control's discrete impulse is a pulse of area 1 (height 1/dt): scale to match
+    sysd, _ = control.eigensys_realization((markov / dt).reshape(1, 1, -1), r=order, dt=dt)
     # python-control 0.10 has no d2c: invert the ZOH with the matrix logarithm of the
     # augmented [[Ad, Bd], [0, I]] = expm([[A, B], [0, 0]]·dt)
     n = sysd.nstates
@@ -47,6 +48,13 @@ def era_model(cond, order: int):
     aug[:n, :n], aug[:n, n:] = sysd.A, sysd.B
     log = np.real(scipy.linalg.logm(aug)) / dt
     return control.ss(log[:n, :n], log[:n, n:], sysd.C, sysd.D)
+
+
+def run_truth(seed: int) -> tuple[float, float]:
+    from motorid.trainer import preset, truth_of
+
+    tr = truth_of(preset("paper"))
+    return tr.dc_gain, tr.time_constant_s
 
 
 def main() -> None:
@@ -71,6 +79,8 @@ def main() -> None:
     cond = condition_experiment(caps, IdentifySettings().conditioning)
     t_cond, _ = timed(lambda: condition_experiment(caps, IdentifySettings().conditioning), args.repeat)
     t_era, sys_era = timed(lambda: era_model(cond, 2), args.repeat)
+    poles_era = control.poles(sys_era)
+    tau_era = float(np.sum(-1.0 / np.real(poles_era)) - np.sum(-1.0 / np.real(control.zeros(sys_era))))
     t_pinv_only, _ = timed(lambda: identify_conditioned(cond, IdentifySettings(method="pinv")), args.repeat)
     dc_era = float(np.real(control.dcgain(sys_era)))
     print(f"demo captures (paper preset, seed {args.seed}), median of {args.repeat} runs")
@@ -78,7 +88,9 @@ def main() -> None:
     for method, med, order, dc, tau in rows:
         print(f"{'motorid ' + method:<22}{1000 * med:>18.2f}{order:>7}{dc:>10.4f}{tau:>10.4f}")
     print(f"{'conditioning alone':<22}{1000 * t_cond:>18.2f}")
-    print(f"{'control ERA (r=2)':<22}{1000 * t_era:>18.2f}{2:>7}{dc_era:>10.4f}")
+    print(f"{'control ERA (r=2)':<22}{1000 * t_era:>18.2f}{2:>7}{dc_era:>10.4f}{tau_era:>10.4f}")
+    truth = run_truth(args.seed)
+    print(f"{'truth (linearised)':<22}{'':>18}{'':>7}{truth[0]:>10.4f}{truth[1]:>10.4f}")
     print(f"ratio pinv identification (after conditioning) / ERA: {t_pinv_only / t_era:.2f}")
     print(f"ratio pinv end-to-end (conditioning included) / ERA alone: {rows[0][1] / t_era:.2f}")
 
