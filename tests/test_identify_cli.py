@@ -77,7 +77,7 @@ def test_identify_refuses_to_overwrite_json(demo, run_cli, tmp_path):
         (("--order", "5"), "--order"),
         (("--method", "magic"), "unknown method"),
         (("--sample-interval", "0.0001"), "shorter than the recording"),
-        (("--sample-interval", "2.0", "--record-length", "2.9"), "samples"),
+        (("--sample-interval", "2.0", "--record-length", "2.9"), "at least 6 are needed"),
         (("--record-length", "100"), "longer than"),
     ],
 )
@@ -126,3 +126,14 @@ def test_sweep_prints_the_paper_table(demo, run_cli, tmp_path):
     doc = json.loads(j.read_text())
     assert len(doc["cells"]) == 15
     assert all(c["k"] is not None and c["time_constant"] > 0 for c in doc["cells"])
+
+
+def test_unsettled_velocity_is_warned_and_still_fitted(demo, run_cli, tmp_path):
+    out, _ = demo
+    m = tmp_path / "m.json"
+    res = run_cli("identify", "--velocity", out / "ALL0001", "--record-length", "0.5",
+                  "--sample-interval", "0.02", "--method", "classic", "--json", m)
+    assert res.code == 0, res.err
+    doc = json.loads(m.read_text())
+    assert any("not settled" in w for w in doc["warnings"])
+    assert "warning" in res.out

@@ -125,6 +125,20 @@ def demo(
             f"{row.true_wraps} / {row.read.wraps}",
         )
     con.print(table)
+    ident = result.identification
+    truth = result.experiment.truth
+    t2 = Table(title="identified from the files vs the trainer's linearised truth")
+    for head in ("model", "order", "dc gain (V/V)", "τ (s)", "velocity NRMSE"):
+        t2.add_column(head)
+    for name, m in ident.candidates.items():
+        fo = m.first_order()
+        mark = " ← chosen" if m is ident.candidates.get(ident.model.method) else ""
+        t2.add_row(f"{name}{mark}", str(m.order), f"{fo.dc_gain:.4f}", f"{fo.time_constant_s:.4f}",
+                   f"{100 * m.fit['velocity_nrmse']:.2f}%")
+    t2.add_row("truth", str(len(truth.velocity.poles())), f"{truth.dc_gain:.4f}", f"{truth.time_constant_s:.4f}", "—")
+    con.print(t2)
+    con.print(f"choice: {ident.reason}")
+    con.print(f"model JSON: {result.out / 'model.json'}")
     con.print(f"ground truth: {result.truth_path}")
     con.print(f"inspect them: motorid inspect {out}/ALL0000 {out}/ALL0001 {out}/ALL0002")
 

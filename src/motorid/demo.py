@@ -6,7 +6,8 @@ the same step — position (``ALL0000``), velocity (``ALL0001``), armature curre
 (``ALL0002``) — and the onboard sine, triangle and square test signals for validation
 (``ALL0003``–``ALL0005``), each in the TDS2000 'Save All' layout, plus ``truth.json`` with the
 exact linearised transfer functions and, per capture, the true step instant, level and
-number of encoder wraps.
+number of encoder wraps.  The captures are then read back and identified (``--method auto``),
+the model written to ``model.json``.
 """
 
 from __future__ import annotations
@@ -46,10 +47,11 @@ class DemoResult:
     rows: tuple[DemoRow, ...]
     truth_path: Path
     experiment: Any
+    identification: Any
 
 
 def _targets(out: Path) -> list[Path]:
-    return [out / f"ALL{i:04d}" for i in range(len(CAPTURE_ORDER))] + [out / "truth.json"]
+    return [out / f"ALL{i:04d}" for i in range(len(CAPTURE_ORDER))] + [out / "truth.json", out / "model.json"]
 
 
 def run_demo(
@@ -122,4 +124,12 @@ def run_demo(
         "config": asdict(exp.config),
     }
     truth_path.write_text(json.dumps(doc, indent=2, default=float) + "\n", encoding="utf-8")
-    return DemoResult(out, tuple(rows), truth_path, exp)
+    # the main job on what was written: identify from the files, as a user would
+    from motorid.identification import identify_experiment
+
+    read_back = {role: read_capture(out / f"ALL{CAPTURE_ORDER.index(role):04d}")
+                 for role in ("position", "velocity", "current") if role in exp.captures}
+    ident = identify_experiment(read_back)
+    model_path = out / "model.json"
+    model_path.write_text(ident.model.to_json_text(), encoding="utf-8")
+    return DemoResult(out, tuple(rows), truth_path, exp, ident)

@@ -166,8 +166,8 @@ def condition_experiment(
     red = sample_reduction(synced.time_s, stacked, ratio, settings.reduction)
     if red.time_s.size < 6:
         raise ConditioningError(
-            f"only {red.time_s.size} samples left after reduction by {ratio}: "
-            "use a shorter --sample-interval or a longer record"
+            f"only {red.time_s.size} samples left after reduction by {ratio}, at least 6 are "
+            "needed: use a shorter --sample-interval or a longer record"
         )
     return ConditionedExperiment(
         time_s=red.time_s,
