@@ -218,6 +218,13 @@ def _print_model(con: Console, model, title: str) -> None:
     con.print(f"poles: {poles}")
     con.print(f"first order: k/(s+p) = {fo.k:.4g}/(s + {fo.p:.4g}); dc gain {fo.dc_gain:.4g} V/V, "
               f"τ = {fo.time_constant_s:.4g} s")
+    if "hankel_singular_values_scaled" in model.extras:
+        ex = model.extras
+        con.print("Hankel singular values (normalised), time-scaled: "
+                  + ", ".join(f"{x:.3g}" for x in ex["hankel_singular_values_scaled"])
+                  + "; raw (seconds): " + ", ".join(f"{x:.3g}" for x in ex["hankel_singular_values_raw"])
+                  + f"; noise floor {ex['hankel_noise_floor']:.3g}")
+        con.print(f"Markov settings: {ex.get('markov_choice', '')}")
     for key, val in model.fit.items():
         con.print(f"fit {key}: {100 * val:.2f}%")
     for w in model.warnings:

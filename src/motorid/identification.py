@@ -208,8 +208,14 @@ def _markov(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
             model = res.to_model()
             score = step_nrmse(model, t, v_meas, channel="velocity", step_volts=cond.step_volts)
             if best is None or score < best[0]:
-                extras = {**dict(model.extras), "markov_choice": f"Lm = {n_params}, Tε = {window:.4g} s "
-                          f"(velocity NRMSE {100 * score:.2f}%, best of {len(params) * len(windows)})"}
+                extras = {
+                    **dict(model.extras),
+                    "markov_choice": f"Lm = {n_params}, Tε = {window:.4g} s "
+                    f"(velocity NRMSE {100 * score:.2f}%, best of {len(params) * len(windows)})",
+                    "hankel_singular_values_scaled": [float(x) for x in res.sv_scaled],
+                    "hankel_singular_values_raw": [float(x) for x in res.sv_raw],
+                    "hankel_noise_floor": float(res.sv_noise_floor),
+                }
                 best = (score, model.replace(extras=extras))
     if best is None:
         raise IdentificationError("Markov method failed for every window: " + (errors[0] if errors else "no data"))
