@@ -324,6 +324,11 @@ class MotorModel:
         Everything the method was unsure about (ill-conditioning, unsettled record, ...).
     extras : Mapping
         JSON blobs of later stages (uncertainty, validation, ...), written as-is.
+    uncertainty : Mapping
+        Standard deviations and 95% intervals of ``dc_gain``, ``time_constant``, poles and
+        zeros (written as the top-level ``uncertainty`` key when present).
+    stages : tuple of Mapping
+        What each stage of ``--method auto`` found (the top-level ``stages`` key).
 
     Raises
     ------
@@ -344,6 +349,8 @@ class MotorModel:
     fit: Mapping[str, float] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
     extras: Mapping[str, Any] = field(default_factory=dict)
+    uncertainty: Mapping[str, Any] = field(default_factory=dict)
+    stages: tuple[Mapping[str, Any], ...] = ()
 
     def __post_init__(self) -> None:
         a = _as_matrix("A", self.A, (None, None))
@@ -378,6 +385,8 @@ class MotorModel:
         object.__setattr__(self, "fit", MappingProxyType({str(k): float(v) for k, v in self.fit.items()}))
         object.__setattr__(self, "warnings", tuple(str(w) for w in self.warnings))
         object.__setattr__(self, "extras", MappingProxyType(dict(self.extras)))
+        object.__setattr__(self, "uncertainty", MappingProxyType(dict(self.uncertainty)))
+        object.__setattr__(self, "stages", tuple(MappingProxyType(dict(st)) for st in self.stages))
 
     # ------------------------------------------------------------------ basics
     @property
@@ -675,6 +684,10 @@ class MotorModel:
         if cur is not None:
             cnum, cden = _tf_coeffs(cur)
             data["current_tf"] = {"num": cnum.tolist(), "den": cden.tolist()}
+        if self.uncertainty:
+            data["uncertainty"] = dict(self.uncertainty)
+        if self.stages:
+            data["stages"] = [dict(st) for st in self.stages]
         return _jsonable(data)
 
     def to_json_text(self) -> str:
@@ -743,6 +756,8 @@ class MotorModel:
             fit={k: (float("nan") if v is None else v) for k, v in fit.items()},
             warnings=tuple(data.get("warnings") or ()),
             extras=data.get("extras") or {},
+            uncertainty=data.get("uncertainty") or {},
+            stages=tuple(data.get("stages") or ()),
         )
 
     def to_matlab(self, name: str = "motor") -> str:
