@@ -15,9 +15,10 @@ import numpy as np
 
 from motorid.capture import Capture
 from motorid.errors import OptionError
-from motorid.trainer.plant import simulate_plant
-from motorid.trainer.presets import TrainerConfig, preset
-from motorid.trainer.scope import RECORD_LENGTH, ScopeSettings, acquire, record_time
+from motorid.trainer.plant import PlantResponse, simulate_plant
+from motorid.trainer.presets import TrainerConfig
+from motorid.trainer.presets import preset as _preset_config
+from motorid.trainer.scope import ScopeSettings, acquire, draw_trigger_index, record_time
 from motorid.trainer.sensors import current_v, position_v, tacho_v
 from motorid.trainer.signals import TEST_SIGNALS, step_signal, test_signal
 from motorid.trainer.truth import Truth, truth_of
@@ -75,35 +76,44 @@ class TrainerExperiment:
     step_volts: float
 
 
-def _measure(role: str, cfg: TrainerConfig, plant, rng: np.random.Generator) -> tuple[np.ndarray, int]:
+def _measure(
+    role: str, cfg: TrainerConfig, plant: PlantResponse, rng: np.random.Generator
+) -> tuple[np.ndarray, int]:
     if role == "velocity":
         return tacho_v(cfg, plant, rng), 0
     if role == "current":
         return current_v(cfg, plant, rng), 0
+    # the output shaft rests wherever the last run left it
     offset = float(rng.uniform(-0.4, 0.4) * cfg.pot_span_v)
     return position_v(cfg, plant, offset, rng)
 
 
 def run_experiment(
-    name: str = "paper",
+    preset: str = "paper",
     *,
     step_volts: float = 5.92,
     seed: int = 0,
     sec_per_div: float = 1.0,
     config: TrainerConfig | None = None,
     noise: bool = True,
-    quantised: bool = True,
+    quantise: bool = True,
     roles: tuple[str, ...] = ("position", "velocity", "current"),
     validation: bool = True,
+    quantised: bool | None = None,
 ) -> TrainerExperiment:
     """Record a step experiment (and optionally the validation runs) on the virtual trainer.
 
+    Each capture is a separate acquisition, as in the paper's procedure: the motor starts at
+    rest, the scope is armed with its own pre-trigger position, switch S1 is thrown and the
+    scope triggers on the CH1 edge (the step lies between the trigger sample and the one
+    before it, at a random sub-sample phase); noise, ripple and glitches are drawn afresh.
+
     Parameters
     ----------
-    name : str
-        Preset name (ignored when ``config`` is given).
+    preset : str
+        Preset name (see :data:`PRESET_NAMES`; ignored when ``config`` is given).
     step_volts : float
-        Level of switch S1.
+        Level of switch S1, volts (within ±10 V).
     seed : int
         Seed of trigger points and noise; the same seed gives identical captures.
     sec_per_div : float
@@ -112,53 +122,81 @@ def run_experiment(
         A configuration instead of a preset.
     noise : bool
         Random noise, ripple, PWM and glitches on (``False``: the nonlinear plant only).
-    quantised : bool
+    quantise : bool
         8-bit scope quantisation on.
     roles : tuple of str
-        Which step captures to record.
+        Which step captures to record (``position``, ``velocity``, ``current``).
     validation : bool
-        Also record the sine, triangle and square runs.
+        Also record the sine, triangle and square runs (velocity on CH2).
+    quantised : bool, optional
+        Older spelling of ``quantise``; overrides it when given.
 
     Returns
     -------
     TrainerExperiment
         Captures, their truth and the linearised transfer functions.
+
+    Raises
+    ------
+    OptionError
+        For an unknown preset or role, a step level outside ±10 V or a bad scale.
+
+    References
+    ----------
+    Masoud 2019, section V (three separate captures of one step) and VI-B (test signals).
     """
-    cfg = preset(name) if config is None else config
+    cfg = _preset_config(preset) if config is None else config
     if not noise:
         cfg = cfg.quiet()
+    if quantised is not None:
+        quantise = quantised
     if not np.isfinite(step_volts) or abs(step_volts) > 10.0:
         raise OptionError(f"step level must be within ±10 V (the trainer's input range), got {step_volts!r}")
+    unknown = [r for r in roles if r not in VOLTS_PER_DIV]
+    if unknown:
+        raise OptionError(f"unknown role {unknown[0]!r}; use any of {', '.join(VOLTS_PER_DIV)}")
     rng = np.random.default_rng(seed)
-    children = rng.spawn(len(roles) + len(TEST_SIGNALS))
+    # one child generator per acquisition, always for all six, so that a capture does not
+    # change when another one is left out
+    children = dict(zip((*VOLTS_PER_DIV, *TEST_SIGNALS), rng.spawn(len(VOLTS_PER_DIV) + len(TEST_SIGNALS))))
     captures: dict[str, Capture] = {}
     truth: dict[str, CaptureTruth] = {}
-    for role, child in zip(roles, children):
+    for role in roles:
+        child = children[role]
         settings = ScopeSettings(sec_per_div=sec_per_div, ch2_volts_per_div=VOLTS_PER_DIV[role])
         dt = settings.sample_interval_s
-        # each acquisition: its own trigger point, and a step that does not sit exactly on
-        # it (the trigger is not the step instant: trigger level, latency, manual trigger)
-        trig = int(child.integers(150, 600))
-        k_step = trig + int(child.integers(-100, 300))
-        step_t = (k_step - trig + child.uniform(0.0, 1.0)) * dt
+        trig = draw_trigger_index(settings, child)
+        # the scope triggers on the first sample after the CH1 edge
+        step_t = -float(child.uniform(0.0, 1.0)) * dt
         t = record_time(settings, trig)
         u = step_signal(t, step_t, step_volts)
         plant = simulate_plant(cfg, t, u)
         y, wraps = _measure(role, cfg, plant, child)
         u_meas = u + child.normal(0.0, cfg.noise_v, t.size)
-        captures[role] = acquire(settings, trig, u_meas, y, role=role, source=f"<trainer:{role}>", quantised=quantised)
-        truth[role] = CaptureTruth(float(step_t), float(step_volts), int(wraps))
+        captures[role] = acquire(settings, trig, u_meas, y, role=role, source=f"<trainer:{role}>",
+                                 quantised=quantise)
+        truth[role] = CaptureTruth(step_t, float(step_volts), int(wraps))
     runs: dict[str, Capture] = {}
     if validation:
-        for kind, child in zip(TEST_SIGNALS, children[len(roles):]):
-            settings = ScopeSettings(sec_per_div=sec_per_div, ch1_volts_per_div=2.0, ch2_volts_per_div=2.0)
-            trig = int(child.integers(0, RECORD_LENGTH // 10))
+        for kind in TEST_SIGNALS:
+            child = children[kind]
+            settings = ScopeSettings(sec_per_div=sec_per_div, ch1_volts_per_div=2.0,
+                                     ch2_volts_per_div=2.0)
+            trig = draw_trigger_index(settings, child)
             t = record_time(settings, trig)
-            u = test_signal(t, kind, phase_rad=float(child.uniform(0, 2 * np.pi)))
-            plant = simulate_plant(cfg, t, u)
+            # the generator runs before the scope is armed: simulate one record length of
+            # lead-in from rest and keep the last record, so the run is near its periodic regime
+            n = t.size
+            t_all = np.concatenate((t[0] + (np.arange(n) - n) * settings.sample_interval_s, t))
+            u_all = test_signal(t_all, kind, phase_rad=float(child.uniform(0, 2 * np.pi)))
+            full = simulate_plant(cfg, t_all, u_all)
+            u = u_all[n:]
+            plant = PlantResponse(*(np.asarray(a)[n:] for a in (
+                full.time_s, full.amp_out_v, full.current_a, full.motor_speed_rad_s,
+                full.motor_angle_rad, full.output_angle_rad)))
             y = tacho_v(cfg, plant, child)
             runs[kind] = acquire(settings, trig, u + child.normal(0.0, cfg.noise_v, t.size), y,
-                                 role="velocity", source=f"<trainer:{kind}>", quantised=quantised)
+                                 role="velocity", source=f"<trainer:{kind}>", quantised=quantise)
             truth[kind] = CaptureTruth(float("nan"), 6.4, 0)
     return TrainerExperiment(
         captures=MappingProxyType(captures),

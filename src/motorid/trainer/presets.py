@@ -58,6 +58,8 @@ class TrainerConfig:
         Armature-current monitor gain.
     pwm_noise_v, pwm_hz : float
         PWM H-bridge switching noise on the current monitor (paper Fig. 18).
+    pwm_spike_v, pwm_spike_rate_hz : float
+        Switching spikes on the current monitor: peak volts and mean rate of occurrence.
     noise_v : float
         White noise of every measured channel (probe and scope front end), V rms.
     substeps : int
@@ -86,19 +88,47 @@ class TrainerConfig:
     current_v_per_a: float = 1.0
     pwm_noise_v: float = 0.15
     pwm_hz: float = 4883.0
+    pwm_spike_v: float = 0.6
+    pwm_spike_rate_hz: float = 3.0
     noise_v: float = 0.01
     substeps: int = 8
+
+    def __post_init__(self) -> None:
+        positive = {"ra_ohm": self.ra_ohm, "la_h": self.la_h, "k_motor": self.k_motor,
+                    "j_kgm2": self.j_kgm2, "amp_gain": self.amp_gain, "pot_span_v": self.pot_span_v,
+                    "gear_ratio": self.gear_ratio, "tacho_v_per_rad_s": self.tacho_v_per_rad_s}
+        for key, value in positive.items():
+            if not value > 0:
+                raise OptionError(f"trainer config: {key} must be > 0, got {value!r}")
+        non_negative = {"b_nms": self.b_nms, "coulomb_nm": self.coulomb_nm, "brake_nm": self.brake_nm,
+                        "amp_dead_zone_v": self.amp_dead_zone_v, "amp_lead_s": self.amp_lead_s,
+                        "amp_lag_s": self.amp_lag_s, "noise_v": self.noise_v,
+                        "pwm_noise_v": self.pwm_noise_v, "pwm_spike_v": self.pwm_spike_v,
+                        "tacho_ripple": self.tacho_ripple}
+        for key, value in non_negative.items():
+            if not value >= 0:
+                raise OptionError(f"trainer config: {key} must be >= 0, got {value!r}")
+        if self.static_nm < self.coulomb_nm:
+            raise OptionError("trainer config: static_nm (break-away) must be >= coulomb_nm (sliding)")
+        if self.amp_lead_s > 0 and self.amp_lag_s <= 0:
+            raise OptionError("trainer config: an amplifier lead needs amp_lag_s > 0 (proper lead/lag)")
+        if not 0 <= self.pot_glitch_max <= 3:
+            raise OptionError(f"trainer config: pot_glitch_max must be 0..3, got {self.pot_glitch_max!r}")
+        if self.substeps < 1 or self.tacho_segments < 1:
+            raise OptionError("trainer config: substeps and tacho_segments must be >= 1")
 
     def ideal(self) -> "TrainerConfig":
         """The linear plant: no dead-zone, friction nonlinearity, rails, ripple or noise."""
         return replace(
             self, amp_dead_zone_v=0.0, amp_rail_v=1e9, coulomb_nm=0.0, static_nm=0.0,
-            brake_nm=0.0, tacho_ripple=0.0, pot_glitch_max=0, pwm_noise_v=0.0, noise_v=0.0,
+            brake_nm=0.0, tacho_ripple=0.0, pot_glitch_max=0, pwm_noise_v=0.0, pwm_spike_v=0.0,
+            noise_v=0.0,
         )
 
     def quiet(self) -> "TrainerConfig":
         """The nonlinear plant without random noise, ripple or glitches."""
-        return replace(self, tacho_ripple=0.0, pot_glitch_max=0, pwm_noise_v=0.0, noise_v=0.0)
+        return replace(self, tacho_ripple=0.0, pot_glitch_max=0, pwm_noise_v=0.0, pwm_spike_v=0.0,
+                       noise_v=0.0)
 
 
 def _motor_from_targets(
@@ -115,13 +145,20 @@ def _motor_from_targets(
     return replace(base, k_motor=k, b_nms=b, j_kgm2=j, ra_ohm=ra_ohm, la_h=tau_e_s * ra_ohm)
 
 
+#: Mechanical time constant of the paper preset (chosen so that the velocity τ is ≈ 0.43 s).
+TAU_M_PAPER_S = 0.442
+
+
 def _paper() -> TrainerConfig:
     # 5.92 V step → tacho 5.36 V (DC gain 0.905), first-order τ ≈ 0.43 s: mechanical pole
-    # plus a visible electrical pole (20 ms) plus the amplifier's lead/lag (zero 60 ms,
-    # pole 15 ms); mean residence time 0.44 + 0.02 + 0.015 − 0.06 ≈ 0.41 s, 63% time ≈ 0.45 s.
-    base = TrainerConfig(amp_gain=2.0, amp_lead_s=0.06, amp_lag_s=0.015)
+    # plus a visible electrical pole (20 ms) plus the amplifier's lead/lag (zero 40 ms,
+    # pole 18 ms).  Mean residence time of ω/V is τm + τe/2 (half of the damping is viscous,
+    # see _motor_from_targets) + lag − lead = τm + 0.01 + 0.018 − 0.04: τm = 0.442 s gives 0.43 s.
+    # Unity-gain amplifier on ±15 V rails: the lead's initial kick (×2.2 at 5.92 V = 13.2 V)
+    # stays inside the rails, so the zero is visible in the step response.
+    base = TrainerConfig(amp_gain=1.0, amp_rail_v=15.0, amp_lead_s=0.04, amp_lag_s=0.018)
     dc = 19.8  # rad/s per armature volt
-    cfg = _motor_from_targets(base, dc_rad_s_per_v=dc, tau_m_s=0.44, tau_e_s=0.02, ra_ohm=2.5)
+    cfg = _motor_from_targets(base, dc_rad_s_per_v=dc, tau_m_s=TAU_M_PAPER_S, tau_e_s=0.02, ra_ohm=2.5)
     cfg = replace(cfg, coulomb_nm=0.02 * cfg.k_motor, static_nm=0.03 * cfg.k_motor)
     # the dead-zone and Coulomb friction cost part of the step: scale the tacho so that the
     # *measured* level at 5.92 V is the paper's 5.36 V (the linear DC gain is then ~0.917)
@@ -132,23 +169,35 @@ def _paper() -> TrainerConfig:
     return replace(cfg, tacho_v_per_rad_s=tacho, gear_ratio=gear)
 
 
+#: Lab-report constants (Tsiolakis 2022, eqs. 7, 8, 17, 18, 19).
+LAB_K_M, LAB_K_T, LAB_T_M_S, LAB_K_MU, LAB_K_0 = 249.3, 3.61e-3, 0.55, 1.0 / 36.0, 0.25
+
+
 def _lab_report() -> TrainerConfig:
-    # Tsiolakis 2022 §1: km = 249.3 (rad/s per V), kT = 3.61e-3 V/(rad/s), km·kT = 0.9,
-    # Tm = 0.55 s, kμ = 1/36, k0 = 0.25: position = k0 × output angle (span 2π·k0 per turn).
-    base = TrainerConfig(amp_gain=1.0, amp_dead_zone_v=0.05, amp_rail_v=12.0, gear_ratio=1 / 36,
-                         tacho_v_per_rad_s=3.61e-3, pot_span_v=2 * math.pi * 0.25)
-    cfg = _motor_from_targets(base, dc_rad_s_per_v=249.3, tau_m_s=0.55, tau_e_s=0.002, ra_ohm=3.0)
+    # Tsiolakis 2022 §1 measures speeds in rpm: km = 249.3 rpm/V (eq. 19), kT = 3.61e-3 V/rpm
+    # (eq. 17), km·kT = 0.9 (eq. 5), Tm = 0.55 s (eq. 7), kμ = 1/36 (eq. 8) and
+    # k0 = 0.25 V per (output rpm · s) (eq. 18): θ̇ = kμ·k0·ω (eq. 10), so one output turn is
+    # 60·k0 = 15 V of potentiometer (the report's Δθ = 15 V, eq. 11).
+    rpm = 2 * math.pi / 60.0  # rad/s per rpm
+    base = TrainerConfig(amp_gain=1.0, amp_dead_zone_v=0.05, amp_rail_v=12.0, gear_ratio=LAB_K_MU,
+                         tacho_v_per_rad_s=LAB_K_T / rpm, pot_span_v=60.0 * LAB_K_0)
+    cfg = _motor_from_targets(base, dc_rad_s_per_v=LAB_K_M * rpm, tau_m_s=LAB_T_M_S, tau_e_s=0.002,
+                              ra_ohm=3.0)
     return replace(cfg, coulomb_nm=0.01 * cfg.k_motor, static_nm=0.015 * cfg.k_motor)
 
 
 def _order(n: int) -> TrainerConfig:
+    # same motor and sensors as ``paper``; J (∝ τm) is rescaled so that the velocity's mean
+    # residence time τm + τe/2 + lag − lead stays at the paper's 0.43 s
     p = _paper()
     if n == 1:
-        return replace(p, la_h=p.ra_ohm * 0.0005, amp_lead_s=0.0, amp_lag_s=0.0,
-                       j_kgm2=p.j_kgm2 * 0.43 / 0.455)
+        tau_e = 0.0005
+        return replace(p, la_h=p.ra_ohm * tau_e, amp_lead_s=0.0, amp_lag_s=0.0,
+                       j_kgm2=p.j_kgm2 * (0.43 - tau_e / 2) / TAU_M_PAPER_S)
     if n == 2:
-        return replace(p, amp_lead_s=0.0, amp_lag_s=0.0, la_h=p.ra_ohm * 0.04,
-                       j_kgm2=p.j_kgm2 * 0.39 / 0.455)
+        tau_e = 0.04
+        return replace(p, la_h=p.ra_ohm * tau_e, amp_lead_s=0.0, amp_lag_s=0.0,
+                       j_kgm2=p.j_kgm2 * (0.43 - tau_e / 2) / TAU_M_PAPER_S)
     return p
 
 

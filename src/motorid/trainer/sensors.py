@@ -13,26 +13,75 @@ __all__ = ["tacho_v", "position_v", "current_v", "true_position_v"]
 
 
 def tacho_v(config: TrainerConfig, plant: PlantResponse, rng: np.random.Generator) -> np.ndarray:
-    """Tacho voltage with commutator ripple (proportional to speed, at the segment rate)."""
+    """Tachogenerator volts with commutator ripple.
+
+    Parameters
+    ----------
+    config : TrainerConfig
+        Tacho gain (V per rad/s of the motor shaft), ripple fraction and segments per turn.
+    plant : PlantResponse
+        Simulated motor speed and angle.
+    rng : numpy.random.Generator
+        Source of the white noise.
+
+    Returns
+    -------
+    ndarray
+        Tacho volts: ``gain·ω·(1 + ripple·sin(segments·φ))`` plus noise; the ripple is
+        proportional to the speed and at the commutator-segment frequency.
+    """
     c = config
     ripple = 1.0 + c.tacho_ripple * np.sin(c.tacho_segments * plant.motor_angle_rad)
     return c.tacho_v_per_rad_s * plant.motor_speed_rad_s * ripple + rng.normal(0.0, c.noise_v, plant.time_s.size)
 
 
 def true_position_v(config: TrainerConfig, plant: PlantResponse, offset_v: float) -> np.ndarray:
-    """The unwrapped potentiometer reading (what a perfect unwrapper would recover)."""
+    """The unwrapped potentiometer reading (what a perfect unwrapper would recover).
+
+    Parameters
+    ----------
+    config : TrainerConfig
+        Potentiometer span (volts per output turn).
+    plant : PlantResponse
+        Simulated output-shaft angle.
+    offset_v : float
+        Reading at zero output angle.
+
+    Returns
+    -------
+    ndarray
+        ``offset_v + span/(2π)·θ_out``, continuous.
+    """
     return offset_v + config.pot_span_v / (2 * math.pi) * plant.output_angle_rad
 
 
 def position_v(
     config: TrainerConfig, plant: PlantResponse, offset_v: float, rng: np.random.Generator
 ) -> tuple[np.ndarray, int]:
-    """Potentiometer output: a sawtooth between ±span/2 with near-zero glitches at the jumps.
+    """Potentiometer output: a sawtooth in ``[−span/2, span/2)`` with near-zero glitches.
+
+    Each time the wiper crosses the gap the reading jumps by a span; 0 to ``pot_glitch_max``
+    samples right after the jump read close to 0 V (the wiper between the track ends).
+
+    Parameters
+    ----------
+    config : TrainerConfig
+        Span, glitch count and noise.
+    plant : PlantResponse
+        Simulated output-shaft angle.
+    offset_v : float
+        Reading at zero output angle (where the shaft happened to rest).
+    rng : numpy.random.Generator
+        Source of noise and glitches.
 
     Returns
     -------
     (ndarray, int)
-        The channel and the number of wraps in the record.
+        The channel and the number of true wraps (jumps) in the record.
+
+    References
+    ----------
+    Masoud 2019, Figs. 22 and 24; Tsiolakis 2022, Fig. 2 (sawtooth position).
     """
     c = config
     span = c.pot_span_v
@@ -49,12 +98,42 @@ def position_v(
 
 
 def current_v(config: TrainerConfig, plant: PlantResponse, rng: np.random.Generator) -> np.ndarray:
-    """Current monitor: armature current plus PWM H-bridge switching noise (aliased)."""
+    """Current monitor: armature current plus PWM H-bridge switching noise.
+
+    The H-bridge switches at ``pwm_hz`` (kHz), far above the scope's sample rate: the square
+    wave is sampled with edge jitter, so it folds into a broadband, slowly beating
+    component (aliasing, as on the paper's Fig. 18).  Switching spikes (one sample each,
+    random sign, Poisson arrivals at ``pwm_spike_rate_hz``) ride on top.
+
+    Parameters
+    ----------
+    config : TrainerConfig
+        Monitor gain and noise levels.
+    plant : PlantResponse
+        The simulated armature current.
+    rng : numpy.random.Generator
+        Source of all randomness (no global RNG).
+
+    Returns
+    -------
+    ndarray
+        Monitor volts at the sample instants.
+
+    References
+    ----------
+    Masoud 2019, Fig. 18 (armature current with PWM noise).
+    """
     c = config
     t = plant.time_s
-    pwm = 0.0
+    out = c.current_v_per_a * plant.current_a + rng.normal(0.0, c.noise_v, t.size)
     if c.pwm_noise_v > 0:
         phase = rng.uniform(0, 2 * np.pi)
         jitter = rng.normal(0.0, 2e-6, t.size)  # switching-edge jitter: the aliased tone smears
-        pwm = c.pwm_noise_v * np.sign(np.sin(2 * np.pi * c.pwm_hz * (t + jitter) + phase))
-    return c.current_v_per_a * plant.current_a + pwm + rng.normal(0.0, c.noise_v, t.size)
+        out = out + c.pwm_noise_v * np.sign(np.sin(2 * np.pi * c.pwm_hz * (t + jitter) + phase))
+    if c.pwm_spike_v > 0 and c.pwm_spike_rate_hz > 0:
+        duration = float(t[-1] - t[0])
+        n_spikes = int(rng.poisson(c.pwm_spike_rate_hz * duration))
+        where = rng.integers(0, t.size, n_spikes)
+        height = c.pwm_spike_v * rng.uniform(0.5, 1.0, n_spikes) * rng.choice((-1.0, 1.0), n_spikes)
+        np.add.at(out, where, height)
+    return out

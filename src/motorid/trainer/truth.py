@@ -11,7 +11,23 @@ import numpy as np
 
 from motorid.trainer.presets import TrainerConfig
 
-__all__ = ["Truth", "truth_of"]
+__all__ = ["FirstOrder", "Truth", "truth_of"]
+
+
+@dataclass(frozen=True, slots=True)
+class FirstOrder:
+    """Dominant first-order approximation ``dc_gain / (time_constant_s·s + 1)`` of velocity.
+
+    Attributes
+    ----------
+    dc_gain : float
+        Input volts → tacho volts in steady state.
+    time_constant_s : float
+        Time constant, s (the paper's ``1/p`` of ``k/(s+p)``).
+    """
+
+    dc_gain: float
+    time_constant_s: float
 
 
 @dataclass(frozen=True, slots=True)
@@ -28,8 +44,8 @@ class Truth:
         Dominant first-order time constant of the velocity channel by the method of moments
         (mean residence time ``Σ1/p − Σ1/z``).
     equivalent_input_offset_v : float
-        Dead-zone plus Coulomb friction referred to the input (volts of step lost to them in
-        steady state), approximate.
+        Dead-zone plus Coulomb friction and brake torque referred to the input (volts of step
+        lost to them in steady state while the shaft turns; exact for a constant input).
     """
 
     velocity: control.TransferFunction
@@ -38,6 +54,11 @@ class Truth:
     dc_gain: float
     time_constant_s: float
     equivalent_input_offset_v: float
+
+    @property
+    def first_order(self) -> FirstOrder:
+        """The velocity channel's first-order approximation (``dc_gain``, ``time_constant_s``)."""
+        return FirstOrder(self.dc_gain, self.time_constant_s)
 
     def to_json(self) -> dict[str, Any]:
         """Numerators/denominators (highest power first, ``den[0] = 1``) and first order."""
@@ -68,7 +89,9 @@ def truth_of(config: TrainerConfig) -> Truth:
     Returns
     -------
     Truth
-        The exact transfer functions of the linear part.
+        The exact transfer functions of the linear part: with the amplifier
+        ``A(s) = gain·(1 + lead·s)/(1 + lag·s)`` and ``D(s) = (La s + Ra)(J s + b) + k²``,
+        ω/V = A·k/D, I/V = A·(J s + b)/D, position = span/(2π)·gear·ω/s.
     """
     c = config
     s = control.tf("s")
@@ -82,5 +105,7 @@ def truth_of(config: TrainerConfig) -> Truth:
     poles = control.poles(velocity)
     zeros = control.zeros(velocity)
     tau = float(np.real(np.sum(-1.0 / poles) - np.sum(-1.0 / zeros)))
-    offset = c.amp_dead_zone_v + c.ra_ohm * c.coulomb_nm / (c.k_motor * c.amp_gain)
+    # steady state with sliding friction and brake torque T: k·i = b·ω + T, V = Ra·i + k·ω, so the
+    # torque costs Ra·T/k armature volts, i.e. Ra·T/(k·gain) input volts, on top of the dead-zone
+    offset = c.amp_dead_zone_v + c.ra_ohm * (c.coulomb_nm + c.brake_nm) / (c.k_motor * c.amp_gain)
     return Truth(velocity, position, current, float(np.real(control.dcgain(velocity))), tau, float(offset))
