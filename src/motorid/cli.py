@@ -17,6 +17,7 @@ from rich.console import Console
 from rich.table import Table
 
 from motorid.errors import MotorIdError, OptionError, OutputExistsError
+from motorid.notation import poly_text
 
 app = typer.Typer(
     add_completion=False,
@@ -132,13 +133,14 @@ def demo(
         t2.add_column(head)
     for name, m in ident.candidates.items():
         fo = m.first_order()
-        mark = " ← chosen" if m is ident.candidates.get(ident.model.method) else ""
+        mark = " ← chosen" if name == ident.model.method else ""
         t2.add_row(f"{name}{mark}", str(m.order), f"{fo.dc_gain:.4f}", f"{fo.time_constant_s:.4f}",
                    f"{100 * m.fit['velocity_nrmse']:.2f}%")
     t2.add_row("truth", str(len(truth.velocity.poles())), f"{truth.dc_gain:.4f}", f"{truth.time_constant_s:.4f}", "—")
     con.print(t2)
     con.print(f"choice: {ident.reason}")
     con.print(f"model JSON: {result.out / 'model.json'}")
+    con.print(f"report: {result.out / 'report.html'}")
     con.print(f"ground truth: {result.truth_path}")
     con.print(f"inspect them: motorid inspect {out}/ALL0000 {out}/ALL0001 {out}/ALL0002")
 
@@ -178,24 +180,6 @@ def _conditioning(ratio, sample_interval, record_length, reduction, sync):
     )
 
 
-def _poly(coeffs) -> str:
-    """A polynomial in s, highest power first, in the paper's notation."""
-    import numpy as np
-
-    c = [float(x) for x in np.atleast_1d(coeffs)]
-    n = len(c) - 1
-    parts = []
-    for i, a in enumerate(c):
-        p = n - i
-        if a == 0 and len(c) > 1:
-            continue
-        mag = f"{abs(a):.4g}"
-        term = mag if p == 0 else ("" if mag == "1" else mag) + ("s" if p == 1 else f"s^{p}")
-        parts.append(("-" if a < 0 else "+") + " " + term)
-    text = " ".join(parts) or "0"
-    return text[2:] if text.startswith("+ ") else "-" + text[2:]
-
-
 def _print_model(con: Console, model, title: str) -> None:
     import numpy as np
 
@@ -213,11 +197,27 @@ def _print_model(con: Console, model, title: str) -> None:
         if tf is None:
             continue
         num, den = np.ravel(tf.num[0][0]), np.ravel(tf.den[0][0])
-        con.print(f"H_{name}(s) = ({_poly(num)}) / ({_poly(den)})")
+        con.print(f"H_{name}(s) = ({poly_text(num)}) / ({poly_text(den)})")
     poles = ", ".join(f"{p.real:.4g}{p.imag:+.4g}j" if abs(p.imag) > 1e-12 else f"{p.real:.4g}" for p in model.poles())
     con.print(f"poles: {poles}")
     con.print(f"first order: k/(s+p) = {fo.k:.4g}/(s + {fo.p:.4g}); dc gain {fo.dc_gain:.4g} V/V, "
               f"τ = {fo.time_constant_s:.4g} s")
+    u = model.uncertainty
+    if u:
+        for key, label in (("dc_gain", "dc gain"), ("time_constant", "τ (s)")):
+            item = u[key]
+            lo, hi = item["ci95"]
+            con.print(f"{label}: {item['value']:.5g} ± {1.96 * item['std']:.2g} (95% interval [{lo:.5g}, {hi:.5g}])")
+        for name in ("poles", "zeros"):
+            for i, item in enumerate(u.get(name, [])):
+                re_, im_ = item["value"]
+                val = f"{re_:.4g}" if abs(im_) < 1e-12 else f"{re_:.4g}{im_:+.4g}j"
+                con.print(f"{name[:-1]} {i + 1}: {val} ± {1.96 * item['std']:.2g} (95%)")
+    for st in model.stages:
+        desc = ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
+                         for k, v in st.items() if k in ("method", "order", "dc_gain", "time_constant"))
+        extra = f" — {st['evidence']}" if "evidence" in st else ""
+        con.print(f"stage {st['stage']}: {desc}{extra}")
     if "hankel_singular_values_scaled" in model.extras:
         ex = model.extras
         con.print("Hankel singular values (normalised), time-scaled: "
@@ -236,7 +236,7 @@ def identify(
     position: Annotated[Optional[str], typer.Option(help="Position (potentiometer/encoder) capture.")] = None,
     velocity: Annotated[Optional[str], typer.Option(help="Velocity (tachogenerator) capture.")] = None,
     current: Annotated[Optional[str], typer.Option(help="Armature-current capture.")] = None,
-    method: Annotated[str, typer.Option(help="auto, pinv, markov or classic.")] = "auto",
+    method: Annotated[str, typer.Option(help="auto (paper methods → output-error refinement → order selection → uncertainty), pinv, markov, classic, oe, srivc or paper-auto.")] = "auto",
     order: Annotated[str, typer.Option(help="auto, 1, 2 or 3 (number of states).")] = "auto",
     ratio: Annotated[Optional[int], typer.Option(help="Sample reduction ratio (overrides --sample-interval).")] = None,
     sample_interval: Annotated[float, typer.Option("--sample-interval", help="Sample interval after reduction, s (paper: 0.1).")] = 0.1,
@@ -252,6 +252,9 @@ def identify(
     columns: Annotated[Optional[str], typer.Option(help="Plain CSV column map, e.g. time=t,input=u,velocity=rpm.")] = None,
     json_out: Annotated[Optional[Path], typer.Option("--json", help="Write the model JSON (CONTRACT.md) here.")] = None,
     matlab_out: Annotated[Optional[Path], typer.Option("--matlab", help="Write a MATLAB/Octave script defining A, B, C, D.")] = None,
+    report_out: Annotated[Optional[Path], typer.Option("--report", help="Write the HTML report here.")] = None,
+    validate: Annotated[Optional[list[str]], typer.Option("--validate", help="Capture of another input (sine, triangle, square…) to validate on; repeat or comma-separate.")] = None,
+    design: Annotated[Optional[Path], typer.Option("--design", help="A design JSON to show in the report.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing output files.")] = False,
 ) -> None:
     """Identify the motor model from step captures (paper sections III-VI)."""
@@ -259,7 +262,7 @@ def identify(
 
     if order not in ("auto", "1", "2", "3"):
         raise OptionError(f"--order must be auto, 1, 2 or 3, not {order!r}")
-    for path in (json_out, matlab_out):
+    for path in (json_out, matlab_out, report_out):
         _writable(path, force)
     settings = IdentifySettings(
         method=method,
@@ -281,6 +284,90 @@ def identify(
     if matlab_out is not None:
         matlab_out.write_text(result.model.to_matlab(), encoding="utf-8")
         con.print(f"MATLAB/Octave script: {matlab_out}")
+    if report_out is not None:
+        from motorid.reporting import make_report, read_design
+
+        checks = _validation_captures(validate, columns)
+        doc = read_design(design) if design is not None else None
+        report_out.write_text(make_report(result, caps, validation=checks, design=doc), encoding="utf-8")
+        con.print(f"report: {report_out}")
+    elif validate or design:
+        raise OptionError("--validate and --design go into the report: add --report OUT.html")
+
+
+def _validation_captures(specs: Optional[list[str]], columns: Optional[str]) -> dict:
+    from motorid.io import read_capture
+
+    colmap = _parse_columns(columns)
+    names = [p for spec in (specs or []) for p in spec.split(",") if p]
+    return {Path(n).name: read_capture(_capture_paths(n), columns=colmap) for n in names}
+
+
+@app.command()
+def validate(
+    model_json: Annotated[Path, typer.Argument(help="A model JSON written by motorid identify --json.")],
+    captures: Annotated[list[str], typer.Argument(help="Captures with the input on CH1 (any input, not only steps).")],
+    channel: Annotated[str, typer.Option(help="The model output CH2 measured: velocity, position or current.")] = "velocity",
+    max_nrmse: Annotated[Optional[float], typer.Option("--max-nrmse", help="Exit 3 if any capture's NRMSE exceeds this (e.g. 0.05).")] = None,
+    columns: Annotated[Optional[str], typer.Option(help="Plain CSV column map.")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+) -> None:
+    """Drive a model with recorded inputs and report NRMSE / fit % per capture (paper §VI-B)."""
+    from motorid.model import MotorModel
+    from motorid.validation import validate_capture
+
+    try:
+        doc = json.loads(model_json.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise OptionError(f"cannot read the model ({exc.strerror})", file=str(model_json)) from None
+    except ValueError as exc:
+        raise OptionError(f"not JSON ({exc})", file=str(model_json)) from None
+    model = MotorModel.from_json(doc, file=str(model_json))
+    checks = _validation_captures(captures, columns)
+    results = [validate_capture(model, cap, channel=channel) for cap in checks.values()]
+    failed = [r for r in results if max_nrmse is not None and not r.nrmse <= max_nrmse]
+    if as_json:
+        typer.echo(json.dumps([{"file": r.source, "channel": r.channel, "nrmse": r.nrmse,
+                                 "fit_percent": r.fit_percent, "warmup_s": r.warmup_s,
+                                 "passed": r not in failed} for r in results], indent=2))
+    else:
+        con = _console()
+        table = Table(title=f"validation of {model_json.name} ({model.method}, order {model.order})")
+        for head in ("capture", "NRMSE", "fit", "verdict"):
+            table.add_column(head)
+        for r in results:
+            verdict = "—" if max_nrmse is None else ("FAIL" if r in failed else "pass")
+            table.add_row(Path(r.source).name, f"{100 * r.nrmse:.2f}%", f"{r.fit_percent:.1f}%", verdict)
+        con.print(table)
+    if failed:
+        print(f"motorid: {len(failed)} capture(s) above --max-nrmse {max_nrmse:g}", file=sys.stderr)
+        raise SystemExit(3)
+
+
+@app.command()
+def report(
+    out: Annotated[Path, typer.Option("--out", help="The HTML file to write.")],
+    position: Annotated[Optional[str], typer.Option(help="Position capture.")] = None,
+    velocity: Annotated[Optional[str], typer.Option(help="Velocity capture.")] = None,
+    current: Annotated[Optional[str], typer.Option(help="Armature-current capture.")] = None,
+    method: Annotated[str, typer.Option(help="Identification method (see identify).")] = "auto",
+    validate: Annotated[Optional[list[str]], typer.Option("--validate", help="Validation captures; repeat or comma-separate.")] = None,
+    design: Annotated[Optional[Path], typer.Option("--design", help="A design JSON to include.")] = None,
+    step_volts: Annotated[Optional[float], typer.Option("--step-volts", help="Step level for captures without an input channel.")] = None,
+    columns: Annotated[Optional[str], typer.Option(help="Plain CSV column map.")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite an existing report.")] = False,
+) -> None:
+    """Identify and write one self-contained HTML report of the experiment."""
+    from motorid.identification import IdentifySettings, identify_experiment
+    from motorid.reporting import make_report, read_design
+
+    _writable(out, force)
+    caps = _read_roles(position, velocity, current, columns)
+    result = identify_experiment(caps, IdentifySettings(method=method), step_volts=step_volts)
+    checks = _validation_captures(validate, columns)
+    doc = read_design(design) if design is not None else None
+    out.write_text(make_report(result, caps, validation=checks, design=doc), encoding="utf-8")
+    _console().print(f"report: {out}")
 
 
 def _floats(spec: str, option: str) -> list[float]:

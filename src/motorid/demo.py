@@ -7,7 +7,7 @@ the same step — position (``ALL0000``), velocity (``ALL0001``), armature curre
 (``ALL0003``–``ALL0005``), each in the TDS2000 'Save All' layout, plus ``truth.json`` with the
 exact linearised transfer functions and, per capture, the true step instant, level and
 number of encoder wraps.  The captures are then read back and identified (``--method auto``),
-the model written to ``model.json``.
+the model written to ``model.json`` and the whole story to ``report.html``.
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ class DemoResult:
 
 
 def _targets(out: Path) -> list[Path]:
-    return [out / f"ALL{i:04d}" for i in range(len(CAPTURE_ORDER))] + [out / "truth.json", out / "model.json"]
+    return [out / f"ALL{i:04d}" for i in range(len(CAPTURE_ORDER))] + [out / "truth.json", out / "model.json", out / "report.html"]
 
 
 def run_demo(
@@ -132,4 +132,11 @@ def run_demo(
     ident = identify_experiment(read_back)
     model_path = out / "model.json"
     model_path.write_text(ident.model.to_json_text(), encoding="utf-8")
+    from motorid.reporting import make_report
+
+    checks = {name: read_capture(out / f"ALL{CAPTURE_ORDER.index(name):04d}")
+              for name in ("sine", "triangle", "square") if name in exp.validation}
+    page = make_report(ident, read_back, validation=checks, truth=doc,
+                       title=f"motorid demo: virtual trainer '{preset}', seed {seed}")
+    (out / "report.html").write_text(page, encoding="utf-8")
     return DemoResult(out, tuple(rows), truth_path, exp, ident)

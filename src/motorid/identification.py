@@ -26,8 +26,11 @@ from motorid.model import MotorModel, step_nrmse
 
 __all__ = ["METHODS", "IdentifySettings", "Identification", "identify_experiment", "identify_conditioned"]
 
-#: Methods of ``--method`` (``auto`` picks among the others).
-METHODS: tuple[str, ...] = ("auto", "pinv", "markov", "classic")
+#: Methods of ``--method``.  ``auto``: the paper's methods → output-error refinement →
+#: order selection → uncertainty; ``paper-auto``: the best of the paper's methods alone.
+METHODS: tuple[str, ...] = ("auto", "pinv", "markov", "classic", "oe", "srivc", "paper-auto")
+#: The paper's own methods (Masoud 2019 §III–IV, lab report §1.1).
+PAPER_METHODS: tuple[str, ...] = ("pinv", "markov", "classic")
 
 
 @dataclass(frozen=True, slots=True)
@@ -250,38 +253,95 @@ def _with_fit(model: MotorModel, cond: ConditionedExperiment) -> MotorModel:
     return model.replace(fit=fit)
 
 
-def identify_conditioned(cond: ConditionedExperiment, settings: IdentifySettings = IdentifySettings()) -> Identification:
-    """Identify a model from conditioned data (see :func:`identify_experiment`)."""
-    if settings.method not in METHODS:
-        raise OptionError(f"unknown method {settings.method!r}; use one of {', '.join(METHODS)}")
-    if settings.order not in ("auto", 1, 2, 3):
-        raise OptionError(f"--order must be auto, 1, 2 or 3, not {settings.order!r}")
-    names = [m for m in _RUNNERS] if settings.method == "auto" else [settings.method]
-    t, v, notes = _velocity(cond, full=True)
-    extra_warn = list(cond.warnings) + notes + _settled_warning(t, v)
+def _paper_stage(cond: ConditionedExperiment, settings: IdentifySettings, names: list[str]) -> tuple[dict[str, MotorModel], dict[str, str]]:
     candidates: dict[str, MotorModel] = {}
     failures: dict[str, str] = {}
     for name in names:
         try:
             m = _RUNNERS[name](cond, settings)
         except (IdentificationError, OptionError) as exc:
-            if settings.method != "auto":
+            if len(names) == 1:
                 raise
             failures[name] = exc.message
             continue
         candidates[name] = _with_fit(m, cond)
     if not candidates:
         raise IdentificationError("no method could identify a model: " + "; ".join(f"{k}: {v}" for k, v in failures.items()))
-    ranked = sorted(candidates, key=lambda k: candidates[k].fit.get("velocity_nrmse", np.inf))
-    best = ranked[0]
+    return candidates, failures
+
+
+def _summary(name: str, m: MotorModel) -> dict[str, Any]:
+    fo = m.first_order()
+    return {"method": name, "order": m.order, "dc_gain": fo.dc_gain, "time_constant": fo.time_constant_s,
+            "velocity_nrmse": m.fit.get("velocity_nrmse")}
+
+
+def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: MotorModel, init_name: str,
+            stages: list[dict[str, Any]]) -> tuple[MotorModel, str]:
+    """Output-error refinement with order selection (``oe`` and ``auto``), SRIVC as a second opinion."""
+    from motorid.refinement import STRUCTURES, select_order, srivc_stage
+
+    orders = (1, 2, 3) if settings.order == "auto" else (int(settings.order),)
+    sel = select_order(cond, init, orders)
+    model = _with_fit(sel.model, cond)
+    stages.append({"stage": "output-error", "initialised_from": init_name, "structures": sel.table,
+                   "chosen": {"poles": sel.structure[0], "zeros": sel.structure[1]},
+                   "runner_up": None if sel.runner_up is None else {"poles": sel.runner_up[0], "zeros": sel.runner_up[1]},
+                   "evidence": sel.evidence, **_summary("oe", model)})
+    # cross-check with the time-scaled Hankel singular values of the Markov method
+    markov = next((st for st in stages if st.get("method") == "markov"), None)
+    if markov is not None:
+        stages.append({"stage": "order cross-check", "markov_order": markov["order"],
+                       "oe_order": sel.structure[0],
+                       "agree": markov["order"] == sel.structure[0]})
     if settings.method == "auto":
+        try:
+            sr = _with_fit(srivc_stage(cond, init, sel.structure), cond)
+            stages.append({"stage": "srivc (second opinion)", **_summary("srivc", sr)})
+        except (IdentificationError, OptionError) as exc:
+            stages.append({"stage": "srivc (second opinion)", "failed": exc.message})
+    reason = (f"output-error fit initialised from {init_name}; {sel.evidence}")
+    return model, reason
+
+
+def identify_conditioned(cond: ConditionedExperiment, settings: IdentifySettings = IdentifySettings()) -> Identification:
+    """Identify a model from conditioned data (see :func:`identify_experiment`)."""
+    if settings.method not in METHODS:
+        raise OptionError(f"unknown method {settings.method!r}; use one of {', '.join(METHODS)}")
+    if settings.order not in ("auto", 1, 2, 3):
+        raise OptionError(f"--order must be auto, 1, 2 or 3, not {settings.order!r}")
+    t, v, notes = _velocity(cond, full=True)
+    extra_warn = list(cond.warnings) + notes + _settled_warning(t, v)
+    stages: list[dict[str, Any]] = []
+    if settings.method in PAPER_METHODS:
+        candidates, failures = _paper_stage(cond, settings, [settings.method])
+        best = settings.method
+        model = candidates[best]
+        reason = f"method {best} as asked"
+    else:
+        # the paper's methods first: the initial model (and the answer of paper-auto)
+        init_settings = settings if settings.method == "paper-auto" else replace(settings, order="auto")
+        candidates, failures = _paper_stage(cond, init_settings, list(PAPER_METHODS))
+        ranked = sorted(candidates, key=lambda k: candidates[k].fit.get("velocity_nrmse", np.inf))
+        for k in ranked:
+            stages.append({"stage": "paper method", **_summary(k, candidates[k])})
         scores = ", ".join(f"{k} {100 * candidates[k].fit['velocity_nrmse']:.2f}%" for k in ranked)
-        reason = f"auto: smallest velocity step-response NRMSE ({scores})"
+        best = ranked[0]
+        reason = f"smallest velocity step-response NRMSE among the paper's methods ({scores})"
         if failures:
             reason += "; not run: " + "; ".join(f"{k} ({v})" for k, v in failures.items())
-    else:
-        reason = f"method {best} as asked"
-    model = candidates[best]
+        model = candidates[best]
+        if settings.method == "srivc":
+            from motorid.refinement import STRUCTURES, srivc_stage
+
+            order = 2 if settings.order == "auto" else int(settings.order)
+            model = _with_fit(srivc_stage(cond, model, STRUCTURES[order][0]), cond)
+            candidates["srivc"] = model
+            stages.append({"stage": "srivc", **_summary("srivc", model)})
+            reason = f"SRIVC of order {order} initialised from {best}"
+        elif settings.method in ("oe", "auto"):
+            model, reason = _refine(cond, settings, model, best, stages)
+            candidates["oe"] = model
     settings_doc = dict(model.settings)
     settings_doc.update(
         conditioning=asdict(settings.conditioning), derivative=settings.derivative,
@@ -292,6 +352,7 @@ def identify_conditioned(cond: ConditionedExperiment, settings: IdentifySettings
         step_volts=cond.step_volts,
         warnings=tuple(dict.fromkeys(tuple(model.warnings) + tuple(extra_warn))),
         extras={**dict(model.extras), "choice": reason},
+        stages=tuple(stages),
     )
     return Identification(model, cond, candidates, failures, reason)
 

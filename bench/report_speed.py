@@ -1,0 +1,41 @@
+"""Time to generate the demo experiment's HTML report (issue 6 target: ≤ 3 s).
+
+Run: ``python3 bench/report_speed.py [--repeat 3]``.  Identification is done once; the
+timed part is :func:`motorid.reporting.make_report` (sensitivity table + every figure).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+from motorid.demo import run_demo
+from motorid.identification import identify_experiment
+from motorid.io import read_capture
+from motorid.reporting import make_report
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "D"
+        run_demo(out, seed=0)
+        caps = {r: read_capture(out / f"ALL{i:04d}") for i, r in enumerate(("position", "velocity", "current"))}
+        checks = {n: read_capture(out / f"ALL{i:04d}") for i, n in ((3, "sine"), (4, "triangle"), (5, "square"))}
+        ident = identify_experiment(caps)
+        times = []
+        for _ in range(args.repeat):
+            t0 = time.perf_counter()
+            page = make_report(ident, caps, validation=checks)
+            times.append(time.perf_counter() - t0)
+    print(f"report of the demo experiment: median {statistics.median(times):.2f} s over {args.repeat} runs "
+          f"({len(page) / 1e6:.2f} MB, target ≤ 3 s)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,266 @@
+"""Beyond the paper: output-error refinement, SRIVC, order selection and uncertainty.
+
+Stage functions on a :class:`~motorid.conditioning.pipeline.ConditionedExperiment`: they take
+the full-rate synchronised step responses (no sample reduction, no numerical
+differentiation — the two sources of the paper's bias), weight each channel by its own noise
+level measured before the step, and start from a model of the paper's methods so that no
+user guess is needed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.signal
+
+from motorid.conditioning.edge import noise_level
+from motorid.conditioning.pipeline import ConditionedExperiment
+from motorid.identify.output_error import OeResult, OeSettings, output_error_fit
+from motorid.identify.result import IdentificationError
+from motorid.identify.srivc import SrivcSettings, srivc_fit
+from motorid.model import MotorModel
+
+__all__ = [
+    "STRUCTURES",
+    "channel_sigma",
+    "oe_stage",
+    "srivc_stage",
+    "OrderSelection",
+    "select_order",
+    "uncertainty_json",
+]
+
+#: Model structures (velocity poles, zeros) tried for each order; the first is the default.
+STRUCTURES: Mapping[int, tuple[tuple[int, int], ...]] = {
+    1: ((1, 0),),
+    2: ((2, 0), (2, 1)),
+    3: ((3, 1), (3, 0)),
+}
+
+#: Longest record handed to the nonlinear fit: longer ones are block-averaged (anti-aliased,
+#: no delay) down to this many samples; the information lost is negligible for a servo whose
+#: time constants span many samples, and the fit time stays bounded.
+MAX_FIT_SAMPLES = 2500
+
+
+def channel_sigma(cond: ConditionedExperiment, role: str) -> float:
+    """Noise standard deviation of a channel, from its samples before the step.
+
+    The pre-step part of a capture holds only noise (the motor is at rest).  An 8-bit scope
+    can show it as a constant code; the quantisation noise ``LSB/√12`` of the response (from
+    the smallest step between codes) is then the floor.
+    """
+    r = cond.responses[role]
+    y = r.output_v
+    pre = y[r.time_s < 0]
+    d = np.abs(np.diff(y))
+    nz = d[d > 0]
+    quantum = float(nz.min()) if nz.size else 0.0
+    sd = float(np.std(pre)) if pre.size >= 5 else noise_level(y)
+    return max(sd, quantum / np.sqrt(12.0), 1e-9)
+
+
+def _fit_data(cond: ConditionedExperiment) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    t = cond.full_time_s
+    outs = {k: v for k, v in cond.full_outputs.items()}
+    ratio = int(np.ceil(t.size / MAX_FIT_SAMPLES))
+    if ratio > 1:
+        m = t.size // ratio
+        t = t[: m * ratio].reshape(m, ratio).mean(axis=1)
+        outs = {k: v[: m * ratio].reshape(m, ratio).mean(axis=1) for k, v in outs.items()}
+    return t, outs
+
+
+def _init_from(model: MotorModel, n_poles: int, n_zeros: int) -> tuple[list[float], float, list[float]]:
+    """Time constants, DC gain and zero time constants of a model, padded to a structure."""
+    fo = model.first_order()
+    poles = [p for p in model.poles() if np.real(p) < 0]
+    taus = sorted((float(-1.0 / np.real(p)) for p in poles), reverse=True)
+    dc = fo.dc_gain if np.isfinite(fo.dc_gain) and fo.dc_gain != 0 else 1.0
+    tau1 = fo.time_constant_s if np.isfinite(fo.time_constant_s) and fo.time_constant_s > 0 else 0.3
+    taus = [t for t in taus if 1e-4 < t < 100.0]
+    if not taus:
+        taus = [tau1]
+    taus[0] = tau1 if len(taus) == 1 else taus[0]
+    while len(taus) < n_poles:
+        taus.append(taus[-1] / 8.0)  # faster poles start well separated from the dominant one
+    taus = taus[:n_poles]
+    zeros = [0.5 * taus[1]] * n_zeros if n_poles > 1 else []
+    return taus, float(dc), zeros[:n_zeros]
+
+
+def _oe_to_model(res: OeResult, cond: ConditionedExperiment, structure: tuple[int, int]) -> MotorModel:
+    num, den = np.asarray(res.velocity_num, float), np.asarray(res.velocity_den, float)
+    a, b, c, d = scipy.signal.tf2ss(num, den)
+    n = a.shape[0]
+    states = tuple(f"x{i + 1}" for i in range(n))
+    rows = [c[0]]
+    drows = [d[0, 0]]
+    outputs = ["velocity"]
+    if res.current_num is not None:
+        _, _, ci, di = scipy.signal.tf2ss(np.asarray(res.current_num, float), den)
+        rows.append(ci[0])
+        drows.append(di[0, 0])
+        outputs.append("current")
+    big_a, big_b = a, b
+    cmat = np.array(rows)
+    dmat = np.array(drows).reshape(-1, 1)
+    if res.position_scale is not None:
+        # position = c·∫velocity: an integrator state fed by the velocity row
+        big_a = np.zeros((n + 1, n + 1))
+        big_a[0, 1:] = res.position_scale * c[0]
+        big_a[1:, 1:] = a
+        big_b = np.vstack([[[res.position_scale * d[0, 0]]], b])
+        cmat = np.hstack([np.zeros((cmat.shape[0], 1)), cmat])
+        cmat = np.vstack([np.eye(1, n + 1), cmat])
+        dmat = np.vstack([[[0.0]], dmat])
+        states = ("position",) + states
+        outputs = ["position"] + outputs
+    return MotorModel(
+        A=big_a, B=big_b, C=cmat, D=dmat, states=states, outputs=tuple(outputs),
+        step_volts=cond.step_volts, method="oe",
+        settings={"n_poles": structure[0], "n_zeros": structure[1], "delay": res.delay_s is not None and res.delay_s > 0},
+        sample_interval_s=float(cond.full_time_s[1] - cond.full_time_s[0]),
+        warnings=tuple(res.warnings),
+        uncertainty=uncertainty_json(res),
+        extras={"bic": res.bic, "aic": res.aic, "sigma": dict(res.sigma), "delay_s": res.delay_s},
+    )
+
+
+def uncertainty_json(res: OeResult) -> dict[str, Any]:
+    """The ``uncertainty`` object of the model JSON from an output-error result."""
+    def item(key: str, value: Any) -> dict[str, Any]:
+        lo, hi = res.ci95.get(key, (float("nan"), float("nan")))
+        return {"value": value, "std": res.std.get(key, float("nan")), "ci95": [lo, hi]}
+
+    out: dict[str, Any] = {
+        "dc_gain": item("dc_gain", res.dc_gain),
+        "time_constant": item("time_constant", res.time_constant_s),
+        "poles": [item(f"pole_{i}", [float(np.real(p)), float(np.imag(p))]) for i, p in enumerate(res.poles)],
+        "zeros": [item(f"zero_{i}", [float(np.real(z)), float(np.imag(z))]) for i, z in enumerate(res.zeros)],
+        "method": "Gauss-Newton covariance of the output-error fit (delta method), 95% = ±1.96 std",
+    }
+    if res.delay_s is not None:
+        out["delay"] = item("delay", res.delay_s)
+    return out
+
+
+def oe_stage(
+    cond: ConditionedExperiment, init: MotorModel, structure: tuple[int, int], *, delay: bool = False
+) -> tuple[OeResult, MotorModel]:
+    """Output-error fit of one structure, initialised from ``init``.
+
+    Returns
+    -------
+    (OeResult, MotorModel)
+        The raw result and the model (velocity, and position/current rows when captured).
+    """
+    t, outs = _fit_data(cond)
+    sigma = {role: channel_sigma(cond, role) for role in outs}
+    taus, dc, zeros = _init_from(init, *structure)
+    settings = OeSettings(n_poles=structure[0], n_zeros=structure[1], delay=delay)
+    res = output_error_fit(t, cond.step_volts, outs, sigma, taus, dc, settings, init_zeros=zeros)
+    if len(outs) > 1:
+        # maximum likelihood with unknown noise levels: weight each channel by what it really
+        # departs from the model (ripple, PWM, quantisation the pre-step part did not show)
+        sigma = {role: max(sigma[role], res.residual_rms[role]) for role in outs}
+        taus2 = sorted((-1.0 / np.real(p) for p in res.poles), reverse=True)
+        zeros2 = [-1.0 / np.real(z) for z in res.zeros]
+        res = output_error_fit(t, cond.step_volts, outs, sigma, taus2, res.dc_gain, settings,
+                               init_zeros=zeros2 if len(zeros2) == structure[1] else zeros)
+    return res, _oe_to_model(res, cond, structure)
+
+
+def srivc_stage(cond: ConditionedExperiment, init: MotorModel, structure: tuple[int, int]) -> MotorModel:
+    """SRIVC estimate of the velocity TF of one structure, initialised from ``init``."""
+    t, outs = _fit_data(cond)
+    if "velocity" not in outs:
+        raise IdentificationError("SRIVC needs a velocity capture (--velocity)")
+    taus, _, _ = _init_from(init, *structure)
+    den0 = np.poly([-1.0 / x for x in taus])
+    u = np.full(t.size, cond.step_volts)
+    res = srivc_fit(t, u, outs["velocity"], SrivcSettings(n_poles=structure[0], n_zeros=structure[1]), init_den=den0)
+    from motorid.model import model_from_velocity_tf
+
+    warnings = tuple(res.warnings) + (() if res.converged else (f"SRIVC did not converge in {res.iterations} iterations",))
+    return model_from_velocity_tf(
+        res.num, res.den, with_position=False, step_volts=cond.step_volts, method="srivc",
+        settings={"n_poles": structure[0], "n_zeros": structure[1], "iterations": res.iterations},
+        sample_interval_s=float(t[1] - t[0]), warnings=warnings,
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class OrderSelection:
+    """The order chosen by BIC on the output-error fits, with the evidence.
+
+    Attributes
+    ----------
+    structure : tuple of int
+        (poles, zeros) of the chosen velocity TF.
+    result : OeResult
+        Its fit.
+    model : MotorModel
+        Its model.
+    table : list of dict
+        Every structure tried: poles, zeros, BIC, AIC, weighted RMS.
+    runner_up : tuple of int or None
+        The second-best structure.
+    evidence : str
+        The choice in words (ΔBIC to the runner-up).
+    """
+
+    structure: tuple[int, int]
+    result: OeResult
+    model: MotorModel
+    table: list[dict[str, Any]]
+    runner_up: tuple[int, int] | None
+    evidence: str
+
+
+def select_order(
+    cond: ConditionedExperiment, init: MotorModel, orders: tuple[int, ...] = (1, 2, 3)
+) -> OrderSelection:
+    """Fit every structure of the given orders and keep the smallest BIC.
+
+    BIC (``N ln(RSS_w/N) + p ln N`` on the noise-weighted residuals) penalises each extra
+    parameter by ``ln N``; with thousands of samples a pole must explain a real part of the
+    response to be kept.
+
+    Raises
+    ------
+    IdentificationError
+        When no structure could be fitted.
+    """
+    fits: list[tuple[float, tuple[int, int], OeResult, MotorModel]] = []
+    errors: list[str] = []
+    for order in orders:
+        for structure in STRUCTURES[order]:
+            try:
+                res, model = oe_stage(cond, init, structure)
+            except IdentificationError as exc:
+                errors.append(f"{structure}: {exc.message}")
+                continue
+            if not np.isfinite(res.bic) or np.any(np.real(res.poles) >= 0):
+                errors.append(f"{structure}: unstable or failed fit")
+                continue
+            fits.append((res.bic, structure, res, model))
+    if not fits:
+        raise IdentificationError("the output-error fit failed for every order: " + "; ".join(errors))
+    fits.sort(key=lambda f: f[0])
+    table = [
+        {"poles": s[0], "zeros": s[1], "bic": b, "aic": r.aic,
+         "weighted_rms": float(np.sqrt(max(r.cost, 0.0) * 2 / max(r.n_samples, 1)))}
+        for b, s, r, _ in fits
+    ]
+    best = fits[0]
+    runner = fits[1] if len(fits) > 1 else None
+    if runner is None:
+        evidence = f"only {best[1][0]} pole(s), {best[1][1]} zero(s) could be fitted"
+    else:
+        evidence = (f"BIC prefers {best[1][0]} pole(s) and {best[1][1]} zero(s) over "
+                    f"{runner[1][0]} pole(s) and {runner[1][1]} zero(s) by ΔBIC = {runner[0] - best[0]:.1f}")
+    return OrderSelection(best[1], best[2], best[3], table, None if runner is None else runner[1], evidence)

@@ -1,0 +1,71 @@
+"""Issue 6: the HTML report of the demo experiment, and ``motorid validate``."""
+
+import re
+import shutil
+import subprocess
+
+import pytest
+
+from motorid.report import SECTIONS
+
+
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory):
+    from motorid.demo import run_demo
+
+    out = tmp_path_factory.mktemp("repdemo") / "D"
+    run_demo(out, seed=4)
+    return out
+
+
+def test_demo_writes_a_self_contained_report(demo):
+    page = (demo / "report.html").read_text(encoding="utf-8")
+    for sid in SECTIONS:
+        assert f'<section id="{sid}">' in page, sid
+    assert "not available" not in page  # every section could be drawn
+    # self-contained: no script, no external resource of any kind
+    assert "<script" not in page.lower()
+    assert not re.search(r'(src|href)\s*=\s*"(https?:)?//', page)
+    imgs = re.findall(r'<img [^>]*src="([^"]{0,30})', page)
+    assert len(imgs) >= 8 and all(s.startswith("data:image/png;base64,") for s in imgs)
+    assert "@media print" in page
+
+
+def test_report_renders_in_headless_chromium(demo):
+    browser = shutil.which("chromium") or shutil.which("chromium-browser")
+    if browser is None:
+        pytest.skip("Chromium is not installed (Debian package 'chromium'); .ci/run installs it")
+    page = demo / "report.html"
+    proc = subprocess.run(
+        [browser, "--headless", "--no-sandbox", "--disable-gpu", "--enable-logging=stderr", "--v=0",
+         "--host-resolver-rules=MAP * ~NOTFOUND", "--dump-dom", page.as_uri()],
+        capture_output=True, text=True, timeout=120,
+    )
+    dom = proc.stdout
+    for sid in SECTIONS:
+        assert f'id="{sid}"' in dom, sid
+    console = [ln for ln in proc.stderr.splitlines() if "CONSOLE" in ln or "Uncaught" in ln]
+    network = [ln for ln in proc.stderr.splitlines() if "net::ERR" in ln]
+    assert not console, console
+    assert not network, network
+
+
+def test_validate_command_scores_the_test_signals(demo, run_cli):
+    caps = [demo / f"ALL{i:04d}" for i in (3, 4, 5)]
+    res = run_cli("validate", demo / "model.json", *caps, "--json")
+    assert res.code == 0, res.err
+    import json
+
+    rows = json.loads(res.out)
+    assert len(rows) == 3
+    # the demo model follows the sine, triangle and square runs closely (paper Figs. 36-38)
+    assert all(r["nrmse"] < 0.1 for r in rows), rows
+    res = run_cli("validate", demo / "model.json", *caps, "--max-nrmse", "1e-6")
+    assert res.code == 3 and "above --max-nrmse" in res.err
+
+
+def test_validate_bad_model_json_is_one_line(tmp_path, demo, run_cli):
+    bad = tmp_path / "m.json"
+    bad.write_text('{"schema": "other"}')
+    res = run_cli("validate", bad, demo / "ALL0003")
+    assert res.code == 2 and "m.json" in res.err and len(res.err.strip().splitlines()) == 1
