@@ -334,11 +334,28 @@ def identify_conditioned(cond: ConditionedExperiment, settings: IdentifySettings
         if settings.method == "srivc":
             from motorid.refinement import STRUCTURES, srivc_stage
 
-            order = 2 if settings.order == "auto" else int(settings.order)
-            model = _with_fit(srivc_stage(cond, model, STRUCTURES[order][0]), cond)
+            orders = (1, 2, 3) if settings.order == "auto" else (int(settings.order),)
+            tried: list[tuple[float, MotorModel, tuple[int, int]]] = []
+            n = cond.full_time_s.size
+            for order in orders:
+                for structure in STRUCTURES[order]:
+                    try:
+                        m = _with_fit(srivc_stage(cond, model, structure), cond)
+                    except (IdentificationError, OptionError):
+                        continue
+                    if np.any(np.real(m.poles()) >= 0) or not np.isfinite(m.fit["velocity_nrmse"]):
+                        continue
+                    # BIC on the velocity step response (noise level cancels between structures)
+                    bic = n * np.log(m.fit["velocity_nrmse"] ** 2) + (sum(structure) + 1) * np.log(n)
+                    tried.append((bic, m, structure))
+            if not tried:
+                raise IdentificationError("SRIVC found no stable model at the requested order(s)")
+            tried.sort(key=lambda x: x[0])
+            model = tried[0][1]
             candidates["srivc"] = model
             stages.append({"stage": "srivc", **_summary("srivc", model)})
-            reason = f"SRIVC of order {order} initialised from {best}"
+            st = tried[0][2]
+            reason = f"SRIVC initialised from {best}; {st[0]} pole(s), {st[1]} zero(s) by BIC among {len(tried)} stable fits"
         elif settings.method in ("oe", "auto"):
             model, reason = _refine(cond, settings, model, best, stages)
             candidates["oe"] = model

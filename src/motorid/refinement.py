@@ -43,7 +43,7 @@ STRUCTURES: Mapping[int, tuple[tuple[int, int], ...]] = {
 #: Longest record handed to the nonlinear fit: longer ones are block-averaged (anti-aliased,
 #: no delay) down to this many samples; the information lost is negligible for a servo whose
 #: time constants span many samples, and the fit time stays bounded.
-MAX_FIT_SAMPLES = 2500
+MAX_FIT_SAMPLES = 1000
 
 
 def channel_sigma(cond: ConditionedExperiment, role: str) -> float:
@@ -63,10 +63,20 @@ def channel_sigma(cond: ConditionedExperiment, role: str) -> float:
     return max(sd, quantum / np.sqrt(12.0), 1e-9)
 
 
-def _fit_data(cond: ConditionedExperiment) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+#: SRIVC filters the data several times per iteration with ``lsim``: fewer samples suffice.
+SRIVC_SAMPLES = 1000
+
+
+def _fit_data(
+    cond: ConditionedExperiment, max_samples: int = MAX_FIT_SAMPLES, *, from_zero: bool = False
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     t = cond.full_time_s
     outs = {k: v for k, v in cond.full_outputs.items()}
-    ratio = int(np.ceil(t.size / MAX_FIT_SAMPLES))
+    ratio = int(np.ceil(t.size / max_samples))
+    if ratio > 1 and from_zero:
+        # a simulation-based estimator (SRIVC) starts its filters at rest at t = 0: keep
+        # the grid anchored there (plain sub-sampling) instead of block centres
+        return t[::ratio], {k: v[::ratio] for k, v in outs.items()}
     if ratio > 1:
         m = t.size // ratio
         t = t[: m * ratio].reshape(m, ratio).mean(axis=1)
@@ -148,10 +158,41 @@ def uncertainty_json(res: OeResult) -> dict[str, Any]:
     return out
 
 
+def channel_weights(cond: ConditionedExperiment, init: MotorModel) -> dict[str, float]:
+    """Noise level of each channel for the output-error fit.
+
+    The pre-step samples give a floor; what each channel really departs from a model
+    (tacho ripple, PWM, the quantisation a constant pre-step record cannot show) comes from
+    a first output-error fit of a second-order structure: the maximum-likelihood estimate of
+    a channel's noise variance is its residual variance.
+    """
+    t, outs = _fit_data(cond)
+    sigma = {role: channel_sigma(cond, role) for role in outs}
+    if len(outs) == 1:
+        return sigma
+    structure = (2, 0)
+    taus, dc, zeros = _init_from(init, *structure)
+    try:
+        res = output_error_fit(t, cond.step_volts, outs, sigma, taus, dc, OeSettings(*structure))
+    except IdentificationError:
+        return sigma
+    return {role: max(sigma[role], res.residual_rms[role]) for role in outs}
+
+
 def oe_stage(
-    cond: ConditionedExperiment, init: MotorModel, structure: tuple[int, int], *, delay: bool = False
+    cond: ConditionedExperiment,
+    init: MotorModel,
+    structure: tuple[int, int],
+    *,
+    delay: bool = False,
+    sigma: Mapping[str, float] | None = None,
 ) -> tuple[OeResult, MotorModel]:
     """Output-error fit of one structure, initialised from ``init``.
+
+    Parameters
+    ----------
+    sigma : Mapping, optional
+        Channel noise levels (default: :func:`channel_weights`).
 
     Returns
     -------
@@ -159,24 +200,16 @@ def oe_stage(
         The raw result and the model (velocity, and position/current rows when captured).
     """
     t, outs = _fit_data(cond)
-    sigma = {role: channel_sigma(cond, role) for role in outs}
+    weights = dict(sigma) if sigma is not None else channel_weights(cond, init)
     taus, dc, zeros = _init_from(init, *structure)
     settings = OeSettings(n_poles=structure[0], n_zeros=structure[1], delay=delay)
-    res = output_error_fit(t, cond.step_volts, outs, sigma, taus, dc, settings, init_zeros=zeros)
-    if len(outs) > 1:
-        # maximum likelihood with unknown noise levels: weight each channel by what it really
-        # departs from the model (ripple, PWM, quantisation the pre-step part did not show)
-        sigma = {role: max(sigma[role], res.residual_rms[role]) for role in outs}
-        taus2 = sorted((-1.0 / np.real(p) for p in res.poles), reverse=True)
-        zeros2 = [-1.0 / np.real(z) for z in res.zeros]
-        res = output_error_fit(t, cond.step_volts, outs, sigma, taus2, res.dc_gain, settings,
-                               init_zeros=zeros2 if len(zeros2) == structure[1] else zeros)
+    res = output_error_fit(t, cond.step_volts, outs, weights, taus, dc, settings, init_zeros=zeros)
     return res, _oe_to_model(res, cond, structure)
 
 
 def srivc_stage(cond: ConditionedExperiment, init: MotorModel, structure: tuple[int, int]) -> MotorModel:
     """SRIVC estimate of the velocity TF of one structure, initialised from ``init``."""
-    t, outs = _fit_data(cond)
+    t, outs = _fit_data(cond, max_samples=SRIVC_SAMPLES, from_zero=True)
     if "velocity" not in outs:
         raise IdentificationError("SRIVC needs a velocity capture (--velocity)")
     taus, _, _ = _init_from(init, *structure)
@@ -237,10 +270,11 @@ def select_order(
     """
     fits: list[tuple[float, tuple[int, int], OeResult, MotorModel]] = []
     errors: list[str] = []
+    sigma = channel_weights(cond, init)
     for order in orders:
         for structure in STRUCTURES[order]:
             try:
-                res, model = oe_stage(cond, init, structure)
+                res, model = oe_stage(cond, init, structure, sigma=sigma)
             except IdentificationError as exc:
                 errors.append(f"{structure}: {exc.message}")
                 continue

@@ -118,10 +118,15 @@ def _separate(taus: np.ndarray) -> np.ndarray:
     """Nudge equal time constants apart: partial fractions need distinct poles (the
     response is continuous in τ, so a 1e-6 relative split changes it by ~1e-6)."""
     t = np.array(taus, dtype=float)
+    if t.size < 2:
+        return t
     order = np.argsort(t)
-    for a, b in zip(order[:-1], order[1:]):
-        if abs(t[b] - t[a]) < 1e-6 * t[b]:
-            t[b] = t[a] * (1 + 2e-6)
+    ts = t[order]
+    close = np.diff(ts) < 1e-6 * ts[1:]
+    if np.any(close):
+        for j in np.flatnonzero(close):
+            ts[j + 1] = ts[j] * (1 + 2e-6)
+        t[order] = ts
     return t
 
 
@@ -129,10 +134,9 @@ def _residues(num: np.ndarray, taus: np.ndarray) -> tuple[np.ndarray, np.ndarray
     """Poles p_i, residues of N(s)/(s·D(s)) at p_i, and N(0), for D(s) = Π(1 + τ_i s)."""
     taus = _separate(taus)
     p = -1.0 / taus
-    res = np.empty(taus.size)
-    for i in range(taus.size):
-        others = np.prod([1.0 + taus[k] * p[i] for k in range(taus.size) if k != i])
-        res[i] = np.polyval(num, p[i]) / (p[i] * taus[i] * others)
+    m = 1.0 + np.outer(p, taus)  # m[i, k] = 1 + τ_k p_i
+    np.fill_diagonal(m, 1.0)
+    res = np.polyval(num, p) / (p * taus * np.prod(m, axis=1))
     return p, res, float(np.polyval(num, 0.0))
 
 

@@ -158,8 +158,9 @@ def srivc_fit(time_s: np.ndarray, u: np.ndarray, y: np.ndarray, settings: SrivcS
             converged = True
             break
         theta_old = theta
-    _, x_hat, _ = scipy.signal.lsim((num, den), u, t)
-    sigma2 = float(np.mean((y - x_hat) ** 2))
+    with np.errstate(over="ignore", invalid="ignore"):  # an unstable estimate overflows
+        _, x_hat, _ = scipy.signal.lsim((num, den), u, t)
+        sigma2 = float(np.mean((y - x_hat) ** 2))
     cov = sigma2 * p_mat
     poles = np.roots(den)
     zeros = np.roots(num) if num.size > 1 else np.array([], dtype=complex)
