@@ -52,9 +52,9 @@ class IdentifySettings:
     structure : str
         pinv: ``free`` (all coefficients unknown) or ``known`` (θ̇ row known).
     markov_params : int or None
-        Markov parameters ``Lm`` (paper: 11); ``None`` chooses among 5, 7, 9, 11.
+        Markov parameters ``Lm`` (paper: 11); ``None`` chooses among 5, 7, 11.
     markov_window_s : float or None
-        Markov window ``Tε``; ``None`` chooses among ¼, ½ and 1 dominant time constant.
+        Markov window ``Tε``; ``None`` chooses between ½ and 1 dominant time constant.
         Automatic choices are made by the fit of the resulting model to the whole record.
     """
 
@@ -193,8 +193,8 @@ def _markov(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
     # Markov parameters only converges on windows short against the time constant, and
     # noise grows like k! in the k-th parameter: choose both by the fit of the resulting
     # model to the whole measured step response (unless the user fixed them).
-    params = [s.markov_params] if s.markov_params is not None else [5, 7, 9, 11]
-    windows = [s.markov_window_s] if s.markov_window_s is not None else [f * tau for f in (0.25, 0.5, 1.0)]
+    params = [s.markov_params] if s.markov_params is not None else [5, 7, 11]
+    windows = [s.markov_window_s] if s.markov_window_s is not None else [f * tau for f in (0.5, 1.0)]
     best: tuple[float, MotorModel] | None = None
     errors: list[str] = []
     for n_params in params:

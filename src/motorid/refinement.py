@@ -84,6 +84,24 @@ def _fit_data(
     return t, outs
 
 
+def _shift_bound(cond: ConditionedExperiment) -> float:
+    """How far a capture's time zero can be off: 1.5 recorded samples."""
+    return 1.5 * max(r.sample_interval_s for r in cond.responses.values())
+
+
+def _pre_step(cond: ConditionedExperiment, max_samples: int = MAX_FIT_SAMPLES) -> dict[str, np.ndarray]:
+    """Each channel's samples before its step, block-averaged like the fitted record (so
+    that one noise level weights both)."""
+    ratio = max(1, int(np.ceil(cond.full_time_s.size / max_samples)))
+    out = {}
+    for role in cond.full_outputs:
+        r = cond.responses[role]
+        y = r.output_v[r.time_s < 0]
+        m = y.size // ratio
+        out[role] = y[y.size - m * ratio :].reshape(m, ratio).mean(axis=1) if m else y[:0]
+    return out
+
+
 def _init_from(model: MotorModel, n_poles: int, n_zeros: int) -> tuple[list[float], float, list[float]]:
     """Time constants, DC gain and zero time constants of a model, padded to a structure."""
     fo = model.first_order()
@@ -173,10 +191,13 @@ def channel_weights(cond: ConditionedExperiment, init: MotorModel) -> dict[str, 
     structure = (2, 0)
     taus, dc, zeros = _init_from(init, *structure)
     try:
-        res = output_error_fit(t, cond.step_volts, outs, sigma, taus, dc, OeSettings(*structure))
+        res = output_error_fit(t, cond.step_volts, outs, sigma, taus, dc,
+                               OeSettings(*structure, shift_bound_s=_shift_bound(cond)), pre=_pre_step(cond))
     except IdentificationError:
         return sigma
-    return {role: max(sigma[role], res.residual_rms[role]) for role in outs}
+    # residuals and pre-step samples are both block means: compare like with like
+    floor = {role: float(np.std(v)) if v.size > 4 else 0.0 for role, v in _pre_step(cond).items()}
+    return {role: max(floor.get(role, 0.0), res.residual_rms[role], 1e-9) for role in outs}
 
 
 def oe_stage(
@@ -202,8 +223,9 @@ def oe_stage(
     t, outs = _fit_data(cond)
     weights = dict(sigma) if sigma is not None else channel_weights(cond, init)
     taus, dc, zeros = _init_from(init, *structure)
-    settings = OeSettings(n_poles=structure[0], n_zeros=structure[1], delay=delay)
-    res = output_error_fit(t, cond.step_volts, outs, weights, taus, dc, settings, init_zeros=zeros)
+    settings = OeSettings(n_poles=structure[0], n_zeros=structure[1], delay=delay, shift_bound_s=_shift_bound(cond))
+    res = output_error_fit(t, cond.step_volts, outs, weights, taus, dc, settings, init_zeros=zeros,
+                           pre=_pre_step(cond))
     return res, _oe_to_model(res, cond, structure)
 
 

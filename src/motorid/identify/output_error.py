@@ -47,12 +47,19 @@ class OeSettings:
         Fit a pure delay too.
     max_nfev : int
         Most model evaluations of the optimiser.
+    shifts : bool
+        Fit a time shift of each channel (separately triggered captures are aligned to a
+        sample at best).
+    shift_bound_s : float or None
+        Largest shift; 1.5 samples of the fitted grid when ``None``.
     """
 
     n_poles: int = 2
     n_zeros: int = 0
     delay: bool = False
     max_nfev: int = 200
+    shifts: bool = True
+    shift_bound_s: float | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,7 +69,7 @@ class OeResult:
     Attributes
     ----------
     params, param_names, cov : the raw parameters (``K``, ``log_tau_i``, ``Tz_j``, ``delay``,
-        ``c``, ``p0`` (position offset), ``cur_j``) and their covariance.
+        ``c``, ``cur_j``, ``off_<channel>`` (pre-step levels)) and their covariance.
     velocity_num, velocity_den : ndarray
         Velocity TF, highest power first, ``den[0] == 1``.
     dc_gain, time_constant_s : float
@@ -182,11 +189,18 @@ class _Layout:
         if settings.delay:
             names.append("delay")
         if "position" in channels:
-            # the position's pre-step level is read off a quantised, noise-free record: its
-            # error (up to half an LSB) would shift the ramp and bias τ, so it is fitted
-            names += ["c", "p0"]
+            names.append("c")
         if "current" in channels:
             names += [f"cur_{j}" for j in range(n)]  # current numerator, highest power first
+        # each channel's pre-step level is a nuisance parameter: subtracting the mean of the
+        # pre-step samples instead would add its error to every sample (and, read off a
+        # quantised noise-free record, up to half an LSB that shifts the position ramp)
+        names += [f"off_{c}" for c in channels]
+        # each capture is a separate acquisition whose step edge is known to a sample at
+        # best (an ideal step carries no sub-sample information): a small time shift per
+        # channel is a nuisance parameter too, or it would leak into τ
+        if settings.shifts:
+            names += [f"shift_{c}" for c in channels]
         self.names = tuple(names)
         self.n, self.m = n, m
         self.idx = {nm: i for i, nm in enumerate(names)}
@@ -199,7 +213,8 @@ class _Layout:
             "tz": th[1 + n : 1 + n + m],
             "delay": th[self.idx["delay"]] if "delay" in self.idx else 0.0,
             "c": th[self.idx["c"]] if "c" in self.idx else None,
-            "p0": th[self.idx["p0"]] if "p0" in self.idx else 0.0,
+            "off": {k[4:]: th[i] for k, i in self.idx.items() if k.startswith("off_")},
+            "shift": {k[6:]: th[i] for k, i in self.idx.items() if k.startswith("shift_")},
             "cur": th[self.idx["cur_0"] : self.idx["cur_0"] + n] if "cur_0" in self.idx else None,
         }
         return out
@@ -207,16 +222,19 @@ class _Layout:
 
 def _predict(layout: _Layout, th: np.ndarray, t: np.ndarray, step: float, channels: Sequence[str]) -> dict[str, np.ndarray]:
     q = layout.unpack(th)
-    te = t - q["delay"]
     num = _vel_num(q["K"], q["tz"])
     out = {}
+
+    def te(ch: str) -> np.ndarray:
+        return t - q["delay"] - q["shift"].get(ch, 0.0)
+
     if "velocity" in channels:
-        out["velocity"] = step_response_closed_form(te, num, q["taus"], step)
+        out["velocity"] = step_response_closed_form(te("velocity"), num, q["taus"], step)
     if "position" in channels:
-        out["position"] = q["c"] * position_closed_form(te, num, q["taus"], step) + q["p0"]
+        out["position"] = q["c"] * position_closed_form(te("position"), num, q["taus"], step)
     if "current" in channels:
-        out["current"] = step_response_closed_form(te, q["cur"], q["taus"], step)
-    return out
+        out["current"] = step_response_closed_form(te("current"), q["cur"], q["taus"], step)
+    return {c: y + q["off"].get(c, 0.0) for c, y in out.items()}
 
 
 def _derived(layout: _Layout, th: np.ndarray) -> dict[str, float]:
@@ -243,6 +261,7 @@ def output_error_fit(
     settings: OeSettings = OeSettings(),
     *,
     init_zeros: Sequence[float] = (),
+    pre: Mapping[str, np.ndarray] | None = None,
 ) -> OeResult:
     """Fit the velocity TF (and the position scale, the current numerator) to step responses.
 
@@ -260,6 +279,9 @@ def output_error_fit(
         Starting point (from a paper method).
     settings : OeSettings
         Structure.
+    pre : Mapping[str, ndarray], optional
+        Samples of each channel before the step (same baseline convention): they pin the
+        channel's offset, fitted with everything else.
 
     Returns
     -------
@@ -294,19 +316,27 @@ def output_error_fit(
         # c by least squares given the initial velocity model
         base = position_closed_form(t, _vel_num(init_dc_gain, np.array(tz0)), taus0, step_volts)
         c0 = float(base @ data["position"] / max(base @ base, 1e-300))
-        th0 += [c0 if np.isfinite(c0) and c0 != 0 else 1.0, 0.0]
+        th0.append(c0 if np.isfinite(c0) and c0 != 0 else 1.0)
     if "current" in names:
         # current numerator: linear least squares on the responses of s^j/D(s)
         cols = [step_response_closed_form(t, np.r_[1.0, np.zeros(n - 1 - j)], taus0, step_volts) for j in range(n)]
         a = np.column_stack(cols)
         coef, *_ = np.linalg.lstsq(a, data["current"], rcond=None)
         th0 += list(coef)
+    pre_data = {c: np.asarray(pre[c], dtype=float) for c in names if pre is not None and c in pre and len(pre[c])}
+    th0 += [float(np.mean(pre_data[c])) if c in pre_data else 0.0 for c in names]
+    if settings.shifts:
+        th0 += [0.0] * len(names)
     th0 = np.asarray(th0, dtype=float)
     w = {c: 1.0 / max(float(sigma.get(c, 1.0)), 1e-12) for c in names}
+    off_idx = {c: layout.idx[f"off_{c}"] for c in names}
+    n_total += sum(v.size for v in pre_data.values())
 
     def resid(th: np.ndarray) -> np.ndarray:
         pred = _predict(layout, th, t, step_volts, names)
-        return np.concatenate([(data[c] - pred[c]) * w[c] for c in names])
+        parts = [(data[c] - pred[c]) * w[c] for c in names]
+        parts += [(pre_data[c] - th[off_idx[c]]) * w[c] for c in pre_data]
+        return np.concatenate(parts)
 
     lower = np.full(n_par, -np.inf)
     upper = np.full(n_par, np.inf)
@@ -315,6 +345,13 @@ def output_error_fit(
     if settings.delay:
         lower[layout.idx["delay"]] = 0.0
         upper[layout.idx["delay"]] = 0.2 * float(t[-1])
+    if settings.shifts:
+        bound = settings.shift_bound_s
+        if bound is None:
+            bound = 1.5 * float(np.median(np.diff(t))) if t.size > 1 else 0.0
+        for c in names:
+            lower[layout.idx[f"shift_{c}"]] = -bound
+            upper[layout.idx[f"shift_{c}"]] = bound
     th0 = np.clip(th0, lower + 1e-9, upper - 1e-9)
     warnings: list[str] = []
     with np.errstate(over="ignore", invalid="ignore"):

@@ -1,0 +1,260 @@
+"""State feedback ``u = −K x + kr r`` by pole placement (Tsiolakis 2022, §2).
+
+The gains come from python-control (``place`` for distinct poles, ``acker`` when a pole is
+repeated, which ``place`` refuses with one input); this module adds the ways the report and
+the textbook specify the poles and the checks that turn bad specifications into one-line
+:class:`~motorid.errors.OptionError` messages.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import control
+import numpy as np
+
+from motorid.errors import OptionError
+
+__all__ = [
+    "ControlDesignError",
+    "parse_poles",
+    "check_poles",
+    "check_gains",
+    "check_controllable",
+    "place_gains",
+    "poles_from_damping",
+    "poles_from_specs",
+    "k1_for_damping",
+    "reference_gain",
+]
+
+
+class ControlDesignError(OptionError):
+    """A controller or observer cannot be designed for this model with these settings."""
+
+
+def parse_poles(text: str, option: str = "--poles") -> np.ndarray:
+    """Parse ``"-3+2j,-3-2j"`` (or ``-5,-6``) into a complex array.
+
+    Raises
+    ------
+    OptionError
+        On text that is not a comma-separated list of numbers.
+    """
+    items = [s.strip().replace(" ", "").replace("i", "j") for s in str(text).split(",") if s.strip()]
+    if not items:
+        raise OptionError(f"{option} needs a comma-separated list of poles, e.g. -3+2j,-3-2j")
+    try:
+        return np.array([complex(s) for s in items])
+    except ValueError:
+        raise OptionError(f"{option}: cannot read {text!r} as poles; write them like -3+2j,-3-2j") from None
+
+
+def check_poles(poles: Sequence[complex] | np.ndarray, n: int, what: str = "closed-loop",
+                option: str = "--poles", *, require_stable: bool = False) -> np.ndarray:
+    """Validate a pole set: count, finiteness, conjugate pairs, stability.
+
+    Parameters
+    ----------
+    poles : sequence of complex
+    n : int
+        How many poles are needed (the number of states to place).
+    what : str
+        Named in messages (``closed-loop``, ``observer``).
+    option : str
+        The option the poles came from, named in messages.
+    require_stable : bool
+        Refuse poles with a non-negative real part (observers).
+
+    Returns
+    -------
+    ndarray of complex
+
+    Raises
+    ------
+    OptionError
+        Wrong count, NaN/inf, a complex pole without its conjugate, or an unstable pole when
+        ``require_stable``.
+    """
+    p = np.asarray(poles, dtype=complex).ravel()
+    if p.size != n:
+        raise OptionError(f"{option}: {p.size} {what} poles given, the system needs exactly {n}")
+    if not np.all(np.isfinite(p)):
+        raise OptionError(f"{option}: {what} poles must be finite numbers")
+    scale = max(1.0, float(np.max(np.abs(p))))
+    rest = list(p[np.abs(p.imag) > 1e-9 * scale])
+    while rest:
+        z = rest.pop(0)
+        j = int(np.argmin([abs(w - np.conj(z)) for w in rest])) if rest else -1
+        if j < 0 or abs(rest[j] - np.conj(z)) > 1e-6 * scale:
+            raise OptionError(f"{option}: complex {what} pole {z:.6g} has no conjugate; add {np.conj(z):.6g}")
+        rest.pop(j)
+    if require_stable and np.any(p.real >= 0):
+        bad = p[p.real >= 0][0]
+        raise OptionError(f"{option}: {what} pole {bad:.6g} is not in the left half-plane; "
+                          f"an observer needs poles with negative real parts")
+    return p
+
+
+def check_gains(values: Sequence[float] | np.ndarray, option: str) -> np.ndarray:
+    """Return gains as a float array, or raise OptionError for NaN/inf."""
+    try:
+        g = np.asarray(values, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise OptionError(f"{option}: gains must be numbers") from None
+    if not np.all(np.isfinite(g)):
+        raise OptionError(f"{option}: gains must be finite, got {list(g)}")
+    return g
+
+
+def check_controllable(a: np.ndarray, b: np.ndarray, what: str = "model") -> None:
+    """Raise ControlDesignError when ``(A, B)`` is not controllable.
+
+    The rank of ``ctrb(A, B)`` is taken with an SVD tolerance relative to its largest
+    singular value (python-control's ``ctrb`` builds the matrix; numpy gives the rank).
+
+    References
+    ----------
+    Tsiolakis 2022, eq. 30.
+    """
+    m = np.asarray(control.ctrb(a, b))
+    sv = np.linalg.svd(m, compute_uv=False)
+    rank = int(np.sum(sv > sv[0] * 1e-9)) if sv.size and sv[0] > 0 else 0
+    n = a.shape[0]
+    if rank < n:
+        raise ControlDesignError(
+            f"the {what} is not controllable (rank of [B AB ...] is {rank} < {n} states): "
+            "the input cannot move every state, so its poles cannot all be placed"
+        )
+
+
+def place_gains(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
+    """Gain row ``K`` with ``eig(A − B K) = poles``.
+
+    ``control.place`` (Tits–Yang, robust) for distinct poles; ``control.acker`` when a pole is
+    repeated (critical damping), which ``place`` cannot assign with one input.
+    """
+    p = np.asarray(poles, dtype=complex)
+    scale = max(1.0, float(np.max(np.abs(p))))
+    repeated = any(abs(p[i] - p[j]) < 1e-6 * scale for i in range(p.size) for j in range(i + 1, p.size))
+    k = control.acker(a, b, p) if repeated else control.place(a, b, p)
+    return np.real(np.asarray(k, dtype=float).reshape(1, -1))
+
+
+def poles_from_damping(zeta: float, wn: float, n: int) -> tuple[np.ndarray, list[str]]:
+    """Dominant pair of ``s² + 2ζωn s + ωn²`` plus, for ``n > 2``, fast real poles.
+
+    Returns
+    -------
+    (ndarray, list of str)
+        The poles and warnings (extra poles placed at 5, 6, … × ζωn).
+    """
+    if not (math.isfinite(zeta) and zeta > 0):
+        raise OptionError(f"--damping must be > 0, got {zeta!r}")
+    if not (math.isfinite(wn) and wn > 0):
+        raise OptionError(f"--wn must be > 0, got {wn!r}")
+    if zeta >= 1.0:
+        r = wn * math.sqrt(zeta * zeta - 1.0)
+        pair = [-zeta * wn + r, -zeta * wn - r]
+    else:
+        d = wn * math.sqrt(1.0 - zeta * zeta)
+        pair = [complex(-zeta * wn, d), complex(-zeta * wn, -d)]
+    warnings: list[str] = []
+    extra = [-(5.0 + i) * zeta * wn for i in range(max(0, n - 2))]
+    if extra:
+        warnings.append(f"{n} states: the poles beyond the dominant pair are placed at "
+                        + ", ".join(f"{e:.4g}" for e in extra))
+    return np.array((pair + extra)[:n], dtype=complex), warnings
+
+
+def poles_from_specs(settling_time_s: float, overshoot_pct: float, n: int) -> tuple[np.ndarray, list[str]]:
+    """Dominant pair from a 2 % settling time and a percent overshoot.
+
+    ``ζ = −ln(OS)/√(π² + ln² OS)`` (``ζ = 1`` for no overshoot) and ``ωn = 4/(ζ Ts)``.
+    """
+    if not (math.isfinite(settling_time_s) and settling_time_s > 0):
+        raise OptionError(f"--settling-time must be > 0 s, got {settling_time_s!r}")
+    if not (math.isfinite(overshoot_pct) and 0 <= overshoot_pct < 100):
+        raise OptionError(f"--overshoot must be a percentage in [0, 100), got {overshoot_pct!r}")
+    if overshoot_pct == 0:
+        zeta = 1.0
+    else:
+        lo = math.log(overshoot_pct / 100.0)
+        zeta = -lo / math.sqrt(math.pi ** 2 + lo * lo)
+    return poles_from_damping(zeta, 4.0 / (zeta * settling_time_s), n)
+
+
+def k1_for_damping(a: np.ndarray, b: np.ndarray, k2: float, zeta: float) -> tuple[float, float]:
+    """The report's design: given ``k2`` and ``ζ``, the ``k1`` that gives that damping.
+
+    For two states the closed-loop polynomial ``s² + P1 s + P2`` is affine in ``(k1, k2)``; with
+    ``k2`` fixed, ``P1² = 4ζ² P2`` (eq. 36 for ζ = 1) is solved for ``k1`` (a linear equation
+    for the report's model, where ``P1`` does not depend on ``k1``, eqs. 33–34; a quadratic in
+    general, whose stabilising root is taken).
+
+    Returns
+    -------
+    (float, float)
+        ``k1`` and the resulting ``ωn``.
+
+    Raises
+    ------
+    ControlDesignError
+        For a model that does not have exactly two states, or when no real ``k1`` gives a
+        stable loop with this damping (e.g. ``k2`` below the Routh bound, eq. 46).
+
+    References
+    ----------
+    Tsiolakis 2022, eqs. 32–36.
+    """
+    from motorid.control.routh import affine_char_poly
+
+    if a.shape[0] != 2:
+        raise ControlDesignError(f"--k2 with --damping needs a 2-state model (the report's); this one has "
+                                 f"{a.shape[0]} states: use --poles or --damping with --wn")
+    if not (math.isfinite(zeta) and zeta > 0):
+        raise OptionError(f"--damping must be > 0, got {zeta!r}")
+    if not math.isfinite(k2):
+        raise OptionError(f"--k2 must be finite, got {k2!r}")
+    poly = affine_char_poly(a, b, ("k1", "k2"))
+    # P1 = α1 + β1 k1, P2 = α0 + β0 k1 with k2 fixed
+    al1 = poly.const[0] + poly.coef[0, 1] * k2
+    be1 = poly.coef[0, 0]
+    al0 = poly.const[1] + poly.coef[1, 1] * k2
+    be0 = poly.coef[1, 0]
+    z2 = 4.0 * zeta * zeta
+    # (α1 + β1 k)² − 4ζ²(α0 + β0 k) = 0
+    roots = np.roots([be1 * be1, 2 * al1 * be1 - z2 * be0, al1 * al1 - z2 * al0])
+    good = [float(r.real) for r in np.atleast_1d(roots) if abs(r.imag) < 1e-9 * max(1.0, abs(r))
+            and al1 + be1 * r.real > 0 and al0 + be0 * r.real > 0]
+    if not good:
+        raise ControlDesignError(
+            f"no k1 gives a stable loop with damping {zeta:g} for k2 = {k2:g}; "
+            "raise k2 above the Routh bound printed by 'motorid design'"
+        )
+    k1 = min(good, key=abs)
+    return k1, math.sqrt(al0 + be0 * k1)
+
+
+def reference_gain(a: np.ndarray, b: np.ndarray, c: np.ndarray, k: np.ndarray) -> float:
+    """``kr = −1 / (C (A − B K)⁻¹ B)`` for zero steady-state error to a step.
+
+    Raises
+    ------
+    ControlDesignError
+        When the closed loop has a zero DC gain or a pole at the origin.
+
+    References
+    ----------
+    Tsiolakis 2022, eq. 37 (``kr = k1`` for the report's model, eq. 39).
+    """
+    acl = a - b @ k
+    try:
+        dc = float((c @ np.linalg.solve(acl, b))[0, 0])
+    except np.linalg.LinAlgError:
+        raise ControlDesignError("the closed loop has a pole at s = 0, so no reference gain kr gives "
+                                 "zero steady-state error; move that pole") from None
+    if dc == 0.0 or not math.isfinite(dc):
+        raise ControlDesignError("the closed loop has zero DC gain to the output; kr is undefined")
+    return -1.0 / dc

@@ -1,0 +1,478 @@
+"""Closed-loop simulation of a :class:`~motorid.control.Design` on a model or the virtual trainer.
+
+The loop is sampled: at each instant the controller reads the measured states (or the
+observer's estimate), computes ``u = −K x − ki z + kr r``, clips it to the actuator rails and
+holds it for one interval.  The linear plant is advanced with its exact ZOH discretisation
+(``expm`` of the augmented matrix, once); the trainer's nonlinear plant
+(:func:`motorid.trainer.simulate_plant`) is advanced one interval at a time through its public
+API.  ``ż = y − r`` (report eq. 40) is integrated exactly for a held ``y − r``.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+
+from motorid.control.design import Design, output_row
+from motorid.errors import OptionError
+from motorid.model import MotorModel
+
+__all__ = [
+    "REFERENCE_KINDS",
+    "ReferenceSignal",
+    "SimulationSettings",
+    "ResponseMetrics",
+    "SimulationResult",
+    "reference_values",
+    "response_metrics",
+    "simulate_closed_loop",
+    "plot_simulation",
+]
+
+#: Reference waveforms: a step (report §2.2.1), a sinusoid (§2.2.3) and the trainer's test signals.
+REFERENCE_KINDS: tuple[str, ...] = ("step", "sine", "triangle", "square")
+
+
+@dataclass(frozen=True, slots=True)
+class ReferenceSignal:
+    """The reference ``r(t)`` in output volts.
+
+    Attributes
+    ----------
+    kind : str
+        ``step``: ``initial_v`` before ``start_s``, ``level_v`` after; ``sine``/``triangle``/
+        ``square``: ``level_v + amplitude_v·wave(2π f t)`` (report: ``5 + 2 sin ωt``).
+    level_v, initial_v, amplitude_v, frequency_hz, start_s : float
+    """
+
+    kind: str = "step"
+    level_v: float = 5.0
+    initial_v: float = 0.0
+    amplitude_v: float = 2.0
+    frequency_hz: float = 0.25
+    start_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.kind not in REFERENCE_KINDS:
+            raise OptionError(f"--reference {self.kind!r}: use one of {', '.join(REFERENCE_KINDS)}")
+        for name in ("level_v", "initial_v", "amplitude_v", "frequency_hz", "start_s"):
+            if not math.isfinite(float(getattr(self, name))):
+                raise OptionError(f"reference {name} must be finite")
+        if self.kind != "step" and not self.frequency_hz > 0:
+            raise OptionError(f"--frequency must be > 0 Hz, got {self.frequency_hz!r}")
+
+
+@dataclass(frozen=True, slots=True)
+class SimulationSettings:
+    """Everything about a closed-loop run except the model and the design.
+
+    Attributes
+    ----------
+    duration_s, dt_s : float
+        Record length and control interval.
+    reference : ReferenceSignal
+    saturation_v : float or None
+        Actuator rails ±V (None: none).
+    disturbance_v : float
+        Load as an input-equivalent voltage opposing positive motion (the magnetic brake,
+        report §2.2.2), applied from ``disturbance_start_s``.  On the trainer it becomes the
+        brake torque ``disturbance_v · gain · k_motor / Ra`` (the stall torque of that voltage).
+    disturbance_start_s : float
+    x0 : tuple of float or None
+        Initial plant state (model states; on the trainer only ``position`` and ``velocity``
+        are used).  Default: zero.
+    z0 : float
+        Initial integrator state (report Fig. 8: ``z(0) = −2``).
+    xhat0 : tuple of float or None
+        Initial observer estimate (default: zero).
+    plant : str
+        ``linear`` (the model) or ``trainer``.
+    trainer_preset : str
+        Trainer preset for ``plant='trainer'`` (its noise-free ``quiet()`` variant is used).
+    """
+
+    duration_s: float = 5.0
+    dt_s: float = 1e-3
+    reference: ReferenceSignal = ReferenceSignal()
+    saturation_v: float | None = None
+    disturbance_v: float = 0.0
+    disturbance_start_s: float = 0.0
+    x0: tuple[float, ...] | None = None
+    z0: float = 0.0
+    xhat0: tuple[float, ...] | None = None
+    plant: str = "linear"
+    trainer_preset: str = "lab-report"
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.duration_s) and self.duration_s > 0):
+            raise OptionError(f"--duration must be > 0 s, got {self.duration_s!r}")
+        if not (math.isfinite(self.dt_s) and 0 < self.dt_s <= self.duration_s / 10):
+            raise OptionError(f"--dt must be > 0 and at most a tenth of the duration, got {self.dt_s!r}")
+        if self.duration_s / self.dt_s > 2_000_000:
+            raise OptionError("--duration/--dt asks for more than 2 million steps; raise --dt")
+        if self.saturation_v is not None and not (math.isfinite(self.saturation_v) and self.saturation_v > 0):
+            raise OptionError(f"--saturation must be > 0 V, got {self.saturation_v!r}")
+        for name in ("disturbance_v", "disturbance_start_s", "z0"):
+            if not math.isfinite(float(getattr(self, name))):
+                raise OptionError(f"{name} must be finite")
+        if self.plant not in ("linear", "trainer"):
+            raise OptionError(f"--plant {self.plant!r}: use linear or trainer")
+
+
+@dataclass(frozen=True, slots=True)
+class ResponseMetrics:
+    """Step-response metrics (NaN where undefined, e.g. for a sinusoidal reference).
+
+    Attributes
+    ----------
+    rise_time_s : float
+        10 % → 90 % of the step.
+    settling_time_s : float
+        Last entry into the ±2 % band of the step around the final reference.
+    overshoot_pct : float
+        Peak beyond the final reference, % of the step.
+    steady_state_error_v : float
+        Final reference − mean output over the last 5 % of the record.
+    tracking_rms_v : float
+        RMS of ``r − y`` over the second half of the record.
+    peak_control_v : float
+        Largest ``|u|`` applied.
+    """
+
+    rise_time_s: float
+    settling_time_s: float
+    overshoot_pct: float
+    steady_state_error_v: float
+    tracking_rms_v: float
+    peak_control_v: float
+
+
+@dataclass(frozen=True, slots=True)
+class SimulationResult:
+    """Time series of a closed-loop run.
+
+    Attributes
+    ----------
+    time_s, reference_v, output_v, control_v, control_raw_v : ndarray
+        ``control_v`` is what the actuator applied (after saturation), ``control_raw_v`` what
+        the controller asked for.
+    states : ndarray, shape (N, n)
+        Plant states (measured ones on the trainer).
+    estimates : ndarray or None
+        Observer estimates.
+    integrator : ndarray or None
+        ``z``.
+    state_names : tuple of str
+    output : str
+    metrics : ResponseMetrics
+    warnings : tuple of str
+    """
+
+    time_s: np.ndarray
+    reference_v: np.ndarray
+    output_v: np.ndarray
+    control_v: np.ndarray
+    control_raw_v: np.ndarray
+    states: np.ndarray
+    estimates: np.ndarray | None
+    integrator: np.ndarray | None
+    state_names: tuple[str, ...]
+    output: str
+    metrics: ResponseMetrics
+    warnings: tuple[str, ...] = ()
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """Named columns (``time``, ``reference``, ``output``, ``u``, ``u_raw``, states, ``*_hat``, ``z``)."""
+        cols = {"time": self.time_s, "reference": self.reference_v, "output": self.output_v,
+                "u": self.control_v, "u_raw": self.control_raw_v}
+        for i, name in enumerate(self.state_names):
+            cols[name] = self.states[:, i]
+        if self.estimates is not None:
+            for i, name in enumerate(self.state_names):
+                cols[f"{name}_hat"] = self.estimates[:, i]
+        if self.integrator is not None:
+            cols["z"] = self.integrator
+        return cols
+
+    def to_csv_text(self) -> str:
+        """The time series as CSV with a header row."""
+        cols = self.columns()
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(list(cols))
+        for row in zip(*cols.values()):
+            w.writerow([f"{v:.9g}" for v in row])
+        return buf.getvalue()
+
+    def to_json(self) -> dict[str, Any]:
+        """Metrics, warnings and the time series as a JSON dict (NaN written as null)."""
+        clean = lambda v: None if not math.isfinite(v) else float(v)  # noqa: E731
+        m = self.metrics
+        return {
+            "schema": "motorid.simulation/1",
+            "output": self.output,
+            "metrics": {k: clean(getattr(m, k)) for k in m.__slots__},
+            "warnings": list(self.warnings),
+            "series": {k: [clean(x) for x in v] for k, v in self.columns().items()},
+        }
+
+    def to_json_text(self) -> str:
+        return json.dumps(self.to_json(), indent=1)
+
+
+def reference_values(ref: ReferenceSignal, time_s: np.ndarray) -> np.ndarray:
+    """``r(t)`` at the sample times."""
+    t = np.asarray(time_s, dtype=float)
+    if ref.kind == "step":
+        return np.where(t >= ref.start_s, ref.level_v, ref.initial_v)
+    from motorid.trainer.signals import test_signal
+
+    wave = test_signal(t - ref.start_s, ref.kind, amplitude_v=ref.amplitude_v, frequency_hz=ref.frequency_hz)
+    return ref.level_v + np.where(t >= ref.start_s, wave, 0.0)
+
+
+def response_metrics(time_s: np.ndarray, output_v: np.ndarray, reference_v: np.ndarray,
+                     control_v: np.ndarray, step: bool) -> ResponseMetrics:
+    """Rise/settling time, overshoot, steady-state error, tracking RMS and peak control.
+
+    For a step the change is measured from the output at the step (``y0``) to the final
+    reference ``r_f``; the settling band is ±2 % of ``|r_f − y0|``.
+    """
+    t, y, r = (np.asarray(v, dtype=float) for v in (time_s, output_v, reference_v))
+    n = t.size
+    half = slice(n // 2, None)
+    rms = float(np.sqrt(np.mean((r[half] - y[half]) ** 2)))
+    peak_u = float(np.max(np.abs(control_v)))
+    rf = float(r[-1])
+    ess = float(rf - np.mean(y[-max(1, n // 20):]))
+    nan = float("nan")
+    if not step or not np.all(np.isfinite(y)):
+        return ResponseMetrics(nan, nan, nan, ess if step else nan, rms, peak_u)
+    k0 = int(np.argmax(r == rf)) if np.any(r != r[0]) else 0
+    y0 = float(y[k0])
+    delta = rf - y0
+    if abs(delta) < 1e-12:
+        return ResponseMetrics(nan, nan, nan, ess, rms, peak_u)
+    frac = (y[k0:] - y0) / delta
+    tt = t[k0:]
+    i10 = np.flatnonzero(frac >= 0.1)
+    i90 = np.flatnonzero(frac >= 0.9)
+    rise = float(tt[i90[0]] - tt[i10[0]]) if i10.size and i90.size else nan
+    outside = np.flatnonzero(np.abs(frac - 1.0) > 0.02)
+    if outside.size == 0:
+        settle = 0.0
+    elif outside[-1] + 1 < tt.size:
+        settle = float(tt[outside[-1] + 1] - tt[0])
+    else:
+        settle = nan
+    overshoot = float(max(0.0, np.max(frac) - 1.0) * 100.0)
+    return ResponseMetrics(rise, settle, overshoot, ess, rms, peak_u)
+
+
+def _zoh(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    n, m = b.shape
+    aug = np.zeros((n + m, n + m))
+    aug[:n, :n], aug[:n, n:] = a, b
+    e = scipy.linalg.expm(aug * dt)
+    return e[:n, :n], e[:n, n:]
+
+
+def _vector(values: tuple[float, ...] | None, n: int, option: str) -> np.ndarray:
+    if values is None:
+        return np.zeros(n)
+    v = np.asarray(values, dtype=float).ravel()
+    if v.size != n or not np.all(np.isfinite(v)):
+        raise OptionError(f"{option} needs {n} finite values (one per state), got {list(values)}")
+    return v
+
+
+def simulate_closed_loop(model: MotorModel, design: Design, settings: SimulationSettings) -> SimulationResult:
+    """Run the designed controller in closed loop.
+
+    Parameters
+    ----------
+    model : MotorModel
+        The plant for ``plant='linear'``; the observer's model in every case.
+    design : Design
+        Gains (``K``, ``kr`` or ``ki``, optional ``L``); its states must be the model's.
+    settings : SimulationSettings
+
+    Returns
+    -------
+    SimulationResult
+
+    Raises
+    ------
+    OptionError
+        Mismatched design/model, bad initial conditions, or a trainer run whose controller
+        needs states the trainer does not measure (use an observer).
+
+    References
+    ----------
+    Tsiolakis 2022, §2.2 (step, brake, sinusoid), §3.2 (integral action, z(0)), §4.2 (observer).
+    """
+    s = settings
+    a, b = model.A, model.B
+    n = a.shape[0]
+    if tuple(design.states) != tuple(model.states) or design.K.size != n:
+        raise OptionError(f"the design is for states {list(design.states)}, the model has {list(model.states)}")
+    _, c = output_row(model, design.output)
+    k = design.K.reshape(1, n)
+    ki = design.ki
+    kr = 0.0 if design.kr is None else float(design.kr)
+    use_obs = design.L is not None
+    l_col = None if design.L is None else design.L.reshape(n, 1)
+    steps = int(round(s.duration_s / s.dt_s))
+    t = np.arange(steps + 1) * s.dt_s
+    r = reference_values(s.reference, t)
+    d = np.where(t >= s.disturbance_start_s, -s.disturbance_v, 0.0)
+    x = _vector(s.x0, n, "--x0")
+    xh = _vector(s.xhat0, n, "--xhat0")
+    z = float(s.z0)
+    sat = math.inf if s.saturation_v is None else float(s.saturation_v)
+    warnings: list[str] = []
+
+    phi, gam = _zoh(a, b, s.dt_s)
+    if use_obs:
+        phi_o, gam_o = _zoh(a - l_col @ c, np.hstack([b, l_col]), s.dt_s)
+    trainer = None
+    if s.plant == "trainer":
+        trainer = _TrainerLoop(model, design, s, x, warnings)
+        if not use_obs and any(name not in ("position", "velocity") for name in model.states):
+            raise OptionError("the trainer measures only position and velocity; this model's states "
+                              f"{list(model.states)} need an observer (--observer-poles in the design)")
+
+    xs = np.empty((steps + 1, n))
+    xhs = np.empty((steps + 1, n)) if use_obs else None
+    zs = np.empty(steps + 1) if ki is not None else None
+    ys = np.empty(steps + 1)
+    us = np.empty(steps + 1)
+    uraw = np.empty(steps + 1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        for i in range(steps + 1):
+            meas = trainer.measured() if trainer is not None else x
+            y = float((c @ meas)[0]) if trainer is None else trainer.output(design.output)
+            xs[i], ys[i] = meas, y
+            fb = xh if use_obs else meas
+            u_req = float(-(k @ fb)[0]) + (-ki * z if ki is not None else kr * r[i])
+            u = min(max(u_req, -sat), sat) if math.isfinite(u_req) else u_req
+            us[i], uraw[i] = u, u_req
+            if use_obs:
+                xhs[i] = xh
+            if zs is not None:
+                zs[i] = z
+            if i == steps:
+                break
+            if trainer is not None:
+                trainer.advance(u, t[i])
+            else:
+                x = phi @ x + gam[:, 0] * (u + d[i])
+            if zs is not None:
+                z += s.dt_s * (y - r[i])  # exact: y − r is held over the interval
+            if use_obs:
+                xh = phi_o @ xh + gam_o @ np.array([u, y])
+    if not np.all(np.isfinite(ys)):
+        warnings.append("the response diverged (non-finite values): the closed loop is unstable")
+    if s.saturation_v is not None and np.any(np.abs(uraw) > sat):
+        warnings.append(f"the actuator saturated (|u| reached {np.nanmax(np.abs(uraw)):.3g} V > {sat:g} V)")
+    metrics = response_metrics(t, ys, r, us, s.reference.kind == "step")
+    return SimulationResult(t, r, ys, us, uraw, xs, xhs, zs, tuple(model.states), design.output, metrics,
+                            tuple(warnings))
+
+
+class _TrainerLoop:
+    """The virtual trainer stepped one control interval at a time via ``simulate_plant``.
+
+    Each call restarts the plant from the previous (current, speed, angle); the amplifier's
+    lead/lag state is not carried over (``simulate_plant`` has no argument for it), so presets
+    with a lead/lag get a warning.
+    """
+
+    def __init__(self, model: MotorModel, design: Design, s: SimulationSettings, x0: np.ndarray,
+                 warnings: list[str]) -> None:
+        from motorid.trainer import preset
+
+        self.cfg = preset(s.trainer_preset).quiet()
+        if s.saturation_v is None:
+            self.cfg = self.cfg  # the trainer's own rails still act
+        if self.cfg.amp_lag_s > 0:
+            warnings.append(f"trainer preset {s.trainer_preset!r} has an amplifier lead/lag whose state "
+                            "restarts each control interval in this closed-loop run")
+        self.brake_nm = abs(s.disturbance_v) * self.cfg.amp_gain * self.cfg.k_motor / self.cfg.ra_ohm
+        self.dist_start = s.disturbance_start_s
+        self.dt = s.dt_s
+        self.names = model.states
+        self.pos_per_rad = self.cfg.pot_span_v / (2 * math.pi) * self.cfg.gear_ratio
+        x0d = dict(zip(model.states, x0))
+        self.offset = float(x0d.get("position", 0.0))
+        w0 = float(x0d.get("velocity", 0.0)) / self.cfg.tacho_v_per_rad_s
+        self.state = (0.0, w0, 0.0)
+
+    def measured(self) -> np.ndarray:
+        _, w, ang = self.state
+        vals = {"position": self.offset + self.pos_per_rad * ang, "velocity": self.cfg.tacho_v_per_rad_s * w}
+        return np.array([vals.get(name, 0.0) for name in self.names])
+
+    def output(self, name: str) -> float:
+        _, w, ang = self.state
+        return self.offset + self.pos_per_rad * ang if name == "position" else self.cfg.tacho_v_per_rad_s * w
+
+    def advance(self, u: float, t: float) -> None:
+        from motorid.trainer import simulate_plant
+
+        cfg = self.cfg if t < self.dist_start or self.brake_nm == 0 else replace(self.cfg, brake_nm=self.brake_nm)
+        resp = simulate_plant(cfg, np.array([0.0, self.dt]), np.array([u, u]), initial=self.state)
+        self.state = (float(resp.current_a[1]), float(resp.motor_speed_rad_s[1]), float(resp.motor_angle_rad[1]))
+
+
+def plot_simulation(result: SimulationResult, path: str | Path, title: str = "") -> None:
+    """Write a PNG of output and reference, control input, and true vs estimated states.
+
+    Parameters
+    ----------
+    result : SimulationResult
+    path : str or Path
+        PNG file to write (overwritten; the caller checks ``--force``).
+    title : str
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = result.time_s
+    fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
+    ax = axes[0]
+    ax.plot(t, result.reference_v, "k--", label="reference r")
+    ax.plot(t, result.output_v, label=f"output y ({result.output})")
+    ax.set_ylabel("V")
+    ax.legend(loc="best")
+    ax = axes[1]
+    ax.plot(t, result.control_v, label="u applied")
+    if np.any(result.control_raw_v != result.control_v):
+        ax.plot(t, result.control_raw_v, ":", label="u requested")
+    if result.integrator is not None:
+        ax.plot(t, result.integrator, label="z")
+    ax.set_ylabel("V")
+    ax.legend(loc="best")
+    ax = axes[2]
+    for i, name in enumerate(result.state_names):
+        line, = ax.plot(t, result.states[:, i], label=name)
+        if result.estimates is not None:
+            ax.plot(t, result.estimates[:, i], "--", color=line.get_color(), label=f"{name} estimate")
+    ax.set_ylabel("states (V)")
+    ax.set_xlabel("time (s)")
+    ax.legend(loc="best")
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(str(path), dpi=100)
+    plt.close(fig)
