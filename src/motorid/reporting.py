@@ -51,7 +51,8 @@ def make_report(
     table = None
     if sweep:
         try:
-            table = sensitivity_table(captures, settings=IdentifySettings(method="pinv", order="auto"))
+            order = 2 if "position" in captures else 1  # the paper's reduced state [θ, θ̇]
+            table = sensitivity_table(captures, settings=IdentifySettings(method="pinv", order=order))
         except MotorIdError:
             table = None  # e.g. a record shorter than the paper's lengths: the section says so
     return build_report(ReportInputs(ident, captures, validation or {}, table, design, truth, title))

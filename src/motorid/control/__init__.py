@@ -1,5 +1,6 @@
 """Controller design on a motor model: state feedback, integral action, observer (Tsiolakis 2022)."""
 
+from motorid.control.approx import dominant_second_order
 from motorid.control.design import SCHEMA, Design, DesignSettings, design_controller, output_row
 from motorid.control.feedback import (
     ControlDesignError,
@@ -18,6 +19,7 @@ from motorid.control.params import MotorParams, model_from_params, params_from_s
 from motorid.control.routh import AffinePoly, affine_char_poly, routh_array, routh_conditions, routh_stable
 
 __all__ = [
+    "dominant_second_order",
     "SCHEMA", "Design", "DesignSettings", "design_controller", "output_row",
     "ControlDesignError", "check_controllable", "check_poles", "k1_for_damping", "parse_poles",
     "place_gains", "poles_from_damping", "poles_from_specs", "reference_gain",

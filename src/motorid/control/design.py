@@ -238,6 +238,10 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
     if (s.ki is not None or s.integral_pole is not None) and not s.integral:
         raise OptionError("--ki and --integral-pole need --integral")
     check_controllable(a, b)
+    if s.observer_poles is not None:
+        from motorid.control.observer import check_observable
+
+        check_observable(a, c, out_name)
     warnings: list[str] = []
     k: np.ndarray | None = None
     poles: np.ndarray | None = None

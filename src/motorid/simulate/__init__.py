@@ -1,0 +1,33 @@
+"""Closed-loop prediction: simulation of a design (:mod:`.closed_loop`) and the modes map (:mod:`.modes`)."""
+
+from motorid.simulate.closed_loop import (
+    REFERENCE_KINDS,
+    ReferenceSignal,
+    ResponseMetrics,
+    SimulationResult,
+    SimulationSettings,
+    plot_simulation,
+    reference_values,
+    response_metrics,
+    simulate_closed_loop,
+)
+from motorid.simulate.modes import (
+    MODES,
+    ModeCriteria,
+    ModeMap,
+    ServoPlant,
+    classify_grid,
+    mode_map,
+    modes_json,
+    parse_range,
+    plot_mode_maps,
+    servo_plants,
+    simulate_servo_grid,
+)
+
+__all__ = [
+    "REFERENCE_KINDS", "ReferenceSignal", "ResponseMetrics", "SimulationResult", "SimulationSettings",
+    "plot_simulation", "reference_values", "response_metrics", "simulate_closed_loop",
+    "MODES", "ModeCriteria", "ModeMap", "ServoPlant", "classify_grid", "mode_map", "modes_json",
+    "parse_range", "plot_mode_maps", "servo_plants", "simulate_servo_grid",
+]

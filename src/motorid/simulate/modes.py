@@ -75,8 +75,10 @@ class ModeCriteria:
     overshoot_pct, critical_zeta_max, settle_band, chatter_amplitude, unstable_amplitude,
     sustained_ratio, growth_ratio, min_reversals :
         The thresholds of the criteria.
+    steps_per_time_constant : float
+        RK4 steps per fastest linearised time constant ``1/max|λ|``.
     max_steps : int
-        Cap on RK4 steps (the step is chosen as ``1/max|λ|`` of the linearised loops).
+        Cap on RK4 steps.
     """
 
     step_v: float = 1.0
@@ -85,11 +87,12 @@ class ModeCriteria:
     overshoot_pct: float = 2.0
     critical_zeta_max: float = 1.1
     settle_band: float = 0.02
-    chatter_amplitude: float = 0.05
+    chatter_amplitude: float = 0.1
     unstable_amplitude: float = 0.5
     sustained_ratio: float = 0.7
     growth_ratio: float = 1.2
     min_reversals: int = 4
+    steps_per_time_constant: float = 4.0
     max_steps: int = 20000
 
     def __post_init__(self) -> None:
@@ -104,20 +107,27 @@ class ModeCriteria:
 
 @dataclass(frozen=True, slots=True)
 class ServoPlant:
-    """A position model for the Fig. 4 loop: ``ẋ = A x + B u``, ``θ = cp x``, ``v = cv x``."""
+    """A position model for the Fig. 4 loop: ``ẋ = A x + B u``, ``θ = cp x``, ``v = cv x``.
+
+    ``tau_s`` is the mechanical time constant that sets the default record length (the model's
+    first-order approximation; None: the slowest non-zero open-loop pole).
+    """
 
     name: str
     A: np.ndarray
     B: np.ndarray
     cp: np.ndarray
     cv: np.ndarray
+    tau_s: float | None = None
 
     @property
     def order(self) -> int:
         return self.A.shape[0]
 
     def time_constant_s(self) -> float:
-        """Slowest non-zero open-loop time constant."""
+        """Mechanical time constant (``tau_s``, else the slowest non-zero open-loop pole's)."""
+        if self.tau_s is not None:
+            return float(self.tau_s)
         p = np.linalg.eigvals(self.A)
         mags = np.abs(p.real[np.abs(p) > 1e-9])
         return float(1.0 / mags.min()) if mags.size else 1.0
@@ -205,9 +215,9 @@ def servo_plants(model: MotorModel, extra_pole: float | None = None) -> tuple[Se
     scale = float(np.real(1j * w0 * (cp @ g) / (cv @ g)))
     a2 = np.array([[0.0, scale], [0.0, -1.0 / tau]])
     b2 = np.array([[0.0], [dc / tau]])
-    second = ServoPlant("2nd order", a2, b2, np.array([1.0, 0.0]), np.array([0.0, 1.0]))
+    second = ServoPlant("2nd order", a2, b2, np.array([1.0, 0.0]), np.array([0.0, 1.0]), tau)
     if vorder >= 2:
-        third = ServoPlant(f"{a.shape[0]}-state model", a, b, cp, cv)
+        third = ServoPlant(f"{a.shape[0]}-state model", a, b, cp, cv, tau)
         return second, third
     p = 10.0 / tau if extra_pole is None else float(extra_pole)
     if not (math.isfinite(p) and p > 0):
@@ -219,7 +229,7 @@ def servo_plants(model: MotorModel, extra_pole: float | None = None) -> tuple[Se
     a3[n, n] = -p
     b3 = np.zeros((n + 1, 1))
     b3[n, 0] = p
-    third = ServoPlant(f"3rd order (lag at {p:.3g} rad/s)", a3, b3, np.append(cp, 0.0), np.append(cv, 0.0))
+    third = ServoPlant(f"3rd order (lag at {p:.3g} rad/s)", a3, b3, np.append(cp, 0.0), np.append(cv, 0.0), tau)
     return second, third
 
 
@@ -231,6 +241,7 @@ class _GridStats:
     reversals: np.ndarray
     overshoot: np.ndarray
     final_err: np.ndarray
+    theta: np.ndarray | None = None
 
 
 def _linearised_poles(plant: ServoPlant, kp: np.ndarray, kv: np.ndarray) -> np.ndarray:
@@ -241,13 +252,16 @@ def _linearised_poles(plant: ServoPlant, kp: np.ndarray, kv: np.ndarray) -> np.n
 
 
 def simulate_servo_grid(plant: ServoPlant, kp: np.ndarray, kv: np.ndarray, criteria: ModeCriteria,
-                        poles: np.ndarray | None = None) -> tuple[_GridStats, float, int]:
+                        poles: np.ndarray | None = None, *, record: bool = False) -> tuple[_GridStats, float, int]:
     """Step responses of the saturated loop for every (kp[i], kv[i]) pair, all at once.
 
     Fixed-step classical RK4 on the ``(n, N)`` state array — written by hand because the point is
     to step all N systems together (python-control's ``input_output_response`` simulates one
-    system per call; see ``bench/modes_speed.py``).  The step is ``1/max|λ|`` over the
-    linearised loops (RK4 is stable to ``|λ h| ≈ 2.8``), at least 400 steps per record.
+    system per call; see ``bench/modes_speed.py``).  The step is ``1/(steps_per_time_constant·max|λ|)``
+    over the linearised loops (RK4 is stable to ``|λ h| ≈ 2.8``; the default ``|λ h| = 0.25``
+    keeps the error at the saturation corners, where RK4 drops to low order, near 1 % of the
+    step over a limit cycle), at least 400 steps per record.  ``record=True`` also keeps θ at every step (``stats.theta``,
+    shape (steps + 1, N); for tests and small grids).
 
     Returns
     -------
@@ -259,7 +273,7 @@ def simulate_servo_grid(plant: ServoPlant, kp: np.ndarray, kv: np.ndarray, crite
         poles = _linearised_poles(plant, kp, kv)
     fast = float(np.max(np.abs(poles))) if poles.size else 1.0
     duration = criteria.duration_s or 20.0 * plant.time_constant_s()
-    steps = int(min(criteria.max_steps, max(400, math.ceil(duration * fast))))
+    steps = int(min(criteria.max_steps, max(400, math.ceil(criteria.steps_per_time_constant * duration * fast))))
     steps += (-steps) % 4  # whole quarters
     h = duration / steps
     r = float(criteria.step_v)
@@ -282,6 +296,9 @@ def simulate_servo_grid(plant: ServoPlant, kp: np.ndarray, kv: np.ndarray, crite
     dir_prev = np.zeros(kp.size)
     tiny = 1e-9 * abs(r)
     sign = 1.0 if r >= 0 else -1.0
+    traj = np.empty((steps + 1, kp.size)) if record else None
+    if traj is not None:
+        traj[0] = theta_prev
     with np.errstate(over="ignore", invalid="ignore"):
         for k in range(steps):
             k1 = f(x)
@@ -290,8 +307,9 @@ def simulate_servo_grid(plant: ServoPlant, kp: np.ndarray, kv: np.ndarray, crite
             k4 = f(x + h * k3)
             x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
             theta = cp @ x
+            if traj is not None:
+                traj[k + 1] = theta
             np.maximum(peak, sign * (theta - r), out=peak)
-            quarter = (k + 1) * 4 // (steps + 1) if k + 1 < steps else 3
             quarter = min(3, k // q)
             if quarter >= 2:
                 np.maximum(mx[quarter], theta, out=mx[quarter])
@@ -305,7 +323,7 @@ def simulate_servo_grid(plant: ServoPlant, kp: np.ndarray, kv: np.ndarray, crite
             theta_prev = theta
     finite = np.all(np.isfinite(x), axis=0)
     stats = _GridStats(finite, (mx[2] - mn[2]) / 2, (mx[3] - mn[3]) / 2, reversals, peak / abs(r) * 100.0,
-                       np.abs(cp @ x - r))
+                       np.abs(cp @ x - r), traj)
     return stats, h, steps
 
 

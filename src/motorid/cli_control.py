@@ -1,0 +1,279 @@
+"""Command-line front end of controller design and closed-loop prediction (issue 5).
+
+Thin: parse, call :mod:`motorid.control` / :mod:`motorid.simulate`, print, write files.  User
+mistakes raise :class:`~motorid.errors.MotorIdError` subclasses; ``motorid.cli.main`` turns them
+into one line and exit code 2.  Register everything on the main app with :func:`register`.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Annotated, Optional
+
+import numpy as np
+import typer
+
+from motorid.errors import OptionError, OutputExistsError
+
+__all__ = ["model_app", "model_from_params_cmd", "model_from_step_test_cmd", "design", "simulate", "modes",
+           "register", "load_model"]
+
+model_app = typer.Typer(no_args_is_help=True, help="Build a motor model without identification.")
+
+
+def _writable(path: Optional[Path], force: bool) -> None:
+    if path is not None and path.exists() and not force:
+        raise OutputExistsError(f"{path.name} exists; use --force to overwrite", file=str(path))
+
+
+def _read_json(path: Path, what: str) -> object:
+    from motorid.model import ModelFormatError
+
+    if not path.is_file():
+        raise OptionError(f"{what} file not found", file=str(path))
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ModelFormatError(f"not a JSON {what} ({exc.__class__.__name__}: line "
+                               f"{getattr(exc, 'lineno', '?')})", file=str(path)) from None
+
+
+def load_model(path: Path):  # -> MotorModel
+    """Read a ``motorid.model/1`` JSON file (one-line errors naming the file)."""
+    from motorid.model import MotorModel
+
+    return MotorModel.from_json(_read_json(path, "model"), file=str(path))
+
+
+def _floats(text: Optional[str], option: str) -> Optional[tuple[float, ...]]:
+    if text is None:
+        return None
+    try:
+        vals = tuple(float(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise OptionError(f"{option} must be comma-separated numbers, got {text!r}") from None
+    if not vals or not all(np.isfinite(vals)):
+        raise OptionError(f"{option} must be finite numbers, got {text!r}")
+    return vals
+
+
+def _fmt_pole(p: complex) -> str:
+    if abs(p.imag) < 1e-6 * max(1.0, abs(p)):
+        return f"{p.real:.4g}"
+    return f"{p.real:.4g}{p.imag:+.4g}j"
+
+
+def _print_model(model, out: Optional[Path]) -> None:
+    typer.echo(f"A = {np.array2string(model.A, precision=5)}")
+    typer.echo(f"B = {np.array2string(model.B.ravel(), precision=5)}")
+    typer.echo("states: " + ", ".join(model.states) + " (position volts, tacho volts)")
+    if out is not None:
+        typer.echo(f"model JSON: {out}")
+
+
+@model_app.command("from-params")
+def model_from_params_cmd(
+    km: Annotated[float, typer.Option("--km", help="Motor gain km, rpm/V (report: 249.3).")],
+    kt: Annotated[float, typer.Option("--kT", help="Tacho gain kT, V/rpm (report: 3.61e-3).")],
+    gear: Annotated[str, typer.Option("--gear", help="Reducer ratio kμ, e.g. 1/36.")],
+    k0: Annotated[float, typer.Option("--k0", help="Position gain k0, V/(rpm·s) (report: 0.25).")],
+    tm: Annotated[float, typer.Option("--Tm", help="Mechanical time constant Tm, s (report: 0.55).")],
+    json_out: Annotated[Optional[Path], typer.Option("--json", help="Write the model JSON here.")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
+) -> None:
+    """The lab report's state equations (eqs. 24-29) from physical parameters."""
+    from motorid.control.params import MotorParams, model_from_params, parse_ratio
+
+    _writable(json_out, force)
+    model = model_from_params(MotorParams(km=km, kT=kt, gear=parse_ratio(gear), k0=k0, Tm_s=tm))
+    if json_out is not None:
+        json_out.write_text(model.to_json_text() + "\n", encoding="utf-8")
+    _print_model(model, json_out)
+
+
+@model_app.command("from-step-test")
+def model_from_step_test_cmd(
+    v_tacho_ss: Annotated[float, typer.Option("--v-tacho-ss", help="Steady tacho volts (report: 9).")],
+    u_step: Annotated[float, typer.Option("--u-step", help="Step input volts (report: 10).")],
+    tm: Annotated[float, typer.Option("--Tm", help="Time to 63.2 % of the tacho step, s (report: 0.55).")],
+    delta_theta: Annotated[float, typer.Option("--delta-theta", help="Sawtooth height, V (report: 15).")],
+    delta_t: Annotated[float, typer.Option("--delta-t", help="Sawtooth period, s (report: 0.867).")],
+    gear: Annotated[str, typer.Option("--gear", help="Reducer ratio kμ, e.g. 1/36.")],
+    json_out: Annotated[Optional[Path], typer.Option("--json", help="Write the model JSON here.")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
+) -> None:
+    """The lab report's model from its step-test measurements (eqs. 1-19)."""
+    from motorid.control.params import model_from_params, params_from_step_test, parse_ratio
+
+    _writable(json_out, force)
+    p = params_from_step_test(v_tacho_ss=v_tacho_ss, u_step=u_step, Tm_s=tm, delta_theta_v=delta_theta,
+                              delta_t_s=delta_t, gear=parse_ratio(gear))
+    typer.echo(f"km = {p.km:.4g} rpm/V, kT = {p.kT:.4g} V/rpm, k0 = {p.k0:.4g}, kμ = {p.gear:.4g}, Tm = {p.Tm_s:g} s")
+    model = model_from_params(p)
+    if json_out is not None:
+        json_out.write_text(model.to_json_text() + "\n", encoding="utf-8")
+    _print_model(model, json_out)
+
+
+def design(
+    model_file: Annotated[Path, typer.Argument(help="Model JSON (motorid identify --json or model from-params).")],
+    poles: Annotated[Optional[str], typer.Option("--poles", help="Closed-loop poles, e.g. -3+2j,-3-2j.")] = None,
+    damping: Annotated[Optional[float], typer.Option("--damping", help="Damping ζ (with --k2 or --wn).")] = None,
+    k2: Annotated[Optional[float], typer.Option("--k2", help="Velocity gain k2; k1 follows from ζ (report eqs. 32-36).")] = None,
+    wn: Annotated[Optional[float], typer.Option("--wn", help="Natural frequency ωn, rad/s.")] = None,
+    settling_time: Annotated[Optional[float], typer.Option("--settling-time", help="2 % settling time, s.")] = None,
+    overshoot: Annotated[Optional[float], typer.Option("--overshoot", help="Percent overshoot.")] = None,
+    integral: Annotated[bool, typer.Option("--integral", help="Integral action ż = y − r (report §3).")] = False,
+    ki: Annotated[Optional[float], typer.Option("--ki", help="Given integral gain (Routh-checked).")] = None,
+    integral_pole: Annotated[Optional[float], typer.Option("--integral-pole", help="Extra real pole placed with the integrator.")] = None,
+    observer_poles: Annotated[Optional[str], typer.Option("--observer-poles", help="Observer poles, e.g. -50,-40.")] = None,
+    output: Annotated[Optional[str], typer.Option("--output", help="Measured channel y (default position).")] = None,
+    json_out: Annotated[Optional[Path], typer.Option("--json", help="Write the Design JSON here.")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
+) -> None:
+    """State feedback, integral action and observer design (Tsiolakis 2022, §2-4)."""
+    from motorid.control.design import DesignSettings, design_controller
+    from motorid.control.feedback import parse_poles
+
+    _writable(json_out, force)
+    model = load_model(model_file)
+    settings = DesignSettings(
+        poles=None if poles is None else tuple(parse_poles(poles, "--poles")),
+        damping=damping, k2=k2, wn=wn, settling_time_s=settling_time, overshoot_pct=overshoot,
+        integral=integral, ki=ki, integral_pole=integral_pole,
+        observer_poles=None if observer_poles is None else tuple(parse_poles(observer_poles, "--observer-poles")),
+        output=output,
+    )
+    try:
+        d = design_controller(model, settings)
+    except OptionError as exc:
+        raise exc.with_file(str(model_file)) from None
+    for i, k in enumerate(d.K):
+        typer.echo(f"k{i + 1} = {k:.6g}    ({d.states[i]})")
+    if d.kr is not None:
+        typer.echo(f"kr = {d.kr:.6g}")
+    if d.ki is not None:
+        typer.echo(f"ki = {d.ki:.6g}")
+    typer.echo("closed-loop poles: " + ", ".join(_fmt_pole(p) for p in sorted(d.closed_loop_poles, key=lambda p: (p.real, p.imag))))
+    if d.L is not None:
+        typer.echo("L = [" + ", ".join(f"{v:.6g}" for v in d.L) + "]")
+        typer.echo("observer poles: " + ", ".join(_fmt_pole(p) for p in d.observer_poles))
+        typer.echo("plant + observer + feedback poles (separation): "
+                   + ", ".join(_fmt_pole(p) for p in sorted(d.output_feedback_poles, key=lambda p: (p.real, p.imag))))
+    typer.echo("Routh-Hurwitz: " + "; ".join(d.routh))
+    for w in d.warnings:
+        typer.echo(f"warning: {w}")
+    if json_out is not None:
+        json_out.write_text(d.to_json_text() + "\n", encoding="utf-8")
+        typer.echo(f"design JSON: {json_out}")
+
+
+def simulate(
+    model_file: Annotated[Path, typer.Argument(help="Model JSON.")],
+    design_file: Annotated[Path, typer.Argument(help="Design JSON (motorid design --json).")],
+    reference: Annotated[str, typer.Option(help="step, sine, triangle or square.")] = "step",
+    level: Annotated[float, typer.Option(help="Step level / sinusoid offset, V (report: 5).")] = 5.0,
+    initial_ref: Annotated[float, typer.Option("--initial-ref", help="Reference before --start, V.")] = 0.0,
+    amplitude: Annotated[float, typer.Option(help="Wave amplitude, V (report: 2).")] = 2.0,
+    frequency: Annotated[float, typer.Option(help="Wave frequency, Hz (report: ω = π/2 → 0.25).")] = 0.25,
+    start: Annotated[float, typer.Option(help="Reference start time, s.")] = 0.0,
+    duration: Annotated[float, typer.Option(help="Record length, s.")] = 5.0,
+    dt: Annotated[Optional[float], typer.Option(help="Control interval, s (default 1 ms linear, 2 ms trainer).")] = None,
+    saturation: Annotated[Optional[float], typer.Option(help="Actuator rails ±V.")] = None,
+    disturbance: Annotated[float, typer.Option(help="Load (magnetic brake) as input-equivalent volts.")] = 0.0,
+    disturbance_start: Annotated[float, typer.Option("--disturbance-start", help="Load applied from, s.")] = 0.0,
+    x0: Annotated[Optional[str], typer.Option("--x0", help="Initial state, e.g. 2,0 (report: θ0 = 2 V).")] = None,
+    z0: Annotated[float, typer.Option("--z0", help="Initial integrator state (report Fig. 8: -2).")] = 0.0,
+    xhat0: Annotated[Optional[str], typer.Option("--xhat0", help="Initial observer estimate.")] = None,
+    plant: Annotated[str, typer.Option(help="linear (the model) or trainer (virtual trainer, nonlinear).")] = "linear",
+    preset: Annotated[str, typer.Option(help="Trainer preset for --plant trainer.")] = "lab-report",
+    csv_out: Annotated[Optional[Path], typer.Option("--csv", help="Write the time series as CSV.")] = None,
+    json_out: Annotated[Optional[Path], typer.Option("--json", help="Write metrics and series as JSON.")] = None,
+    png: Annotated[Optional[Path], typer.Option("--png", help="Write a plot.")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
+) -> None:
+    """Closed-loop simulation of a design: metrics, time series and a plot."""
+    from motorid.control.design import Design
+    from motorid.simulate.closed_loop import ReferenceSignal, SimulationSettings, plot_simulation, simulate_closed_loop
+
+    for p in (csv_out, json_out, png):
+        _writable(p, force)
+    model = load_model(model_file)
+    d = Design.from_json(_read_json(design_file, "design"), file=str(design_file))
+    settings = SimulationSettings(
+        duration_s=duration, dt_s=dt if dt is not None else (2e-3 if plant == "trainer" else 1e-3),
+        reference=ReferenceSignal(kind=reference, level_v=level, initial_v=initial_ref, amplitude_v=amplitude,
+                                  frequency_hz=frequency, start_s=start),
+        saturation_v=saturation, disturbance_v=disturbance, disturbance_start_s=disturbance_start,
+        x0=_floats(x0, "--x0"), z0=z0, xhat0=_floats(xhat0, "--xhat0"), plant=plant, trainer_preset=preset,
+    )
+    try:
+        res = simulate_closed_loop(model, d, settings)
+    except OptionError as exc:
+        raise exc.with_file(str(design_file)) from None
+    m = res.metrics
+    typer.echo(f"rise time {m.rise_time_s:.4g} s, settling time {m.settling_time_s:.4g} s, overshoot "
+               f"{m.overshoot_pct:.3g} %, steady-state error {m.steady_state_error_v:.4g} V, "
+               f"tracking RMS {m.tracking_rms_v:.4g} V, peak |u| {m.peak_control_v:.4g} V")
+    for w in res.warnings:
+        typer.echo(f"warning: {w}")
+    if csv_out is not None:
+        csv_out.write_text(res.to_csv_text(), encoding="utf-8")
+        typer.echo(f"time series CSV: {csv_out}")
+    if json_out is not None:
+        json_out.write_text(res.to_json_text() + "\n", encoding="utf-8")
+        typer.echo(f"simulation JSON: {json_out}")
+    if png is not None:
+        plot_simulation(res, png, title=f"{model_file.name} + {design_file.name} ({plant})")
+        typer.echo(f"plot: {png}")
+
+
+def modes(
+    model_file: Annotated[Path, typer.Argument(help="Model JSON.")],
+    kp: Annotated[str, typer.Option("--kp", help="Kp grid START:STOP:COUNT, e.g. 0:200:200.")],
+    kv: Annotated[str, typer.Option("--kv", help="Kv grid START:STOP:COUNT, e.g. 0:10:200.")],
+    step: Annotated[float, typer.Option(help="Reference step, V.")] = 1.0,
+    saturation: Annotated[float, typer.Option(help="Actuator rails ±V.")] = 10.0,
+    duration: Annotated[Optional[float], typer.Option(help="Record length, s (default 20 τm).")] = None,
+    extra_pole: Annotated[Optional[float], typer.Option("--extra-pole", help="Lag pole for the 3rd-order model of a 1st-order-velocity model, rad/s (default 10/τm).")] = None,
+    json_out: Annotated[Optional[Path], typer.Option("--json", help="Write the Modes JSON here.")] = None,
+    png: Annotated[Optional[Path], typer.Option("--png", help="Write the side-by-side map here.")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
+) -> None:
+    """Map the six modes of the saturated position/velocity loop (Masoud 2019, Figs. 4, 11-13)."""
+    from motorid.simulate.modes import MODES, ModeCriteria, mode_map, modes_json, parse_range, plot_mode_maps, servo_plants
+
+    for p in (json_out, png):
+        _writable(p, force)
+    kp_axis, kv_axis = parse_range(kp, "--kp"), parse_range(kv, "--kv")
+    criteria = ModeCriteria(step_v=step, saturation_v=saturation, duration_s=duration)
+    model = load_model(model_file)
+    try:
+        plants = servo_plants(model, extra_pole)
+    except OptionError as exc:
+        raise exc.with_file(str(model_file)) from None
+    maps = []
+    for pl in plants:
+        t0 = time.perf_counter()
+        mm = mode_map(pl, kp_axis, kv_axis, criteria)
+        elapsed = time.perf_counter() - t0
+        maps.append(mm)
+        counts = mm.counts()
+        typer.echo(f"{pl.name}: " + ", ".join(f"{m} {counts[m]}" for m in MODES)
+                   + f"  ({kp_axis.size}×{kv_axis.size} grid, {mm.steps} steps, {elapsed:.2f} s)")
+    if json_out is not None:
+        json_out.write_text(json.dumps(modes_json(tuple(maps), criteria), indent=1) + "\n", encoding="utf-8")
+        typer.echo(f"modes JSON: {json_out}")
+    if png is not None:
+        plot_mode_maps(tuple(maps), png)
+        typer.echo(f"map image: {png}")
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``model from-params``/``from-step-test``, ``design``, ``simulate`` and ``modes`` to ``app``."""
+    app.add_typer(model_app, name="model")
+    app.command()(design)
+    app.command()(simulate)
+    app.command()(modes)
