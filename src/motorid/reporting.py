@@ -55,4 +55,50 @@ def make_report(
             table = sensitivity_table(captures, settings=IdentifySettings(method="pinv", order=order))
         except MotorIdError:
             table = None  # e.g. a record shorter than the paper's lengths: the section says so
-    return build_report(ReportInputs(ident, captures, validation or {}, table, design, truth, title))
+    return build_report(ReportInputs(ident, captures, validation or {}, table, _design_view(ident, design), truth, title))
+
+
+def _design_view(ident: Identification, design: Mapping[str, Any] | None) -> dict[str, Any] | None:
+    """The design JSON plus its closed-loop step response and mode maps on the identified model.
+
+    The closed loop needs the design's state vector in the model; when the identified model
+    has other states (e.g. a companion form), the section shows the gains and says so.
+    """
+    if design is None:
+        return None
+    import tempfile
+
+    import numpy as np
+
+    from motorid.control.design import Design
+    from motorid.simulate.closed_loop import SimulationSettings, simulate_closed_loop
+    from motorid.simulate.modes import ModeCriteria, mode_map, plot_mode_maps, servo_plants
+
+    view: dict[str, Any] = dict(design)
+    model = ident.model
+    des = Design.from_json(design)
+    if tuple(des.states) == tuple(model.states):
+        sim = simulate_closed_loop(model, des, SimulationSettings())
+        cols = sim.columns()
+        view["simulation"] = {
+            "time": cols["time"].tolist(),
+            "series": {"reference": cols["reference"].tolist(), "output": cols["output"].tolist(),
+                       "u (control)": cols["u"].tolist()},
+            "metrics": {k: v for k, v in sim.metrics.__dict__.items()} if hasattr(sim.metrics, "__dict__")
+            else {f: getattr(sim.metrics, f) for f in sim.metrics.__dataclass_fields__},
+        }
+    else:
+        view["note"] = (f"the design's states {list(des.states)} are not the identified model's "
+                        f"{list(model.states)}: identify with --method pinv --order 2 to simulate it here")
+    try:
+        kp = np.linspace(0.5, 60.0, 40)
+        kv = np.linspace(0.0, 8.0, 40)
+        maps = tuple(mode_map(pl, kp, kv, ModeCriteria()) for pl in servo_plants(model))
+        with tempfile.TemporaryDirectory() as tmp:
+            path = f"{tmp}/modes.png"
+            plot_mode_maps(maps, path)
+            with open(path, "rb") as fh:
+                view["modes_png"] = fh.read()
+    except MotorIdError as exc:
+        view["note"] = f"{view.get('note', '')} mode map not drawn: {exc.message}".strip()
+    return view

@@ -69,3 +69,17 @@ def test_validate_bad_model_json_is_one_line(tmp_path, demo, run_cli):
     bad.write_text('{"schema": "other"}')
     res = run_cli("validate", bad, demo / "ALL0003")
     assert res.code == 2 and "m.json" in res.err and len(res.err.strip().splitlines()) == 1
+
+
+def test_identify_report_with_design_shows_closed_loop_and_modes(demo, run_cli, tmp_path):
+    m, d, page = tmp_path / "m.json", tmp_path / "d.json", tmp_path / "r.html"
+    common = ("--velocity", demo / "ALL0001", "--position", demo / "ALL0000", "--method", "pinv", "--order", "2")
+    assert run_cli("identify", *common, "--json", m).code == 0
+    res = run_cli("design", m, "--damping", "1", "--k2", "2", "--json", d)
+    assert res.code == 0, res.err
+    res = run_cli("identify", *common, "--report", page, "--design", d, "--validate", demo / "ALL0003")
+    assert res.code == 0, res.err
+    html = page.read_text(encoding="utf-8")
+    design = html[html.index('<section id="design">'):]
+    assert 'alt="closed loop"' in design and 'alt="mode map"' in design and "settling_time_s" in design
+    assert 'alt="ALL0003"' in html  # the validation overlay

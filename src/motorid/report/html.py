@@ -242,7 +242,8 @@ def build_report(inp: ReportInputs) -> str:
         d = inp.design
         if not d:
             return "<p>no controller design given (<code>--design d.json</code>)</p>"
-        rows = [[k, str(d.get(k))] for k in ("K", "kr", "ki", "L", "closed_loop_poles", "observer_poles") if k in d]
+        rows = [[k, str(d.get(k))] for k in ("K", "kr", "ki", "L", "closed_loop_poles", "observer_poles")
+                if d.get(k) is not None]
         body = _table(["", "value"], rows)
         if d.get("routh"):
             body += "<p>Routh–Hurwitz: " + "; ".join(html.escape(str(x)) for x in d["routh"]) + "</p>"
@@ -252,7 +253,10 @@ def build_report(inp: ReportInputs) -> str:
                                              "closed-loop step response"), "closed loop")
             if sim.get("metrics"):
                 body += _table(["metric", "value"], [[k, v] for k, v in sim["metrics"].items()])
+        if d.get("note"):
+            body += f"<p class=muted>{html.escape(str(d['note']))}</p>"
         if d.get("modes_png"):
+            body += "<p>Modes of the saturated position/velocity loop (paper Fig. 4, 11–13), 2nd- and 3rd-order model:</p>"
             body += _img(d["modes_png"], "mode map")
         return body
 
