@@ -303,6 +303,13 @@ def select_order(
             if not np.isfinite(res.bic) or np.any(np.real(res.poles) >= 0):
                 errors.append(f"{structure}: unstable or failed fit")
                 continue
+            # a pole or zero faster than half a recorded sample is not seen by the data: the
+            # fit parked a superfluous parameter there (and its realisation is ill-conditioned)
+            fastest = 2.0 / min(r.sample_interval_s for r in cond.responses.values())
+            roots = np.r_[res.poles, res.zeros]
+            if roots.size and np.max(np.abs(roots)) > fastest:
+                errors.append(f"{structure}: a pole or zero beyond the sampling rate")
+                continue
             fits.append((res.bic, structure, res, model))
     if not fits:
         raise IdentificationError("the output-error fit failed for every order: " + "; ".join(errors))
