@@ -129,14 +129,16 @@ def demo(
     ident = result.identification
     truth = result.experiment.truth
     t2 = Table(title="identified from the files vs the trainer's linearised truth")
-    for head in ("model", "order", "dc gain (V/V)", "τ (s)", "velocity NRMSE"):
+    for head in ("model", "velocity TF poles", "dc gain (V/V)", "τ (s)", "velocity NRMSE"):
         t2.add_column(head)
     for name, m in ident.candidates.items():
         fo = m.first_order()
         mark = " ← chosen" if name == ident.model.method else ""
-        t2.add_row(f"{name}{mark}", str(m.order), f"{fo.dc_gain:.4f}", f"{fo.time_constant_s:.4f}",
+        t2.add_row(f"{name}{mark}", str(len(m.poles())), f"{fo.dc_gain:.4f}", f"{fo.time_constant_s:.4f}",
                    f"{100 * m.fit['velocity_nrmse']:.2f}%")
-    t2.add_row("truth", str(len(truth.velocity.poles())), f"{truth.dc_gain:.4f}", f"{truth.time_constant_s:.4f}", "—")
+    t2.add_row("truth (linearised)", str(len(truth.velocity.poles())), f"{truth.dc_gain:.4f}", f"{truth.time_constant_s:.4f}", "—")
+    eff = truth.dc_gain * (1 - truth.equivalent_input_offset_v / result.experiment.step_volts)
+    t2.add_row("truth as a step shows it", "", f"{eff:.4f}", "", "dead-zone + friction offset")
     con.print(t2)
     con.print(f"choice: {ident.reason}")
     con.print(f"model JSON: {result.out / 'model.json'}")
