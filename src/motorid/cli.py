@@ -239,7 +239,7 @@ def identify(
     velocity: Annotated[Optional[str], typer.Option(help="Velocity (tachogenerator) capture.")] = None,
     current: Annotated[Optional[str], typer.Option(help="Armature-current capture.")] = None,
     method: Annotated[str, typer.Option(help="auto (paper methods → output-error refinement → order selection → uncertainty), pinv, markov, classic, oe, srivc or paper-auto.")] = "auto",
-    order: Annotated[str, typer.Option(help="auto, 1, 2 or 3 (number of states).")] = "auto",
+    order: Annotated[str, typer.Option(help="auto, 1, 2 or 3: for pinv the number of states ([θ̇], [θ, θ̇], [θ, θ̇, Ia]); for markov, oe and srivc the poles of the velocity TF.")] = "auto",
     ratio: Annotated[Optional[int], typer.Option(help="Sample reduction ratio (overrides --sample-interval).")] = None,
     sample_interval: Annotated[float, typer.Option("--sample-interval", help="Sample interval after reduction, s (paper: 0.1).")] = 0.1,
     record_length: Annotated[Optional[float], typer.Option("--record-length", help="Seconds kept after the step (default: all).")] = None,
