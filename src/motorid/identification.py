@@ -296,7 +296,7 @@ def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: Motor
                        "agree": markov["order"] == sel.structure[0]})
     if settings.method == "auto":
         try:
-            sr = _with_fit(srivc_stage(cond, init, sel.structure), cond)
+            sr = _with_fit(srivc_stage(cond, init, sel.structure, max_samples=500), cond)
             stages.append({"stage": "srivc (second opinion)", **_summary("srivc", sr)})
         except (IdentificationError, OptionError) as exc:
             stages.append({"stage": "srivc (second opinion)", "failed": exc.message})

@@ -229,9 +229,15 @@ def oe_stage(
     return res, _oe_to_model(res, cond, structure)
 
 
-def srivc_stage(cond: ConditionedExperiment, init: MotorModel, structure: tuple[int, int]) -> MotorModel:
-    """SRIVC estimate of the velocity TF of one structure, initialised from ``init``."""
-    t, outs = _fit_data(cond, max_samples=SRIVC_SAMPLES, from_zero=True)
+def srivc_stage(
+    cond: ConditionedExperiment, init: MotorModel, structure: tuple[int, int], *, max_samples: int = SRIVC_SAMPLES
+) -> MotorModel:
+    """SRIVC estimate of the velocity TF of one structure, initialised from ``init``.
+
+    ``max_samples`` bounds the record SRIVC filters (every iteration runs ``lsim`` on it);
+    ``auto`` uses 500 for its second opinion.
+    """
+    t, outs = _fit_data(cond, max_samples=max_samples, from_zero=True)
     if "velocity" not in outs:
         raise IdentificationError("SRIVC needs a velocity capture (--velocity)")
     taus, _, _ = _init_from(init, *structure)
