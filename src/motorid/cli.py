@@ -16,7 +16,8 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from motorid.errors import MotorIdError, OptionError, OutputExistsError
+from motorid.errors import MotorIdError, OptionError
+from motorid.io import check_writable
 from motorid.notation import poly_text
 
 app = typer.Typer(
@@ -163,10 +164,6 @@ def _read_roles(
     }
 
 
-def _writable(path: Optional[Path], force: bool) -> None:
-    if path is not None and path.exists() and not force:
-        raise OutputExistsError(f"{path.name} exists; use --force to overwrite", file=str(path))
-
 
 def _conditioning(ratio, sample_interval, record_length, reduction, sync):
     from motorid.conditioning.pipeline import ConditioningSettings
@@ -264,8 +261,7 @@ def identify(
 
     if order not in ("auto", "1", "2", "3"):
         raise OptionError(f"--order must be auto, 1, 2 or 3, not {order!r}")
-    for path in (json_out, matlab_out, report_out):
-        _writable(path, force)
+    check_writable([json_out, matlab_out, report_out], force=force)
     settings = IdentifySettings(
         method=method,
         order=order if order == "auto" else int(order),
@@ -315,16 +311,10 @@ def validate(
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Drive a model with recorded inputs and report NRMSE / fit % per capture (paper §VI-B)."""
-    from motorid.model import MotorModel
+    from motorid.cli_control import load_model
     from motorid.validation import validate_capture
 
-    try:
-        doc = json.loads(model_json.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise OptionError(f"cannot read the model ({exc.strerror})", file=str(model_json)) from None
-    except ValueError as exc:
-        raise OptionError(f"not JSON ({exc})", file=str(model_json)) from None
-    model = MotorModel.from_json(doc, file=str(model_json))
+    model = load_model(model_json)
     checks = _validation_captures(captures, columns)
     results = [validate_capture(model, cap, channel=channel) for cap in checks.values()]
     failed = [r for r in results if max_nrmse is not None and not r.nrmse <= max_nrmse]
@@ -363,7 +353,7 @@ def report(
     from motorid.identification import IdentifySettings, identify_experiment
     from motorid.reporting import make_report, read_design
 
-    _writable(out, force)
+    check_writable([out], force=force)
     caps = _read_roles(position, velocity, current, columns)
     result = identify_experiment(caps, IdentifySettings(method=method), step_volts=step_volts)
     checks = _validation_captures(validate, columns)
@@ -406,7 +396,7 @@ def sweep(
 
     if order not in ("auto", "1", "2", "3"):
         raise OptionError(f"--order must be auto, 1, 2 or 3, not {order!r}")
-    _writable(json_out, force)
+    check_writable([json_out], force=force)
     lens, ints = _floats(lengths, "--lengths"), _floats(intervals, "--intervals")
     settings = IdentifySettings(
         method=method, order=order if order == "auto" else int(order),

@@ -15,17 +15,14 @@ from typing import Annotated, Optional
 import numpy as np
 import typer
 
-from motorid.errors import OptionError, OutputExistsError
+from motorid.errors import OptionError
+from motorid.io import check_writable
 
 __all__ = ["model_app", "model_from_params_cmd", "model_from_step_test_cmd", "design", "simulate", "modes",
            "register", "load_model"]
 
 model_app = typer.Typer(no_args_is_help=True, help="Build a motor model without identification.")
 
-
-def _writable(path: Optional[Path], force: bool) -> None:
-    if path is not None and path.exists() and not force:
-        raise OutputExistsError(f"{path.name} exists; use --force to overwrite", file=str(path))
 
 
 def _read_json(path: Path, what: str) -> object:
@@ -86,7 +83,7 @@ def model_from_params_cmd(
     """The lab report's state equations (eqs. 24-29) from physical parameters."""
     from motorid.control.params import MotorParams, model_from_params, parse_ratio
 
-    _writable(json_out, force)
+    check_writable([json_out], force=force)
     model = model_from_params(MotorParams(km=km, kT=kt, gear=parse_ratio(gear), k0=k0, Tm_s=tm))
     if json_out is not None:
         json_out.write_text(model.to_json_text() + "\n", encoding="utf-8")
@@ -107,7 +104,7 @@ def model_from_step_test_cmd(
     """The lab report's model from its step-test measurements (eqs. 1-19)."""
     from motorid.control.params import model_from_params, params_from_step_test, parse_ratio
 
-    _writable(json_out, force)
+    check_writable([json_out], force=force)
     p = params_from_step_test(v_tacho_ss=v_tacho_ss, u_step=u_step, Tm_s=tm, delta_theta_v=delta_theta,
                               delta_t_s=delta_t, gear=parse_ratio(gear))
     typer.echo(f"km = {p.km:.4g} rpm/V, kT = {p.kT:.4g} V/rpm, k0 = {p.k0:.4g}, kμ = {p.gear:.4g}, Tm = {p.Tm_s:g} s")
@@ -137,7 +134,7 @@ def design(
     from motorid.control.design import DesignSettings, design_controller
     from motorid.control.feedback import parse_poles
 
-    _writable(json_out, force)
+    check_writable([json_out], force=force)
     model = load_model(model_file)
     settings = DesignSettings(
         poles=None if poles is None else tuple(parse_poles(poles, "--poles")),
@@ -198,8 +195,7 @@ def simulate(
     from motorid.control.design import Design
     from motorid.simulate.closed_loop import ReferenceSignal, SimulationSettings, plot_simulation, simulate_closed_loop
 
-    for p in (csv_out, json_out, png):
-        _writable(p, force)
+    check_writable([csv_out, json_out, png], force=force)
     model = load_model(model_file)
     d = Design.from_json(_read_json(design_file, "design"), file=str(design_file))
     settings = SimulationSettings(
@@ -245,8 +241,7 @@ def modes(
     """Map the six modes of the saturated position/velocity loop (Masoud 2019, Figs. 4, 11-13)."""
     from motorid.simulate.modes import MODES, ModeCriteria, mode_map, modes_json, parse_range, plot_mode_maps, servo_plants
 
-    for p in (json_out, png):
-        _writable(p, force)
+    check_writable([json_out, png], force=force)
     kp_axis, kv_axis = parse_range(kp, "--kp"), parse_range(kv, "--kv")
     criteria = ModeCriteria(step_v=step, saturation_v=saturation, duration_s=duration)
     model = load_model(model_file)

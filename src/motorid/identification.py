@@ -279,7 +279,7 @@ def _summary(name: str, m: MotorModel) -> dict[str, Any]:
 def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: MotorModel, init_name: str,
             stages: list[dict[str, Any]]) -> tuple[MotorModel, str]:
     """Output-error refinement with order selection (``oe`` and ``auto``), SRIVC as a second opinion."""
-    from motorid.refinement import STRUCTURES, select_order, srivc_stage
+    from motorid.refinement import select_order, srivc_stage
 
     orders = (1, 2, 3) if settings.order == "auto" else (int(settings.order),)
     sel = select_order(cond, init, orders)

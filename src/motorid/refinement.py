@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import scipy.signal
 
-from motorid.conditioning.edge import noise_level
+from motorid.conditioning.edge import noise_level, quantisation_step
 from motorid.conditioning.pipeline import ConditionedExperiment
 from motorid.identify.output_error import OeResult, OeSettings, output_error_fit
 from motorid.identify.result import IdentificationError
@@ -56,9 +56,7 @@ def channel_sigma(cond: ConditionedExperiment, role: str) -> float:
     r = cond.responses[role]
     y = r.output_v
     pre = y[r.time_s < 0]
-    d = np.abs(np.diff(y))
-    nz = d[d > 0]
-    quantum = float(nz.min()) if nz.size else 0.0
+    quantum = quantisation_step(y)
     sd = float(np.std(pre)) if pre.size >= 5 else noise_level(y)
     return max(sd, quantum / np.sqrt(12.0), 1e-9)
 

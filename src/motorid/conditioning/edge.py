@@ -16,7 +16,7 @@ import numpy as np
 
 from motorid.errors import StepNotFoundError
 
-__all__ = ["StepEdge", "step_edge", "response_onset", "noise_level"]
+__all__ = ["StepEdge", "step_edge", "response_onset", "noise_level", "quantisation_step"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -68,6 +68,26 @@ def noise_level(y: np.ndarray) -> float:
     if d.size == 0:
         return 0.0
     return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0))
+
+
+def quantisation_step(y: np.ndarray, *, below: float = np.inf) -> float:
+    """Smallest non-zero change between consecutive samples (one code of an 8-bit scope).
+
+    Parameters
+    ----------
+    y : ndarray
+        Samples.
+    below : float
+        Ignore changes at or above this (the step itself, a wrap).
+
+    Returns
+    -------
+    float
+        The quantum, 0 when every sample is equal.
+    """
+    d = np.abs(np.diff(np.asarray(y, dtype=float)))
+    small = d[(d > 0) & (d < below)]
+    return float(small.min()) if small.size else 0.0
 
 
 def _best_split(y: np.ndarray, lo: int, hi: int) -> tuple[int, float]:
@@ -140,9 +160,7 @@ def step_edge(
     level = float(np.mean(u[k:]))
     amp = level - base
     noise = noise_level(u)
-    d = np.abs(np.diff(u))
-    small = d[(d > 0) & (d < 0.25 * abs(amp))]
-    quantum = float(small.min()) if small.size else 0.0
+    quantum = quantisation_step(u, below=0.25 * abs(amp))
     noise_eff = max(noise, quantum / np.sqrt(12.0), 1e-12)
     resid_rms = float(np.sqrt(max(sse, 0.0) / n))
     # a step leaves white residuals at the noise level; a sine, ramp or triangle leaves a

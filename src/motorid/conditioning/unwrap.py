@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import BSpline
 
-from motorid.conditioning.edge import noise_level
+from motorid.conditioning.edge import noise_level, quantisation_step
 from motorid.errors import ConditioningError
 
 __all__ = ["UnwrapResult", "unwrap_position", "count_wraps"]
@@ -136,8 +136,7 @@ def unwrap_position(
     warnings: list[str] = []
     ref = span_v if span_v is not None else rng
     d = np.abs(np.diff(y))
-    nonzero = d[d > 0]
-    quantum = float(nonzero.min()) if nonzero.size else 0.0
+    quantum = quantisation_step(y)
     # a wrap is a change far above the ordinary sample-to-sample motion (noise, one code of
     # the 8-bit quantiser, the motion itself); with glitches a jump is split into several
     # steps of about half the span each, hence 0.3 of the span

@@ -6,6 +6,7 @@ and raises a :class:`~motorid.errors.MotorIdError` subclass naming the file and 
 input.  :func:`read_capture` picks the reader from the file's content.
 """
 
+from motorid.io._common import check_writable
 from motorid.io.detect import detect_format, read_capture
 from motorid.io.plaincsv import read_plain_csv
 from motorid.io.spreadsheet import read_xlsx_capture, write_openchoice_xlsx
@@ -18,6 +19,7 @@ from motorid.io.tektronix import (
 )
 
 __all__ = [
+    "check_writable",
     "read_capture",
     "detect_format",
     "read_tds_channel",

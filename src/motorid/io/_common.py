@@ -238,8 +238,8 @@ def validate_rows(
         raise CaptureDataError(exc.message, file=file, row=int(rows[exc.row])) from None
 
 
-def check_writable(paths: Sequence[Path], *, force: bool) -> None:
-    """Refuse to overwrite existing files unless ``force``.
+def check_writable(paths: Sequence[Path | None], *, force: bool) -> None:
+    """Refuse to overwrite existing files unless ``force`` (``None`` entries: no output asked).
 
     Raises
     ------
@@ -249,7 +249,7 @@ def check_writable(paths: Sequence[Path], *, force: bool) -> None:
     if force:
         return
     for p in paths:
-        if p.exists():
+        if p is not None and p.exists():
             raise OutputExistsError("already exists; use --force (force=True) to overwrite it", file=str(p))
 
 
