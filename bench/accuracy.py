@@ -51,6 +51,23 @@ def first_order_of(num, den) -> tuple[float, float]:
     return dc, tau
 
 
+def visible_tau(tf, dt: float) -> float:
+    """Dominant time constant by moments (``Σ1/p − Σ1/z``) of the poles and zeros slower than
+    half a sample, ``|p| < 2/dt``.
+
+    Faster ones (the first-order preset's 0.5 ms electrical pole) are not seen by 4 ms
+    samples: they act as a lag of ``1/p`` that a fitted model puts in a delay or a capture
+    shift, not in τ.  For the second- and third-order presets every pole is slower: this is
+    the moments τ of the whole truth.
+    """
+    num = np.atleast_1d(np.squeeze(tf.num[0][0])).astype(float)
+    den = np.atleast_1d(np.squeeze(tf.den[0][0])).astype(float)
+    poles = [p for p in np.roots(den) if abs(p) < 2.0 / dt]
+    zeros = [z for z in np.roots(num) if abs(z) < 2.0 / dt] if num.size > 1 else []
+    tau = np.sum(-1.0 / np.array(poles)) - (np.sum(-1.0 / np.array(zeros)) if zeros else 0.0)
+    return float(np.real(tau))
+
+
 def experiment(name: str, case: str, seed: int, sigma: float):
     if case == "white":
         cfg = replace(preset(name).ideal(), noise_v=sigma)
@@ -139,25 +156,27 @@ def one_run(args):
         # dead-zone and Coulomb friction cost a fixed part of the step: the gain a step
         # response can show is the linear gain times (1 - offset/step)
         dc_true *= 1.0 - exp.truth.equivalent_input_offset_v / exp.step_volts
-    return name, case, seed, dc_true, exp.truth.time_constant_s, out
+    return name, case, seed, dc_true, visible_tau(exp.truth.velocity, cond_fine.responses["velocity"].sample_interval_s), out
 
 
-def crlb(name: str, sigma: float) -> tuple[float, float]:
-    """Cramér–Rao bound of DC gain and τ for the white case.
+def crlb(name: str, cond, sigma: float) -> tuple[float, float]:
+    """Cramér–Rao bound of DC gain and τ for the white case, for one run's captures.
 
-    The experiment as the estimator sees it: velocity, position and current after the step
-    (4 ms, ~8.5 s) plus ~1.5 s of pre-step samples, every channel's pre-step level unknown
-    (a nuisance parameter), white noise ``sigma``; the true model in the output-error
-    parameterisation (gain, time constants, zeros, position scale, current numerator,
-    offsets).  Poles faster than half a sample are folded into the dominant time constant
-    (no estimator can see them; the first-order preset then has no current channel, whose
-    instantaneous jump one pole cannot represent).
+    The experiment as the estimator sees it: every sample of each capture after its step
+    (each capture's own grid and length) and its pre-step samples, every channel's pre-step
+    level and each capture's sub-sample timing unknown (nuisance parameters), white noise
+    ``sigma``, the step level read off each capture's noisy input channel; the true model in the output-error parameterisation (gain, time constants,
+    zeros, position scale, current numerator, offsets, shifts).  Poles faster than half a
+    sample are left out (no estimator can see them: they act as a lag the capture shifts
+    take up, see :func:`visible_tau`); the current then jumps at the step: its numerator
+    gets a direct term (the reduced model ``(Js + b)/(R(Js + b) + K²)`` of a negligible
+    inductance), and, as in the estimator, no shift and no sample at the jump.
     """
     from motorid.identify.output_error import OeSettings, _Layout, _predict
     from motorid.trainer import truth_of
 
     tr = truth_of(replace(preset(name).ideal(), noise_v=sigma))
-    dt = 0.004
+    dt = min(r.sample_interval_s for r in cond.responses.values())
 
     def poly(tf):
         return (np.atleast_1d(np.squeeze(tf.num[0][0])).astype(float),
@@ -168,32 +187,44 @@ def crlb(name: str, sigma: float) -> tuple[float, float]:
     zs = [-1.0 / np.real(z) for z in np.roots(vnum)] if vnum.size > 1 else []
     fast = [x for x in taus if x < dt / 2]
     taus = [x for x in taus if x >= dt / 2]
-    taus[0] += sum(fast)
     k = float(vnum[-1] / vden[-1])
     pnum, pden = poly(tr.position)
     c = float(pnum[-1] / pden[-2]) / k
-    channels = ["velocity", "position"] + (["current"] if not fast else [])
-    settings = OeSettings(n_poles=len(taus), n_zeros=len(zs))  # shifts on, as the estimator
+    channels = [ch for ch in ("velocity", "position", "current") if ch in cond.responses]
+    # shifts on, as the estimator; a direct current term only where the reduced truth has one
+    settings = OeSettings(n_poles=len(taus), n_zeros=len(zs), current_direct=bool(fast))
     layout = _Layout(settings, channels)
     theta = [k] + list(np.log(taus)) + list(zs) + [c]
     if "current" in channels:
         cnum, cden = poly(tr.current)
-        scale = cden[-1]
-        cur = np.r_[np.zeros(len(taus) - cnum.size), cnum / scale]
+        # I(s) = cnum/cden over Π(1 + τ_i s) (cden monic, cden(0) = Π p_i): numerator
+        # cnum/cden(0); with a fast pole 1/(1 + τ_f s) dropped the same numerator is biproper
+        cur = cnum / cden[-1]
+        cur = np.r_[np.zeros(layout.n_current - cur.size), cur]
         theta += list(cur)
     theta += [0.0] * len(channels)  # offsets
-    theta += [0.0] * len(channels)  # time shifts of the separately triggered captures
+    theta += [0.0] * len(layout.shifted)  # time shifts of the separately triggered captures
+    n_model = len(theta)
+    # the step level is measured too: each capture's CH1 holds it (with its own baseline) in
+    # the same white noise; the level and the input baselines are nuisance parameters
+    theta += [cond.step_volts] + [0.0] * len(channels)
     theta = np.asarray(theta, dtype=float)
-    t = np.arange(0.0, 8.5, dt)
-    n_pre = int(1.5 / dt)
+    grids = {ch: cond.responses[ch].time_s[cond.responses[ch].time_s >= 0] for ch in channels}
+    if "current" in grids:  # as the estimator: the sample at the edge is left out
+        grids["current"] = grids["current"][1:]
+    n_pre = {ch: int(np.sum(cond.responses[ch].time_s < 0)) for ch in channels}
 
     def pred(th):
-        out = _predict(layout, th, t, 5.92, channels)
-        q = layout.unpack(th)
-        return np.concatenate([out[ch] for ch in channels] + [np.full(n_pre, q["off"][ch]) for ch in channels])
+        step, u_base = th[n_model], th[n_model + 1 :]
+        out = _predict(layout, th[:n_model], grids, step, channels)
+        q = layout.unpack(th[:n_model])
+        parts = [out[ch] for ch in channels] + [np.full(n_pre[ch], q["off"][ch]) for ch in channels]
+        for i, ch in enumerate(channels):
+            parts += [np.full(n_pre[ch], u_base[i]), np.full(grids[ch].size, u_base[i] + step)]
+        return np.concatenate(parts)
 
     h = 1e-6 * np.maximum(np.abs(theta), 1e-3)
-    h[-len(channels):] = 1e-7  # shifts are seconds around 0
+    h[n_model - len(layout.shifted) : n_model] = 1e-7  # shifts are seconds around 0
     jac = np.column_stack([(pred(theta + e) - pred(theta - e)) / (2 * hh) for e, hh in zip(np.diag(h), h)])
     cov = np.linalg.pinv(jac.T @ jac) * sigma**2
     n = len(taus)

@@ -26,6 +26,7 @@ from motorid.model import MotorModel
 __all__ = [
     "STRUCTURES",
     "channel_sigma",
+    "step_level_std",
     "oe_stage",
     "srivc_stage",
     "OrderSelection",
@@ -40,10 +41,11 @@ STRUCTURES: Mapping[int, tuple[tuple[int, int], ...]] = {
     3: ((3, 1), (3, 0)),
 }
 
-#: Longest record handed to the nonlinear fit: longer ones are block-averaged (anti-aliased,
-#: no delay) down to this many samples; the information lost is negligible for a servo whose
-#: time constants span many samples, and the fit time stays bounded.
-MAX_FIT_SAMPLES = 1000
+#: Longest record (per capture) handed to the nonlinear fit: longer ones are fitted as block
+#: means (the model averaged the same way) down to this many samples, so the fit time stays
+#: bounded.  A TDS1000/2000 record (2500 points) is fitted sample by sample: block means
+#: would hide a misfit of the first samples after the step, where a fast pole shows.
+MAX_FIT_SAMPLES = 2500
 
 
 def channel_sigma(cond: ConditionedExperiment, role: str) -> float:
@@ -59,6 +61,25 @@ def channel_sigma(cond: ConditionedExperiment, role: str) -> float:
     quantum = quantisation_step(y)
     sd = float(np.std(pre)) if pre.size >= 5 else noise_level(y)
     return max(sd, quantum / np.sqrt(12.0), 1e-9)
+
+
+def step_level_std(cond: ConditionedExperiment) -> float:
+    """Standard error of the experiment's step level.
+
+    Each capture's step is the mean of its input channel after the edge minus the mean
+    before it (noise ``σ_u``, at least ``LSB/√12``): variance ``σ_u²(1/n_before + 1/n_after)``;
+    the level is the mean over the captures.  A step given by the user (no input channel)
+    counts as exact.
+    """
+    var = []
+    for r in cond.responses.values():
+        u, before = r.input_v, r.time_s < 0
+        if before.sum() < 2 or (~before).sum() < 2:
+            continue
+        quantum = quantisation_step(u, below=0.5 * abs(r.step_volts))
+        sd = max(float(np.std(u[before])), quantum / np.sqrt(12.0))
+        var.append(sd**2 * (1.0 / before.sum() + 1.0 / (~before).sum()))
+    return float(np.sqrt(np.sum(var)) / len(var)) if var else 0.0
 
 
 #: SRIVC filters the data several times per iteration with ``lsim``: fewer samples suffice.
@@ -87,17 +108,31 @@ def _shift_bound(cond: ConditionedExperiment) -> float:
     return 1.5 * max(r.sample_interval_s for r in cond.responses.values())
 
 
-def _pre_step(cond: ConditionedExperiment, max_samples: int = MAX_FIT_SAMPLES) -> dict[str, np.ndarray]:
-    """Each channel's samples before its step, block-averaged like the fitted record (so
-    that one noise level weights both)."""
-    ratio = max(1, int(np.ceil(cond.full_time_s.size / max_samples)))
-    out = {}
+@dataclass(frozen=True, slots=True)
+class _ChannelData:
+    """What the output-error fit sees of each capture: its own grid from its step (every
+    sample it recorded after the step, not only the part common to all captures), its
+    pre-step samples, and the block length that keeps the fitted record at most
+    :data:`MAX_FIT_SAMPLES` long."""
+
+    time_s: dict[str, np.ndarray]
+    outputs: dict[str, np.ndarray]
+    pre: dict[str, np.ndarray]
+    block: dict[str, int]
+
+
+def _channel_data(cond: ConditionedExperiment, max_samples: int = MAX_FIT_SAMPLES) -> _ChannelData:
+    length = cond.settings.record_length_s
+    times, outs, pre, block = {}, {}, {}, {}
     for role in cond.full_outputs:
         r = cond.responses[role]
-        y = r.output_v[r.time_s < 0]
-        m = y.size // ratio
-        out[role] = y[y.size - m * ratio :].reshape(m, ratio).mean(axis=1) if m else y[:0]
-    return out
+        after = r.time_s >= -1e-9 * r.sample_interval_s
+        if length is not None:
+            after &= r.time_s <= length + 0.5 * r.sample_interval_s
+        times[role], outs[role] = r.time_s[after], r.output_v[after]
+        pre[role] = r.output_v[r.time_s < 0]
+        block[role] = max(1, int(np.ceil(times[role].size / max_samples)))
+    return _ChannelData(times, outs, pre, block)
 
 
 def _init_from(model: MotorModel, n_poles: int, n_zeros: int) -> tuple[list[float], float, list[float]]:
@@ -182,19 +217,25 @@ def channel_weights(cond: ConditionedExperiment, init: MotorModel) -> dict[str, 
     a first output-error fit of a second-order structure: the maximum-likelihood estimate of
     a channel's noise variance is its residual variance.
     """
-    t, outs = _fit_data(cond)
+    data = _channel_data(cond)
+    outs = data.outputs
     sigma = {role: channel_sigma(cond, role) for role in outs}
     if len(outs) == 1:
         return sigma
     structure = (2, 0)
     taus, dc, zeros = _init_from(init, *structure)
     try:
-        res = output_error_fit(t, cond.step_volts, outs, sigma, taus, dc,
-                               OeSettings(*structure, shift_bound_s=_shift_bound(cond)), pre=_pre_step(cond))
+        res = output_error_fit(data.time_s, cond.step_volts, outs, sigma, taus, dc,
+                               OeSettings(*structure, shift_bound_s=_shift_bound(cond)), pre=data.pre,
+                               block=data.block)
     except IdentificationError:
         return sigma
     # residuals and pre-step samples are both block means: compare like with like
-    floor = {role: float(np.std(v)) if v.size > 4 else 0.0 for role, v in _pre_step(cond).items()}
+    floor = {}
+    for role, v in data.pre.items():
+        m = v.size // data.block[role]
+        means = v[v.size - m * data.block[role] :].reshape(m, -1).mean(axis=1) if m else v[:0]
+        floor[role] = float(np.std(means)) if means.size > 4 else 0.0
     return {role: max(floor.get(role, 0.0), res.residual_rms[role], 1e-9) for role in outs}
 
 
@@ -218,12 +259,12 @@ def oe_stage(
     (OeResult, MotorModel)
         The raw result and the model (velocity, and position/current rows when captured).
     """
-    t, outs = _fit_data(cond)
+    data = _channel_data(cond)
     weights = dict(sigma) if sigma is not None else channel_weights(cond, init)
     taus, dc, zeros = _init_from(init, *structure)
     settings = OeSettings(n_poles=structure[0], n_zeros=structure[1], delay=delay, shift_bound_s=_shift_bound(cond))
-    res = output_error_fit(t, cond.step_volts, outs, weights, taus, dc, settings, init_zeros=zeros,
-                           pre=_pre_step(cond))
+    res = output_error_fit(data.time_s, cond.step_volts, data.outputs, weights, taus, dc, settings,
+                           init_zeros=zeros, pre=data.pre, step_std=step_level_std(cond), block=data.block)
     return res, _oe_to_model(res, cond, structure)
 
 

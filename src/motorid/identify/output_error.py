@@ -52,6 +52,13 @@ class OeSettings:
         sample at best).
     shift_bound_s : float or None
         Largest shift; 1.5 samples of the fitted grid when ``None``.
+    current_direct : bool or None
+        Let the current jump at the step (a biproper current TF, ``n_poles + 1`` numerator
+        coefficients): what a model that leaves out an electrical pole faster than the
+        sampling must do, since the current then follows the voltage at once
+        (``I/U = (Js + b)/(R(Js + b) + K²)``).  ``None``: only for a one-pole model (with more
+        poles the electrical one is in the model and the current is strictly proper; a jump
+        would also make the fit discontinuous in the capture's time shift).
     """
 
     n_poles: int = 2
@@ -60,6 +67,7 @@ class OeSettings:
     max_nfev: int = 200
     shifts: bool = True
     shift_bound_s: float | None = None
+    current_direct: bool | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -173,6 +181,16 @@ def position_closed_form(time_s: np.ndarray, num: Sequence[float], taus: Sequenc
     return np.where(t >= 0, step_volts * y, 0.0)
 
 
+def _block_mean(x: np.ndarray, ratio: int, *, from_end: bool = False) -> np.ndarray:
+    """Means of consecutive blocks of ``ratio`` samples (a partial block is dropped: at the
+    start of ``x`` when ``from_end``)."""
+    if ratio == 1:
+        return x
+    m = x.size // ratio
+    x = x[x.size - m * ratio :] if from_end else x[: m * ratio]
+    return x.reshape(m, ratio).mean(axis=1)
+
+
 def _vel_num(k: float, tz: np.ndarray) -> np.ndarray:
     num = np.array([k])
     for z in tz:
@@ -190,8 +208,13 @@ class _Layout:
             names.append("delay")
         if "position" in channels:
             names.append("c")
+        direct = settings.current_direct if settings.current_direct is not None else n == 1
+        self.n_current = n + 1 if direct else n
+        #: a current that jumps at the step carries no timing information (its sample at
+        #: the edge is left out of every fit): no shift for it
+        self.current_jumps = direct and "current" in channels
         if "current" in channels:
-            names += [f"cur_{j}" for j in range(n)]  # current numerator, highest power first
+            names += [f"cur_{j}" for j in range(self.n_current)]  # current numerator, highest power first
         # each channel's pre-step level is a nuisance parameter: subtracting the mean of the
         # pre-step samples instead would add its error to every sample (and, read off a
         # quantised noise-free record, up to half an LSB that shifts the position ramp)
@@ -199,8 +222,8 @@ class _Layout:
         # each capture is a separate acquisition whose step edge is known to a sample at
         # best (an ideal step carries no sub-sample information): a small time shift per
         # channel is a nuisance parameter too, or it would leak into τ
-        if settings.shifts:
-            names += [f"shift_{c}" for c in channels]
+        self.shifted = [c for c in channels if settings.shifts and not (c == "current" and self.current_jumps)]
+        names += [f"shift_{c}" for c in self.shifted]
         self.names = tuple(names)
         self.n, self.m = n, m
         self.idx = {nm: i for i, nm in enumerate(names)}
@@ -215,18 +238,21 @@ class _Layout:
             "c": th[self.idx["c"]] if "c" in self.idx else None,
             "off": {k[4:]: th[i] for k, i in self.idx.items() if k.startswith("off_")},
             "shift": {k[6:]: th[i] for k, i in self.idx.items() if k.startswith("shift_")},
-            "cur": th[self.idx["cur_0"] : self.idx["cur_0"] + n] if "cur_0" in self.idx else None,
+            "cur": th[self.idx["cur_0"] : self.idx["cur_0"] + self.n_current] if "cur_0" in self.idx else None,
         }
         return out
 
 
-def _predict(layout: _Layout, th: np.ndarray, t: np.ndarray, step: float, channels: Sequence[str]) -> dict[str, np.ndarray]:
+def _predict(
+    layout: _Layout, th: np.ndarray, t: np.ndarray | Mapping[str, np.ndarray], step: float, channels: Sequence[str]
+) -> dict[str, np.ndarray]:
     q = layout.unpack(th)
     num = _vel_num(q["K"], q["tz"])
     out = {}
 
     def te(ch: str) -> np.ndarray:
-        return t - q["delay"] - q["shift"].get(ch, 0.0)
+        grid = t[ch] if isinstance(t, Mapping) else t
+        return grid - q["delay"] - q["shift"].get(ch, 0.0)
 
     if "velocity" in channels:
         out["velocity"] = step_response_closed_form(te("velocity"), num, q["taus"], step)
@@ -252,7 +278,7 @@ def _derived(layout: _Layout, th: np.ndarray) -> dict[str, float]:
 
 
 def output_error_fit(
-    time_s: np.ndarray,
+    time_s: np.ndarray | Mapping[str, np.ndarray],
     step_volts: float,
     channels: Mapping[str, np.ndarray],
     sigma: Mapping[str, float],
@@ -262,13 +288,16 @@ def output_error_fit(
     *,
     init_zeros: Sequence[float] = (),
     pre: Mapping[str, np.ndarray] | None = None,
+    step_std: float = 0.0,
+    block: Mapping[str, int] | None = None,
 ) -> OeResult:
     """Fit the velocity TF (and the position scale, the current numerator) to step responses.
 
     Parameters
     ----------
-    time_s : ndarray
-        Common time grid from the step (t ≥ 0).
+    time_s : ndarray or Mapping[str, ndarray]
+        Time from the step (t ≥ 0): one grid for every channel, or each channel's own (so
+        that every capture contributes all the samples it recorded after its step).
     step_volts : float
         Step level.
     channels : Mapping[str, ndarray]
@@ -282,6 +311,13 @@ def output_error_fit(
     pre : Mapping[str, ndarray], optional
         Samples of each channel before the step (same baseline convention): they pin the
         channel's offset, fitted with everything else.
+    step_std : float
+        Standard error of ``step_volts`` (it is measured on the noisy input channel): every
+        gain scales with ``1/step``, so ``(K·step_std/step)²`` adds to the DC gain's variance.
+    block : Mapping[str, int], optional
+        Fit block means of this many consecutive samples of a channel (and of its pre-step
+        samples) instead of every sample: the model is evaluated on every recorded time and
+        averaged the same way, so the averaging is exact even where the response jumps.
 
     Returns
     -------
@@ -298,13 +334,26 @@ def output_error_fit(
     names = [c for c in ("velocity", "position", "current") if c in channels]
     if "velocity" not in names and "position" not in names:
         raise IdentificationError("the output-error fit needs a velocity or a position capture")
-    t = np.asarray(time_s, dtype=float)
-    data = {c: np.asarray(channels[c], dtype=float) for c in names}
+    tc = {c: np.asarray(time_s[c] if isinstance(time_s, Mapping) else time_s, dtype=float) for c in names}
+    raw = {c: np.asarray(channels[c], dtype=float) for c in names}
+    for c in names:
+        if tc[c].shape != raw[c].shape:
+            raise IdentificationError(f"{c}: {raw[c].size} samples on a grid of {tc[c].size} times")
     layout = _Layout(settings, names)
+    if "current" in names:
+        # the current's sample at the edge sees it mid-jump when the electrical pole is faster
+        # than the sampling (how far depends on where the step fell between samples): leave it
+        # out — for every structure, so that their fits (and BIC) see the same data
+        first = tc["current"] > 0.5 * float(np.median(np.diff(tc["current"])))
+        tc["current"], raw["current"] = tc["current"][first], raw["current"][first]
+    ratio = {c: max(1, int((block or {}).get(c, 1))) for c in names}
+    tc = {c: tc[c][: tc[c].size // ratio[c] * ratio[c]] for c in names}
+    data = {c: _block_mean(raw[c], ratio[c]) for c in names}
     n_par = len(layout.names)
-    n_total = t.size * len(names)
-    if t.size <= n_par + 2:
-        raise IdentificationError(f"only {t.size} samples for {n_par} parameters: record more after the step")
+    n_total = sum(v.size for v in data.values())
+    shortest = min(v.size for v in data.values())
+    if shortest <= n_par + 2:
+        raise IdentificationError(f"only {shortest} samples for {n_par} parameters: record more after the step")
     taus0 = list(init_taus)[:n]
     while len(taus0) < n:
         taus0.append((taus0[-1] if taus0 else 0.3) / 8.0)
@@ -314,27 +363,29 @@ def output_error_fit(
         th0.append(0.0)
     if "position" in names:
         # c by least squares given the initial velocity model
-        base = position_closed_form(t, _vel_num(init_dc_gain, np.array(tz0)), taus0, step_volts)
-        c0 = float(base @ data["position"] / max(base @ base, 1e-300))
+        base = position_closed_form(tc["position"], _vel_num(init_dc_gain, np.array(tz0)), taus0, step_volts)
+        c0 = float(base @ raw["position"][: base.size] / max(base @ base, 1e-300))
         th0.append(c0 if np.isfinite(c0) and c0 != 0 else 1.0)
     if "current" in names:
         # current numerator: linear least squares on the responses of s^j/D(s)
-        cols = [step_response_closed_form(t, np.r_[1.0, np.zeros(n - 1 - j)], taus0, step_volts) for j in range(n)]
+        nc = layout.n_current
+        cols = [step_response_closed_form(tc["current"], np.r_[1.0, np.zeros(nc - 1 - j)], taus0, step_volts)
+                for j in range(nc)]
         a = np.column_stack(cols)
-        coef, *_ = np.linalg.lstsq(a, data["current"], rcond=None)
+        coef, *_ = np.linalg.lstsq(a, raw["current"][: a.shape[0]], rcond=None)
         th0 += list(coef)
-    pre_data = {c: np.asarray(pre[c], dtype=float) for c in names if pre is not None and c in pre and len(pre[c])}
+    pre_data = {c: _block_mean(np.asarray(pre[c], dtype=float), ratio[c], from_end=True)
+                for c in names if pre is not None and c in pre and len(pre[c]) >= ratio[c]}
     th0 += [float(np.mean(pre_data[c])) if c in pre_data else 0.0 for c in names]
-    if settings.shifts:
-        th0 += [0.0] * len(names)
+    th0 += [0.0] * len(layout.shifted)
     th0 = np.asarray(th0, dtype=float)
     w = {c: 1.0 / max(float(sigma.get(c, 1.0)), 1e-12) for c in names}
     off_idx = {c: layout.idx[f"off_{c}"] for c in names}
     n_total += sum(v.size for v in pre_data.values())
 
     def resid(th: np.ndarray) -> np.ndarray:
-        pred = _predict(layout, th, t, step_volts, names)
-        parts = [(data[c] - pred[c]) * w[c] for c in names]
+        pred = _predict(layout, th, tc, step_volts, names)
+        parts = [(data[c] - _block_mean(pred[c], ratio[c])) * w[c] for c in names]
         parts += [(pre_data[c] - th[off_idx[c]]) * w[c] for c in pre_data]
         return np.concatenate(parts)
 
@@ -344,12 +395,12 @@ def output_error_fit(
     upper[1 : 1 + n] = np.log(1e3)
     if settings.delay:
         lower[layout.idx["delay"]] = 0.0
-        upper[layout.idx["delay"]] = 0.2 * float(t[-1])
+        upper[layout.idx["delay"]] = 0.2 * max(float(v[-1]) for v in tc.values())
     if settings.shifts:
         bound = settings.shift_bound_s
         if bound is None:
-            bound = 1.5 * float(np.median(np.diff(t))) if t.size > 1 else 0.0
-        for c in names:
+            bound = 1.5 * max(float(np.median(np.diff(v))) for v in tc.values())
+        for c in layout.shifted:
             lower[layout.idx[f"shift_{c}"]] = -bound
             upper[layout.idx[f"shift_{c}"]] = bound
     th0 = np.clip(th0, lower + 1e-9, upper - 1e-9)
@@ -383,6 +434,8 @@ def output_error_fit(
         dp, dm = _derived(layout, tp), _derived(layout, tm)
         grads[:, i] = [(dp.get(k, d0[k]) - dm.get(k, d0[k])) / (2 * h) for k in keys]
     var = np.einsum("ij,jk,ik->i", grads, cov, grads)
+    # the step level is measured, not known: its error scales the fitted gain
+    var[keys.index("dc_gain")] += (d0["dc_gain"] * step_std / step_volts) ** 2
     std = {k: float(np.sqrt(max(v, 0.0))) for k, v in zip(keys, var)}
     ci = {k: (d0[k] - 1.96 * std[k], d0[k] + 1.96 * std[k]) for k in keys}
     q = layout.unpack(th)
@@ -391,7 +444,7 @@ def output_error_fit(
     for tau in q["taus"]:
         den = np.polymul(den, [tau, 1.0])
     lead = den[0]
-    pred = _predict(layout, th, t, step_volts, names)
+    pred = {c: _block_mean(v, ratio[c]) for c, v in _predict(layout, th, tc, step_volts, names).items()}
     return OeResult(
         params=th, param_names=layout.names, cov=cov,
         velocity_num=num / lead, velocity_den=den / lead,
