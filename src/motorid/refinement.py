@@ -10,7 +10,7 @@ user guess is needed.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -18,7 +18,13 @@ import scipy.signal
 
 from motorid.conditioning.edge import noise_level, quantisation_step
 from motorid.conditioning.pipeline import ConditionedExperiment
-from motorid.identify.output_error import OeResult, OeSettings, output_error_fit
+from motorid.identify.output_error import (
+    OeResult,
+    OeSettings,
+    ar_noise_model,
+    output_error_fit,
+    position_scale_fit,
+)
 from motorid.identify.result import IdentificationError
 from motorid.identify.srivc import SrivcSettings, srivc_fit
 from motorid.model import MotorModel
@@ -26,6 +32,8 @@ from motorid.model import MotorModel
 __all__ = [
     "STRUCTURES",
     "channel_sigma",
+    "NoiseModel",
+    "noise_model",
     "step_level_std",
     "oe_stage",
     "srivc_stage",
@@ -113,26 +121,33 @@ class _ChannelData:
     """What the output-error fit sees of each capture: its own grid from its step (every
     sample it recorded after the step, not only the part common to all captures), its
     pre-step samples, and the block length that keeps the fitted record at most
-    :data:`MAX_FIT_SAMPLES` long."""
+    :data:`MAX_FIT_SAMPLES` long; for an unwrapped position, the turns added to each
+    sample (samples interpolated over wrap glitches are left out)."""
 
     time_s: dict[str, np.ndarray]
     outputs: dict[str, np.ndarray]
     pre: dict[str, np.ndarray]
     block: dict[str, int]
+    wrap_count: dict[str, np.ndarray]
 
 
 def _channel_data(cond: ConditionedExperiment, max_samples: int = MAX_FIT_SAMPLES) -> _ChannelData:
     length = cond.settings.record_length_s
-    times, outs, pre, block = {}, {}, {}, {}
+    times, outs, pre, block, wraps = {}, {}, {}, {}, {}
     for role in cond.full_outputs:
         r = cond.responses[role]
-        after = r.time_s >= -1e-9 * r.sample_interval_s
+        good = np.ones(r.time_s.size, dtype=bool)
+        if r.glitches is not None:
+            good[r.glitches] = False
+        after = good & (r.time_s >= -1e-9 * r.sample_interval_s)
         if length is not None:
             after &= r.time_s <= length + 0.5 * r.sample_interval_s
         times[role], outs[role] = r.time_s[after], r.output_v[after]
-        pre[role] = r.output_v[r.time_s < 0]
+        pre[role] = r.output_v[good & (r.time_s < 0)]
         block[role] = max(1, int(np.ceil(times[role].size / max_samples)))
-    return _ChannelData(times, outs, pre, block)
+        if r.wrap_count is not None:
+            wraps[role] = r.wrap_count[after]
+    return _ChannelData(times, outs, pre, block, wraps)
 
 
 def _init_from(model: MotorModel, n_poles: int, n_zeros: int) -> tuple[list[float], float, list[float]]:
@@ -153,7 +168,9 @@ def _init_from(model: MotorModel, n_poles: int, n_zeros: int) -> tuple[list[floa
     return taus, float(dc), zeros[:n_zeros]
 
 
-def _oe_to_model(res: OeResult, cond: ConditionedExperiment, structure: tuple[int, int]) -> MotorModel:
+def _oe_to_model(
+    res: OeResult, cond: ConditionedExperiment, structure: tuple[int, int], noise: NoiseModel | None = None
+) -> MotorModel:
     num, den = np.asarray(res.velocity_num, float), np.asarray(res.velocity_den, float)
     a, b, c, d = scipy.signal.tf2ss(num, den)
     n = a.shape[0]
@@ -187,7 +204,8 @@ def _oe_to_model(res: OeResult, cond: ConditionedExperiment, structure: tuple[in
         sample_interval_s=float(cond.full_time_s[1] - cond.full_time_s[0]),
         warnings=tuple(res.warnings),
         uncertainty=uncertainty_json(res),
-        extras={"bic": res.bic, "aic": res.aic, "sigma": dict(res.sigma), "delay_s": res.delay_s},
+        extras={"bic": res.bic, "aic": res.aic, "sigma": dict(res.sigma), "delay_s": res.delay_s,
+                **({"noise": noise.to_json()} if noise is not None else {})},
     )
 
 
@@ -209,34 +227,98 @@ def uncertainty_json(res: OeResult) -> dict[str, Any]:
     return out
 
 
-def channel_weights(cond: ConditionedExperiment, init: MotorModel) -> dict[str, float]:
-    """Noise level of each channel for the output-error fit.
+@dataclass(frozen=True, slots=True)
+class NoiseModel:
+    """What the output-error fit assumes about each channel's noise.
 
-    The pre-step samples give a floor; what each channel really departs from a model
-    (tacho ripple, PWM, the quantisation a constant pre-step record cannot show) comes from
-    a first output-error fit of a second-order structure: the maximum-likelihood estimate of
-    a channel's noise variance is its residual variance.
+    Attributes
+    ----------
+    sigma : dict[str, float]
+        Innovation standard deviation of the (whitened) post-step residuals.
+    whiten : dict[str, ndarray]
+        AR whitening polynomial ``[1, a_1, …, a_p]`` (``[1.0]``: white noise).
+    pre_sigma : dict[str, float]
+        Standard deviation of the pre-step samples (motor at rest).
+    scale_only : tuple of str
+        Channels fitted for their scale only, not for the dynamics (an undithered
+        quantised position, see :func:`noise_model`).
+    """
+
+    sigma: dict[str, float]
+    whiten: dict[str, np.ndarray]
+    pre_sigma: dict[str, float]
+    scale_only: tuple[str, ...] = ()
+
+    @property
+    def ar_order(self) -> dict[str, int]:
+        """AR order of each channel's noise model."""
+        return {k: len(v) - 1 for k, v in self.whiten.items()}
+
+    def to_json(self) -> dict[str, Any]:
+        """Per channel: innovation std, AR order, pre-step std and how it is used."""
+        return {role: {"sigma": self.sigma[role], "ar_order": self.ar_order.get(role, 0),
+                       "pre_step_sigma": self.pre_sigma.get(role),
+                       "use": "scale only" if role in self.scale_only else "dynamics"}
+                for role in self.sigma}
+
+
+def _code_step(r: Any) -> float:
+    """Smallest code step of a capture (its 8-bit quantum), away from wraps and glitches
+    (an unwrapped or interpolated sample is no longer on the code grid)."""
+    d = np.abs(np.diff(r.output_v))
+    ok = np.ones(d.size, dtype=bool)
+    if r.wrap_count is not None:
+        ok &= np.diff(r.wrap_count) == 0
+    if r.glitches is not None:
+        bad = np.asarray(r.glitches, dtype=int)
+        ok[np.clip(np.r_[bad, bad - 1], 0, d.size - 1)] = False
+    small = d[ok & (d > 1e-12 * max(float(np.max(np.abs(r.output_v))), 1e-300))]
+    return float(small.min()) if small.size else 0.0
+
+
+def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
+    """Noise model of each channel for the output-error fit.
+
+    The pre-step samples (motor at rest) give each channel's level before the step, with
+    the quantisation ``LSB/√12`` as a floor.  After the step the noise is coloured (tacho
+    ripple at the commutation frequency, aliased PWM, quantisation that follows the
+    signal): the residuals of a first output-error fit of a second-order structure get an
+    autoregressive model (order by BIC), whose polynomial whitens the residuals of every
+    later fit and whose innovation variance weights them — generalised least squares, so
+    that ripple neither biases the weights nor makes the intervals too narrow.
     """
     data = _channel_data(cond)
-    outs = data.outputs
-    sigma = {role: channel_sigma(cond, role) for role in outs}
-    if len(outs) == 1:
-        return sigma
+    pre_sigma = {}
+    for role, v in data.pre.items():
+        r = data.block[role]
+        m = v.size // r
+        means = v[v.size - m * r :].reshape(m, r).mean(axis=1) if m else v[:0]
+        quantum = quantisation_step(cond.responses[role].output_v) / np.sqrt(12.0 * r)
+        pre_sigma[role] = max(float(np.std(means)) if means.size > 4 else 0.0, quantum, 1e-9)
+    sigma = {role: channel_sigma(cond, role) for role in data.outputs}
+    white = {role: np.array([1.0]) for role in data.outputs}
     structure = (2, 0)
     taus, dc, zeros = _init_from(init, *structure)
     try:
-        res = output_error_fit(data.time_s, cond.step_volts, outs, sigma, taus, dc,
+        res = output_error_fit(data.time_s, cond.step_volts, data.outputs, sigma, taus, dc,
                                OeSettings(*structure, shift_bound_s=_shift_bound(cond)), pre=data.pre,
-                               block=data.block)
+                               block=data.block, wrap_count=data.wrap_count)
     except IdentificationError:
-        return sigma
-    # residuals and pre-step samples are both block means: compare like with like
-    floor = {}
-    for role, v in data.pre.items():
-        m = v.size // data.block[role]
-        means = v[v.size - m * data.block[role] :].reshape(m, -1).mean(axis=1) if m else v[:0]
-        floor[role] = float(np.std(means)) if means.size > 4 else 0.0
-    return {role: max(floor.get(role, 0.0), res.residual_rms[role], 1e-9) for role in outs}
+        return NoiseModel(sigma, white, pre_sigma)
+    for role, e in res.residuals.items():
+        white[role], sd = ar_noise_model(e)
+        sigma[role] = max(sd, 1e-9)
+    # an 8-bit position whose noise is well under a code does not average its quantisation
+    # out: the error follows the motion (a slow sawtooth while the shaft speeds up, where
+    # the time constants show) and would pull them as if it were signal.  With a velocity
+    # capture to carry the dynamics, such a position is fitted for its scale only.
+    scale_only: tuple[str, ...] = ()
+    if "position" in res.residuals and "velocity" in res.residuals:
+        quantum = _code_step(cond.responses["position"])
+        spread = res.residual_rms["position"] * np.sqrt(data.block["position"])
+        if quantum > 0 and spread < 0.5 * quantum:
+            scale_only = ("position",)
+    return NoiseModel(sigma, white, pre_sigma, scale_only)
 
 
 def oe_stage(
@@ -245,14 +327,14 @@ def oe_stage(
     structure: tuple[int, int],
     *,
     delay: bool = False,
-    sigma: Mapping[str, float] | None = None,
+    noise: NoiseModel | None = None,
 ) -> tuple[OeResult, MotorModel]:
     """Output-error fit of one structure, initialised from ``init``.
 
     Parameters
     ----------
-    sigma : Mapping, optional
-        Channel noise levels (default: :func:`channel_weights`).
+    noise : NoiseModel, optional
+        Channel noise models (default: :func:`noise_model`).
 
     Returns
     -------
@@ -260,12 +342,18 @@ def oe_stage(
         The raw result and the model (velocity, and position/current rows when captured).
     """
     data = _channel_data(cond)
-    weights = dict(sigma) if sigma is not None else channel_weights(cond, init)
+    noise = noise if noise is not None else noise_model(cond, init)
     taus, dc, zeros = _init_from(init, *structure)
     settings = OeSettings(n_poles=structure[0], n_zeros=structure[1], delay=delay, shift_bound_s=_shift_bound(cond))
-    res = output_error_fit(data.time_s, cond.step_volts, data.outputs, weights, taus, dc, settings,
-                           init_zeros=zeros, pre=data.pre, step_std=step_level_std(cond), block=data.block)
-    return res, _oe_to_model(res, cond, structure)
+    fitted = {role: y for role, y in data.outputs.items() if role not in noise.scale_only}
+    res = output_error_fit(data.time_s, cond.step_volts, fitted, noise.sigma, taus, dc, settings,
+                           init_zeros=zeros, pre=data.pre, step_std=step_level_std(cond), block=data.block,
+                           whiten=noise.whiten, pre_sigma=noise.pre_sigma, wrap_count=data.wrap_count)
+    if "position" in noise.scale_only:
+        c = position_scale_fit(res, data.time_s["position"], data.outputs["position"], cond.step_volts,
+                               pre=data.pre["position"], wrap_count=data.wrap_count.get("position"))
+        res = replace(res, position_scale=c)
+    return res, _oe_to_model(res, cond, structure, noise)
 
 
 def srivc_stage(
@@ -337,11 +425,11 @@ def select_order(
     """
     fits: list[tuple[float, tuple[int, int], OeResult, MotorModel]] = []
     errors: list[str] = []
-    sigma = channel_weights(cond, init)
+    noise = noise_model(cond, init)
     for order in orders:
         for structure in STRUCTURES[order]:
             try:
-                res, model = oe_stage(cond, init, structure, sigma=sigma)
+                res, model = oe_stage(cond, init, structure, noise=noise)
             except IdentificationError as exc:
                 errors.append(f"{structure}: {exc.message}")
                 continue

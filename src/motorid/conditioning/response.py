@@ -39,6 +39,10 @@ class StepResponse:
         Encoder wraps removed (position only).
     warnings : tuple of str
         What the user should know.
+    wrap_count : ndarray of int or None
+        Position: turns added to each sample by the unwrapping (``None`` without wraps).
+    glitches : ndarray of int or None
+        Position: indices of samples interpolated over wrap glitches.
     """
 
     source: str
@@ -50,6 +54,8 @@ class StepResponse:
     edge: StepEdge
     wraps: int
     warnings: tuple[str, ...]
+    wrap_count: np.ndarray | None = None
+    glitches: np.ndarray | None = None
 
     @property
     def sample_interval_s(self) -> float:
@@ -95,10 +101,13 @@ def step_response(
     warnings: list[str] = list(capture.warnings)
     y = capture.output_v
     wraps = 0
+    wrap_count = glitches = None
     if role == "position":
         unwrapped = unwrap_position(y, span_v=encoder_span_v, file=capture.source)
         y = unwrapped.position_v
         wraps = unwrapped.wraps
+        wrap_count = unwrapped.wrap_count
+        glitches = unwrapped.glitch_indices if unwrapped.glitch_indices.size else None
         warnings.extend(unwrapped.warnings)
     t = capture.time_s
     if capture.input_v is not None:
@@ -134,4 +143,6 @@ def step_response(
         edge=edge,
         wraps=wraps,
         warnings=tuple(warnings),
+        wrap_count=wrap_count,
+        glitches=glitches,
     )

@@ -42,6 +42,10 @@ class UnwrapResult:
         Samples replaced by interpolation (inside jumps, or isolated spikes).
     warnings : tuple of str
         Ambiguous jumps and the like.
+    wrap_count : ndarray of int or None
+        Turns added to each sample (``position_v = y + span_v·wrap_count`` outside glitches):
+        a span a little off leaves a step of ``wrap_count × error`` that a model fit can take
+        up as a nuisance parameter.  ``None`` when nothing was unwrapped.
     """
 
     position_v: np.ndarray
@@ -50,6 +54,7 @@ class UnwrapResult:
     jump_indices: np.ndarray
     glitch_indices: np.ndarray
     warnings: tuple[str, ...]
+    wrap_count: np.ndarray | None = None
 
 
 def _events(y: np.ndarray, threshold: float, max_glitch: int) -> list[tuple[int, int]]:
@@ -212,7 +217,7 @@ def unwrap_position(
     if len(glitch_idx) > max_glitch * max(1, len(events)):
         warnings.append(f"{len(glitch_idx)} glitch samples interpolated")
     jump_idx = np.array([b for (a, b), c in zip(events, counts) if c != 0], dtype=int)
-    return UnwrapResult(out, wraps, span, jump_idx, glitch_idx, tuple(warnings))
+    return UnwrapResult(out, wraps, span, jump_idx, glitch_idx, tuple(warnings), w.astype(int) if wraps else None)
 
 
 def count_wraps(y: np.ndarray, **kwargs: object) -> int:

@@ -20,7 +20,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import scipy.linalg
 import scipy.optimize
+import scipy.signal
 
 from motorid.identify.result import IdentificationError
 
@@ -30,6 +32,8 @@ __all__ = [
     "output_error_fit",
     "step_response_closed_form",
     "position_closed_form",
+    "ar_noise_model",
+    "position_scale_fit",
 ]
 
 
@@ -102,6 +106,9 @@ class OeResult:
         ``N ln(RSS_w/N) + p ln N`` and ``N ln(RSS_w/N) + 2p``.
     settings : OeSettings
     warnings : tuple of str
+    residuals : dict[str, ndarray]
+        Per channel: measured minus fitted (block means when the record was averaged),
+        before any whitening.
     """
 
     params: np.ndarray
@@ -127,6 +134,7 @@ class OeResult:
     aic: float
     settings: OeSettings
     warnings: tuple[str, ...] = field(default=())
+    residuals: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def _separate(taus: np.ndarray) -> np.ndarray:
@@ -191,6 +199,44 @@ def _block_mean(x: np.ndarray, ratio: int, *, from_end: bool = False) -> np.ndar
     return x.reshape(m, ratio).mean(axis=1)
 
 
+def ar_noise_model(residual: np.ndarray, max_order: int = 12) -> tuple[np.ndarray, float]:
+    """Autoregressive model of a residual series, order by BIC (Yule–Walker).
+
+    Parameters
+    ----------
+    residual : ndarray
+        Residuals of a preliminary fit (one channel).
+    max_order : int
+        Highest order tried.
+
+    Returns
+    -------
+    (ndarray, float)
+        The whitening polynomial ``[1, a_1, …, a_p]`` (``e_k + Σ a_i e_{k−i}`` is white) and
+        the innovation standard deviation.  Order 0 (``[1.0]``) for white residuals.
+
+    Notes
+    -----
+    A few lines of Levinson–Durbin (``scipy.linalg.solve_toeplitz``) instead of an
+    econometrics dependency: only the polynomial and its innovation variance are needed.
+    """
+    x = np.asarray(residual, dtype=float)
+    x = x - x.mean()
+    n = x.size
+    top = int(min(max_order, max(0, n // 10)))
+    acov = np.array([x[: n - k] @ x[k:] / n for k in range(top + 1)])
+    best = (n * np.log(max(acov[0], 1e-300)), np.array([1.0]), float(acov[0]))
+    for p in range(1, top + 1):
+        phi = scipy.linalg.solve_toeplitz(acov[:p], acov[1 : p + 1])
+        var = float(acov[0] - phi @ acov[1 : p + 1])
+        if not np.isfinite(var) or var <= 0:
+            break
+        bic = n * np.log(var) + p * np.log(n)
+        if bic < best[0]:
+            best = (bic, np.r_[1.0, -phi], var)
+    return best[1], float(np.sqrt(best[2]))
+
+
 def _vel_num(k: float, tz: np.ndarray) -> np.ndarray:
     num = np.array([k])
     for z in tz:
@@ -201,7 +247,7 @@ def _vel_num(k: float, tz: np.ndarray) -> np.ndarray:
 class _Layout:
     """Where each parameter sits in the vector."""
 
-    def __init__(self, settings: OeSettings, channels: Sequence[str]) -> None:
+    def __init__(self, settings: OeSettings, channels: Sequence[str], *, wrapped: bool = False) -> None:
         n, m = settings.n_poles, settings.n_zeros
         names = ["K"] + [f"log_tau_{i}" for i in range(n)] + [f"Tz_{j}" for j in range(m)]
         if settings.delay:
@@ -224,6 +270,8 @@ class _Layout:
         # channel is a nuisance parameter too, or it would leak into τ
         self.shifted = [c for c in channels if settings.shifts and not (c == "current" and self.current_jumps)]
         names += [f"shift_{c}" for c in self.shifted]
+        if wrapped and "position" in channels:
+            names.append("span_position")
         self.names = tuple(names)
         self.n, self.m = n, m
         self.idx = {nm: i for i, nm in enumerate(names)}
@@ -290,6 +338,9 @@ def output_error_fit(
     pre: Mapping[str, np.ndarray] | None = None,
     step_std: float = 0.0,
     block: Mapping[str, int] | None = None,
+    whiten: Mapping[str, np.ndarray] | None = None,
+    pre_sigma: Mapping[str, float] | None = None,
+    wrap_count: Mapping[str, np.ndarray] | None = None,
 ) -> OeResult:
     """Fit the velocity TF (and the position scale, the current numerator) to step responses.
 
@@ -318,6 +369,17 @@ def output_error_fit(
         Fit block means of this many consecutive samples of a channel (and of its pre-step
         samples) instead of every sample: the model is evaluated on every recorded time and
         averaged the same way, so the averaging is exact even where the response jumps.
+    whiten : Mapping[str, ndarray], optional
+        AR polynomial ``[1, a_1, …, a_p]`` of a channel's noise (:func:`ar_noise_model`): its
+        residuals are filtered by it before weighting (generalised least squares for
+        coloured noise — tacho ripple, aliased PWM), and ``sigma`` is then the innovation
+        standard deviation.
+    pre_sigma : Mapping[str, float], optional
+        Noise level of the pre-step samples (default ``sigma``; they are not filtered).
+    wrap_count : Mapping[str, ndarray], optional
+        ``position``: turns the unwrapping added to each sample after the step.  An encoder
+        span estimated a little off leaves a step of ``wraps × error`` in the position; the
+        error is fitted as a nuisance parameter ``span_position``.
 
     Returns
     -------
@@ -339,7 +401,14 @@ def output_error_fit(
     for c in names:
         if tc[c].shape != raw[c].shape:
             raise IdentificationError(f"{c}: {raw[c].size} samples on a grid of {tc[c].size} times")
-    layout = _Layout(settings, names)
+    wraps = None
+    if wrap_count is not None and "position" in wrap_count and "position" in names:
+        wraps = np.asarray(wrap_count["position"], dtype=float)
+        if wraps.shape != raw["position"].shape:
+            raise IdentificationError(f"position: {wraps.size} wrap counts for {raw['position'].size} samples")
+        if not np.any(wraps):
+            wraps = None
+    layout = _Layout(settings, names, wrapped=wraps is not None)
     if "current" in names:
         # the current's sample at the edge sees it mid-jump when the electrical pole is faster
         # than the sampling (how far depends on where the step fell between samples): leave it
@@ -348,6 +417,8 @@ def output_error_fit(
         tc["current"], raw["current"] = tc["current"][first], raw["current"][first]
     ratio = {c: max(1, int((block or {}).get(c, 1))) for c in names}
     tc = {c: tc[c][: tc[c].size // ratio[c] * ratio[c]] for c in names}
+    if wraps is not None:
+        wraps = wraps[: tc["position"].size]
     data = {c: _block_mean(raw[c], ratio[c]) for c in names}
     n_par = len(layout.names)
     n_total = sum(v.size for v in data.values())
@@ -378,15 +449,30 @@ def output_error_fit(
                 for c in names if pre is not None and c in pre and len(pre[c]) >= ratio[c]}
     th0 += [float(np.mean(pre_data[c])) if c in pre_data else 0.0 for c in names]
     th0 += [0.0] * len(layout.shifted)
+    if wraps is not None:
+        th0.append(0.0)
     th0 = np.asarray(th0, dtype=float)
     w = {c: 1.0 / max(float(sigma.get(c, 1.0)), 1e-12) for c in names}
+    w_pre = {c: 1.0 / max(float((pre_sigma or sigma).get(c, 1.0)), 1e-12) for c in names}
+    filt = {c: np.asarray(whiten[c], dtype=float) for c in names if whiten is not None and c in whiten
+            and len(whiten[c]) > 1}
+
+    def white(c: str, e: np.ndarray) -> np.ndarray:
+        return scipy.signal.lfilter(filt[c], [1.0], e) if c in filt else e
+
     off_idx = {c: layout.idx[f"off_{c}"] for c in names}
     n_total += sum(v.size for v in pre_data.values())
 
-    def resid(th: np.ndarray) -> np.ndarray:
+    def model(th: np.ndarray) -> dict[str, np.ndarray]:
         pred = _predict(layout, th, tc, step_volts, names)
-        parts = [(data[c] - _block_mean(pred[c], ratio[c])) * w[c] for c in names]
-        parts += [(pre_data[c] - th[off_idx[c]]) * w[c] for c in pre_data]
+        if wraps is not None:
+            pred["position"] = pred["position"] + th[layout.idx["span_position"]] * wraps
+        return pred
+
+    def resid(th: np.ndarray) -> np.ndarray:
+        pred = model(th)
+        parts = [white(c, data[c] - _block_mean(pred[c], ratio[c])) * w[c] for c in names]
+        parts += [(pre_data[c] - th[off_idx[c]]) * w_pre[c] for c in pre_data]
         return np.concatenate(parts)
 
     lower = np.full(n_par, -np.inf)
@@ -444,7 +530,7 @@ def output_error_fit(
     for tau in q["taus"]:
         den = np.polymul(den, [tau, 1.0])
     lead = den[0]
-    pred = {c: _block_mean(v, ratio[c]) for c, v in _predict(layout, th, tc, step_volts, names).items()}
+    pred = {c: _block_mean(v, ratio[c]) for c, v in model(th).items()}
     return OeResult(
         params=th, param_names=layout.names, cov=cov,
         velocity_num=num / lead, velocity_den=den / lead,
@@ -461,4 +547,58 @@ def output_error_fit(
         bic=n_total * np.log(rss / n_total) + n_par * np.log(n_total),
         aic=n_total * np.log(rss / n_total) + 2 * n_par,
         settings=settings, warnings=tuple(warnings),
+        residuals={c: data[c] - pred[c] for c in names},
     )
+
+
+def position_scale_fit(
+    res: OeResult,
+    time_s: np.ndarray,
+    position: np.ndarray,
+    step_volts: float,
+    *,
+    pre: np.ndarray | None = None,
+    wrap_count: np.ndarray | None = None,
+) -> float:
+    """Scale ``c`` of ``P(s) = c·G(s)/s`` for a velocity model fitted without the position.
+
+    Linear least squares of the position samples on the integrated velocity response, with
+    the position's pre-step level (pinned by its pre-step samples) and, for an unwrapped
+    record, a span error times the turns added, as nuisance columns.
+
+    Parameters
+    ----------
+    res : OeResult
+        The fit of the other channels (its velocity TF).
+    time_s, position : ndarray
+        Position samples from the step.
+    step_volts : float
+        Step level.
+    pre : ndarray, optional
+        Position samples before the step.
+    wrap_count : ndarray, optional
+        Turns added to each sample by the unwrapping.
+
+    Returns
+    -------
+    float
+        ``c``.
+    """
+    names = list(res.param_names)
+    n, m = res.settings.n_poles, res.settings.n_zeros
+    k = res.params[names.index("K")]
+    taus = np.exp(res.params[1 : 1 + n])
+    tz = res.params[1 + n : 1 + n + m]
+    t = np.asarray(time_s, dtype=float)
+    y = np.asarray(position, dtype=float)
+    cols = [position_closed_form(t, _vel_num(k, tz), taus, step_volts), np.ones(t.size)]
+    if wrap_count is not None and np.any(wrap_count):
+        cols.append(np.asarray(wrap_count, dtype=float))
+    a = np.column_stack(cols)
+    if pre is not None and len(pre):
+        rows = np.zeros((len(pre), a.shape[1]))
+        rows[:, 1] = 1.0
+        a = np.vstack([a, rows])
+        y = np.r_[y, np.asarray(pre, dtype=float)]
+    coef, *_ = np.linalg.lstsq(a, y, rcond=None)
+    return float(coef[0])
