@@ -242,12 +242,15 @@ class NoiseModel:
     scale_only : tuple of str
         Channels fitted for their scale only, not for the dynamics (an undithered
         quantised position, see :func:`noise_model`).
+    preliminary : MotorModel or None
+        The second-order fit the noise model comes from (a starting point for the others).
     """
 
     sigma: dict[str, float]
     whiten: dict[str, np.ndarray]
     pre_sigma: dict[str, float]
     scale_only: tuple[str, ...] = ()
+    preliminary: MotorModel | None = None
 
     @property
     def ar_order(self) -> dict[str, int]:
@@ -293,7 +296,7 @@ def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
         r = data.block[role]
         m = v.size // r
         means = v[v.size - m * r :].reshape(m, r).mean(axis=1) if m else v[:0]
-        quantum = quantisation_step(cond.responses[role].output_v) / np.sqrt(12.0 * r)
+        quantum = _code_step(cond.responses[role]) / np.sqrt(12.0 * r)
         pre_sigma[role] = max(float(np.std(means)) if means.size > 4 else 0.0, quantum, 1e-9)
     sigma = {role: channel_sigma(cond, role) for role in data.outputs}
     white = {role: np.array([1.0]) for role in data.outputs}
@@ -318,7 +321,7 @@ def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
         spread = res.residual_rms["position"] * np.sqrt(data.block["position"])
         if quantum > 0 and spread < 0.5 * quantum:
             scale_only = ("position",)
-    return NoiseModel(sigma, white, pre_sigma, scale_only)
+    return NoiseModel(sigma, white, pre_sigma, scale_only, _oe_to_model(res, cond, structure))
 
 
 def oe_stage(
@@ -426,10 +429,14 @@ def select_order(
     fits: list[tuple[float, tuple[int, int], OeResult, MotorModel]] = []
     errors: list[str] = []
     noise = noise_model(cond, init)
+    # up to two poles, a structure starts from the preliminary second-order fit (near its
+    # optimum already: a few iterations); three poles start from the paper's model, whose
+    # third pole a two-pole fit cannot suggest
+    quick = noise.preliminary if noise.preliminary is not None else init
     for order in orders:
         for structure in STRUCTURES[order]:
             try:
-                res, model = oe_stage(cond, init, structure, noise=noise)
+                res, model = oe_stage(cond, quick if structure[0] <= 2 else init, structure, noise=noise)
             except IdentificationError as exc:
                 errors.append(f"{structure}: {exc.message}")
                 continue

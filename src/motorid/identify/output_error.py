@@ -179,6 +179,15 @@ def step_response_closed_form(time_s: np.ndarray, num: Sequence[float], taus: Se
     return np.where(t >= 0, step_volts * y, 0.0)
 
 
+def _slope_closed_form(time_s: np.ndarray, num: Sequence[float], taus: Sequence[float], step_volts: float) -> np.ndarray:
+    """Time derivative of :func:`step_response_closed_form` for ``t > 0`` (the impulse
+    response times the step; a jump at ``t = 0`` is not included)."""
+    t = np.asarray(time_s, dtype=float)
+    p, r, _ = _residues(np.atleast_1d(np.asarray(num, dtype=float)), np.asarray(taus, dtype=float))
+    tt = np.clip(t, 0.0, None)
+    return np.where(t > 0, step_volts * (np.exp(np.outer(tt, p)) @ (r * p)), 0.0)
+
+
 def position_closed_form(time_s: np.ndarray, num: Sequence[float], taus: Sequence[float], step_volts: float) -> np.ndarray:
     """Integral from 0 of :func:`step_response_closed_form`: ``N(0)t + Σ R_i (e^{p_i t} − 1)/p_i``."""
     t = np.asarray(time_s, dtype=float)
@@ -458,7 +467,8 @@ def output_error_fit(
             and len(whiten[c]) > 1}
 
     def white(c: str, e: np.ndarray) -> np.ndarray:
-        return scipy.signal.lfilter(filt[c], [1.0], e) if c in filt else e
+        # FIR filter from rest: np.convolve directly (lfilter wraps it in apply_along_axis)
+        return np.convolve(e, filt[c])[: e.size] if c in filt else e
 
     off_idx = {c: layout.idx[f"off_{c}"] for c in names}
     n_total += sum(v.size for v in pre_data.values())
@@ -474,6 +484,61 @@ def output_error_fit(
         parts = [white(c, data[c] - _block_mean(pred[c], ratio[c])) * w[c] for c in names]
         parts += [(pre_data[c] - th[off_idx[c]]) * w_pre[c] for c in pre_data]
         return np.concatenate(parts)
+
+    fd_params = [layout.idx[f"log_tau_{i}"] for i in range(n)] + [layout.idx[f"Tz_{j}"] for j in range(m)]
+
+    def jac(th: np.ndarray) -> np.ndarray:
+        """Jacobian of ``resid``: analytic in the gain, scale, current numerator, offsets,
+        shifts, delay and span error (the responses are linear in them, or shifted in
+        time); forward differences of the closed form for the time constants and zeros
+        only — a third of the model evaluations of a finite-difference Jacobian."""
+        q = layout.unpack(th)
+        u = step_volts
+        te = {c: tc[c] - q["delay"] - q["shift"].get(c, 0.0) for c in names}
+        num1 = _vel_num(1.0, q["tz"])
+        d = {c: np.zeros((tc[c].size, n_par)) for c in names}
+        slope: dict[str, np.ndarray] = {}
+        if "velocity" in names:
+            d["velocity"][:, 0] = step_response_closed_form(te["velocity"], num1, q["taus"], u)
+            slope["velocity"] = q["K"] * _slope_closed_form(te["velocity"], num1, q["taus"], u)
+        if "position" in names:
+            p1 = position_closed_form(te["position"], num1, q["taus"], u)
+            d["position"][:, 0] = q["c"] * p1
+            d["position"][:, layout.idx["c"]] = q["K"] * p1
+            slope["position"] = q["c"] * q["K"] * step_response_closed_form(te["position"], num1, q["taus"], u)
+            if wraps is not None:
+                d["position"][:, layout.idx["span_position"]] = wraps
+        if "current" in names:
+            nc = layout.n_current
+            for j in range(nc):
+                d["current"][:, layout.idx[f"cur_{j}"]] = step_response_closed_form(
+                    te["current"], np.eye(nc)[j], q["taus"], u)
+            slope["current"] = _slope_closed_form(te["current"], q["cur"], q["taus"], u)
+        for c in names:
+            d[c][:, off_idx[c]] = 1.0
+            if f"shift_{c}" in layout.idx:
+                d[c][:, layout.idx[f"shift_{c}"]] = -slope[c]
+            if "delay" in layout.idx:
+                d[c][:, layout.idx["delay"]] = -slope[c]
+        base = _predict(layout, th, tc, step_volts, names)
+        for k in fd_params:
+            h = 1e-7 * max(abs(th[k]), 1.0) if k <= n else 1e-7 * max(abs(th[k]), 1e-3)
+            tp = th.copy()
+            tp[k] += h
+            moved = _predict(layout, tp, tc, step_volts, names)
+            for c in names:
+                d[c][:, k] = (moved[c] - base[c]) / h
+        rows = []
+        for c in names:
+            block = d[c] if ratio[c] == 1 else d[c].reshape(-1, ratio[c], n_par).mean(axis=1)
+            if c in filt:
+                block = scipy.signal.lfilter(filt[c], [1.0], block, axis=0)
+            rows.append(-w[c] * block)
+        for c in pre_data:
+            r_pre = np.zeros((pre_data[c].size, n_par))
+            r_pre[:, off_idx[c]] = -w_pre[c]
+            rows.append(r_pre)
+        return np.vstack(rows)
 
     lower = np.full(n_par, -np.inf)
     upper = np.full(n_par, np.inf)
@@ -492,7 +557,7 @@ def output_error_fit(
     th0 = np.clip(th0, lower + 1e-9, upper - 1e-9)
     warnings: list[str] = []
     with np.errstate(over="ignore", invalid="ignore"):
-        sol = scipy.optimize.least_squares(resid, th0, bounds=(lower, upper), x_scale="jac",
+        sol = scipy.optimize.least_squares(resid, th0, jac=jac, bounds=(lower, upper), x_scale="jac",
                                            max_nfev=settings.max_nfev, method="trf")
     if not sol.success:
         warnings.append(f"output-error fit stopped early: {sol.message}")
