@@ -212,6 +212,13 @@ def _print_model(con: Console, model, title: str) -> None:
                 re_, im_ = item["value"]
                 val = f"{re_:.4g}" if abs(im_) < 1e-12 else f"{re_:.4g}{im_:+.4g}j"
                 con.print(f"{name[:-1]} {i + 1}: {val} ± {1.96 * item['std']:.2g} (95%)")
+    noise = model.extras.get("noise")
+    if noise:
+        parts = []
+        for role, nm in noise.items():
+            use = "; scale only: its 8-bit codes are not dithered by noise" if nm.get("use") == "scale only" else ""
+            parts.append(f"{role} σ {nm['sigma']:.3g} V (AR order {nm['ar_order']}{use})")
+        con.print("noise model of the output-error fit: " + ", ".join(parts))
     for st in model.stages:
         desc = ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
                          for k, v in st.items() if k in ("method", "order", "dc_gain", "time_constant"))

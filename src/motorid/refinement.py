@@ -90,6 +90,9 @@ def step_level_std(cond: ConditionedExperiment) -> float:
     return float(np.sqrt(np.sum(var)) / len(var)) if var else 0.0
 
 
+#: Structures tried, in turn, for the preliminary fit of the noise model.
+PRELIMINARY: tuple[tuple[int, int], ...] = ((2, 0), (1, 0))
+
 #: SRIVC filters the data several times per iteration with ``lsim``: fewer samples suffice.
 SRIVC_SAMPLES = 1000
 
@@ -243,7 +246,7 @@ class NoiseModel:
         Channels fitted for their scale only, not for the dynamics (an undithered
         quantised position, see :func:`noise_model`).
     preliminary : MotorModel or None
-        The second-order fit the noise model comes from (a starting point for the others).
+        The fit the noise model comes from (a starting point for the others).
     """
 
     sigma: dict[str, float]
@@ -279,13 +282,18 @@ def _code_step(r: Any) -> float:
     return float(small.min()) if small.size else 0.0
 
 
+def res_structure(res: OeResult) -> tuple[int, int]:
+    """(poles, zeros) of an output-error result."""
+    return res.settings.n_poles, res.settings.n_zeros
+
+
 def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
     """Noise model of each channel for the output-error fit.
 
     The pre-step samples (motor at rest) give each channel's level before the step, with
     the quantisation ``LSB/√12`` as a floor.  After the step the noise is coloured (tacho
     ripple at the commutation frequency, aliased PWM, quantisation that follows the
-    signal): the residuals of a first output-error fit of a second-order structure get an
+    signal): the residuals of a first output-error fit (two poles) get an
     autoregressive model (order by BIC), whose polynomial whitens the residuals of every
     later fit and whose innovation variance weights them — generalised least squares, so
     that ripple neither biases the weights nor makes the intervals too narrow.
@@ -300,13 +308,21 @@ def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
         pre_sigma[role] = max(float(np.std(means)) if means.size > 4 else 0.0, quantum, 1e-9)
     sigma = {role: channel_sigma(cond, role) for role in data.outputs}
     white = {role: np.array([1.0]) for role in data.outputs}
-    structure = (2, 0)
-    taus, dc, zeros = _init_from(init, *structure)
-    try:
-        res = output_error_fit(data.time_s, cond.step_volts, data.outputs, sigma, taus, dc,
-                               OeSettings(*structure, shift_bound_s=_shift_bound(cond)), pre=data.pre,
-                               block=data.block, wrap_count=data.wrap_count)
-    except IdentificationError:
+    res = None
+    # two poles (quick and robust from any paper model); one if that cannot be fitted.  Its
+    # residuals may hold some model error besides the noise: select_order re-estimates the
+    # noise model from the chosen structure's residuals and refits it
+    for structure in PRELIMINARY:
+        taus, dc, zeros = _init_from(init, *structure)
+        try:
+            res = output_error_fit(data.time_s, cond.step_volts, data.outputs, sigma, taus, dc,
+                                   OeSettings(*structure, shift_bound_s=_shift_bound(cond)), pre=data.pre,
+                                   block=data.block, wrap_count=data.wrap_count, init_zeros=zeros)
+        except IdentificationError:
+            continue
+        if np.isfinite(res.cost) and np.all(np.real(res.poles) < 0):
+            break
+    if res is None:
         return NoiseModel(sigma, white, pre_sigma)
     for role, e in res.residuals.items():
         white[role], sd = ar_noise_model(e)
@@ -321,7 +337,17 @@ def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
         spread = res.residual_rms["position"] * np.sqrt(data.block["position"])
         if quantum > 0 and spread < 0.5 * quantum:
             scale_only = ("position",)
-    return NoiseModel(sigma, white, pre_sigma, scale_only, _oe_to_model(res, cond, structure))
+    return NoiseModel(sigma, white, pre_sigma, scale_only, _oe_to_model(res, cond, res_structure(res)))
+
+
+def refine_noise(noise: NoiseModel, res: OeResult) -> NoiseModel:
+    """The noise model re-estimated from the residuals of a fit (channels it did not fit
+    keep theirs)."""
+    sigma, white = dict(noise.sigma), dict(noise.whiten)
+    for role, e in res.residuals.items():
+        white[role], sd = ar_noise_model(e)
+        sigma[role] = max(sd, 1e-9)
+    return replace(noise, sigma=sigma, whiten=white)
 
 
 def oe_stage(
@@ -429,14 +455,21 @@ def select_order(
     fits: list[tuple[float, tuple[int, int], OeResult, MotorModel]] = []
     errors: list[str] = []
     noise = noise_model(cond, init)
-    # up to two poles, a structure starts from the preliminary second-order fit (near its
-    # optimum already: a few iterations); three poles start from the paper's model, whose
-    # third pole a two-pole fit cannot suggest
+    # every structure starts from the preliminary fit (near its optimum already: a few
+    # iterations), except when that had fewer poles than the structure: three poles then
+    # start from the paper's model, whose third pole a two-pole fit cannot suggest
     quick = noise.preliminary if noise.preliminary is not None else init
+    n_quick = int(quick.settings.get("n_poles", 0)) if noise.preliminary is not None else 0
+    fastest = 2.0 / min(r.sample_interval_s for r in cond.responses.values())
+    models: dict[tuple[int, int], MotorModel] = {}
     for order in orders:
         for structure in STRUCTURES[order]:
+            # a structure with a zero less starts from the same number of poles with it
+            start = models.get((structure[0], structure[1] + 1))
+            if start is None:
+                start = quick if structure[0] <= n_quick else init
             try:
-                res, model = oe_stage(cond, quick if structure[0] <= 2 else init, structure, noise=noise)
+                res, model = oe_stage(cond, start, structure, noise=noise)
             except IdentificationError as exc:
                 errors.append(f"{structure}: {exc.message}")
                 continue
@@ -445,11 +478,11 @@ def select_order(
                 continue
             # a pole or zero faster than half a recorded sample is not seen by the data: the
             # fit parked a superfluous parameter there (and its realisation is ill-conditioned)
-            fastest = 2.0 / min(r.sample_interval_s for r in cond.responses.values())
             roots = np.r_[res.poles, res.zeros]
             if roots.size and np.max(np.abs(roots)) > fastest:
                 errors.append(f"{structure}: a pole or zero beyond the sampling rate")
                 continue
+            models[structure] = model
             fits.append((res.bic, structure, res, model))
     if not fits:
         raise IdentificationError("the output-error fit failed for every order: " + "; ".join(errors))
@@ -460,6 +493,15 @@ def select_order(
         for b, s, r, _ in fits
     ]
     best = fits[0]
+    # the noise model again, from the chosen structure's own residuals (the preliminary
+    # two-pole fit may leave model error that the AR model took for noise); refit from there
+    refined = refine_noise(noise, best[2])
+    try:
+        res, model = oe_stage(cond, best[3], best[1], noise=refined)
+        if np.isfinite(res.bic) and np.all(np.real(res.poles) < 0):
+            best = (best[0], best[1], res, model)
+    except IdentificationError:
+        pass
     runner = fits[1] if len(fits) > 1 else None
     if runner is None:
         evidence = f"only {best[1][0]} pole(s), {best[1][1]} zero(s) could be fitted"
