@@ -137,3 +137,19 @@ def test_unsettled_velocity_is_warned_and_still_fitted(demo, run_cli, tmp_path):
     doc = json.loads(m.read_text())
     assert any("not settled" in w for w in doc["warnings"])
     assert "warning" in res.out
+
+
+def test_identify_delay_option_reports_the_delay_and_the_noise_model(demo, run_cli, tmp_path):
+    out, _ = demo
+    m = tmp_path / "m.json"
+    res = run_cli("identify", "--velocity", out / "ALL0001", "--position", out / "ALL0000",
+                  "--current", out / "ALL0002", "--method", "oe", "--delay", "--json", m)
+    assert res.code == 0, res.err
+    doc = json.loads(m.read_text())
+    d = doc["uncertainty"]["delay"]
+    # the trainer has no dead time: the fitted one is within its interval of zero (or ≤ 1 sample)
+    assert d["ci95"][0] <= 0.004 and d["value"] < 0.004
+    assert "delay:" in res.out
+    # an 8-bit pot with 0.01 V noise is not dithered: position for its scale only, shown to the user
+    assert doc["extras"]["noise"]["position"]["use"] == "scale only"
+    assert "scale only" in res.out

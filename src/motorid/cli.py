@@ -207,6 +207,10 @@ def _print_model(con: Console, model, title: str) -> None:
             item = u[key]
             lo, hi = item["ci95"]
             con.print(f"{label}: {item['value']:.5g} ± {1.96 * item['std']:.2g} (95% interval [{lo:.5g}, {hi:.5g}])")
+        if "delay" in u:
+            item = u["delay"]
+            con.print(f"delay: {1e3 * item['value']:.3g} ms ± {1.96e3 * item['std']:.2g} ms (95%; not in the "
+                      "state-space model: add it as e^(-s·delay), e.g. control.pade)")
         for name in ("poles", "zeros"):
             for i, item in enumerate(u.get(name, [])):
                 re_, im_ = item["value"]
@@ -221,7 +225,8 @@ def _print_model(con: Console, model, title: str) -> None:
         con.print("noise model of the output-error fit: " + ", ".join(parts))
     for st in model.stages:
         desc = ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
-                         for k, v in st.items() if k in ("method", "order", "dc_gain", "time_constant"))
+                         for k, v in st.items() if k in ("method", "order", "dc_gain", "time_constant",
+                                                         "markov_order", "oe_order", "agree"))
         extra = f" — {st['evidence']}" if "evidence" in st else ""
         con.print(f"stage {st['stage']}: {desc}{extra}")
     if "hankel_singular_values_scaled" in model.extras:
@@ -253,6 +258,7 @@ def identify(
     markov_params: Annotated[Optional[int], typer.Option("--markov-params", help="Markov parameters Lm (paper: 11; default: chosen by fit).")] = None,
     markov_window: Annotated[Optional[float], typer.Option("--markov-window", help="Markov window Tε in s (default: chosen by fit).")] = None,
     sync: Annotated[str, typer.Option(help="Synchronisation: interp or index (the paper's).")] = "interp",
+    delay: Annotated[bool, typer.Option("--delay", help="oe/auto: fit a pure delay (dead time) too.")] = False,
     step_volts: Annotated[Optional[float], typer.Option("--step-volts", help="Step level for captures without an input channel.")] = None,
     t0: Annotated[Optional[float], typer.Option("--t0", help="Step instant on the files' time axis.")] = None,
     columns: Annotated[Optional[str], typer.Option(help="Plain CSV column map, e.g. time=t,input=u,velocity=rpm.")] = None,
@@ -277,6 +283,7 @@ def identify(
         structure=structure,
         markov_params=markov_params,
         markov_window_s=markov_window,
+        delay=delay,
     )
     caps = _read_roles(position, velocity, current, columns)
     result = identify_experiment(caps, settings, step_volts=step_volts, t0_s=t0)

@@ -56,6 +56,8 @@ class IdentifySettings:
     markov_window_s : float or None
         Markov window ``Tε``; ``None`` chooses between ½ and 1 dominant time constant.
         Automatic choices are made by the fit of the resulting model to the whole record.
+    delay : bool
+        ``oe``/``auto``: fit a pure delay too (dead time of the drive, a late trigger).
     """
 
     method: str = "auto"
@@ -65,6 +67,7 @@ class IdentifySettings:
     structure: str = "free"
     markov_params: int | None = None
     markov_window_s: float | None = None
+    delay: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -282,7 +285,7 @@ def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: Motor
     from motorid.refinement import select_order, srivc_stage
 
     orders = (1, 2, 3) if settings.order == "auto" else (int(settings.order),)
-    sel = select_order(cond, init, orders)
+    sel = select_order(cond, init, orders, delay=settings.delay)
     model = _with_fit(sel.model, cond)
     stages.append({"stage": "output-error", "initialised_from": init_name, "structures": sel.table,
                    "chosen": {"poles": sel.structure[0], "zeros": sel.structure[1]},

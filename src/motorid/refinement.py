@@ -439,7 +439,7 @@ class OrderSelection:
 
 
 def select_order(
-    cond: ConditionedExperiment, init: MotorModel, orders: tuple[int, ...] = (1, 2, 3)
+    cond: ConditionedExperiment, init: MotorModel, orders: tuple[int, ...] = (1, 2, 3), *, delay: bool = False
 ) -> OrderSelection:
     """Fit every structure of the given orders and keep the smallest BIC.
 
@@ -469,7 +469,7 @@ def select_order(
             if start is None:
                 start = quick if structure[0] <= n_quick else init
             try:
-                res, model = oe_stage(cond, start, structure, noise=noise)
+                res, model = oe_stage(cond, start, structure, noise=noise, delay=delay)
             except IdentificationError as exc:
                 errors.append(f"{structure}: {exc.message}")
                 continue
@@ -497,7 +497,7 @@ def select_order(
     # two-pole fit may leave model error that the AR model took for noise); refit from there
     refined = refine_noise(noise, best[2])
     try:
-        res, model = oe_stage(cond, best[3], best[1], noise=refined)
+        res, model = oe_stage(cond, best[3], best[1], noise=refined, delay=delay)
         if np.isfinite(res.bic) and np.all(np.real(res.poles) < 0):
             best = (best[0], best[1], res, model)
     except IdentificationError:

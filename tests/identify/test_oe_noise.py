@@ -181,3 +181,23 @@ def test_noise_model_uses_a_noisy_unquantised_position_for_the_dynamics():
         assert nm["use"] == "dynamics"
         assert nm["ar_order"] <= 1, role
         assert nm["sigma"] == pytest.approx(0.02, rel=0.1), role
+
+
+def test_oe_recovers_a_delay_across_captures_with_their_own_shifts():
+    """Velocity and position with a 50 ms dead time, the position capture also 2 ms late:
+    the delay is the velocity's, the position's shift is relative to it."""
+    t = np.arange(0.0, 8.0, DT_S)
+    num, den = [0.9], np.polymul([0.4, 1.0], [0.03, 1.0])
+    g = control.tf(num, den)
+    late = {"velocity": 0.05, "position": 0.052}
+    data = {"velocity": STEP_V * control.step_response(g, T=t).outputs,
+            "position": 2.5 * STEP_V * control.step_response(g * control.tf([1], [1, 0]), T=t).outputs}
+    data = {ch: np.interp(t - late[ch], t, y, left=0.0) for ch, y in data.items()}
+    res = output_error_fit(t, STEP_V, data, {ch: 1e-3 for ch in data}, [0.3, 0.05], 0.8,
+                           OeSettings(n_poles=2, n_zeros=0, delay=True, shift_bound_s=0.006),
+                           pre={ch: np.zeros(300) for ch in data})
+    q = dict(zip(res.param_names, res.params))
+    assert "shift_velocity" not in q
+    assert res.delay_s == pytest.approx(0.05, abs=2e-4)
+    assert q["shift_position"] == pytest.approx(0.002, abs=2e-4)
+    assert res.time_constant_s == pytest.approx(0.43, rel=1e-3)

@@ -277,7 +277,9 @@ class _Layout:
         # each capture is a separate acquisition whose step edge is known to a sample at
         # best (an ideal step carries no sub-sample information): a small time shift per
         # channel is a nuisance parameter too, or it would leak into τ
-        self.shifted = [c for c in channels if settings.shifts and not (c == "current" and self.current_jumps)]
+        # with a delay, the first channel's shift is the delay: the others' are relative to it
+        self.shifted = [c for i, c in enumerate(channels) if settings.shifts
+                        and not (c == "current" and self.current_jumps) and not (settings.delay and i == 0)]
         names += [f"shift_{c}" for c in self.shifted]
         if wrapped and "position" in channels:
             names.append("span_position")
