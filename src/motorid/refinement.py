@@ -18,8 +18,9 @@ import scipy.signal
 
 from motorid.conditioning.edge import noise_level, quantisation_step
 from motorid.conditioning.pipeline import ConditionedExperiment
-from motorid.identify.output_error import (
+from motorid.identify.output_error import (  # _block_mean: the fit's own block averaging
     OeResult,
+    _block_mean,
     OeSettings,
     ar_noise_model,
     output_error_fit,
@@ -97,21 +98,12 @@ PRELIMINARY: tuple[tuple[int, int], ...] = ((2, 0), (1, 0))
 SRIVC_SAMPLES = 1000
 
 
-def _fit_data(
-    cond: ConditionedExperiment, max_samples: int = MAX_FIT_SAMPLES, *, from_zero: bool = False
-) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+def _srivc_data(cond: ConditionedExperiment, max_samples: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The synchronised record sub-sampled to at most ``max_samples``: SRIVC simulates its
+    filters from rest at ``t = 0``, so the grid stays anchored there (no block centres)."""
     t = cond.full_time_s
-    outs = {k: v for k, v in cond.full_outputs.items()}
-    ratio = int(np.ceil(t.size / max_samples))
-    if ratio > 1 and from_zero:
-        # a simulation-based estimator (SRIVC) starts its filters at rest at t = 0: keep
-        # the grid anchored there (plain sub-sampling) instead of block centres
-        return t[::ratio], {k: v[::ratio] for k, v in outs.items()}
-    if ratio > 1:
-        m = t.size // ratio
-        t = t[: m * ratio].reshape(m, ratio).mean(axis=1)
-        outs = {k: v[: m * ratio].reshape(m, ratio).mean(axis=1) for k, v in outs.items()}
-    return t, outs
+    ratio = max(1, int(np.ceil(t.size / max_samples)))
+    return t[::ratio], {k: v[::ratio] for k, v in cond.full_outputs.items()}
 
 
 def _shift_bound(cond: ConditionedExperiment) -> float:
@@ -302,8 +294,7 @@ def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
     pre_sigma = {}
     for role, v in data.pre.items():
         r = data.block[role]
-        m = v.size // r
-        means = v[v.size - m * r :].reshape(m, r).mean(axis=1) if m else v[:0]
+        means = _block_mean(v, r, from_end=True)
         quantum = _code_step(cond.responses[role]) / np.sqrt(12.0 * r)
         pre_sigma[role] = max(float(np.std(means)) if means.size > 4 else 0.0, quantum, 1e-9)
     sigma = {role: channel_sigma(cond, role) for role in data.outputs}
@@ -393,7 +384,7 @@ def srivc_stage(
     ``max_samples`` bounds the record SRIVC filters (every iteration runs ``lsim`` on it);
     ``auto`` uses 500 for its second opinion.
     """
-    t, outs = _fit_data(cond, max_samples=max_samples, from_zero=True)
+    t, outs = _srivc_data(cond, max_samples)
     if "velocity" not in outs:
         raise IdentificationError("SRIVC needs a velocity capture (--velocity)")
     taus, _, _ = _init_from(init, *structure)
