@@ -35,6 +35,7 @@ __all__ = [
     "channel_sigma",
     "NoiseModel",
     "noise_model",
+    "refine_noise",
     "step_level_std",
     "oe_stage",
     "srivc_stage",
@@ -274,7 +275,7 @@ def _code_step(r: Any) -> float:
     return float(small.min()) if small.size else 0.0
 
 
-def res_structure(res: OeResult) -> tuple[int, int]:
+def _structure_of(res: OeResult) -> tuple[int, int]:
     """(poles, zeros) of an output-error result."""
     return res.settings.n_poles, res.settings.n_zeros
 
@@ -328,7 +329,7 @@ def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
         spread = res.residual_rms["position"] * np.sqrt(data.block["position"])
         if quantum > 0 and spread < 0.5 * quantum:
             scale_only = ("position",)
-    return NoiseModel(sigma, white, pre_sigma, scale_only, _oe_to_model(res, cond, res_structure(res)))
+    return NoiseModel(sigma, white, pre_sigma, scale_only, _oe_to_model(res, cond, _structure_of(res)))
 
 
 def refine_noise(noise: NoiseModel, res: OeResult) -> NoiseModel:
