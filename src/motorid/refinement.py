@@ -264,15 +264,13 @@ class NoiseModel:
 def _code_step(r: Any) -> float:
     """Smallest code step of a capture (its 8-bit quantum), away from wraps and glitches
     (an unwrapped or interpolated sample is no longer on the code grid)."""
-    d = np.abs(np.diff(r.output_v))
-    ok = np.ones(d.size, dtype=bool)
+    ok = np.ones(r.output_v.size - 1, dtype=bool)
     if r.wrap_count is not None:
         ok &= np.diff(r.wrap_count) == 0
     if r.glitches is not None:
         bad = np.asarray(r.glitches, dtype=int)
-        ok[np.clip(np.r_[bad, bad - 1], 0, d.size - 1)] = False
-    small = d[ok & (d > 1e-12 * max(float(np.max(np.abs(r.output_v))), 1e-300))]
-    return float(small.min()) if small.size else 0.0
+        ok[np.clip(np.r_[bad, bad - 1], 0, ok.size - 1)] = False
+    return quantisation_step(r.output_v, valid=ok)
 
 
 def _structure_of(res: OeResult) -> tuple[int, int]:
@@ -316,9 +314,6 @@ def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
             break
     if res is None:
         return NoiseModel(sigma, white, pre_sigma)
-    for role, e in res.residuals.items():
-        white[role], sd = ar_noise_model(e)
-        sigma[role] = max(sd, 1e-9)
     # an 8-bit position whose noise is well under a code does not average its quantisation
     # out: the error follows the motion (a slow sawtooth while the shaft speeds up, where
     # the time constants show) and would pull them as if it were signal.  With a velocity
@@ -329,7 +324,8 @@ def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
         spread = res.residual_rms["position"] * np.sqrt(data.block["position"])
         if quantum > 0 and spread < 0.5 * quantum:
             scale_only = ("position",)
-    return NoiseModel(sigma, white, pre_sigma, scale_only, _oe_to_model(res, cond, _structure_of(res)))
+    first = NoiseModel(sigma, white, pre_sigma, scale_only, _oe_to_model(res, cond, _structure_of(res)))
+    return refine_noise(first, res)
 
 
 def refine_noise(noise: NoiseModel, res: OeResult) -> NoiseModel:

@@ -70,7 +70,7 @@ def noise_level(y: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0))
 
 
-def quantisation_step(y: np.ndarray, *, below: float = np.inf) -> float:
+def quantisation_step(y: np.ndarray, *, below: float = np.inf, valid: np.ndarray | None = None) -> float:
     """Smallest non-zero change between consecutive samples (one code of an 8-bit scope).
 
     Parameters
@@ -79,6 +79,9 @@ def quantisation_step(y: np.ndarray, *, below: float = np.inf) -> float:
         Samples.
     below : float
         Ignore changes at or above this (the step itself, a wrap).
+    valid : ndarray of bool, optional
+        Which of the ``len(y) − 1`` changes to consider (e.g. not across an unwrapped wrap
+        or an interpolated glitch, which are off the code grid).
 
     Returns
     -------
@@ -86,6 +89,8 @@ def quantisation_step(y: np.ndarray, *, below: float = np.inf) -> float:
         The quantum, 0 when every sample is equal.
     """
     d = np.abs(np.diff(np.asarray(y, dtype=float)))
+    if valid is not None:
+        d = d[np.asarray(valid, dtype=bool)]
     small = d[(d > 0) & (d < below)]
     return float(small.min()) if small.size else 0.0
 
