@@ -29,6 +29,9 @@ def test_demo_writes_a_self_contained_report(demo):
     imgs = re.findall(r'<img [^>]*src="([^"]{0,30})', page)
     assert len(imgs) >= 8 and all(s.startswith("data:image/png;base64,") for s in imgs)
     assert "@media print" in page
+    # the demo's 8-bit pot is not dithered by its noise: the report says how it was used
+    assert "noise model of the output-error fit" in page
+    assert "its scale only" in page
 
 
 def test_report_renders_in_headless_chromium(demo):

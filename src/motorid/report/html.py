@@ -179,6 +179,13 @@ def build_report(inp: ReportInputs) -> str:
                     rows.append([f"{key[:-1]} {i + 1}", f"{item['value'][0]:.5g}{item['value'][1]:+.3g}j",
                                  item["std"], f"[{item['ci95'][0]}, {item['ci95'][1]}]"])
             body += _table(["quantity", "value", "std", "95% interval"], rows)
+        noise = model.extras.get("noise")
+        if noise:
+            body += "<p>noise model of the output-error fit (AR whitening of each channel's residuals):</p>"
+            body += _table(["channel", "innovation σ (V)", "AR order", "pre-step σ (V)", "used for"],
+                           [[role, nm["sigma"], nm["ar_order"], nm.get("pre_step_sigma", ""),
+                             "its scale only: 8-bit codes not dithered by noise" if nm["use"] == "scale only"
+                             else "the dynamics"] for role, nm in noise.items()])
         body += _img(figures.pole_zero(model), "pole-zero map")
         return body
 
