@@ -201,3 +201,18 @@ def test_oe_recovers_a_delay_across_captures_with_their_own_shifts():
     assert res.delay_s == pytest.approx(0.05, abs=2e-4)
     assert q["shift_position"] == pytest.approx(0.002, abs=2e-4)
     assert res.time_constant_s == pytest.approx(0.43, rel=1e-3)
+
+
+def test_oe_on_a_position_alone_keeps_velocity_the_derivative_of_position():
+    """Without a tacho the velocity is the position's derivative (position volts per second):
+    the fitted position TF is exactly the velocity TF over s, and the gain is the position
+    slope per volt (the trainer scales pot and tacho so that its position TF is its velocity
+    TF over s), not a free product K·c left wherever the starting point put it."""
+    exp = run_experiment("second-order", seed=5, validation=False, roles=("position",))
+    cond = condition_experiment(dict(exp.captures), ConditioningSettings(sample_interval_s=None))
+    model = identify_conditioned(cond, IdentifySettings(method="oe")).model
+    vel, pos = model.velocity_tf(), model.position_tf()
+    w = 1j * np.array([0.3, 3.0, 30.0])
+    assert np.allclose(pos(w), vel(w) / w, rtol=1e-9)
+    truth_step = exp.truth.dc_gain * (1.0 - exp.truth.equivalent_input_offset_v / exp.step_volts)
+    assert model.first_order().dc_gain == pytest.approx(truth_step, rel=0.01)

@@ -261,7 +261,9 @@ class _Layout:
         names = ["K"] + [f"log_tau_{i}" for i in range(n)] + [f"Tz_{j}" for j in range(m)]
         if settings.delay:
             names.append("delay")
-        if "position" in channels:
+        # without a velocity capture the velocity is the position's derivative (position volts
+        # per second): c = 1, not a parameter (K and c would only be known as a product)
+        if "position" in channels and "velocity" in channels:
             names.append("c")
         direct = settings.current_direct if settings.current_direct is not None else n == 1
         self.n_current = n + 1 if direct else n
@@ -284,6 +286,7 @@ class _Layout:
         if wrapped and "position" in channels:
             names.append("span_position")
         self.names = tuple(names)
+        self.channels = tuple(channels)
         self.n, self.m = n, m
         self.idx = {nm: i for i, nm in enumerate(names)}
 
@@ -294,7 +297,7 @@ class _Layout:
             "taus": np.exp(th[1 : 1 + n]),
             "tz": th[1 + n : 1 + n + m],
             "delay": th[self.idx["delay"]] if "delay" in self.idx else 0.0,
-            "c": th[self.idx["c"]] if "c" in self.idx else None,
+            "c": th[self.idx["c"]] if "c" in self.idx else (1.0 if "position" in self.channels else None),
             "off": {k[4:]: th[i] for k, i in self.idx.items() if k.startswith("off_")},
             "shift": {k[6:]: th[i] for k, i in self.idx.items() if k.startswith("shift_")},
             "cur": th[self.idx["cur_0"] : self.idx["cur_0"] + self.n_current] if "cur_0" in self.idx else None,
@@ -443,7 +446,7 @@ def output_error_fit(
     th0 = [init_dc_gain] + list(np.log(np.maximum(taus0, 1e-6))) + list(tz0)
     if settings.delay:
         th0.append(0.0)
-    if "position" in names:
+    if "c" in layout.idx:
         # c by least squares given the initial velocity model
         base = position_closed_form(tc["position"], _vel_num(init_dc_gain, np.array(tz0)), taus0, step_volts)
         c0 = float(base @ raw["position"][: base.size] / max(base @ base, 1e-300))
@@ -506,7 +509,8 @@ def output_error_fit(
         if "position" in names:
             p1 = position_closed_form(te["position"], num1, q["taus"], u)
             d["position"][:, 0] = q["c"] * p1
-            d["position"][:, layout.idx["c"]] = q["K"] * p1
+            if "c" in layout.idx:
+                d["position"][:, layout.idx["c"]] = q["K"] * p1
             slope["position"] = q["c"] * q["K"] * step_response_closed_form(te["position"], num1, q["taus"], u)
             if wraps is not None:
                 d["position"][:, layout.idx["span_position"]] = wraps
