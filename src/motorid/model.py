@@ -113,11 +113,23 @@ def _as_matrix(name: str, value: Any, shape: tuple[int | None, int | None]) -> n
 
 
 def _normalise_tf(num: np.ndarray, den: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Strip leading zeros and scale so that ``den[0] == 1``."""
+    """Strip leading zeros and scale so that ``den[0] == 1``.
+
+    A leading numerator coefficient that is round-off of a state-space → TF conversion
+    (``-4e-16 s + 2.1``: a "zero" at 10¹⁶ rad/s) is dropped too: its term weighs less than
+    1e-10 of the largest one at the fastest pole's frequency.
+    """
     num = np.trim_zeros(np.atleast_1d(np.asarray(num, dtype=float)), "f")
     den = np.trim_zeros(np.atleast_1d(np.asarray(den, dtype=float)), "f")
     if num.size == 0:
         num = np.zeros(1)
+    w = float(np.max(np.abs(np.roots(den)))) if den.size > 1 else 1.0
+    w = w if np.isfinite(w) and w > 0 else 1.0
+    while num.size > 1:
+        weight = np.abs(num) * w ** np.arange(num.size - 1, -1, -1)
+        if weight[0] >= 1e-10 * weight.max():
+            break
+        num = num[1:]
     lead = den[0]
     return num / lead, den / lead
 
