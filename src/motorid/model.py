@@ -152,7 +152,11 @@ def _cancel_pairs(
 
     Real zeros pair only with real poles and complex ones with complex ones (whole
     conjugate pairs), so the polynomials stay real.  ``keep='leading'`` drops the factors
-    as the paper does (eq. 39 → 41); ``keep='dc'`` rescales so the DC gain is unchanged.
+    as the paper does (eq. 39 → 41); ``keep='dc'`` rescales so the DC gain is unchanged;
+    ``keep='auto'`` cancels only pairs slower than every pole that remains, as the paper does
+    (what an equation-error fit leaves of the position integrator: a record cannot show
+    their DC factor ``z/p``), and leaves a faster pair in (the record shows the steady state
+    and the time constant it shapes).
     """
     zeros = list(_roots(num))
     poles = list(_roots(den))
@@ -170,6 +174,7 @@ def _cancel_pairs(
         return abs(x.imag) <= imag_tol
 
     n_cancelled = 0
+    pairs: list[tuple[complex, complex]] = []
     while True:
         best: tuple[float, int, int] | None = None
         for iz, z in enumerate(zeros):
@@ -192,9 +197,17 @@ def _cancel_pairs(
                                          for k, w in enumerate(zeros)])))
             drop_p.append(int(np.argmin([abs(w - p.conjugate()) if k != ip else np.inf
                                          for k, w in enumerate(poles)])))
+        pairs += [(zeros[a], poles[b]) for a, b in zip(drop_z, drop_p)]
         zeros = [w for k, w in enumerate(zeros) if k not in drop_z]
         poles = [w for k, w in enumerate(poles) if k not in drop_p]
         n_cancelled += len(drop_z)
+    if keep == "auto":
+        # a pair at or above the slowest pole that remains is seen by the record: left in
+        slowest = min((abs(w) for w in poles), default=np.inf)
+        seen = [(z, p) for z, p in pairs if abs(p) >= slowest]
+        zeros += [z for z, _ in seen]
+        poles += [p for _, p in seen]
+        n_cancelled -= len(seen)
     if n_cancelled == 0:
         return num, den, 0
     new_num = num[0] * np.real(np.poly(zeros)) if zeros else np.array([num[0]])
@@ -459,8 +472,10 @@ class MotorModel:
     def first_order(self, cancel_tol_rel: float = CANCEL_TOL_REL) -> FirstOrder:
         """Dominant first-order approximation of the velocity channel.
 
-        Near pole-zero pairs are cancelled first as in the paper (eq. 39 → 41, tolerance
-        ``cancel_tol_rel``; pass 0 to skip).  Then the time constant is the mean residence
+        Near pole-zero pairs are cancelled first (tolerance ``cancel_tol_rel``; pass 0 to
+        skip): a pair slower than the poles that remain as in the paper (eq. 39 → 41, the
+        factors dropped); a faster pair is left in (see ``_cancel_pairs``).
+        Then the time constant is the mean residence
         time (first moment of the impulse response over its area),
         ``τ = −G'(0)/G(0) = Σ 1/z_i − Σ 1/p_i = d1/d0 − n1/n0`` for ``G = N/D`` with
         ``N = … + n1 s + n0``, ``D = … + d1 s + d0``: exact for a first-order system and the
@@ -480,7 +495,7 @@ class MotorModel:
         """
         num, den = self._row_tf("velocity")
         if cancel_tol_rel > 0:
-            num, den, _ = _cancel_pairs(num, den, cancel_tol_rel, "leading")
+            num, den, _ = _cancel_pairs(num, den, cancel_tol_rel, "auto")
         n0, d0 = num[-1], den[-1]
         n1 = num[-2] if num.size >= 2 else 0.0
         d1 = den[-2] if den.size >= 2 else 0.0
