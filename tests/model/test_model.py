@@ -143,3 +143,21 @@ def test_constructor_rejects_bad_shapes() -> None:
         MotorModel(A=np.eye(2), B=[1.0], C=[[0, 1]], D=[[0]], states=("position", "velocity"))
     with pytest.raises(ModelFormatError):
         MotorModel(A=np.eye(2), B=[0, 1.0], C=[[0, 1]], D=[[0]], states=("a", "b"), outputs=("position",))
+
+
+def test_first_order_cancels_slow_artifact_pairs_but_keeps_fast_ones() -> None:
+    """The paper's eq. 39 → 41: the near-origin pair of a pinv model is dropped (DC factor
+    of a pair the record cannot show), giving 2.1751/(s + 2.2998).  A pair faster than the
+    dominant pole (an SRIVC fit of the 3rd-order trainer: zero −13.78 near pole −16.17) is
+    seen by the record: the first-order gain is the model's DC gain and τ its moments."""
+    a = [[0.0042, 1.0325], [-0.0327, -2.3145]]
+    slow = MotorModel(A=a, B=[-0.0371, 2.1751], C=np.eye(2), D=None, states=("position", "velocity"),
+                      outputs=("position", "velocity"))
+    fo = slow.first_order()
+    assert fo.k == pytest.approx(2.1751, rel=1e-4) and fo.p == pytest.approx(2.2998, rel=1e-4)
+    z, p = [-13.78], [-16.17, -2.31, -130.35]
+    g = control.zpk(z, p, 1.0) * (0.92 / control.dcgain(control.zpk(z, p, 1.0)))
+    fast = model_from_velocity_tf(np.ravel(g.num[0][0]), np.ravel(g.den[0][0]), step_volts=1.0, method="srivc")
+    fo = fast.first_order()
+    assert fo.dc_gain == pytest.approx(0.92, rel=1e-9)
+    assert fo.time_constant_s == pytest.approx(sum(-1 / x for x in p) - sum(-1 / x for x in z), rel=1e-9)
