@@ -58,19 +58,21 @@ STRUCTURES: Mapping[int, tuple[tuple[int, int], ...]] = {
 MAX_FIT_SAMPLES = 2500
 
 
-def channel_sigma(cond: ConditionedExperiment, role: str) -> float:
+def channel_sigma(cond: ConditionedExperiment, role: str, block: int = 1) -> float:
     """Noise standard deviation of a channel, from its samples before the step.
 
-    The pre-step part of a capture holds only noise (the motor is at rest).  An 8-bit scope
-    can show it as a constant code; the quantisation noise ``LSB/√12`` of the response (from
-    the smallest step between codes) is then the floor.
+    The pre-step part of a capture holds only noise (the motor is at rest); samples
+    interpolated over wrap glitches are left out.  An 8-bit scope can show it as a constant
+    code; the quantisation noise ``LSB/√12`` (from the smallest step between codes) is then
+    the floor.  With ``block > 1``: of means of ``block`` samples, as the fit sees them.
     """
     r = cond.responses[role]
-    y = r.output_v
-    pre = y[r.time_s < 0]
-    quantum = quantisation_step(y)
-    sd = float(np.std(pre)) if pre.size >= 5 else noise_level(y)
-    return max(sd, quantum / np.sqrt(12.0), 1e-9)
+    good = r.time_s < 0
+    if r.glitches is not None:
+        good[r.glitches] = False
+    means = _block_mean(r.output_v[good], block, from_end=True)
+    sd = float(np.std(means)) if means.size >= 5 else noise_level(r.output_v) / np.sqrt(block)
+    return max(sd, _code_step(r) / np.sqrt(12.0 * block), 1e-9)
 
 
 def step_level_std(cond: ConditionedExperiment) -> float:
@@ -290,13 +292,8 @@ def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
     that ripple neither biases the weights nor makes the intervals too narrow.
     """
     data = _channel_data(cond)
-    pre_sigma = {}
-    for role, v in data.pre.items():
-        r = data.block[role]
-        means = _block_mean(v, r, from_end=True)
-        quantum = _code_step(cond.responses[role]) / np.sqrt(12.0 * r)
-        pre_sigma[role] = max(float(np.std(means)) if means.size > 4 else 0.0, quantum, 1e-9)
-    sigma = {role: channel_sigma(cond, role) for role in data.outputs}
+    pre_sigma = {role: channel_sigma(cond, role, data.block[role]) for role in data.outputs}
+    sigma = dict(pre_sigma)
     white = {role: np.array([1.0]) for role in data.outputs}
     res = None
     # two poles (quick and robust from any paper model); one if that cannot be fitted.  Its

@@ -472,8 +472,13 @@ def output_error_fit(
             and len(whiten[c]) > 1}
 
     def white(c: str, e: np.ndarray) -> np.ndarray:
-        # FIR filter from rest: np.convolve directly (lfilter wraps it in apply_along_axis)
-        return np.convolve(e, filt[c])[: e.size] if c in filt else e
+        """The channel's FIR whitening from rest, along axis 0 (residuals or Jacobian
+        columns); a vector through np.convolve, which lfilter wraps in apply_along_axis."""
+        if c not in filt:
+            return e
+        if e.ndim == 1:
+            return np.convolve(e, filt[c])[: e.size]
+        return scipy.signal.lfilter(filt[c], [1.0], e, axis=0)
 
     off_idx = {c: layout.idx[f"off_{c}"] for c in names}
     n_total += sum(v.size for v in pre_data.values())
@@ -537,9 +542,7 @@ def output_error_fit(
         rows = []
         for c in names:
             block = d[c] if ratio[c] == 1 else d[c].reshape(-1, ratio[c], n_par).mean(axis=1)
-            if c in filt:
-                block = scipy.signal.lfilter(filt[c], [1.0], block, axis=0)
-            rows.append(-w[c] * block)
+            rows.append(-w[c] * white(c, block))
         for c in pre_data:
             r_pre = np.zeros((pre_data[c].size, n_par))
             r_pre[:, off_idx[c]] = -w_pre[c]
