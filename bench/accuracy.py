@@ -272,7 +272,6 @@ def main() -> None:
             # RMSE is compared with the root mean CRLB variance over the runs
             bound = (tuple(float(np.sqrt(np.mean([r[6][i] ** 2 for r in rows]))) for i in (0, 1))
                      if c == "white" else None)
-            bound = tuple(bound) if bound is not None else None
             what = "effective (linear × (1 − offset/step))" if c == "realistic" else "linear"
             head = f"\n{p}, {c} noise: truth dc gain {dc_true:.4f} ({what}), τ {tau_true:.4f} s"
             if bound:
