@@ -1,0 +1,48 @@
+"""One BLAS thread around the fitting code, whoever calls it (CLI, notebook, batch worker).
+
+The matrices motorid factorises are tiny (at most a few thousand × a dozen): a multithreaded
+BLAS only adds synchronisation, and on a loaded 2-core machine it made one output-error fit
+take 35 s instead of 0.1 s.  ``threadpoolctl`` limits only the libraries loaded when its
+context is entered, and numpy and scipy each ship their own OpenBLAS (``libscipy_openblas``
+is loaded by ``scipy.linalg`` on first import): so the limit is entered here, after both are
+loaded, around each public entry point of the library — not once at CLI start-up, where
+scipy's copy was not loaded yet and ran two threads (issue 11, item 13).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from typing import ParamSpec, TypeVar
+
+__all__ = ["single_blas_thread", "blas_threads"]
+
+P = ParamSpec("P")
+R = TypeVar("R")
+
+
+def blas_threads() -> dict[str, int]:
+    """Threads of every loaded BLAS library, keyed by its file name (for tests and benches)."""
+    from threadpoolctl import threadpool_info
+
+    return {info["filepath"].rsplit("/", 1)[-1]: int(info["num_threads"])
+            for info in threadpool_info() if info.get("user_api") == "blas"}
+
+
+def single_blas_thread(func: Callable[P, R]) -> Callable[P, R]:
+    """Run ``func`` with every BLAS library (numpy's and scipy's) limited to one thread.
+
+    The libraries are imported first so that both OpenBLAS copies are loaded when the limit
+    is applied; nested calls are cheap (threadpoolctl only sets the count again).
+    """
+
+    @functools.wraps(func)
+    def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
+        import numpy  # noqa: F401 - loads numpy's OpenBLAS
+        import scipy.linalg  # noqa: F401 - loads scipy's own OpenBLAS
+        from threadpoolctl import threadpool_limits
+
+        with threadpool_limits(limits=1, user_api="blas"):
+            return func(*args, **kwargs)
+
+    return wrapper
