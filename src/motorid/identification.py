@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from motorid._threads import single_blas_thread
 from motorid.capture import Capture
 from motorid.conditioning.denoise import fft_denoise
 from motorid.conditioning.derivative import derivative
@@ -22,6 +23,7 @@ from motorid.identify.classic import classic_first_order
 from motorid.identify.markov import MarkovSettings, markov_identify
 from motorid.identify.pinv import PinvSettings, pinv_identify
 from motorid.identify.result import IdentificationError
+from motorid.identify.sanity import SanityReport, sanity_checks
 from motorid.model import MotorModel, step_nrmse
 
 __all__ = ["METHODS", "IdentifySettings", "Identification", "identify_experiment", "identify_conditioned"]
@@ -56,8 +58,10 @@ class IdentifySettings:
     markov_window_s : float or None
         Markov window ``Tε``; ``None`` chooses between ½ and 1 dominant time constant.
         Automatic choices are made by the fit of the resulting model to the whole record.
-    delay : bool
-        ``oe``/``auto``: fit a pure delay too (dead time of the drive, a late trigger).
+    delay : bool or None
+        ``oe``/``auto``: ``True`` fits a pure delay (dead time of the drive, a late trigger)
+        in every structure, ``False`` none; ``None`` (default) tries it when the data stay
+        in their noise band for a few samples after the step and lets BIC decide.
     """
 
     method: str = "auto"
@@ -67,7 +71,7 @@ class IdentifySettings:
     structure: str = "free"
     markov_params: int | None = None
     markov_window_s: float | None = None
-    delay: bool = False
+    delay: bool | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -86,6 +90,9 @@ class Identification:
         Methods that could not run, with the reason.
     reason : str
         Why this model was chosen.
+    sanity : SanityReport
+        The sanity gate's checks of ``model`` (:mod:`motorid.identify.sanity`); its
+        failures are also in ``model.warnings``.
     """
 
     model: MotorModel
@@ -93,6 +100,7 @@ class Identification:
     candidates: dict[str, MotorModel]
     failures: dict[str, str]
     reason: str
+    sanity: SanityReport = SanityReport()
 
 
 def _velocity(cond: ConditionedExperiment, full: bool) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -112,7 +120,20 @@ def _settled_warning(t: np.ndarray, v: np.ndarray) -> list[str]:
     final = float(np.mean(v[-max(2, n // 10):]))
     if final == 0:
         return []
-    drift = float(np.polyfit(t[-tail.size:], tail, 1)[0]) * (t[-1] - t[-tail.size])
+    tt = t[-tail.size:]
+    drift = float(np.polyfit(tt, tail, 1)[0]) * (t[-1] - tt[0])
+    # a drift is only real when it stands out of the ripple: the slope of ten block means
+    # (ripple and noise average out in each) against its own standard error — a low-speed
+    # step whose ripple never goes away is not told to record longer (issue 11, item 7)
+    blocks = min(10, tail.size // 2)
+    if blocks >= 4:
+        cut = tail.size // blocks * blocks
+        bt = tt[:cut].reshape(blocks, -1).mean(axis=1)
+        bv = tail[:cut].reshape(blocks, -1).mean(axis=1)
+        coef, cov = np.polyfit(bt, bv, 1, cov=True)
+        se = float(np.sqrt(max(cov[0, 0], 0.0))) * (t[-1] - tt[0])
+        if abs(drift) <= 3.0 * se:
+            return []
     if abs(drift) > 0.02 * abs(final):
         return [f"the velocity has not settled: it still changes by {100 * abs(drift / final):.1f}% over the last "
                 "fifth of the record; record longer for a trustworthy gain"]
@@ -247,6 +268,9 @@ _RUNNERS: dict[str, Callable[[ConditionedExperiment, IdentifySettings], MotorMod
 
 def _with_fit(model: MotorModel, cond: ConditionedExperiment) -> MotorModel:
     t, v, _ = _velocity(cond, full=True)
+    if "record_length_s" not in model.settings:
+        # first_order() cancels only pole-zero pairs slower than the record (model.py)
+        model = model.replace(settings={**dict(model.settings), "record_length_s": float(t[-1])})
     fit = dict(model.fit)
     fit["velocity_nrmse"] = float(step_nrmse(model, t, v, channel="velocity", step_volts=cond.step_volts))
     if "position" in cond.full_outputs and "position" in model.outputs:
@@ -279,16 +303,33 @@ def _summary(name: str, m: MotorModel) -> dict[str, Any]:
             "velocity_nrmse": m.fit.get("velocity_nrmse")}
 
 
+def _unwhitened(cond: ConditionedExperiment, sel: Any) -> dict[str, float] | None:
+    """The chosen structure refitted without the AR noise model (for the sanity gate)."""
+    from motorid.refinement import oe_stage
+
+    try:
+        res, m = oe_stage(cond, sel.model, sel.structure, delay=sel.delay, noise=sel.noise, white=True)
+    except (IdentificationError, OptionError):
+        return None
+    fo = m.first_order()
+    u = sel.result.std
+    return {"dc_gain": fo.dc_gain, "time_constant": fo.time_constant_s + m.delay_s,
+            "dc_gain_std": float(np.hypot(u.get("dc_gain", 0.0), res.std.get("dc_gain", 0.0))),
+            "time_constant_std": float(np.hypot(np.hypot(u.get("time_constant", 0.0), u.get("delay", 0.0)),
+                                                np.hypot(res.std.get("time_constant", 0.0), res.std.get("delay", 0.0))))}
+
+
 def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: MotorModel, init_name: str,
-            stages: list[dict[str, Any]]) -> tuple[MotorModel, str]:
+            stages: list[dict[str, Any]]) -> tuple[MotorModel, str, dict[str, float] | None]:
     """Output-error refinement with order selection (``oe`` and ``auto``), SRIVC as a second opinion."""
     from motorid.refinement import select_order, srivc_stage
 
     orders = (1, 2, 3) if settings.order == "auto" else (int(settings.order),)
     sel = select_order(cond, init, orders, delay=settings.delay)
     model = _with_fit(sel.model, cond)
+    unwhitened = _unwhitened(cond, sel)
     stages.append({"stage": "output-error", "initialised_from": init_name, "structures": sel.table,
-                   "chosen": {"poles": sel.structure[0], "zeros": sel.structure[1]},
+                   "chosen": {"poles": sel.structure[0], "zeros": sel.structure[1], "delay": sel.delay},
                    "runner_up": None if sel.runner_up is None else {"poles": sel.runner_up[0], "zeros": sel.runner_up[1]},
                    "evidence": sel.evidence, **_summary("oe", model)})
     # cross-check with the time-scaled Hankel singular values of the Markov method
@@ -304,9 +345,10 @@ def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: Motor
         except (IdentificationError, OptionError) as exc:
             stages.append({"stage": "srivc (second opinion)", "failed": exc.message})
     reason = (f"output-error fit initialised from {init_name}; {sel.evidence}")
-    return model, reason
+    return model, reason, unwhitened
 
 
+@single_blas_thread
 def identify_conditioned(cond: ConditionedExperiment, settings: IdentifySettings = IdentifySettings()) -> Identification:
     """Identify a model from conditioned data (see :func:`identify_experiment`)."""
     if settings.method not in METHODS:
@@ -316,6 +358,7 @@ def identify_conditioned(cond: ConditionedExperiment, settings: IdentifySettings
     t, v, notes = _velocity(cond, full=True)
     extra_warn = list(cond.warnings) + notes + _settled_warning(t, v)
     stages: list[dict[str, Any]] = []
+    unwhitened: dict[str, float] | None = None
     if settings.method in PAPER_METHODS:
         candidates, failures = _paper_stage(cond, settings, [settings.method])
         best = settings.method
@@ -360,23 +403,29 @@ def identify_conditioned(cond: ConditionedExperiment, settings: IdentifySettings
             st = tried[0][2]
             reason = f"SRIVC initialised from {best}; {st[0]} pole(s), {st[1]} zero(s) by BIC among {len(tried)} stable fits"
         elif settings.method in ("oe", "auto"):
-            model, reason = _refine(cond, settings, model, best, stages)
+            model, reason, unwhitened = _refine(cond, settings, model, best, stages)
             candidates["oe"] = model
     settings_doc = dict(model.settings)
     settings_doc.update(
         conditioning=asdict(settings.conditioning), derivative=settings.derivative,
-        reduction_ratio=cond.ratio, sources=dict(cond.sources),
+        reduction_ratio=cond.ratio, sources=dict(cond.sources), record_length_s=float(t[-1]),
+        sample_interval_chosen_s=cond.sample_interval_s,
     )
+    model = model.replace(settings=settings_doc, step_volts=cond.step_volts)
+    sanity = sanity_checks(model, t, v, cond.step_volts, sample_interval_s=float(t[1] - t[0]),
+                           unwhitened=unwhitened)
+    gate = tuple(f"SANITY CHECK FAILED — {f}" for f in sanity.failures)
     model = model.replace(
-        settings=settings_doc,
-        step_volts=cond.step_volts,
-        warnings=tuple(dict.fromkeys(tuple(model.warnings) + tuple(extra_warn))),
-        extras={**dict(model.extras), "choice": reason},
+        warnings=tuple(dict.fromkeys(gate + tuple(model.warnings) + tuple(extra_warn))),
+        extras={**dict(model.extras), "choice": reason, "conditioning": list(cond.notes),
+                "sanity": sanity.to_json(), "response_time_s": cond.response_time_s,
+                "apparent_dead_time_s": cond.dead_time_s},
         stages=tuple(stages),
     )
-    return Identification(model, cond, candidates, failures, reason)
+    return Identification(model, cond, candidates, failures, reason, sanity)
 
 
+@single_blas_thread
 def identify_experiment(
     captures: Mapping[str, Capture],
     settings: IdentifySettings = IdentifySettings(),

@@ -146,7 +146,7 @@ def _roots(poly: np.ndarray) -> np.ndarray:
 
 
 def _cancel_pairs(
-    num: np.ndarray, den: np.ndarray, tol_rel: float, keep: str
+    num: np.ndarray, den: np.ndarray, tol_rel: float, keep: str, record_s: float | None = None
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """Cancel pole-zero pairs of ``num/den`` closer than ``tol_rel`` × the fastest pole.
 
@@ -156,7 +156,11 @@ def _cancel_pairs(
     ``keep='auto'`` cancels only pairs slower than every pole that remains, as the paper does
     (what an equation-error fit leaves of the position integrator: a record cannot show
     their DC factor ``z/p``), and leaves a faster pair in (the record shows the steady state
-    and the time constant it shapes).
+    and the time constant it shapes).  With ``record_s`` (the length of the record the model
+    was identified from) a pair whose pole the record resolves (``|p|·record ≥ 1``) is left
+    in too, however slow against the other poles: the record shows its DC factor, so
+    cancelling it would change the gain the data show (issue 11: a pole at −35.4 and a zero
+    at −40.2 beside a 6972 rad/s pole took 12 % off the DC gain).
     """
     zeros = list(_roots(num))
     poles = list(_roots(den))
@@ -204,7 +208,8 @@ def _cancel_pairs(
     if keep == "auto":
         # a pair at or above the slowest pole that remains is seen by the record: left in
         slowest = min((abs(w) for w in poles), default=np.inf)
-        seen = [(z, p) for z, p in pairs if abs(p) >= slowest]
+        seen = [(z, p) for z, p in pairs
+                if abs(p) >= slowest or (record_s is not None and abs(p) * record_s >= 1.0)]
         zeros += [z for z, _ in seen]
         poles += [p for _, p in seen]
         n_cancelled -= len(seen)
@@ -354,6 +359,10 @@ class MotorModel:
         zeros (written as the top-level ``uncertainty`` key when present).
     stages : tuple of Mapping
         What each stage of ``--method auto`` found (the top-level ``stages`` key).
+    delay_s : float
+        Dead time between the input and every output, seconds (0: none).  Not part of the
+        state-space matrices (a delay has no finite realisation): responses and fits apply
+        it, and the JSON carries it as the top-level ``delay_s`` (CONTRACT.md).
 
     Raises
     ------
@@ -376,6 +385,7 @@ class MotorModel:
     extras: Mapping[str, Any] = field(default_factory=dict)
     uncertainty: Mapping[str, Any] = field(default_factory=dict)
     stages: tuple[Mapping[str, Any], ...] = ()
+    delay_s: float = 0.0
 
     def __post_init__(self) -> None:
         a = _as_matrix("A", self.A, (None, None))
@@ -412,6 +422,10 @@ class MotorModel:
         object.__setattr__(self, "extras", MappingProxyType(dict(self.extras)))
         object.__setattr__(self, "uncertainty", MappingProxyType(dict(self.uncertainty)))
         object.__setattr__(self, "stages", tuple(MappingProxyType(dict(st)) for st in self.stages))
+        delay = float(self.delay_s or 0.0)
+        if not (math.isfinite(delay) and delay >= 0.0):
+            raise ModelFormatError(f"delay_s must be a finite number ≥ 0, got {self.delay_s!r}")
+        object.__setattr__(self, "delay_s", delay)
 
     # ------------------------------------------------------------------ basics
     @property
@@ -473,8 +487,10 @@ class MotorModel:
         """Dominant first-order approximation of the velocity channel.
 
         Near pole-zero pairs are cancelled first (tolerance ``cancel_tol_rel``; pass 0 to
-        skip): a pair slower than the poles that remain as in the paper (eq. 39 → 41, the
-        factors dropped); a faster pair is left in (see ``_cancel_pairs``).
+        skip), but only artifacts the record cannot show: a pair slower than the poles that
+        remain and than the record (``settings["record_length_s"]``, written by
+        ``identify``) as in the paper (eq. 39 → 41, the factors dropped); any other pair is
+        left in (see ``_cancel_pairs``), so the result is the model's own DC gain and τ.
         Then the time constant is the mean residence
         time (first moment of the impulse response over its area),
         ``τ = −G'(0)/G(0) = Σ 1/z_i − Σ 1/p_i = d1/d0 − n1/n0`` for ``G = N/D`` with
@@ -495,7 +511,9 @@ class MotorModel:
         """
         num, den = self._row_tf("velocity")
         if cancel_tol_rel > 0:
-            num, den, _ = _cancel_pairs(num, den, cancel_tol_rel, "auto")
+            record = self.settings.get("record_length_s")
+            record_s = float(record) if isinstance(record, (int, float)) and record > 0 else None
+            num, den, _ = _cancel_pairs(num, den, cancel_tol_rel, "auto", record_s)
         n0, d0 = num[-1], den[-1]
         n1 = num[-2] if num.size >= 2 else 0.0
         d1 = den[-2] if den.size >= 2 else 0.0
@@ -611,7 +629,7 @@ class MotorModel:
 
         Exact for a step on any grid: the matrix exponential of ``[[A, B], [0, 0]]`` once
         per sample interval on a uniform grid (then a recursion), at each time otherwise;
-        samples before 0 are zero.
+        samples before 0 (before ``delay_s`` for a model with a dead time) are zero.
 
         Parameters
         ----------
@@ -633,7 +651,7 @@ class MotorModel:
         step = self.step_volts if step_volts is None else float(step_volts)
         if step is None:
             raise OptionError("step_response needs step_volts (the model has none)")
-        t = np.asarray(time_s, dtype=float).ravel()
+        t = np.asarray(time_s, dtype=float).ravel() - self.delay_s
         n = self.order
         m = np.zeros((n + 1, n + 1))
         m[:n, :n] = self.A
@@ -715,6 +733,8 @@ class MotorModel:
             data["uncertainty"] = dict(self.uncertainty)
         if self.stages:
             data["stages"] = [dict(st) for st in self.stages]
+        if self.delay_s > 0:
+            data["delay_s"] = self.delay_s
         return _jsonable(data)
 
     def to_json_text(self) -> str:
@@ -785,6 +805,7 @@ class MotorModel:
             extras=data.get("extras") or {},
             uncertainty=data.get("uncertainty") or {},
             stages=tuple(data.get("stages") or ()),
+            delay_s=data.get("delay_s") or 0.0,
         )
 
     def to_matlab(self, name: str = "motor") -> str:

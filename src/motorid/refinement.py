@@ -204,6 +204,7 @@ def _oe_to_model(
         uncertainty=uncertainty_json(res),
         extras={"bic": res.bic, "aic": res.aic, "sigma": dict(res.sigma), "delay_s": res.delay_s,
                 **({"noise": noise.to_json()} if noise is not None else {})},
+        delay_s=res.delay_s or 0.0,
     )
 
 
@@ -342,13 +343,20 @@ def oe_stage(
     *,
     delay: bool = False,
     noise: NoiseModel | None = None,
+    white: bool = False,
 ) -> tuple[OeResult, MotorModel]:
     """Output-error fit of one structure, initialised from ``init``.
 
     Parameters
     ----------
+    delay : bool
+        Fit a dead time too, starting from ``init.delay_s`` when it has one, else from the
+        apparent dead time read off the data (``cond.dead_time_s``).
     noise : NoiseModel, optional
         Channel noise models (default: :func:`noise_model`).
+    white : bool
+        Leave the AR whitening out (weights: the pre-step noise levels): the sanity gate
+        compares the two estimates, since an AR model can absorb a structural misfit.
 
     Returns
     -------
@@ -360,9 +368,12 @@ def oe_stage(
     taus, dc, zeros = _init_from(init, *structure)
     settings = OeSettings(n_poles=structure[0], n_zeros=structure[1], delay=delay, shift_bound_s=_shift_bound(cond))
     fitted = {role: y for role, y in data.outputs.items() if role not in noise.scale_only}
-    res = output_error_fit(data.time_s, cond.step_volts, fitted, noise.sigma, taus, dc, settings,
-                           init_zeros=zeros, pre=data.pre, step_std=step_level_std(cond), block=data.block,
-                           whiten=noise.whiten, pre_sigma=noise.pre_sigma, wrap_count=data.wrap_count)
+    delay0 = init.delay_s if init.delay_s > 0 else cond.dead_time_s
+    res = output_error_fit(data.time_s, cond.step_volts, fitted, noise.pre_sigma if white else noise.sigma,
+                           taus, dc, settings, init_zeros=zeros, init_delay_s=delay0, pre=data.pre,
+                           step_std=step_level_std(cond), block=data.block,
+                           whiten=None if white else noise.whiten, pre_sigma=noise.pre_sigma,
+                           wrap_count=data.wrap_count)
     if "position" in noise.scale_only:
         c = position_scale_fit(res, data.time_s["position"], data.outputs["position"], cond.step_volts,
                                pre=data.pre["position"], wrap_count=data.wrap_count.get("position"))
@@ -395,6 +406,12 @@ def srivc_stage(
     )
 
 
+#: Apparent dead time, in recorded samples, from which ``auto`` also tries each structure
+#: with a fitted delay and lets BIC decide (the trainer's lags leave one or two quiet
+#: samples after the step; a drive's dead time leaves more).
+DEAD_TIME_SAMPLES = 3
+
+
 @dataclass(frozen=True, slots=True)
 class OrderSelection:
     """The order chosen by BIC on the output-error fits, with the evidence.
@@ -406,13 +423,18 @@ class OrderSelection:
     result : OeResult
         Its fit.
     model : MotorModel
-        Its model.
+        Its model (``uncertainty`` widened by the structure uncertainty, see
+        :func:`structure_uncertainty`).
     table : list of dict
-        Every structure tried: poles, zeros, BIC, AIC, weighted RMS.
+        Every structure tried: poles, zeros, delay, BIC, AIC, weighted RMS, BIC weight.
     runner_up : tuple of int or None
         The second-best structure.
     evidence : str
         The choice in words (ΔBIC to the runner-up).
+    delay : bool
+        Whether the chosen structure has a fitted dead time.
+    noise : NoiseModel or None
+        The noise model of the final fit.
     """
 
     structure: tuple[int, int]
@@ -421,10 +443,66 @@ class OrderSelection:
     table: list[dict[str, Any]]
     runner_up: tuple[int, int] | None
     evidence: str
+    delay: bool = False
+    noise: NoiseModel | None = None
+
+
+def _describe(structure: tuple[int, int], delay: bool) -> str:
+    return f"{structure[0]} pole(s) and {structure[1]} zero(s)" + (" with a dead time" if delay else "")
+
+
+def structure_uncertainty(best: MotorModel, fits: list[tuple[float, MotorModel]]) -> dict[str, Any]:
+    """The chosen model's ``uncertainty`` widened by the spread between candidate structures.
+
+    The Gauss–Newton interval is conditional on the structure.  Each candidate gets its
+    BIC weight ``w_i ∝ exp(−ΔBIC_i/2)`` (an approximation of its posterior probability);
+    the variance of the DC gain and of the residence time ``τ + delay`` adds
+    ``Σ w_i (θ_i − θ_best)²`` to the chosen structure's own (the model-averaging variance
+    of Buckland et al. 1997 about the chosen estimate, so the interval stays centred on the
+    headline number).  With a clear winner (ΔBIC ≫ 10) nothing changes.
+
+    Parameters
+    ----------
+    best : MotorModel
+        The chosen fit (its ``uncertainty`` from the output-error fit).
+    fits : list of (bic, MotorModel)
+        Every candidate, the chosen one included.
+
+    Returns
+    -------
+    dict
+        The widened ``uncertainty`` object (same keys; ``structure_std`` added to
+        ``dc_gain`` and ``time_constant``).
+    """
+    u = {k: (dict(v) if isinstance(v, Mapping) else v) for k, v in best.uncertainty.items()}
+    if not u or len(fits) < 2:
+        return u
+    bics = np.array([b for b, _ in fits], dtype=float)
+    w = np.exp(-0.5 * (bics - bics.min()))
+    w /= w.sum()
+    fo_best = best.first_order()
+    for key, value_of in (("dc_gain", lambda m: m.first_order().dc_gain),
+                          ("time_constant", lambda m: m.first_order().time_constant_s + m.delay_s - best.delay_s)):
+        if key not in u:
+            continue
+        ref = fo_best.dc_gain if key == "dc_gain" else fo_best.time_constant_s
+        vals = np.array([value_of(m) for _, m in fits], dtype=float)
+        ok = np.isfinite(vals)
+        extra = float(np.sum(w[ok] * (vals[ok] - ref) ** 2))
+        std = float(np.hypot(u[key].get("std", 0.0), np.sqrt(extra)))
+        u[key] = {**u[key], "std": std, "ci95": [u[key]["value"] - 1.96 * std, u[key]["value"] + 1.96 * std],
+                  "structure_std": float(np.sqrt(extra))}
+    u["method"] = (str(u.get("method", "")) + "; widened by the BIC-weighted spread of the candidate "
+                   "structures (dc gain, τ + dead time)")
+    return u
 
 
 def select_order(
-    cond: ConditionedExperiment, init: MotorModel, orders: tuple[int, ...] = (1, 2, 3), *, delay: bool = False
+    cond: ConditionedExperiment,
+    init: MotorModel,
+    orders: tuple[int, ...] = (1, 2, 3),
+    *,
+    delay: bool | None = False,
 ) -> OrderSelection:
     """Fit every structure of the given orders and keep the smallest BIC.
 
@@ -432,12 +510,18 @@ def select_order(
     parameter by ``ln N``; with thousands of samples a pole must explain a real part of the
     response to be kept.
 
+    Parameters
+    ----------
+    delay : bool or None
+        ``True``: every structure with a fitted dead time; ``False``: none; ``None``: both
+        when the data show an apparent dead time of at least :data:`DEAD_TIME_SAMPLES`
+        samples, BIC deciding (the delay counts as one parameter).
+
     Raises
     ------
     IdentificationError
         When no structure could be fitted.
     """
-    fits: list[tuple[float, tuple[int, int], OeResult, MotorModel]] = []
     errors: list[str] = []
     noise = noise_model(cond, init)
     # every structure starts from the preliminary fit (near its optimum already: a few
@@ -445,52 +529,70 @@ def select_order(
     # start from the paper's model, whose third pole a two-pole fit cannot suggest
     quick = noise.preliminary if noise.preliminary is not None else init
     n_quick = int(quick.settings.get("n_poles", 0)) if noise.preliminary is not None else 0
-    fastest = 2.0 / min(r.sample_interval_s for r in cond.responses.values())
-    models: dict[tuple[int, int], MotorModel] = {}
-    for order in orders:
-        for structure in STRUCTURES[order]:
-            # a structure with a zero less starts from the same number of poles with it
-            start = models.get((structure[0], structure[1] + 1))
-            if start is None:
-                start = quick if structure[0] <= n_quick else init
-            try:
-                res, model = oe_stage(cond, start, structure, noise=noise, delay=delay)
-            except IdentificationError as exc:
-                errors.append(f"{structure}: {exc.message}")
-                continue
-            if not np.isfinite(res.bic) or np.any(np.real(res.poles) >= 0):
-                errors.append(f"{structure}: unstable or failed fit")
-                continue
-            # a pole or zero faster than half a recorded sample is not seen by the data: the
-            # fit parked a superfluous parameter there (and its realisation is ill-conditioned)
-            roots = np.r_[res.poles, res.zeros]
-            if roots.size and np.max(np.abs(roots)) > fastest:
-                errors.append(f"{structure}: a pole or zero beyond the sampling rate")
-                continue
-            models[structure] = model
-            fits.append((res.bic, structure, res, model))
+    dt_rec = min(r.sample_interval_s for r in cond.responses.values())
+    fastest = 2.0 / dt_rec
+    if delay is None:
+        variants = (False, True) if cond.dead_time_s >= DEAD_TIME_SAMPLES * dt_rec * (1 - 1e-9) else (False,)
+    else:
+        variants = (bool(delay),)
+    fits: list[tuple[float, tuple[int, int], bool, OeResult, MotorModel]] = []
+    for with_delay in variants:
+        models: dict[tuple[int, int], MotorModel] = {}
+        for order in orders:
+            for structure in STRUCTURES[order]:
+                # a structure with a zero less starts from the same number of poles with it
+                start = models.get((structure[0], structure[1] + 1))
+                if start is None:
+                    start = quick if structure[0] <= n_quick and not with_delay else init
+                label = f"{structure}{' + delay' if with_delay else ''}"
+                try:
+                    res, model = oe_stage(cond, start, structure, noise=noise, delay=with_delay)
+                except IdentificationError as exc:
+                    errors.append(f"{label}: {exc.message}")
+                    continue
+                if not np.isfinite(res.bic) or np.any(np.real(res.poles) >= 0):
+                    errors.append(f"{label}: unstable or failed fit")
+                    continue
+                # a pole or zero faster than half a recorded sample is not seen by the data: the
+                # fit parked a superfluous parameter there (and its realisation is ill-conditioned)
+                roots = np.r_[res.poles, res.zeros]
+                if roots.size and np.max(np.abs(roots)) > fastest:
+                    errors.append(f"{label}: a pole or zero beyond the sampling rate")
+                    continue
+                models[structure] = model
+                fits.append((res.bic, structure, with_delay, res, model))
     if not fits:
         raise IdentificationError("the output-error fit failed for every order: " + "; ".join(errors))
     fits.sort(key=lambda f: f[0])
+    bic0 = fits[0][0]
+    weights = np.exp(-0.5 * (np.array([f[0] for f in fits]) - bic0))
+    weights /= weights.sum()
     table = [
-        {"poles": s[0], "zeros": s[1], "bic": b, "aic": r.aic,
-         "weighted_rms": float(np.sqrt(max(r.cost, 0.0) * 2 / max(r.n_samples, 1)))}
-        for b, s, r, _ in fits
+        {"poles": s[0], "zeros": s[1], "delay": d, "bic": b, "aic": r.aic,
+         "weighted_rms": float(np.sqrt(max(r.cost, 0.0) * 2 / max(r.n_samples, 1))), "bic_weight": float(wt),
+         **({"delay_s": r.delay_s} if d else {})}
+        for (b, s, d, r, _), wt in zip(fits, weights)
     ]
     best = fits[0]
     # the noise model again, from the chosen structure's own residuals (the preliminary
     # two-pole fit may leave model error that the AR model took for noise); refit from there
-    refined = refine_noise(noise, best[2])
+    refined = refine_noise(noise, best[3])
     try:
-        res, model = oe_stage(cond, best[3], best[1], noise=refined, delay=delay)
+        res, model = oe_stage(cond, best[4], best[1], noise=refined, delay=best[2])
         if np.isfinite(res.bic) and np.all(np.real(res.poles) < 0):
-            best = (best[0], best[1], res, model)
+            best = (best[0], best[1], best[2], res, model)
     except IdentificationError:
         pass
+    others = [(b, m) for b, _, _, _, m in fits[1:]]
+    model = best[4].replace(uncertainty=structure_uncertainty(best[4], [(best[0], best[4])] + others))
     runner = fits[1] if len(fits) > 1 else None
     if runner is None:
-        evidence = f"only {best[1][0]} pole(s), {best[1][1]} zero(s) could be fitted"
+        evidence = f"only {_describe(best[1], best[2])} could be fitted"
     else:
-        evidence = (f"BIC prefers {best[1][0]} pole(s) and {best[1][1]} zero(s) over "
-                    f"{runner[1][0]} pole(s) and {runner[1][1]} zero(s) by ΔBIC = {runner[0] - best[0]:.1f}")
-    return OrderSelection(best[1], best[2], best[3], table, None if runner is None else runner[1], evidence)
+        evidence = (f"BIC prefers {_describe(best[1], best[2])} over "
+                    f"{_describe(runner[1], runner[2])} by ΔBIC = {runner[0] - best[0]:.1f}")
+    if len(variants) == 2:
+        evidence += (f" (a dead time was tried: the data stay in their noise band for "
+                     f"{1e3 * cond.dead_time_s:.3g} ms after the step)")
+    return OrderSelection(best[1], best[3], model, table, None if runner is None else runner[1], evidence,
+                          best[2], refined)

@@ -17,6 +17,7 @@ from motorid.conditioning.denoise import fft_denoise
 from motorid.conditioning.resample import ratio_for_interval, sample_reduction
 from motorid.conditioning.response import StepResponse, step_response
 from motorid.conditioning.sync import synchronise
+from motorid.conditioning.timescale import ResponseTimes, auto_reduction_ratio, response_times
 from motorid.errors import ConditioningError, OptionError
 
 __all__ = ["ConditioningSettings", "ConditionedExperiment", "condition_experiment"]
@@ -28,8 +29,11 @@ class ConditioningSettings:
 
     Attributes
     ----------
-    sample_interval_s : float or None
-        Target sample interval after reduction (paper: 0.1 s); ``None`` keeps the recording's.
+    sample_interval_s : float, "auto" or None
+        Target sample interval after reduction: ``"auto"`` (default) chooses it from the
+        measured response (:func:`~motorid.conditioning.timescale.auto_reduction_ratio`,
+        about five samples per 63 % time); a number fixes it (the paper's 0.1 s);
+        ``None`` keeps the recording's.
     ratio : int or None
         Reduction ratio; overrides ``sample_interval_s``.
     reduction : str
@@ -45,7 +49,7 @@ class ConditioningSettings:
         same experiment.
     """
 
-    sample_interval_s: float | None = 0.1
+    sample_interval_s: float | str | None = "auto"
     ratio: int | None = None
     reduction: str = "subsample"
     record_length_s: float | None = None
@@ -80,6 +84,13 @@ class ConditionedExperiment:
         Reduction ratio used.
     warnings : tuple of str
         Everything the user should know.
+    response_time_s : float
+        63 % time of the velocity (or the position's slope) read off the data (NaN if not
+        found): the time scale behind every automatic choice.
+    dead_time_s : float
+        Apparent dead time read off the same response (0 when it moves at once).
+    notes : tuple of str
+        The automatic choices made, in words.
     """
 
     time_s: np.ndarray
@@ -94,6 +105,9 @@ class ConditionedExperiment:
     settings: ConditioningSettings
     ratio: int
     warnings: tuple[str, ...] = field(default=())
+    response_time_s: float = float("nan")
+    dead_time_s: float = 0.0
+    notes: tuple[str, ...] = field(default=())
 
     @property
     def sample_interval_s(self) -> float:
@@ -137,6 +151,10 @@ def condition_experiment(
     responses = {
         role: step_response(cap, role, step_volts=step_volts, t0_s=t0_s) for role, cap in captures.items()
     }
+    notes: list[str] = []
+    if t0_s is None:
+        responses, shared = _shared_onsets(captures, responses, step_volts)
+        notes.extend(shared)
     warnings: list[str] = []
     for r in responses.values():
         warnings.extend(f"{r.source}: {w}" for w in r.warnings)
@@ -152,10 +170,14 @@ def condition_experiment(
                 )
     synced = synchronise(items, length_s=settings.record_length_s, method=settings.sync)
     dt = float(synced.time_s[1] - synced.time_s[0])
+    times = _response_times(responses, synced.time_s, synced.outputs)
     if settings.ratio is not None:
         ratio = int(settings.ratio)
+    elif settings.sample_interval_s == "auto":
+        ratio, why = auto_reduction_ratio(dt, float(synced.time_s[-1]), times.t63_s)
+        notes.append(why)
     elif settings.sample_interval_s is not None:
-        ratio = ratio_for_interval(dt, settings.sample_interval_s)
+        ratio = ratio_for_interval(dt, float(settings.sample_interval_s))
     else:
         ratio = 1
     outs = dict(synced.outputs)
@@ -182,4 +204,61 @@ def condition_experiment(
         settings=settings,
         ratio=ratio,
         warnings=tuple(warnings),
+        response_time_s=times.t63_s,
+        dead_time_s=times.dead_time_s if np.isfinite(times.dead_time_s) else 0.0,
+        notes=tuple(notes),
     )
+
+
+def _response_times(responses: Mapping[str, StepResponse], time_s: np.ndarray, outputs: Mapping[str, np.ndarray]
+) -> ResponseTimes:
+    """Time scales of the experiment: of the velocity, else of the position's slope."""
+    from motorid.conditioning.derivative import derivative
+
+    if "velocity" in outputs:
+        y, role = outputs["velocity"], "velocity"
+    else:
+        dt = float(time_s[1] - time_s[0])
+        y, role = derivative(outputs["position"], dt, "savgol"), "position"
+    r = responses[role]
+    pre = r.output_v[r.time_s < 0] if role == "velocity" else None
+    return response_times(time_s, y, pre=pre)
+
+
+def _shared_onsets(
+    captures: Mapping[str, Capture], responses: dict[str, StepResponse], step_volts: float | None
+) -> tuple[dict[str, StepResponse], list[str]]:
+    """One step instant for the captures of one acquisition that have no input channel.
+
+    Two channels of one scope acquisition (tacho and current shunt) saw the same step, but
+    each one's onset read-off is late by its own lags: the armature current moves first
+    (its rise starts with the full slope ``V/La``) while the tacho starts with zero slope,
+    so its tangent meets the baseline a few lags late (issue 11, item 2: 1.4–2.1 ms, τ
+    4–9 % short).  Captures on the same time axis therefore share the earliest onset.
+    """
+    groups: list[list[str]] = []
+    for role, cap in captures.items():
+        if cap.input_v is not None or responses[role].edge.method != "onset":
+            continue
+        for g in groups:
+            other = captures[g[0]].time_s
+            if other.shape == cap.time_s.shape and np.array_equal(other, cap.time_s):
+                g.append(role)
+                break
+        else:
+            groups.append([role])
+    notes: list[str] = []
+    out = dict(responses)
+    for g in groups:
+        if len(g) < 2:
+            continue
+        first = min(g, key=lambda r: responses[r].edge.time_s)
+        t0 = responses[first].edge.time_s
+        for role in g:
+            if role == first:
+                continue
+            late = responses[role].edge.time_s - t0
+            out[role] = step_response(captures[role], role, step_volts=step_volts, t0_s=t0)
+            notes.append(f"one step instant for the {' and '.join(g)} captures (one acquisition): the "
+                         f"{first}'s onset at {t0:.6g} s; the {role}'s own read-off was {1e3 * late:.3g} ms later")
+    return out, notes

@@ -349,6 +349,7 @@ def output_error_fit(
     settings: OeSettings = OeSettings(),
     *,
     init_zeros: Sequence[float] = (),
+    init_delay_s: float = 0.0,
     pre: Mapping[str, np.ndarray] | None = None,
     step_std: float = 0.0,
     block: Mapping[str, int] | None = None,
@@ -371,6 +372,10 @@ def output_error_fit(
         Noise standard deviation of each channel (weights).
     init_taus, init_dc_gain, init_zeros :
         Starting point (from a paper method).
+    init_delay_s : float
+        Starting delay (with ``settings.delay``): the dead time read off the data.  From 0
+        the fit cannot find a dead time: before the response starts its slope, hence the
+        delay's gradient, is zero (issue 11, item 6).
     settings : OeSettings
         Structure.
     pre : Mapping[str, ndarray], optional
@@ -445,7 +450,7 @@ def output_error_fit(
     tz0 = list(init_zeros)[:m] + [0.5 * taus0[min(1, n - 1)]] * (m - len(list(init_zeros)[:m]))
     th0 = [init_dc_gain] + list(np.log(np.maximum(taus0, 1e-6))) + list(tz0)
     if settings.delay:
-        th0.append(0.0)
+        th0.append(max(float(init_delay_s), 0.0))
     if "c" in layout.idx:
         # c by least squares given the initial velocity model
         base = position_closed_form(tc["position"], _vel_num(init_dc_gain, np.array(tz0)), taus0, step_volts)
