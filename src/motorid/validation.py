@@ -1,24 +1,42 @@
 """Validation of a model on any recorded input (paper section VI-B, Figs. 36–38).
 
 The model is driven by the input actually recorded on CH1 (sine, triangle, square, a step…)
-and its output compared with the recorded CH2.  The record rarely starts at rest, so the
-model starts from rest a warm-up before the compared part: the first ``warmup_tau``
-dominant time constants of the record are simulated but not scored (the initial-state error
-has decayed by ``e^-warmup_tau`` there).
+— or, for a capture without an input channel, by a step of ``step_volts`` at ``t0_s`` (the
+onset found from the response when not given) — and its output compared with CH2 over the
+whole record.  Nothing is skipped silently: the record rarely starts at rest and the sensor
+rarely reads 0 V at rest, so the initial state ``x0`` and an output offset ``c`` are
+estimated with the score, by linear least squares (the output is linear in both):
+
+    y(t) ≈ ŷ_forced(t) + C·e^{At}·x0 + c
+
+and reported.  A position channel is unwrapped (:func:`motorid.conditioning.unwrap.unwrap_position`);
+a step capture is scored as ``identify`` scores it: on the increments from the pre-step
+baseline, NRMSE over the steady-state change (:mod:`motorid.metrics`).  The model's fitted
+dead time (``delay_s``) delays the input.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import Any
 
 import control
 import numpy as np
 
+from motorid._threads import single_blas_thread
 from motorid.capture import Capture
-from motorid.errors import CaptureDataError, OptionError
-from motorid.model import MotorModel
+from motorid.conditioning.edge import step_edge
+from motorid.conditioning.response import step_response
+from motorid.conditioning.unwrap import unwrap_position
+from motorid.errors import CaptureDataError, OptionError, StepNotFoundError
+from motorid.metrics import fit_percent, nrmse
+from motorid.model import CHANNELS, MotorModel
 
-__all__ = ["ValidationResult", "validate_capture"]
+__all__ = ["ValidationResult", "validate_capture", "model_delay_s"]
+
+#: Fewest scored samples a validation needs.
+MIN_SCORED = 10
 
 
 @dataclass(frozen=True, slots=True)
@@ -32,13 +50,40 @@ class ValidationResult:
     channel : str
         The model output compared (``velocity``, ``position`` or ``current``).
     time_s, input_v, measured_v, simulated_v : ndarray
-        The compared part of the record.
+        The scored part of the record: time on the file's own axis [s], the input that drove
+        the model [V] (before the model's delay), the measured channel [V] (unwrapped; for a
+        step, the increment from the pre-step baseline) and the model's output [V] with the
+        estimated initial state and offset.
     nrmse : float
-        RMS of (measured − simulated) over the RMS of the measured signal about its mean.
+        RMS(measured − simulated) / measured change of the response (:func:`motorid.metrics.nrmse`
+        with ``nrmse_reference``).
     fit_percent : float
-        ``100·(1 − ‖y − ŷ‖/‖y − ȳ‖)``, MATLAB's ``compare`` fit.
+        MATLAB ``compare``'s ``100·(1 − ‖y − ŷ‖/‖y − ȳ‖)``.
     warmup_s : float
-        Simulated but not scored.
+        Simulated but not scored, from the start of the record (0 unless asked for).
+    nrmse_reference : str
+        ``"final"`` (a step: steady-state change) or ``"span"`` (other inputs: P99 − P1).
+    input_kind : str
+        ``"step"`` (a step on CH1), ``"built step"`` (no input channel: ``step_volts`` at
+        ``step_time_s``) or ``"recorded"`` (any other CH1 signal).
+    step_time_s : float or None
+        The step instant on the file's time axis (steps only).
+    state_names : tuple of str
+        Names of the entries of ``initial_state``.
+    initial_state : tuple of float
+        Least-squares initial state at the first sample (NaN for states the channel cannot
+        see, and everywhere when not estimated).
+    offset_v : float
+        Least-squares output offset [V] (0 when not estimated or not separable from the
+        initial state).
+    delay_s : float
+        Dead time applied to the input [s] (the model's fitted ``delay_s``, 0 without one).
+    wraps : int
+        Encoder wraps removed from a position channel.
+    notes : tuple of str
+        What was estimated or assumed, in words.
+    warnings : tuple of str
+        What the user should check.
     """
 
     source: str
@@ -50,54 +95,288 @@ class ValidationResult:
     nrmse: float
     fit_percent: float
     warmup_s: float
+    nrmse_reference: str = "span"
+    input_kind: str = "recorded"
+    step_time_s: float | None = None
+    state_names: tuple[str, ...] = ()
+    initial_state: tuple[float, ...] = ()
+    offset_v: float = 0.0
+    delay_s: float = 0.0
+    wraps: int = 0
+    notes: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        """The scalar results as a JSON-able dict (non-finite numbers as ``None``)."""
+
+        def num(x: float) -> float | None:
+            return float(x) if math.isfinite(x) else None
+
+        return {
+            "file": self.source,
+            "channel": self.channel,
+            "nrmse": num(self.nrmse),
+            "fit_percent": num(self.fit_percent),
+            "warmup_s": self.warmup_s,
+            "nrmse_reference": self.nrmse_reference,
+            "input": self.input_kind,
+            "step_time_s": self.step_time_s,
+            "initial_state": {k: num(v) for k, v in zip(self.state_names, self.initial_state)},
+            "offset_v": num(self.offset_v),
+            "delay_s": self.delay_s,
+            "wraps": self.wraps,
+            "notes": list(self.notes),
+            "warnings": list(self.warnings),
+        }
 
 
+def model_delay_s(model: MotorModel) -> float:
+    """The dead time a model was fitted with (``extras["delay_s"]``), 0 without one."""
+    d = model.extras.get("delay_s")
+    try:
+        d = float(d) if d is not None else 0.0
+    except (TypeError, ValueError):
+        return 0.0
+    return d if math.isfinite(d) and d > 0 else 0.0
+
+
+def _channel_system(model: MotorModel, channel: str) -> tuple[control.StateSpace, tuple[str, ...]]:
+    """Input volts → the channel's volts, in the model's own state coordinates."""
+    if channel in model.outputs:
+        i = model.outputs.index(channel)
+        return control.ss(model.A, model.B, model.C[i:i + 1], model.D[i:i + 1]), model.states
+    # position of a model without a position row: the integral of the velocity channel
+    n = model.order
+    iv = model.outputs.index("velocity")
+    a = np.zeros((n + 1, n + 1))
+    a[:n, :n] = model.A
+    a[n, :n] = model.C[iv]
+    b = np.vstack([model.B, model.D[iv:iv + 1]])
+    c = np.zeros((1, n + 1))
+    c[0, n] = 1.0
+    return control.ss(a, b, c, np.zeros((1, 1))), model.states + ("position (integral)",)
+
+
+def _is_step(capture: Capture) -> bool:
+    if capture.input_v is None:
+        return False
+    try:
+        step_edge(capture.time_s, capture.input_v, file=capture.source)
+    except StepNotFoundError:
+        return False
+    return True
+
+
+@single_blas_thread
 def validate_capture(
-    model: MotorModel, capture: Capture, *, channel: str = "velocity", warmup_tau: float = 5.0
+    model: MotorModel,
+    capture: Capture,
+    *,
+    channel: str = "velocity",
+    step_volts: float | None = None,
+    t0_s: float | None = None,
+    warmup_s: float = 0.0,
+    delay_s: float | None = None,
+    estimate_initial_state: bool = True,
+    estimate_offset: bool = True,
+    encoder_span_v: float | None = None,
 ) -> ValidationResult:
-    """Drive ``model`` with the capture's recorded input and compare with its output.
+    """Drive ``model`` with the capture's input and score its output against the record.
 
     Parameters
     ----------
     model : MotorModel
         Any identified model.
     capture : Capture
-        A capture with an input channel (CH1).
+        A capture; without an input channel it must be a step response and ``step_volts``
+        is needed.
     channel : str
-        The model output that CH2 measured.
-    warmup_tau : float
-        Dominant time constants at the start that are simulated but not scored.
+        The model output that CH2 measured (``velocity``, ``position`` or ``current``).
+    step_volts : float, optional
+        Step level for a capture without an input channel [V] (ignored, with a warning,
+        when CH1 is present).
+    t0_s : float, optional
+        Step instant on the file's time axis [s]; found from CH1's edge, or from the
+        response's onset without CH1, when omitted.
+    warmup_s : float
+        Simulate but do not score the first ``warmup_s`` seconds of the record (default 0:
+        the initial state is estimated instead).
+    delay_s : float, optional
+        Dead time of the input [s]; the model's fitted ``delay_s`` when omitted.
+    estimate_initial_state, estimate_offset : bool
+        Fit the initial state / a constant output offset by least squares (default on).
+    encoder_span_v : float, optional
+        Volts per turn of a position sensor (estimated from the wraps when omitted).
 
     Returns
     -------
     ValidationResult
+        The scores and everything estimated on the way.
 
     Raises
     ------
-    CaptureDataError
-        The capture has no input channel or is too short for the warm-up.
     OptionError
-        The model has no such output.
+        An unknown channel, a model without that output, a bad warm-up or delay.
+    StepNotFoundError
+        A capture without input channel and no ``step_volts``, or without a step response.
+    CaptureDataError
+        A record too short to score.
+
+    References
+    ----------
+    Masoud 2019, section VI-B (validation on sine, triangle and square inputs); MathWorks
+    ``compare`` (fit % and the estimated initial condition).
     """
-    if capture.input_v is None:
-        raise CaptureDataError("no input channel (CH1) to drive the model with", file=capture.source)
+    if channel not in CHANNELS:
+        raise OptionError(f"--channel {channel!r} is not a model output: use one of {', '.join(CHANNELS)}")
     if channel not in model.outputs and channel != "position":
-        raise OptionError(f"the model has no {channel!r} output; it has {', '.join(model.outputs)}")
-    t = capture.time_s - capture.time_s[0]
-    u = capture.input_v
-    y = capture.output_v
-    tf = {"velocity": model.velocity_tf, "position": model.position_tf, "current": model.current_tf}[channel]()
-    _, yhat = control.forced_response(tf, t, u)
-    tau = model.first_order().time_constant_s
-    warm = warmup_tau * tau if np.isfinite(tau) and tau > 0 else 0.0
-    keep = t >= warm
-    if keep.sum() < 10:
+        raise OptionError(f"the model has no {channel!r} output (it has {', '.join(model.outputs)}): "
+                          "choose another --channel")
+    if not (math.isfinite(warmup_s) and warmup_s >= 0):
+        raise OptionError(f"--warmup must be a non-negative number of seconds, got {warmup_s!r}")
+    try:
+        delay = model_delay_s(model) if delay_s is None else float(delay_s)
+    except (TypeError, ValueError):
+        raise OptionError(f"delay must be a number of seconds, got {delay_s!r}") from None
+    if not (math.isfinite(delay) and delay >= 0):
+        raise OptionError(f"delay must be a non-negative number of seconds, got {delay_s!r}")
+    notes: list[str] = []
+    warnings: list[str] = []
+    wraps = 0
+    step_time: float | None = None
+    if capture.input_v is None or _is_step(capture):
+        if capture.input_v is None and step_volts is None:
+            raise StepNotFoundError(
+                "no input channel (CH1) to drive the model with: give the step level with --step-volts",
+                file=capture.source,
+            )
+        if capture.input_v is not None and step_volts is not None:
+            warnings.append("--step-volts ignored: the capture's CH1 gives the input")
+        sr = step_response(capture, channel, step_volts=step_volts, t0_s=t0_s, encoder_span_v=encoder_span_v)
+        warnings.extend(sr.warnings)
+        wraps = sr.wraps
+        t_file = capture.time_s
+        u, y = np.asarray(sr.input_v, float), np.asarray(sr.output_v, float)
+        step_time = float(sr.edge.time_s)
+        # a current returns towards 0 after the step: its change is its span, not its end
+        reference = "span" if channel == "current" else "final"
+        kind = "built step" if capture.input_v is None else "step"
+        how = {"given": "given (--t0)", "onset": "the response's onset", "change-point": "CH1's edge"}
+        notes.append(f"step input: {kind} of {sr.step_volts:.4g} V at {step_time + 0.0:.6g} s "
+                     f"(from {how.get(sr.edge.method, sr.edge.method)}); scored on the increments "
+                     "from the pre-step baseline")
+    else:
+        if step_volts is not None:
+            warnings.append("--step-volts ignored: the capture's CH1 gives the input")
+        if t0_s is not None:
+            warnings.append("--t0 ignored: the input on CH1 is not a step")
+        warnings.extend(capture.warnings)
+        t_file = capture.time_s
+        u = np.asarray(capture.input_v, float)
+        y = np.asarray(capture.output_v, float)
+        if channel == "position":
+            un = unwrap_position(y, span_v=encoder_span_v, file=capture.source)
+            y, wraps = un.position_v, un.wraps
+            warnings.extend(un.warnings)
+        reference = "span"
+        kind = "recorded"
+        notes.append("input: CH1 as recorded")
+    if wraps:
+        notes.append(f"position unwrapped: {wraps} encoder wrap(s) removed")
+    t = t_file - t_file[0]
+    if delay > 0:
+        # the model's dead time: the plant sees the input delay_s late
+        u_model = np.interp(t - delay, t, u, left=u[0])
+        notes.append(f"input delayed by the model's dead time {delay:.4g} s")
+    else:
+        u_model = u
+    sys, names = _channel_system(model, channel)
+    # python-control simulates on an evenly spaced grid: a logger's jittered time stamps are
+    # simulated on the even grid of the same span and read back at the samples
+    dt = np.diff(t)
+    even = bool(np.allclose(dt, t[-1] / (t.size - 1), rtol=1e-6, atol=0.0))
+    grid = t if even else np.linspace(0.0, t[-1], t.size)
+
+    def on_samples(values: np.ndarray) -> np.ndarray:
+        values = np.asarray(values, float).ravel()
+        return values if even else np.interp(t, grid, values)
+
+    u_grid = u_model if even else np.interp(grid, t, u_model)
+    if not even:
+        notes.append("uneven time stamps: simulated on an even grid and interpolated")
+    with np.errstate(over="ignore", invalid="ignore"):
+        forced = on_samples(control.forced_response(sys, grid, u_grid).outputs)
+    scored = t >= warmup_s - 1e-12 * max(1.0, t[-1])
+    if int(scored.sum()) < MIN_SCORED:
         raise CaptureDataError(
-            f"record of {t[-1]:.3g} s is too short to validate after a {warm:.3g} s warm-up", file=capture.source
+            f"record of {t[-1]:.3g} s leaves fewer than {MIN_SCORED} samples after the {warmup_s:g} s "
+            "warm-up: use a shorter --warmup",
+            file=capture.source,
         )
-    ym, yh = y[keep], np.asarray(yhat)[keep]
-    err = float(np.sqrt(np.mean((ym - yh) ** 2)))
-    spread = float(np.sqrt(np.mean((ym - ym.mean()) ** 2)))
-    nrmse = err / spread if spread > 0 else float("inf")
-    return ValidationResult(capture.source, channel, capture.time_s[keep], u[keep], ym, yh, nrmse,
-                            100.0 * (1.0 - nrmse), float(warm))
+    if warmup_s > 0:
+        notes.append(f"first {warmup_s:g} s simulated but not scored (--warmup)")
+    n = sys.nstates
+    cols: list[np.ndarray] = []
+    if estimate_initial_state:
+        with np.errstate(over="ignore", invalid="ignore"):
+            for i in range(n):
+                x0 = np.zeros(n)
+                x0[i] = 1.0
+                cols.append(on_samples(control.initial_response(sys, grid, X0=x0).outputs))
+    x0_hat = np.full(n, np.nan)
+    offset = 0.0
+    yhat = forced.copy()
+    if np.all(np.isfinite(forced)) and (cols or estimate_offset):
+        basis = np.column_stack(cols) if cols else np.zeros((t.size, 0))
+        use_offset = estimate_offset
+        if use_offset and cols:
+            # an integrating channel's initial position already is a constant: the offset
+            # cannot be told from it
+            q, *_ = np.linalg.lstsq(basis[scored], np.ones(int(scored.sum())), rcond=None)
+            if np.linalg.norm(basis[scored] @ q - 1.0) < 1e-6 * math.sqrt(scored.sum()):
+                use_offset = False
+                notes.append("output offset not separable from the initial position: taken into the initial state")
+        design = np.column_stack([basis, np.ones(t.size)]) if use_offset else basis
+        if np.all(np.isfinite(design)):
+            scale = np.linalg.norm(design[scored], axis=0)
+            seen = scale > 1e-12 * max(float(scale.max(initial=0.0)), 1e-300)
+            a = design[scored][:, seen] / scale[seen]
+            coef_s, *_ = np.linalg.lstsq(a, y[scored] - forced[scored], rcond=1e-10)
+            coef = np.zeros(design.shape[1])
+            coef[seen] = coef_s / scale[seen]
+            yhat = forced + design @ coef
+            if cols:
+                x0_hat = np.where(seen[:n], coef[:n], np.nan)
+                notes.append("initial state estimated by least squares over the scored record"
+                             + ("" if np.all(seen[:n]) else " (states the channel cannot see: null)"))
+            if use_offset:
+                offset = float(coef[n if cols else 0])
+                notes.append(f"output offset estimated: {offset:+.4g} V")
+        else:
+            warnings.append("the model's free response overflows (unstable model): initial state not estimated")
+    elif not np.all(np.isfinite(forced)):
+        warnings.append("the model's response overflows (unstable model)")
+    ym, yh = y[scored], yhat[scored]
+    score = nrmse(ym, yh, reference=reference) if np.ptp(ym) > 0 else float("inf")
+    fit = fit_percent(ym, yh) if np.ptp(ym) > 0 else float("-inf")
+    return ValidationResult(
+        source=capture.source,
+        channel=channel,
+        time_s=t_file[scored],
+        input_v=u[scored],
+        measured_v=ym,
+        simulated_v=yh,
+        nrmse=score,
+        fit_percent=fit,
+        warmup_s=float(warmup_s),
+        nrmse_reference=reference,
+        input_kind=kind,
+        step_time_s=step_time,
+        state_names=tuple(names),
+        initial_state=tuple(float(v) for v in x0_hat),
+        offset_v=offset,
+        delay_s=delay,
+        wraps=int(wraps),
+        notes=tuple(notes),
+        warnings=tuple(dict.fromkeys(warnings)),
+    )

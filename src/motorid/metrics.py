@@ -1,0 +1,153 @@
+"""Goodness of fit: one NRMSE and MATLAB's ``compare`` fit %, used by identify and validate.
+
+NRMSE (normalised root-mean-square error)
+    ``NRMSE = sqrt(mean((y − ŷ)²)) / Δy``: the RMS error over the *measured change of the
+    response* ``Δy``.
+
+    - ``reference="final"`` (a step response whose pre-step baseline has been removed): ``Δy``
+      is the steady-state change, ``|mean of the last 10 % of y|`` — the CONTRACT.md
+      definition of ``fit.velocity_nrmse``.
+    - ``reference="span"`` (any other input: sine, triangle, square, …, and the step response
+      of a current, which returns towards 0): ``Δy`` is the range
+      the response covers, ``P99(y) − P1(y)`` (1st to 99th percentile: the peak-to-peak
+      change, robust to a few spikes).  For a step response from rest the two agree up to
+      overshoot and noise.
+
+    0 is a perfect model; a model that predicts nothing at all scores about
+    ``RMS(y) / Δy`` (≈ 0.84 for a first-order step response recorded over 5 τ).
+
+Fit %
+    MATLAB ``compare``'s normalised fit ``100·(1 − ‖y − ŷ‖₂ / ‖y − mean(y)‖₂)``: 100 % is a
+    perfect model, 0 % no better than the measured mean, negative is worse than the mean.
+    It does not depend on the kind of input.
+
+Both compare arrays of equal length; nuisance parameters (delay, offsets, initial state) are
+applied to ``ŷ`` by the caller before scoring.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+
+from motorid.errors import OptionError
+
+__all__ = ["REFERENCES", "response_change", "nrmse", "fit_percent"]
+
+#: Names of the NRMSE normalisations (see the module docstring).
+REFERENCES = ("final", "span")
+
+
+def _pair(measured: object, simulated: object) -> tuple[np.ndarray, np.ndarray]:
+    y = np.asarray(measured, dtype=float).ravel()
+    yhat = np.asarray(simulated, dtype=float).ravel()
+    if y.size != yhat.size or y.size < 2:
+        raise OptionError(f"measured and simulated must be equally long (≥ 2 samples), got {y.size} and {yhat.size}")
+    return y, yhat
+
+
+def response_change(measured: object, reference: Literal["final", "span"] = "final") -> float:
+    """The measured change of a response, the denominator of :func:`nrmse`.
+
+    Parameters
+    ----------
+    measured : array_like
+        The measured response [V].  For ``"final"``: the increment from the pre-step
+        baseline.
+    reference : {"final", "span"}
+        ``"final"``: ``|mean of the last 10 % of the samples|`` (steady-state change of a
+        step response); ``"span"``: ``P99 − P1`` of the samples (peak-to-peak change).
+
+    Returns
+    -------
+    float
+        ``Δy`` [V], ≥ 0.
+
+    Raises
+    ------
+    OptionError
+        For an unknown ``reference``.
+    """
+    y = np.asarray(measured, dtype=float).ravel()
+    if reference == "final":
+        return float(abs(np.mean(y[-max(1, y.size // 10):])))
+    if reference == "span":
+        lo, hi = np.percentile(y, [1.0, 99.0])
+        return float(hi - lo)
+    raise OptionError(f"NRMSE reference must be one of {', '.join(REFERENCES)} or a number, not {reference!r}")
+
+
+def nrmse(
+    measured: object,
+    simulated: object,
+    *,
+    reference: Literal["final", "span"] | float = "final",
+) -> float:
+    """RMS of (measured − simulated) over the measured change of the response.
+
+    Parameters
+    ----------
+    measured, simulated : array_like
+        Equally long records [V].
+    reference : {"final", "span"} or float
+        How ``Δy`` is taken (:func:`response_change`): ``"final"`` for a step response from
+        its baseline (CONTRACT.md ``fit.velocity_nrmse``), ``"span"`` for other inputs, or
+        ``Δy`` itself as a positive number.
+
+    Returns
+    -------
+    float
+        ``sqrt(mean((y − ŷ)²)) / Δy``; ``inf`` when the simulation overflowed (an unstable
+        model).
+
+    Raises
+    ------
+    OptionError
+        On unequal lengths, an unknown reference, or ``Δy`` zero (the response never moved).
+    """
+    y, yhat = _pair(measured, simulated)
+    if isinstance(reference, str):
+        delta = response_change(y, reference)
+    else:
+        delta = float(reference)
+        if not np.isfinite(delta) or delta <= 0:
+            raise OptionError(f"NRMSE reference must be a positive number, got {reference!r}")
+    if delta == 0.0:
+        raise OptionError(f"the measured response has no change ({reference}); NRMSE is undefined")
+    with np.errstate(over="ignore", invalid="ignore"):
+        value = float(np.sqrt(np.mean((y - yhat) ** 2)) / delta)
+    return value if np.isfinite(value) else float("inf")
+
+
+def fit_percent(measured: object, simulated: object) -> float:
+    """MATLAB ``compare``'s fit: ``100·(1 − ‖y − ŷ‖ / ‖y − mean(y)‖)``.
+
+    Parameters
+    ----------
+    measured, simulated : array_like
+        Equally long records [V].
+
+    Returns
+    -------
+    float
+        Fit in percent (100 perfect, 0 as good as the mean, ``-inf`` for an overflowed
+        simulation).
+
+    Raises
+    ------
+    OptionError
+        On unequal lengths or a constant measured record.
+
+    References
+    ----------
+    MathWorks, ``compare`` (System Identification Toolbox), "NRMSE" fit:
+    ``fit = 100·(1 − norm(y − ŷ)/norm(y − mean(y)))``.
+    """
+    y, yhat = _pair(measured, simulated)
+    spread = float(np.linalg.norm(y - y.mean()))
+    if spread == 0.0:
+        raise OptionError("the measured record is constant; fit % is undefined")
+    with np.errstate(over="ignore", invalid="ignore"):
+        value = float(100.0 * (1.0 - np.linalg.norm(y - yhat) / spread))
+    return value if np.isfinite(value) else float("-inf")
