@@ -668,12 +668,7 @@ class MotorModel:
                     # per sample)
                     e1 = scipy.linalg.expm(m * d[0])
                     x0 = scipy.linalg.expm(m * ta[0])[:n, n] * step
-                    phi, gam = e1[:n, :n], e1[:n, n] * step
-                    xa = np.empty((ta.size, n))
-                    xa[0] = x0
-                    for k in range(1, ta.size):
-                        xa[k] = phi @ xa[k - 1] + gam
-                    x[after] = xa
+                    x[after] = _affine_orbit(e1[:n, :n], e1[:n, n] * step, x0, ta.size)
                 else:
                     e = scipy.linalg.expm(m[None, :, :] * ta[:, None, None])
                     x[after] = e[:, :n, n] * step
@@ -848,6 +843,28 @@ class MotorModel:
         for w in self.warnings:
             lines.append(f"% warning: {w}")
         return "\n".join(lines) + "\n"
+
+
+def _affine_orbit(phi: np.ndarray, gam: np.ndarray, x0: np.ndarray, count: int) -> np.ndarray:
+    """``x[0] = x0``, ``x[k] = Φ x[k−1] + Γ`` for ``k < count``, without a Python loop per sample.
+
+    The affine map ``x ↦ Φx + Γ`` composed with itself ``m`` times is ``x ↦ Φᵐx + c_m`` with
+    ``c_2m = Φᵐ c_m + c_m``: each doubling extends the orbit by a batched product, so a
+    300 000-sample record costs 19 numpy products instead of 300 000 Python iterations
+    (scipy's ``dlsim`` loops in Python; ``lfilter`` would need ``ss2tf``, ill-conditioned
+    for the wide pole spreads of motor models).
+    """
+    n = x0.size
+    out = np.empty((count, n))
+    out[0] = x0
+    power, offset, m = phi.copy(), gam.copy(), 1
+    while m < count:
+        k = min(m, count - m)
+        out[m : m + k] = out[:k] @ power.T + offset
+        offset = power @ offset + offset
+        power = power @ power
+        m *= 2
+    return out
 
 
 def _balance(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -114,9 +114,10 @@ def test_dead_time_rig_gets_its_dead_time_by_bic() -> None:
     the read-off; the residence time (τ + dead time) is within 5 % of the truth either way."""
     rng = np.random.default_rng(4)
     dt, theta = 0.01, 0.035
-    t = np.arange(-1.0, 6.0, dt)
+    k = np.arange(-100, 600)
+    t = k * dt  # the step at sample 0 exactly (no rounding of a float grid)
     g = control.tf([245.5], np.polymul([0.12, 1], [0.03, 1]))
-    u = np.where(t >= 0, 15.0, 5.0)
+    u = np.where(k >= 0, 15.0, 5.0)
     te = t - theta
     resp = control.step_response(g, np.arange(0, 7, 1e-3))
     y = 245.5 * 5.0 + np.where(te >= 0, 10.0 * np.interp(te, resp.time, np.ravel(resp.outputs)), 0.0)
@@ -125,7 +126,8 @@ def test_dead_time_rig_gets_its_dead_time_by_bic() -> None:
     r = identify_experiment({"velocity": cap})
     fo = r.model.first_order()
     assert fo.dc_gain == pytest.approx(245.5, rel=0.01)
-    assert fo.time_constant_s + r.model.delay_s == pytest.approx(0.15 + theta, rel=0.05)
+    assert fo.time_constant_s + r.model.delay_s == pytest.approx(0.15 + theta, rel=0.02)
+    assert r.model.delay_s == pytest.approx(theta, abs=dt / 2)
     assert "dead time was tried" in r.reason
 
 
@@ -143,3 +145,26 @@ def test_structure_uncertainty_widens_only_with_a_close_runner_up() -> None:
     assert far["time_constant"]["std"] == pytest.approx(0.001, rel=1e-3)
     lo, hi = close["time_constant"]["ci95"]
     assert lo < 0.40 < hi  # centred on the headline
+
+
+def test_a_long_log_is_fitted_on_the_part_the_dynamics_need() -> None:
+    """A 3000 s log of a 0.33 s motor (issue 11, item 7): it used to be fitted as 1.2 s block
+    means (interval ±0.64 s); the fit now takes 50 time constants after the step."""
+    from motorid.refinement import MAX_RECORD_TIME_CONSTANTS, fit_record_length
+    from motorid.conditioning.pipeline import condition_experiment
+
+    rng = np.random.default_rng(5)
+    dt = 0.01
+    k = np.arange(-500, 300_000)
+    t = k * dt
+    g = control.tf([2.0], np.polymul([0.3, 1], [0.03, 1]))
+    resp = control.step_response(g, np.arange(0, 10, 1e-3))
+    y = np.where(k >= 0, 5.0 * np.interp(t, resp.time, np.ravel(resp.outputs)), 0.0) + rng.normal(0, 0.01, t.size)
+    cap = _capture(t, y, u=np.where(k >= 0, 5.0, 0.0))
+    cond = condition_experiment({"velocity": cap})
+    assert fit_record_length(cond) == pytest.approx(MAX_RECORD_TIME_CONSTANTS * cond.response_time_s)
+    r = identify_experiment({"velocity": cap})
+    fo = r.model.first_order()
+    lo, hi = r.model.uncertainty["time_constant"]["ci95"]
+    assert hi - lo < 0.01
+    assert fo.time_constant_s + r.model.delay_s == pytest.approx(0.33, rel=0.01)
