@@ -24,6 +24,7 @@ from motorid.identify.markov import MarkovSettings, markov_identify
 from motorid.identify.pinv import PinvSettings, pinv_identify
 from motorid.identify.result import IdentificationError
 from motorid.identify.sanity import SanityReport, sanity_checks
+from motorid.metrics import fit_percent
 from motorid.model import MotorModel, step_nrmse
 
 __all__ = ["METHODS", "IdentifySettings", "Identification", "identify_experiment", "identify_conditioned"]
@@ -277,6 +278,17 @@ def _with_fit(model: MotorModel, cond: ConditionedExperiment) -> MotorModel:
         fit["position_nrmse"] = float(
             step_nrmse(model, t, cond.full_outputs["position"], channel="position", step_volts=cond.step_volts)
         )
+    # MATLAB compare's fit % of every channel the model predicts (its delay applied;
+    # CONTRACT.md fit.<channel>_fit_percent)
+    with np.errstate(over="ignore", invalid="ignore"):
+        resp = model.step_response(t, cond.step_volts)
+    measured = {"velocity": v, **{k: y for k, y in cond.full_outputs.items() if k != "velocity"}}
+    for channel, y in measured.items():
+        if channel in resp:
+            try:
+                fit[f"{channel}_fit_percent"] = float(fit_percent(y, resp[channel]))
+            except OptionError:  # a constant record has no fit %
+                continue
     return model.replace(fit=fit)
 
 

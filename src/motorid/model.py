@@ -835,6 +835,7 @@ class MotorModel:
             lines.append(f"D_{ch} = {mat(self.D[i:i + 1])};")
         lines += [
             "sys = ss(A, B, C, D);",
+            *([f"sys.InputDelay = {self.delay_s:.17g};  % dead time, s"] if self.delay_s > 0 else []),
             f"Hv = tf({vec(vnum)}, {vec(vden)});  % velocity TF",
             f"Hp = tf({vec(pnum)}, {vec(pden)});  % position TF",
             f"% first-order approximation: dc_gain = {fo.dc_gain:.6g}, tau = {fo.time_constant_s:.6g} s"

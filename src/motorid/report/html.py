@@ -135,14 +135,23 @@ def build_report(inp: ReportInputs) -> str:
             for key, label in (("dc_gain", "dc gain 95%"), ("time_constant", "τ 95%")):
                 lo, hi = u[key]["ci95"]
                 rows.append([label, f"[{lo:.5g}, {hi:.5g}]"])
+        if model.delay_s > 0:
+            rows.append(["dead time", f"{1e3 * model.delay_s:.4g} ms (τ + dead time {fo.time_constant_s + model.delay_s:.5g} s)"])
         for key, val in model.fit.items():
-            rows.append([f"fit {key}", f"{100 * val:.2f} %"])
+            shown = f"{val:.2f} %" if key.endswith("_fit_percent") else f"{100 * val:.2f} %"
+            rows.append([f"fit {key}", shown])
+        sanity = model.extras.get("sanity")
+        if isinstance(sanity, dict):
+            rows.append(["sanity checks", "all passed" if sanity.get("passed") else
+                         f"{sum(not c['passed'] for c in sanity.get('checks', []))} FAILED (see the warnings)"])
         if inp.truth:
             tf = inp.truth.get("transfer_functions", {}).get("first_order", {})
             if tf:
                 rows.append(["trainer truth (linearised)", f"dc gain {tf['dc_gain']:.5g}, τ {tf['time_constant']:.5g} s"])
         body = _table(["", "value"], rows)
         body += f"<p>{html.escape(ident.reason)}</p>"
+        for note in model.extras.get("conditioning", []) or []:
+            body += f"<p class=muted>{html.escape(str(note))}</p>"
         if model.warnings:
             body += "<ul>" + "".join(f'<li class="warn">{html.escape(w)}</li>' for w in model.warnings) + "</ul>"
         body += "<p class=muted>Files: " + ", ".join(f"{html.escape(r)}: {html.escape(s)}" for r, s in cond.sources.items()) + "</p>"
@@ -233,15 +242,26 @@ def build_report(inp: ReportInputs) -> str:
     def validation_section() -> str:
         if not inp.validation:
             return "<p>no validation captures given (<code>--validate CAP...</code>)</p>"
+        from motorid.errors import MotorIdError
         from motorid.validation import validate_capture
 
         body, rows = "", []
         for name, cap in inp.validation.items():
-            r = validate_capture(model, cap)
-            rows.append([name, f"{100 * r.nrmse:.2f} %", f"{r.fit_percent:.1f} %"])
+            try:
+                r = validate_capture(model, cap)
+            except MotorIdError as exc:
+                rows.append([name, "—", "—", "—", f"not validated: {exc.message}"])
+                continue
+            rows.append([name, f"{100 * r.nrmse:.2f} %", f"{r.fit_percent:.1f} %", f"{r.offset_v:+.4g} V",
+                         "; ".join(r.notes + r.warnings)])
             body += _img(figures.validation_overlay(r.time_s, r.input_v, r.measured_v, r.simulated_v,
-                                                    f"{name}: NRMSE {100 * r.nrmse:.2f} %"), name)
-        return _table(["capture", "NRMSE", "fit"], rows) + body
+                                                    f"{name}: NRMSE {100 * r.nrmse:.2f} %, fit {r.fit_percent:.1f} %"),
+                         name)
+        definition = ("<p>NRMSE = RMS(measured − model) / measured change of the response (a step: its "
+                      "steady-state change; other inputs: its P99 − P1 span); fit = 100·(1 − ‖y − ŷ‖/‖y − ȳ‖), "
+                      "MATLAB <code>compare</code>'s fit. The model's initial state and an output offset are "
+                      "estimated by least squares over the whole record.</p>")
+        return _table(["capture", "NRMSE", "fit", "offset", "notes"], rows) + definition + body
 
     parts.append(_safe("validation", "Validation on other inputs", validation_section))
 
