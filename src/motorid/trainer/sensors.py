@@ -9,7 +9,7 @@ import numpy as np
 from motorid.trainer.plant import PlantResponse
 from motorid.trainer.presets import TrainerConfig
 
-__all__ = ["tacho_v", "position_v", "current_v", "true_position_v"]
+__all__ = ["tacho_v", "position_v", "current_v", "true_position_v", "encoder_velocity"]
 
 
 def tacho_v(config: TrainerConfig, plant: PlantResponse, rng: np.random.Generator) -> np.ndarray:
@@ -136,4 +136,52 @@ def current_v(config: TrainerConfig, plant: PlantResponse, rng: np.random.Genera
         where = rng.integers(0, t.size, n_spikes)
         height = c.pwm_spike_v * rng.uniform(0.5, 1.0, n_spikes) * rng.choice((-1.0, 1.0), n_spikes)
         np.add.at(out, where, height)
+    return out
+
+
+def encoder_velocity(
+    angle_rad: np.ndarray, sample_interval_s: float, *, counts_per_rev: int, every: int, phase: int = 0
+) -> np.ndarray:
+    """Velocity derived from an incremental encoder, as a microcontroller logs it.
+
+    Every ``every`` samples the firmware differences the encoder count over the last
+    ``every`` samples and holds the result until the next update: the log shows a staircase
+    with a quantum of ``2π / (counts_per_rev · every · Δt)`` rad/s.
+
+    Parameters
+    ----------
+    angle_rad : ndarray
+        Shaft angle at the sample instants (the encoder's shaft).
+    sample_interval_s : float
+        Δt of the log.
+    counts_per_rev : int
+        Encoder counts per revolution of that shaft (quadrature edges included).
+    every : int
+        Samples between velocity updates (also the differencing window).
+    phase : int
+        Index of the first update, 0 … ``every − 1`` (the firmware's loop is not aligned
+        with the step).
+
+    Returns
+    -------
+    ndarray
+        Held, quantised velocity in rad/s; 0 before the first full window.
+
+    Notes
+    -----
+    As a linear filter the window is a moving average (mean delay ``every·Δt/2``) and the
+    hold adds ``(every − 1)·Δt/2`` on average over the update phase: the measured velocity
+    lags the shaft by ``(2·every − 1)·Δt/2`` in the mean-residence sense.  The count
+    differences telescope, so the quantisation is unbiased on average.
+    """
+    counts = np.floor(np.asarray(angle_rad, dtype=float) * counts_per_rev / (2 * math.pi))
+    n = counts.size
+    quantum = 2 * math.pi / (counts_per_rev * every * sample_interval_s)
+    out = np.zeros(n)
+    updates = np.arange(phase % every, n, every)
+    updates = updates[updates >= every]
+    values = (counts[updates] - counts[updates - every]) * quantum
+    for j, (k, v) in enumerate(zip(updates, values)):
+        stop = updates[j + 1] if j + 1 < updates.size else n
+        out[k:stop] = v
     return out
