@@ -71,3 +71,64 @@ def test_step_at_the_very_end_or_start_is_refused(k, where):
     u = np.where(np.arange(2500) >= k, 5.92, 0.0)
     with pytest.raises(StepNotFoundError, match=f"very {where}.*cap.csv|cap.csv.*very {where}"):
         step_edge(np.arange(2500) * 4e-3, u, file="cap.csv")
+
+
+def test_a_step_early_in_a_long_log_is_accepted():
+    # a 30 s log at 100 Hz with the step at 0.5 s: 50 samples of baseline, 1.7 % of the record
+    # (the old 5 %-of-the-record rule refused it as "step at the very start")
+    t = np.arange(3000) * 0.01
+    e = step_edge(t, np.where(t >= 0.5, 15.0, 5.0), file="log.csv")
+    assert e.index == 50 and e.time_s == pytest.approx(0.5)
+    assert e.amplitude_v == pytest.approx(10.0)
+
+
+def test_pre_and_post_step_sample_counts_are_named_constants():
+    from motorid.conditioning.edge import MIN_POST_STEP_SAMPLES, MIN_PRE_STEP_SAMPLES
+
+    n = 2500
+    t = np.arange(n) * 4e-3
+    ok = np.where(np.arange(n) >= MIN_PRE_STEP_SAMPLES, 5.92, 0.0)
+    assert step_edge(t, ok).index == MIN_PRE_STEP_SAMPLES
+    with pytest.raises(StepNotFoundError, match="very start"):
+        step_edge(t, np.where(np.arange(n) >= MIN_PRE_STEP_SAMPLES - 3, 5.92, 0.0))
+    late = n - MIN_POST_STEP_SAMPLES
+    assert step_edge(t, np.where(np.arange(n) >= late, 5.92, 0.0)).index == late
+    with pytest.raises(StepNotFoundError, match="very end"):
+        step_edge(t, np.where(np.arange(n) >= late + 3, 5.92, 0.0))
+
+
+@pytest.mark.parametrize("tau_samples", [20, 60, 200])
+def test_a_response_on_the_input_channel_is_not_a_step(tau_samples):
+    from motorid.conditioning.edge import ResponseNotStepError
+
+    rng = np.random.default_rng(3)
+    n, dt = 2500, 4e-3
+    k = np.arange(n)
+    tacho = 4.97 * (1 - np.exp(-np.clip(k - 300, 0, None) / tau_samples)) + rng.normal(0, 0.02, n)
+    with pytest.raises(ResponseNotStepError, match="looks like a response.*--step-volts") as info:
+        step_edge(k * dt, quantise(tacho, 0.08), file="F0000CH1.CSV")
+    # 10 -> 90 % of a first-order rise takes ln(9) time constants; the levels are those of the
+    # two-level fit, whose upper mean is below the final value for a slow rise (fewer samples)
+    rise = int(info.value.message.split(" samples")[0].split()[-1])
+    assert 0.6 * np.log(9) * tau_samples <= rise <= np.log(9) * tau_samples + 3
+
+
+@pytest.mark.parametrize("slew_samples", [1, 3, 8])
+def test_a_fast_but_finite_edge_is_still_a_step(slew_samples):
+    # a power amplifier's slew on a fast time base: a few samples of ramp
+    n = 2500
+    k = np.arange(n)
+    u = np.clip((k - 500) / slew_samples, 0, 1) * 12.0
+    e = step_edge(k * 1e-4, u)
+    assert e.amplitude_v == pytest.approx(12.0, rel=0.01)
+    assert 500 <= e.index <= 500 + slew_samples
+
+
+def test_a_slow_linear_ramp_is_no_step_but_not_called_a_response():
+    from motorid.conditioning.edge import ResponseNotStepError
+
+    k = np.arange(2500)
+    ramp = np.clip((k - 500) / 400, 0, 1) * 5.0
+    with pytest.raises(StepNotFoundError) as info:
+        step_edge(k * 4e-3, ramp)
+    assert not isinstance(info.value, ResponseNotStepError)

@@ -16,7 +16,32 @@ import numpy as np
 
 from motorid.errors import StepNotFoundError
 
-__all__ = ["StepEdge", "step_edge", "response_onset", "noise_level", "quantisation_step"]
+__all__ = [
+    "StepEdge",
+    "ResponseNotStepError",
+    "step_edge",
+    "response_onset",
+    "noise_level",
+    "quantisation_step",
+    "MIN_PRE_STEP_SAMPLES",
+    "MIN_POST_STEP_SAMPLES",
+]
+
+#: Samples needed before a step on the input channel (its baseline); a count, not a share of
+#: the record, so that a long log with the step early in it is accepted.
+MIN_PRE_STEP_SAMPLES = 10
+#: Samples needed after a step on the input channel.
+MIN_POST_STEP_SAMPLES = 20
+#: A step input goes from 10 % to 90 % of its jump within a couple of samples (the scope's
+#: front end); a change spread over more samples than this, and over more than
+#: :data:`RESPONSE_RISE_FRACTION` of the record, is a response (tacho, current shunt).
+MAX_STEP_RISE_SAMPLES = 8
+#: See :data:`MAX_STEP_RISE_SAMPLES`: a slew-limited amplifier on a fast time base stays below.
+RESPONSE_RISE_FRACTION = 0.01
+
+
+class ResponseNotStepError(StepNotFoundError):
+    """The input channel changes like a response (exponential rise), not like a step."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -113,7 +138,8 @@ def step_edge(
     input_v: np.ndarray,
     *,
     file: str | None = None,
-    min_after_fraction: float = 0.05,
+    min_before: int = MIN_PRE_STEP_SAMPLES,
+    min_after: int = MIN_POST_STEP_SAMPLES,
 ) -> StepEdge:
     """Find the step on the input channel (CH1).
 
@@ -123,8 +149,9 @@ def step_edge(
         The record's time axis and input channel.
     file : str, optional
         Named in the error message.
-    min_after_fraction : float
-        The smallest fraction of the record allowed on either side of the edge.
+    min_before, min_after : int
+        The fewest samples allowed before and after the edge (:data:`MIN_PRE_STEP_SAMPLES`,
+        :data:`MIN_POST_STEP_SAMPLES`).
 
     Returns
     -------
@@ -136,7 +163,10 @@ def step_edge(
     StepNotFoundError
         When the record is no step: the residual of the two-level fit is far above the
         sample-to-sample noise (a sine, a ramp) or the jump is below 8 noise standard
-        deviations.
+        deviations; or the step is within ``min_before``/``min_after`` samples of an end.
+    ResponseNotStepError
+        When the change is spread over many samples (a tacho or shunt response recorded on
+        CH1), see :data:`MAX_STEP_RISE_SAMPLES`.
 
     References
     ----------
@@ -145,10 +175,13 @@ def step_edge(
     t = np.asarray(time_s, dtype=float)
     u = np.asarray(input_v, dtype=float)
     n = u.size
-    lo = max(1, int(np.ceil(min_after_fraction * n)))
-    hi = n - lo + 1
+    lo = max(1, int(min_before))
+    hi = n - max(1, int(min_after)) + 1
     if hi <= lo:
-        raise StepNotFoundError(f"only {n} samples: too few to find a step", file=file)
+        raise StepNotFoundError(
+            f"only {n} samples: too few to find a step ({lo} before and {n + 1 - hi} after it are needed)",
+            file=file,
+        )
     k_any, _ = _best_split(u, 1, n)
     k, sse = _best_split(u, lo, hi)
     total = float(np.sum((u - u.mean()) ** 2))
@@ -156,9 +189,10 @@ def step_edge(
         where = "end" if k_any >= hi else "start"
         d_any = float(np.mean(u[k_any:]) - np.mean(u[:k_any]))
         if abs(d_any) > 8.0 * max(noise_level(u), 1e-12):
+            need = f"at least {lo} samples before it" if where == "start" else f"at least {n + 1 - hi} after it"
             raise StepNotFoundError(
-                f"the step is at the very {where} of the record (sample {k_any} of {n}): "
-                "trigger so that the step sits early in the record, with the response after it",
+                f"the step is at the very {where} of the record (sample {k_any} of {n}; {need} "
+                "are needed): trigger so that the step sits early in the record, with the response after it",
                 file=file,
             )
     base = float(np.mean(u[:k]))
@@ -168,6 +202,8 @@ def step_edge(
     quantum = quantisation_step(u, below=0.25 * abs(amp))
     noise_eff = max(noise, quantum / np.sqrt(12.0), 1e-12)
     resid_rms = float(np.sqrt(max(sse, 0.0) / n))
+    if total > 0 and amp != 0:
+        _refuse_a_response(t, u, k, base, amp, noise_eff, file)
     # a step leaves white residuals at the noise level; a sine, ramp or triangle leaves a
     # structured residual far above the sample-to-sample noise
     if total == 0 or resid_rms > max(4.0 * noise_eff, 0.1 * abs(amp)) or abs(amp) < 8.0 * resid_rms:
@@ -193,6 +229,45 @@ def step_edge(
         amplitude_v=amp,
         noise_v=noise,
         method="change-point",
+    )
+
+
+def _refuse_a_response(
+    t: np.ndarray, u: np.ndarray, k: int, base: float, amp: float, noise: float, file: str | None
+) -> None:
+    """Raise :class:`ResponseNotStepError` when the change at ``k`` is a response's rise.
+
+    A response (tacho, current shunt) leaves a flat baseline and rises over many samples,
+    fast at first and slowing down (10→50 % quicker than 50→90 %, as an exponential:
+    0.59 τ vs 1.61 τ); a step input jumps within a couple of samples, and a triangle or
+    slew-limited ramp rises at a constant rate.
+    """
+    n = u.size
+    rel = (u - base) / amp
+    j = k
+    while j > 1 and rel[j - 1] >= 0.5:
+        j -= 1
+    while j < n - 1 and rel[j] < 0.5:
+        j += 1
+    i10 = j - 1
+    while i10 > 0 and rel[i10] > 0.1:
+        i10 -= 1
+    past = np.flatnonzero(rel[j:] >= 0.9)
+    i90 = j + int(past[0]) if past.size else n - 1
+    rise = max(0, i90 - i10 - 1)
+    if rise <= max(MAX_STEP_RISE_SAMPLES, RESPONSE_RISE_FRACTION * n):
+        return
+    flat_before = float(np.std(u[: max(i10, 1)])) <= max(4.0 * noise, 0.05 * abs(amp))
+    slowing = (j - i10) < 0.7 * (i90 - j)
+    if not (flat_before and slowing):
+        return
+    dt = float(t[-1] - t[0]) / max(n - 1, 1)
+    raise ResponseNotStepError(
+        f"the input channel (CH1) looks like a response (tacho/shunt), not a step input: it takes "
+        f"{rise} samples ({rise * dt:.3g} s) to go from 10 % to 90 % of its {amp:.3g} V change; "
+        "give each channel as its own capture (e.g. --velocity CH1.CSV --current CH2.CSV) "
+        "with --step-volts V (and --t0 T)",
+        file=file,
     )
 
 

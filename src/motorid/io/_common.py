@@ -238,18 +238,70 @@ def validate_rows(
         raise CaptureDataError(exc.message, file=file, row=int(rows[exc.row])) from None
 
 
-def check_writable(paths: Sequence[Path | None], *, force: bool) -> None:
-    """Refuse to overwrite existing files unless ``force`` (``None`` entries: no output asked).
+def check_writable(
+    paths: Sequence[Path | None] | Mapping[str, Path | None],
+    *,
+    force: bool,
+    create_parents: bool = True,
+    folder: bool = False,
+) -> None:
+    """Check output paths before any work: refuse what could not or should not be written.
+
+    Parameters
+    ----------
+    paths : sequence of Path, or mapping of option name to Path
+        The outputs (``None`` entries: no output asked).  With a mapping (``{"--json": p}``)
+        every message starts with the option's name.
+    force : bool
+        Allow overwriting existing files.  It never allows writing a file onto a folder,
+        into a missing folder (``create_parents=False``) or below a file.
+    create_parents : bool
+        The writer creates missing parent folders (the scope-folder writers do); when
+        ``False`` a missing parent folder is refused (the command line's ``--json``).
+    folder : bool
+        The paths are folders to write into (``demo --out``): an existing file is refused,
+        an existing folder is fine.
 
     Raises
     ------
     OutputExistsError
-        Naming the first existing file.
+        Naming the first existing file (without ``force``).
+    OptionError
+        A folder given as a file (or a file as a folder), a missing parent folder, a parent
+        that is a file, a folder that cannot be written, or one file given for two outputs.
     """
-    if force:
-        return
-    for p in paths:
-        if p is not None and p.exists():
+    from motorid.errors import OptionError
+
+    items = list(paths.items()) if isinstance(paths, Mapping) else [("", p) for p in paths]
+    seen: dict[Path, str] = {}
+    for option, raw in items:
+        if raw is None:
+            continue
+        p = Path(raw)
+        what = option or "the output"
+        key = Path(os.path.abspath(p))
+        if key in seen:
+            raise OptionError(f"given for {seen[key] or 'another output'} and {what}: give each output "
+                              "its own file", file=str(p))
+        seen[key] = option
+        if folder:
+            if p.exists() and not p.is_dir():
+                raise OptionError(f"is a file, not a folder: give {what} a folder to write into", file=str(p))
+        elif p.is_dir():
+            raise OptionError(f"is a folder: give {what} a file name (a file in that folder)", file=str(p))
+        # the nearest existing ancestor must be a writable folder
+        parent = p if folder and p.exists() else p.parent
+        missing = not parent.exists()
+        while not parent.exists() and parent != parent.parent:
+            parent = parent.parent
+        if not parent.is_dir():
+            raise OptionError(f"{parent} is a file, not a folder: give {what} a path in a folder", file=str(p))
+        if missing and not create_parents:
+            raise OptionError(f"the folder {p.parent} does not exist: create it first, or give {what} "
+                              "a path in an existing folder", file=str(p))
+        if not os.access(parent, os.W_OK | os.X_OK):
+            raise OptionError(f"cannot write into the folder {parent} (permission denied) for {what}", file=str(p))
+        if not folder and not force and p.exists():
             raise OutputExistsError("already exists; use --force (force=True) to overwrite it", file=str(p))
 
 
