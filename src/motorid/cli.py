@@ -7,6 +7,7 @@ it), 1 internal error (traceback behind ``--debug``).
 from __future__ import annotations
 
 import json
+import math
 import sys
 import traceback
 from pathlib import Path
@@ -60,6 +61,138 @@ def _capture_paths(spec: str) -> str | list[str]:
     return spec
 
 
+# --- option checks: every value is checked here, before any file is read or written ----------
+
+#: Values of ``--order``.
+ORDERS: tuple[str, ...] = ("auto", "1", "2", "3")
+#: A record length must hold at least this many samples of the captures.
+MIN_RECORD_SAMPLES = 20
+#: Samples after reduction the conditioning needs (see ``condition_experiment``).
+MIN_REDUCED_SAMPLES = 6
+#: ``--step-volts`` may differ from a CH1 step by this fraction before it is refused.
+STEP_VOLTS_TOLERANCE = 0.05
+
+
+def _choice(option: str, value: Optional[str], allowed) -> None:
+    if value is not None and value not in allowed:
+        raise OptionError(f"{option} {value!r}: unknown {option.lstrip('-')}; use one of {', '.join(allowed)}")
+
+
+def _number(option: str, value, *, above: Optional[float] = None, at_least: Optional[float] = None,
+            nonzero: bool = False, unit: str = "") -> None:
+    if value is None:
+        return
+    if not math.isfinite(value):
+        raise OptionError(f"{option} must be a finite number, got {value}")
+    if above is not None and not value > above:
+        raise OptionError(f"{option} must be greater than {above:g}{unit}, got {value:g}")
+    if at_least is not None and not value >= at_least:
+        raise OptionError(f"{option} must be at least {at_least:g}{unit}, got {value:g}")
+    if nonzero and value == 0:
+        raise OptionError(f"{option} must not be 0{unit} (a negative value is a step down)")
+
+
+def _check_options(
+    *,
+    method: Optional[str] = None,
+    order: Optional[str] = None,
+    reduction: Optional[str] = None,
+    derivative: Optional[str] = None,
+    structure: Optional[str] = None,
+    sync: Optional[str] = None,
+    preset: Optional[str] = None,
+    ratio: Optional[int] = None,
+    sample_interval: Optional[float] = None,
+    record_length: Optional[float] = None,
+    step_volts: Optional[float] = None,
+    t0: Optional[float] = None,
+    markov_params: Optional[int] = None,
+    markov_window: Optional[float] = None,
+) -> None:
+    """Check every option a command got against the library's own allowed values.
+
+    Raises
+    ------
+    OptionError
+        One line naming the option, the value and what is allowed.
+    """
+    if method is not None:
+        from motorid.identification import METHODS
+
+        _choice("--method", method, METHODS)
+    _choice("--order", order, ORDERS)
+    if reduction is not None:
+        from motorid.conditioning.resample import REDUCTION_METHODS
+
+        _choice("--reduction", reduction, REDUCTION_METHODS)
+    if derivative is not None:
+        from motorid.conditioning.derivative import DERIVATIVE_METHODS
+
+        _choice("--derivative", derivative, DERIVATIVE_METHODS)
+    if structure is not None:
+        from motorid.identify.pinv import PINV_STRUCTURES
+
+        _choice("--structure", structure, PINV_STRUCTURES)
+    if sync is not None:
+        from motorid.conditioning.sync import SYNC_METHODS
+
+        _choice("--sync", sync, SYNC_METHODS)
+    if preset is not None:
+        from motorid.trainer.presets import PRESET_NAMES
+
+        _choice("--preset", preset, PRESET_NAMES)
+    _number("--ratio", ratio, at_least=1)
+    _number("--sample-interval", sample_interval, above=0, unit=" s")
+    _number("--record-length", record_length, above=0, unit=" s")
+    if record_length is not None and sample_interval is not None \
+            and record_length < MIN_REDUCED_SAMPLES * sample_interval:
+        raise OptionError(f"--record-length {record_length:g} s leaves fewer than {MIN_REDUCED_SAMPLES} samples at "
+                          f"--sample-interval {sample_interval:g} s (at least {MIN_REDUCED_SAMPLES} are needed): give "
+                          f"at least {MIN_REDUCED_SAMPLES * sample_interval:g} s or a shorter --sample-interval")
+    _number("--step-volts", step_volts, nonzero=True, unit=" V")
+    _number("--t0", t0, unit=" s")
+    _number("--markov-params", markov_params, at_least=3)
+    _number("--markov-window", markov_window, above=0, unit=" s")
+
+
+def _check_against_captures(caps: dict, *, step_volts: Optional[float], record_length: Optional[float]) -> None:
+    """Checks of options that need the captures (read, not yet conditioned).
+
+    Raises
+    ------
+    OptionError
+        A ``--record-length`` shorter than :data:`MIN_RECORD_SAMPLES` samples of a capture, or
+        a ``--step-volts`` that contradicts the step on a capture's CH1.
+    """
+    from motorid.conditioning.edge import step_edge
+
+    for cap in caps.values():
+        dt = float(cap.time_s[-1] - cap.time_s[0]) / max(cap.n_samples - 1, 1)
+        if record_length is not None and record_length < MIN_RECORD_SAMPLES * dt:
+            raise OptionError(f"--record-length {record_length:g} s holds fewer than {MIN_RECORD_SAMPLES} samples "
+                              f"(Δt {dt:.3g} s): give at least {MIN_RECORD_SAMPLES * dt:.3g} s", file=cap.source)
+        if step_volts is None or cap.input_v is None:
+            continue
+        try:
+            edge = step_edge(cap.time_s, cap.input_v, file=cap.source)
+        except MotorIdError:
+            continue  # the conditioning reports a CH1 without a step in its own words
+        amp = edge.amplitude_v
+        if abs(step_volts - amp) > STEP_VOLTS_TOLERANCE * abs(amp):
+            raise OptionError(f"--step-volts {step_volts:g} contradicts the {amp:.4g} V step on its CH1: "
+                              "leave --step-volts out (CH1 gives the step) or check the probe setting",
+                              file=cap.source)
+
+
+def _strict_exit(result, strict: bool) -> None:
+    """``--strict``: exit 3 with a one-line summary when the model failed the sanity checks."""
+    sanity = getattr(result, "sanity", None)
+    if strict and sanity is not None and not sanity.passed:
+        why = "; ".join(str(f) for f in sanity.failures) or "see the warnings"
+        print(f"motorid: the model failed the sanity checks: {why}", file=sys.stderr)
+        raise SystemExit(3)
+
+
 @app.command()
 def inspect(
     captures: Annotated[list[str], typer.Argument(help="Capture files or ALLnnnn folders; a CH1/CH2 pair as CH1.CSV+CH2.CSV.")],
@@ -71,6 +204,7 @@ def inspect(
     from motorid.inspection import describe_capture
     from motorid.io import read_capture
 
+    _check_options(step_volts=step_volts)
     colmap = _parse_columns(columns)
     summaries = [
         describe_capture(read_capture(_capture_paths(c), columns=colmap), step_volts=step_volts)
@@ -112,6 +246,8 @@ def demo(
     """Record an example experiment on the virtual servo trainer and read it back."""
     from motorid.demo import run_demo
 
+    _check_options(preset=preset, step_volts=step_volts)
+    check_writable({"--out": out}, force=force, folder=True)
     result = run_demo(out, preset=preset, seed=seed, step_volts=step_volts, force=force)
     con = _console()
     table = Table(title=f"virtual trainer '{preset}', seed {seed}: written to {out}")
@@ -148,20 +284,40 @@ def demo(
     con.print(f"inspect them: motorid inspect {out}/ALL0000 {out}/ALL0001 {out}/ALL0002")
 
 
-def _read_roles(
-    position: Optional[str], velocity: Optional[str], current: Optional[str], columns: Optional[str]
-) -> dict:
+def _one_per_role(position, velocity, current) -> dict[str, Optional[str]]:
+    """The single capture of each role; a role given twice is refused (one step level only)."""
+    given: dict[str, Optional[str]] = {}
+    for role, specs in (("position", position), ("velocity", velocity), ("current", current)):
+        specs = [specs] if isinstance(specs, str) else list(specs or [])
+        if len(specs) > 1:
+            raise OptionError(f"--{role} given {len(specs)} times ({', '.join(specs)}): several step levels "
+                              f"of one motor are not supported yet; give one --{role} capture")
+        given[role] = specs[0] if specs else None
+    if not (given["velocity"] or given["position"]):
+        raise OptionError("give at least --velocity CAP or --position CAP")
+    return given
+
+
+def _read_roles(position, velocity, current, columns: Optional[str], *, force_role: bool = False) -> dict:
+    """Read the capture of each role; refuse one that looks like another role (``--force-role``)."""
+    from motorid.conditioning.role import role_conflict
     from motorid.io import read_capture
 
     colmap = _parse_columns(columns)
-    given = {"position": position, "velocity": velocity, "current": current}
-    if not (velocity or position):
-        raise OptionError("give at least --velocity CAP or --position CAP")
-    return {
+    given = _one_per_role(position, velocity, current)
+    caps = {
         role: read_capture(_capture_paths(spec), columns=colmap, role=role)
         for role, spec in given.items()
         if spec
     }
+    if not force_role:
+        for role, cap in caps.items():
+            looks = role_conflict(cap, role)
+            if looks is not None:
+                raise OptionError(f"given as --{role} but looks like a {looks.role} capture ({looks.reason}); "
+                                  f"give it as --{looks.role}, or add --force-role to keep --{role}",
+                                  file=given[role])
+    return caps
 
 
 
@@ -171,7 +327,8 @@ def _conditioning(ratio, sample_interval, record_length, reduction, sync):
     if ratio is not None and ratio < 1:
         raise OptionError(f"--ratio must be a whole number ≥ 1, got {ratio}")
     return ConditioningSettings(
-        sample_interval_s=None if ratio is not None else sample_interval,
+        # no --sample-interval: chosen from the measured response ("auto")
+        sample_interval_s=None if ratio is not None else ("auto" if sample_interval is None else sample_interval),
         ratio=ratio,
         reduction=reduction,
         record_length_s=record_length,
@@ -244,13 +401,13 @@ def _print_model(con: Console, model, title: str) -> None:
 
 @app.command()
 def identify(
-    position: Annotated[Optional[str], typer.Option(help="Position (potentiometer/encoder) capture.")] = None,
-    velocity: Annotated[Optional[str], typer.Option(help="Velocity (tachogenerator) capture.")] = None,
-    current: Annotated[Optional[str], typer.Option(help="Armature-current capture.")] = None,
+    position: Annotated[Optional[list[str]], typer.Option(help="Position (potentiometer/encoder) capture.")] = None,
+    velocity: Annotated[Optional[list[str]], typer.Option(help="Velocity (tachogenerator) capture.")] = None,
+    current: Annotated[Optional[list[str]], typer.Option(help="Armature-current capture.")] = None,
     method: Annotated[str, typer.Option(help="auto (paper methods → output-error refinement → order selection → uncertainty), pinv, markov, classic, oe, srivc or paper-auto.")] = "auto",
     order: Annotated[str, typer.Option(help="auto, 1, 2 or 3: for pinv the number of states ([θ̇], [θ, θ̇], [θ, θ̇, Ia]); for markov, oe and srivc the poles of the velocity TF.")] = "auto",
     ratio: Annotated[Optional[int], typer.Option(help="Sample reduction ratio (overrides --sample-interval).")] = None,
-    sample_interval: Annotated[float, typer.Option("--sample-interval", help="Sample interval after reduction, s (paper: 0.1).")] = 0.1,
+    sample_interval: Annotated[Optional[float], typer.Option("--sample-interval", help="Sample interval after reduction, s (default: chosen from the measured response; the paper's: 0.1).")] = None,
     record_length: Annotated[Optional[float], typer.Option("--record-length", help="Seconds kept after the step (default: all).")] = None,
     reduction: Annotated[str, typer.Option(help="subsample (paper), block_mean or fir.")] = "subsample",
     derivative: Annotated[str, typer.Option(help="euler, central, five_point (paper) or savgol.")] = "five_point",
@@ -268,13 +425,20 @@ def identify(
     validate: Annotated[Optional[list[str]], typer.Option("--validate", help="Capture of another input (sine, triangle, square…) to validate on; repeat or comma-separate.")] = None,
     design: Annotated[Optional[Path], typer.Option("--design", help="A design JSON to show in the report.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing output files.")] = False,
+    strict: Annotated[bool, typer.Option("--strict", help="Exit 3 (after writing the outputs) when the model fails the sanity checks.")] = False,
+    force_role: Annotated[bool, typer.Option("--force-role", help="Keep a capture's role flag even when it looks like another role.")] = False,
 ) -> None:
     """Identify the motor model from step captures (paper sections III-VI)."""
     from motorid.identification import IdentifySettings, identify_experiment
 
-    if order not in ("auto", "1", "2", "3"):
-        raise OptionError(f"--order must be auto, 1, 2 or 3, not {order!r}")
-    check_writable([json_out, matlab_out, report_out], force=force)
+    _check_options(method=method, order=order, reduction=reduction, derivative=derivative, structure=structure,
+                   sync=sync, ratio=ratio, sample_interval=sample_interval, record_length=record_length,
+                   step_volts=step_volts, t0=t0, markov_params=markov_params, markov_window=markov_window)
+    check_writable({"--json": json_out, "--matlab": matlab_out, "--report": report_out}, force=force,
+                   create_parents=False)
+    if (validate or design) and report_out is None:
+        raise OptionError("--validate and --design go into the report: add --report OUT.html")
+    _one_per_role(position, velocity, current)
     settings = IdentifySettings(
         method=method,
         order=order if order == "auto" else int(order),
@@ -285,7 +449,13 @@ def identify(
         markov_window_s=markov_window,
         delay=delay,
     )
-    caps = _read_roles(position, velocity, current, columns)
+    caps = _read_roles(position, velocity, current, columns, force_role=force_role)
+    _check_against_captures(caps, step_volts=step_volts, record_length=record_length)
+    checks = _validation_captures(validate, columns) if report_out is not None else {}
+    if report_out is not None:
+        from motorid.reporting import read_design
+
+        doc = read_design(design) if design is not None else None
     result = identify_experiment(caps, settings, step_volts=step_volts, t0_s=t0)
     con = _console()
     _print_model(con, result.model, "identified model")
@@ -297,14 +467,11 @@ def identify(
         matlab_out.write_text(result.model.to_matlab(), encoding="utf-8")
         con.print(f"MATLAB/Octave script: {matlab_out}")
     if report_out is not None:
-        from motorid.reporting import make_report, read_design
+        from motorid.reporting import make_report
 
-        checks = _validation_captures(validate, columns)
-        doc = read_design(design) if design is not None else None
         report_out.write_text(make_report(result, caps, validation=checks, design=doc), encoding="utf-8")
         con.print(f"report: {report_out}")
-    elif validate or design:
-        raise OptionError("--validate and --design go into the report: add --report OUT.html")
+    _strict_exit(result, strict)
 
 
 def _validation_captures(specs: Optional[list[str]], columns: Optional[str]) -> dict:
@@ -312,39 +479,76 @@ def _validation_captures(specs: Optional[list[str]], columns: Optional[str]) -> 
 
     colmap = _parse_columns(columns)
     names = [p for spec in (specs or []) for p in spec.split(",") if p]
-    return {Path(n).name: read_capture(_capture_paths(n), columns=colmap) for n in names}
+    # keyed by file name; two captures of the same name in different folders keep their paths
+    short = [Path(n).name for n in names]
+    return {(k if short.count(k) == 1 else n): read_capture(_capture_paths(n), columns=colmap)
+            for k, n in zip(short, names)}
 
 
 @app.command()
 def validate(
     model_json: Annotated[Path, typer.Argument(help="A model JSON written by motorid identify --json.")],
-    captures: Annotated[list[str], typer.Argument(help="Captures with the input on CH1 (any input, not only steps).")],
+    captures: Annotated[list[str], typer.Argument(help="Captures with the input on CH1 (any input, not only steps), or step responses without CH1 (give --step-volts).")],
     channel: Annotated[str, typer.Option(help="The model output CH2 measured: velocity, position or current.")] = "velocity",
     max_nrmse: Annotated[Optional[float], typer.Option("--max-nrmse", help="Exit 3 if any capture's NRMSE exceeds this (e.g. 0.05).")] = None,
+    step_volts: Annotated[Optional[float], typer.Option("--step-volts", help="Step level for captures without an input channel.")] = None,
+    t0: Annotated[Optional[float], typer.Option("--t0", help="Step instant on the files' time axis (default: CH1's edge, or the response's onset).")] = None,
+    warmup: Annotated[float, typer.Option("--warmup", help="Seconds at the start simulated but not scored (default 0: the initial state is estimated).")] = 0.0,
     columns: Annotated[Optional[str], typer.Option(help="Plain CSV column map.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
-    """Drive a model with recorded inputs and report NRMSE / fit % per capture (paper §VI-B)."""
+    """Drive a model with recorded inputs and report NRMSE / fit % per capture (paper §VI-B).
+
+    The initial state and an output offset are estimated by least squares over the whole
+    record (reported); a position channel is unwrapped; the model's fitted delay is applied.
+    """
     from motorid.cli_control import load_model
+    from motorid.model import CHANNELS
     from motorid.validation import validate_capture
 
+    if channel not in CHANNELS:
+        raise OptionError(f"--channel {channel!r} is unknown: use one of {', '.join(CHANNELS)}")
+    if max_nrmse is not None and not max_nrmse >= 0:
+        raise OptionError(f"--max-nrmse must be a non-negative fraction (e.g. 0.05), got {max_nrmse:g}")
+    if not warmup >= 0:
+        raise OptionError(f"--warmup must be ≥ 0 s, got {warmup:g}")
+    if step_volts is not None and not (step_volts != 0 and abs(step_volts) < float("inf")):
+        raise OptionError(f"--step-volts must be a non-zero number of volts, got {step_volts:g}")
     model = load_model(model_json)
+    if channel not in model.outputs and channel != "position":
+        raise OptionError(f"{model_json}: the model has no {channel!r} output (it has "
+                          f"{', '.join(model.outputs)}): choose another --channel")
+    delay = json.loads(model_json.read_text(encoding="utf-8")).get("delay_s")
     checks = _validation_captures(captures, columns)
-    results = [validate_capture(model, cap, channel=channel) for cap in checks.values()]
+    results = []
+    for cap in checks.values():
+        try:
+            results.append(validate_capture(model, cap, channel=channel, step_volts=step_volts, t0_s=t0,
+                                            warmup_s=warmup, delay_s=delay))
+        except MotorIdError as exc:
+            raise exc.with_file(cap.source) from None
     failed = [r for r in results if max_nrmse is not None and not r.nrmse <= max_nrmse]
     if as_json:
-        typer.echo(json.dumps([{"file": r.source, "channel": r.channel, "nrmse": r.nrmse,
-                                 "fit_percent": r.fit_percent, "warmup_s": r.warmup_s,
-                                 "passed": r not in failed} for r in results], indent=2))
+        typer.echo(json.dumps([{**r.to_dict(), "passed": None if max_nrmse is None else r not in failed}
+                               for r in results], indent=2))
     else:
         con = _console()
-        table = Table(title=f"validation of {model_json.name} ({model.method}, order {model.order})")
-        for head in ("capture", "NRMSE", "fit", "verdict"):
+        table = Table(
+            title=f"validation of {model_json.name} ({model.method}, order {model.order}), channel {channel}",
+            caption="NRMSE = RMS(measured − model) / measured change (step: steady-state change; other inputs: "
+                    "P99 − P1 span); fit = 100·(1 − ‖y − ŷ‖/‖y − ȳ‖) (MATLAB compare); initial state and "
+                    "offset estimated over the whole record",
+        )
+        for head in ("capture", "input", "NRMSE", "fit", "offset", "verdict"):
             table.add_column(head)
         for r in results:
             verdict = "—" if max_nrmse is None else ("FAIL" if r in failed else "pass")
-            table.add_row(Path(r.source).name, f"{100 * r.nrmse:.2f}%", f"{r.fit_percent:.1f}%", verdict)
+            table.add_row(Path(r.source).name, r.input_kind, f"{100 * r.nrmse:.2f}%", f"{r.fit_percent:.1f}%",
+                          f"{r.offset_v:+.4g} V", verdict)
         con.print(table)
+        for r in results:
+            for w in r.warnings:
+                con.print(f"warning: {Path(r.source).name}: {w}")
     if failed:
         print(f"motorid: {len(failed)} capture(s) above --max-nrmse {max_nrmse:g}", file=sys.stderr)
         raise SystemExit(3)
@@ -353,27 +557,35 @@ def validate(
 @app.command()
 def report(
     out: Annotated[Path, typer.Option("--out", help="The HTML file to write.")],
-    position: Annotated[Optional[str], typer.Option(help="Position capture.")] = None,
-    velocity: Annotated[Optional[str], typer.Option(help="Velocity capture.")] = None,
-    current: Annotated[Optional[str], typer.Option(help="Armature-current capture.")] = None,
+    position: Annotated[Optional[list[str]], typer.Option(help="Position capture.")] = None,
+    velocity: Annotated[Optional[list[str]], typer.Option(help="Velocity capture.")] = None,
+    current: Annotated[Optional[list[str]], typer.Option(help="Armature-current capture.")] = None,
     method: Annotated[str, typer.Option(help="Identification method (see identify).")] = "auto",
+    sample_interval: Annotated[Optional[float], typer.Option("--sample-interval", help="Sample interval after reduction, s (default: chosen from the measured response; the paper's: 0.1).")] = None,
     validate: Annotated[Optional[list[str]], typer.Option("--validate", help="Validation captures; repeat or comma-separate.")] = None,
     design: Annotated[Optional[Path], typer.Option("--design", help="A design JSON to include.")] = None,
     step_volts: Annotated[Optional[float], typer.Option("--step-volts", help="Step level for captures without an input channel.")] = None,
     columns: Annotated[Optional[str], typer.Option(help="Plain CSV column map.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing report.")] = False,
+    strict: Annotated[bool, typer.Option("--strict", help="Exit 3 (after writing the report) when the model fails the sanity checks.")] = False,
+    force_role: Annotated[bool, typer.Option("--force-role", help="Keep a capture's role flag even when it looks like another role.")] = False,
 ) -> None:
     """Identify and write one self-contained HTML report of the experiment."""
     from motorid.identification import IdentifySettings, identify_experiment
     from motorid.reporting import make_report, read_design
 
-    check_writable([out], force=force)
-    caps = _read_roles(position, velocity, current, columns)
-    result = identify_experiment(caps, IdentifySettings(method=method), step_volts=step_volts)
+    _check_options(method=method, sample_interval=sample_interval, step_volts=step_volts)
+    check_writable({"--out": out}, force=force, create_parents=False)
+    _one_per_role(position, velocity, current)
+    settings = IdentifySettings(method=method, conditioning=_conditioning(None, sample_interval, None, "subsample", "interp"))
+    caps = _read_roles(position, velocity, current, columns, force_role=force_role)
+    _check_against_captures(caps, step_volts=step_volts, record_length=None)
     checks = _validation_captures(validate, columns)
     doc = read_design(design) if design is not None else None
+    result = identify_experiment(caps, settings, step_volts=step_volts)
     out.write_text(make_report(result, caps, validation=checks, design=doc), encoding="utf-8")
     _console().print(f"report: {out}")
+    _strict_exit(result, strict)
 
 
 def _floats(spec: str, option: str) -> list[float]:
@@ -381,16 +593,16 @@ def _floats(spec: str, option: str) -> list[float]:
         vals = [float(x) for x in spec.split(",") if x.strip()]
     except ValueError:
         raise OptionError(f"{option}: {spec!r} is not a comma-separated list of numbers") from None
-    if not vals or any(not v > 0 for v in vals):
+    if not vals or any(not (v > 0 and math.isfinite(v)) for v in vals):
         raise OptionError(f"{option}: give positive numbers, e.g. 1.9,2.4,2.9")
     return vals
 
 
 @app.command()
 def sweep(
-    position: Annotated[Optional[str], typer.Option(help="Position capture.")] = None,
-    velocity: Annotated[Optional[str], typer.Option(help="Velocity capture.")] = None,
-    current: Annotated[Optional[str], typer.Option(help="Armature-current capture.")] = None,
+    position: Annotated[Optional[list[str]], typer.Option(help="Position capture.")] = None,
+    velocity: Annotated[Optional[list[str]], typer.Option(help="Velocity capture.")] = None,
+    current: Annotated[Optional[list[str]], typer.Option(help="Armature-current capture.")] = None,
     lengths: Annotated[str, typer.Option(help="Record lengths in s (paper: 1.9,2.4,2.9).")] = "1.9,2.4,2.9",
     intervals: Annotated[str, typer.Option(help="Sample intervals in s (paper: 0.04..0.12).")] = "0.04,0.06,0.08,0.1,0.12",
     method: Annotated[str, typer.Option(help="Identification method (paper: pinv).")] = "pinv",
@@ -400,6 +612,7 @@ def sweep(
     columns: Annotated[Optional[str], typer.Option(help="Plain CSV column map.")] = None,
     json_out: Annotated[Optional[Path], typer.Option("--json", help="Write the table as JSON here.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing JSON file.")] = False,
+    force_role: Annotated[bool, typer.Option("--force-role", help="Keep a capture's role flag even when it looks like another role.")] = False,
 ) -> None:
     """The paper's Tables 1-3: k and τ over record length × sample interval."""
     from rich.progress import Progress
@@ -408,17 +621,20 @@ def sweep(
     from motorid.identification import IdentifySettings
     from motorid.sweep import sensitivity_table
 
-    if order not in ("auto", "1", "2", "3"):
-        raise OptionError(f"--order must be auto, 1, 2 or 3, not {order!r}")
-    check_writable([json_out], force=force)
+    _check_options(method=method, order=order, reduction=reduction, step_volts=step_volts)
+    check_writable({"--json": json_out}, force=force, create_parents=False)
     lens, ints = _floats(lengths, "--lengths"), _floats(intervals, "--intervals")
+    _one_per_role(position, velocity, current)
     settings = IdentifySettings(
         method=method, order=order if order == "auto" else int(order),
         conditioning=ConditioningSettings(reduction=reduction),
     )
-    caps = _read_roles(position, velocity, current, columns)
+    caps = _read_roles(position, velocity, current, columns, force_role=force_role)
+    _check_against_captures(caps, step_volts=step_volts, record_length=min(lens))
     con = _console()
-    with Progress(console=Console(stderr=True), transient=True) as bar:
+    # no bar when stderr is not a terminal: a transient bar still leaves a blank line there,
+    # and the error line (exit 2) must be the only one a script sees
+    with Progress(console=Console(stderr=True), transient=True, disable=not sys.stderr.isatty()) as bar:
         task = bar.add_task("identifying", total=len(lens) * len(ints))
         res = sensitivity_table(
             caps, lengths_s=lens, intervals_s=ints, settings=settings, step_volts=step_volts,
@@ -451,13 +667,10 @@ _register_control(app)
 
 def main() -> None:
     """Console-script entry point: run the app and map errors to exit codes."""
-    from threadpoolctl import threadpool_limits
-
     try:
-        # the matrices here are tiny: a multithreaded BLAS only fights for the cores (a
-        # 3-pole output-error fit went from 0.1 s to 35 s on a loaded 2-core machine)
-        with threadpool_limits(limits=1):
-            app(standalone_mode=False)
+        # the library limits BLAS to one thread around its own entry points
+        # (motorid._threads); nothing to do here
+        app(standalone_mode=False)
     except MotorIdError as exc:
         print(f"motorid: error: {exc}", file=sys.stderr)
         raise SystemExit(2) from None

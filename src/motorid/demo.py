@@ -17,9 +17,10 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from motorid._threads import single_blas_thread
 from motorid.inspection import CaptureSummary, describe_capture
 from motorid.errors import OutputExistsError
-from motorid.io import read_capture, write_tds_capture
+from motorid.io import check_writable, read_capture, write_tds_capture
 
 __all__ = ["DemoRow", "DemoResult", "CAPTURE_ORDER", "run_demo"]
 
@@ -54,6 +55,7 @@ def _targets(out: Path) -> list[Path]:
     return [out / f"ALL{i:04d}" for i in range(len(CAPTURE_ORDER))] + [out / "truth.json", out / "model.json", out / "report.html"]
 
 
+@single_blas_thread
 def run_demo(
     out: Path | str,
     *,
@@ -86,10 +88,13 @@ def run_demo(
     ------
     OutputExistsError
         A target exists and ``force`` is false.
+    OptionError
+        ``out`` is a file, or lies below a file or in a folder that cannot be written.
     """
     from motorid.trainer import run_experiment
 
     out = Path(out)
+    check_writable([out], force=force, folder=True)
     existing = [p for p in _targets(out) if p.exists()]
     if existing and not force:
         raise OutputExistsError(

@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from motorid._threads import single_blas_thread
 from motorid.capture import Capture
 from motorid.conditioning.edge import StepEdge, response_onset, step_edge
 from motorid.conditioning.role import guess_role
@@ -104,6 +105,7 @@ def _find_step(capture: Capture, step_volts: float | None) -> tuple[StepEdge | N
         return None, None, warnings
 
 
+@single_blas_thread
 def describe_capture(capture: Capture, *, step_volts: float | None = None) -> CaptureSummary:
     """Describe one capture for ``motorid inspect``.
 

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from motorid._threads import single_blas_thread
 from motorid.capture import Capture
 from motorid.errors import CaptureFormatError, MotorIdError
 from motorid.identification import Identification, IdentifySettings
@@ -33,6 +34,7 @@ def read_design(path: Path) -> dict[str, Any]:
     return doc
 
 
+@single_blas_thread
 def make_report(
     ident: Identification,
     captures: Mapping[str, Capture],

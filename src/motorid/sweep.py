@@ -14,9 +14,10 @@ from typing import Any
 
 import numpy as np
 
+from motorid._threads import single_blas_thread
 from motorid.capture import Capture
 from motorid.conditioning.pipeline import condition_experiment
-from motorid.errors import MotorIdError
+from motorid.errors import ConditioningError, MotorIdError
 from motorid.identification import IdentifySettings, identify_conditioned, with_conditioning
 
 __all__ = ["PAPER_LENGTHS_S", "PAPER_INTERVALS_S", "SweepResult", "sensitivity_table"]
@@ -72,6 +73,7 @@ def _num(x: float) -> float | None:
     return float(x) if np.isfinite(x) else None
 
 
+@single_blas_thread
 def sensitivity_table(
     captures: Mapping[str, Capture],
     *,
@@ -99,7 +101,12 @@ def sensitivity_table(
     Returns
     -------
     SweepResult
-        The table.
+        The table (cells that failed are NaN, their reasons in ``failures``).
+
+    Raises
+    ------
+    ConditioningError
+        When every cell failed: one line with the count and the first cell's reason.
 
     References
     ----------
@@ -127,4 +134,10 @@ def sensitivity_table(
             done += 1
             if progress is not None:
                 progress(done, total)
+    if failures and len(failures) == total:
+        cell, why = next(iter(failures.items()))
+        raise ConditioningError(
+            f"every one of the {total} cells of the sweep failed (e.g. {cell}: {why}); "
+            "check the captures, or choose --lengths/--intervals the records allow"
+        )
     return SweepResult(lengths, intervals, k, tau, dc, settings.method, failures)

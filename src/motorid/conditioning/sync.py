@@ -18,7 +18,10 @@ import numpy as np
 from motorid.conditioning.response import StepResponse
 from motorid.errors import ConditioningError, OptionError
 
-__all__ = ["Synchronised", "synchronise"]
+__all__ = ["SYNC_METHODS", "Synchronised", "synchronise"]
+
+#: Values of ``method`` (the command line's ``--sync``).
+SYNC_METHODS: tuple[str, ...] = ("interp", "index")
 
 
 @dataclass(frozen=True, slots=True)
@@ -82,7 +85,7 @@ def synchronise(
     roles = [r.role for r in responses]
     if len(set(roles)) != len(roles):
         raise OptionError(f"two captures given for the same role: {roles}")
-    if method not in ("interp", "index"):
+    if method not in SYNC_METHODS:
         raise OptionError(f"unknown synchronisation method {method!r}; use interp or index")
     dt = min(r.sample_interval_s for r in responses)
     avail = min(float(r.time_s[-1]) for r in responses)

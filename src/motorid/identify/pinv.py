@@ -17,7 +17,10 @@ import numpy as np
 from motorid.errors import OptionError
 from motorid.identify.result import IdentificationError, equilibrated_condition
 
-__all__ = ["PinvSettings", "PinvResult", "pinv_identify", "COND_WARN"]
+__all__ = ["PinvSettings", "PinvResult", "pinv_identify", "COND_WARN", "PINV_STRUCTURES"]
+
+#: Values of ``PinvSettings.structure`` (the command line's ``--structure``).
+PINV_STRUCTURES: tuple[str, ...] = ("free", "known")
 
 #: Condition number (column-equilibrated regressor) above which the result warns.
 COND_WARN = 1e8
@@ -60,7 +63,7 @@ class PinvSettings:
             raise OptionError(f"states must be one of {', '.join(_STATES)}, got {self.states!r}")
         if self.structure == "known" and _STATES[self.states][:2] != ("position", "velocity"):
             raise OptionError("the known structure (θ row of A) needs the position and velocity states")
-        if self.structure not in ("free", "known"):
+        if self.structure not in PINV_STRUCTURES:
             raise OptionError(f"structure must be 'free' or 'known', got {self.structure!r}")
         if not isinstance(self.drop_edges, (int, np.integer)) or self.drop_edges < 0:
             raise OptionError(f"drop_edges must be an integer >= 0, got {self.drop_edges!r}")
