@@ -7,6 +7,7 @@ it), 1 internal error (traceback behind ``--debug``).
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 import math
 import sys
 import traceback
@@ -358,6 +359,9 @@ def _print_model(con: Console, model, title: str) -> None:
     con.print(f"poles: {poles}")
     con.print(f"first order: k/(s+p) = {fo.k:.4g}/(s + {fo.p:.4g}); dc gain {fo.dc_gain:.4g} V/V, "
               f"τ = {fo.time_constant_s:.4g} s")
+    if model.delay_s > 0:
+        con.print(f"dead time: {1e3 * model.delay_s:.4g} ms (every H(s) above times e^(−s·{model.delay_s:.4g})); "
+                  f"mean residence time τ + dead time = {fo.time_constant_s + model.delay_s:.4g} s")
     u = model.uncertainty
     if u:
         for key, label in (("dc_gain", "dc gain"), ("time_constant", "τ (s)")):
@@ -394,9 +398,24 @@ def _print_model(con: Console, model, title: str) -> None:
                   + f"; noise floor {ex['hankel_noise_floor']:.3g}")
         con.print(f"Markov settings: {ex.get('markov_choice', '')}")
     for key, val in model.fit.items():
-        con.print(f"fit {key}: {100 * val:.2f}%")
+        if key.endswith("_fit_percent"):
+            con.print(f"fit {key}: {val:.2f}% (MATLAB compare: 100·(1 − ‖y − ŷ‖/‖y − mean y‖))")
+        else:
+            con.print(f"fit {key}: {100 * val:.2f}% (RMS error / measured steady-state change)")
+    for note in model.extras.get("conditioning", ()) or ():
+        con.print(f"automatic choice: {note}")
+    sanity = model.extras.get("sanity")
+    if isinstance(sanity, Mapping) and sanity.get("checks"):
+        failed = [c for c in sanity["checks"] if not c["passed"]]
+        if failed:
+            con.print(f"[bold red]sanity checks: {len(failed)} of {len(sanity['checks'])} FAILED — read the "
+                      "warnings before using this model[/bold red]")
+        else:
+            con.print(f"sanity checks: all {len(sanity['checks'])} passed (stable, better than a first-order "
+                      "baseline, agrees with the read-off gain and 63 % time, headline inside its interval)")
     for w in model.warnings:
-        con.print(f"[yellow]warning:[/yellow] {w}")
+        style = "bold red" if w.startswith("SANITY CHECK FAILED") else "yellow"
+        con.print(f"[{style}]warning:[/{style}] {w}")
 
 
 @app.command()
@@ -415,7 +434,7 @@ def identify(
     markov_params: Annotated[Optional[int], typer.Option("--markov-params", help="Markov parameters Lm (paper: 11; default: chosen by fit).")] = None,
     markov_window: Annotated[Optional[float], typer.Option("--markov-window", help="Markov window Tε in s (default: chosen by fit).")] = None,
     sync: Annotated[str, typer.Option(help="Synchronisation: interp or index (the paper's).")] = "interp",
-    delay: Annotated[bool, typer.Option("--delay", help="oe/auto: fit a pure delay (dead time) too.")] = False,
+    delay: Annotated[Optional[bool], typer.Option("--delay/--no-delay", help="oe/auto: fit a dead time in every structure (--delay) or in none (--no-delay); default: tried when the data stay flat for a while after the step, BIC decides.")] = None,
     step_volts: Annotated[Optional[float], typer.Option("--step-volts", help="Step level for captures without an input channel.")] = None,
     t0: Annotated[Optional[float], typer.Option("--t0", help="Step instant on the files' time axis.")] = None,
     columns: Annotated[Optional[str], typer.Option(help="Plain CSV column map, e.g. time=t,input=u,velocity=rpm.")] = None,
