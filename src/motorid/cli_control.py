@@ -35,13 +35,47 @@ def _read_json(path: Path, what: str) -> object:
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise ModelFormatError(f"not a JSON {what} ({exc.__class__.__name__}: line "
                                f"{getattr(exc, 'lineno', '?')})", file=str(path)) from None
+    except RecursionError:
+        raise ModelFormatError(f"not a motorid {what}: the JSON is nested too deeply", file=str(path)) from None
+    except OSError as exc:
+        raise OptionError(f"cannot read the {what} file ({exc.strerror or exc})", file=str(path)) from None
 
 
 def load_model(path: Path):  # -> MotorModel
     """Read a ``motorid.model/1`` JSON file (one-line errors naming the file)."""
-    from motorid.model import MotorModel
+    from motorid.model import ModelFormatError, MotorModel
 
-    return MotorModel.from_json(_read_json(path, "model"), file=str(path))
+    data = _read_json(path, "model")
+    try:
+        return MotorModel.from_json(data, file=str(path))
+    except (RecursionError, OverflowError, ZeroDivisionError, FloatingPointError) as exc:
+        raise ModelFormatError(f"not a motorid model: bad entry ({exc.__class__.__name__})", file=str(path)) from None
+
+
+def _load_design(path: Path):  # -> Design
+    from motorid.control.design import Design
+
+    return Design.from_json(_read_json(path, "design"), file=str(path))
+
+
+def _check_outputs(outputs: list[tuple[Optional[Path], str, Optional[str]]], force: bool) -> None:
+    """Refuse, before any work, output paths that cannot be written as given.
+
+    Each entry is ``(path, option, suffix)``: the path must not be a folder, its folder must
+    exist, and with a suffix (``.png``) it must end in it, so the file written is exactly the
+    path checked for ``--force`` (matplotlib would append ``.png`` to a bare name).
+    """
+    for path, option, suffix in outputs:
+        if path is None:
+            continue
+        if suffix is not None and path.suffix.lower() != suffix:
+            raise OptionError(f"{option} {path}: the file is written as {suffix[1:].upper()}; "
+                              f"give a file name ending in {suffix}")
+        if path.is_dir():
+            raise OptionError(f"{option} {path} is a folder; give a file name")
+        if not path.parent.is_dir():
+            raise OptionError(f"{option} {path}: the folder {path.parent} does not exist; create it first")
+    check_writable([p for p, _, _ in outputs], force=force)
 
 
 def _floats(text: Optional[str], option: str) -> Optional[tuple[float, ...]]:
@@ -83,7 +117,7 @@ def model_from_params_cmd(
     """The lab report's state equations (eqs. 24-29) from physical parameters."""
     from motorid.control.params import MotorParams, model_from_params, parse_ratio
 
-    check_writable([json_out], force=force)
+    _check_outputs([(json_out, "--json", None)], force)
     model = model_from_params(MotorParams(km=km, kT=kt, gear=parse_ratio(gear), k0=k0, Tm_s=tm))
     if json_out is not None:
         json_out.write_text(model.to_json_text() + "\n", encoding="utf-8")
@@ -104,7 +138,7 @@ def model_from_step_test_cmd(
     """The lab report's model from its step-test measurements (eqs. 1-19)."""
     from motorid.control.params import model_from_params, params_from_step_test, parse_ratio
 
-    check_writable([json_out], force=force)
+    _check_outputs([(json_out, "--json", None)], force)
     p = params_from_step_test(v_tacho_ss=v_tacho_ss, u_step=u_step, Tm_s=tm, delta_theta_v=delta_theta,
                               delta_t_s=delta_t, gear=parse_ratio(gear))
     typer.echo(f"km = {p.km:.4g} rpm/V, kT = {p.kT:.4g} V/rpm, k0 = {p.k0:.4g}, kμ = {p.gear:.4g}, Tm = {p.Tm_s:g} s")
@@ -134,8 +168,7 @@ def design(
     from motorid.control.design import DesignSettings, design_controller
     from motorid.control.feedback import parse_poles
 
-    check_writable([json_out], force=force)
-    model = load_model(model_file)
+    _check_outputs([(json_out, "--json", None)], force)
     settings = DesignSettings(
         poles=None if poles is None else tuple(parse_poles(poles, "--poles")),
         damping=damping, k2=k2, wn=wn, settling_time_s=settling_time, overshoot_pct=overshoot,
@@ -143,12 +176,17 @@ def design(
         observer_poles=None if observer_poles is None else tuple(parse_poles(observer_poles, "--observer-poles")),
         output=output,
     )
+    model = load_model(model_file)
     try:
         d = design_controller(model, settings)
     except OptionError as exc:
         raise exc.with_file(str(model_file)) from None
+    if d.model_states is not None:
+        typer.echo("states: the model's " + ", ".join(d.model_states) + " re-expressed as the measured "
+                   + ", ".join(d.states) + " (gains on the model's own states: K_model in the JSON)")
     for i, k in enumerate(d.K):
         typer.echo(f"k{i + 1} = {k:.6g}    ({d.states[i]})")
+    typer.echo("gains per sensor: " + ", ".join(f"k_{name} = {g:.6g} {unit}" for name, g, unit in d.sensor_gains()))
     if d.kr is not None:
         typer.echo(f"kr = {d.kr:.6g}")
     if d.ki is not None:
@@ -192,12 +230,13 @@ def simulate(
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Closed-loop simulation of a design: metrics, time series and a plot."""
-    from motorid.control.design import Design
     from motorid.simulate.closed_loop import ReferenceSignal, SimulationSettings, plot_simulation, simulate_closed_loop
 
-    check_writable([csv_out, json_out, png], force=force)
-    model = load_model(model_file)
-    d = Design.from_json(_read_json(design_file, "design"), file=str(design_file))
+    _check_outputs([(csv_out, "--csv", None), (json_out, "--json", None), (png, "--png", ".png")], force)
+    if plant == "trainer":
+        from motorid.trainer import preset as _preset
+
+        _preset(preset)  # an unknown preset is refused before any work
     settings = SimulationSettings(
         duration_s=duration, dt_s=dt if dt is not None else (2e-3 if plant == "trainer" else 1e-3),
         reference=ReferenceSignal(kind=reference, level_v=level, initial_v=initial_ref, amplitude_v=amplitude,
@@ -205,6 +244,8 @@ def simulate(
         saturation_v=saturation, disturbance_v=disturbance, disturbance_start_s=disturbance_start,
         x0=_floats(x0, "--x0"), z0=z0, xhat0=_floats(xhat0, "--xhat0"), plant=plant, trainer_preset=preset,
     )
+    model = load_model(model_file)
+    d = _load_design(design_file)
     try:
         res = simulate_closed_loop(model, d, settings)
     except OptionError as exc:
@@ -241,7 +282,7 @@ def modes(
     """Map the six modes of the saturated position/velocity loop (Masoud 2019, Figs. 4, 11-13)."""
     from motorid.simulate.modes import MODES, ModeCriteria, mode_map, modes_json, parse_range, plot_mode_maps, servo_plants
 
-    check_writable([json_out, png], force=force)
+    _check_outputs([(json_out, "--json", None), (png, "--png", ".png")], force)
     kp_axis, kv_axis = parse_range(kp, "--kp"), parse_range(kv, "--kv")
     criteria = ModeCriteria(step_v=step, saturation_v=saturation, duration_s=duration)
     model = load_model(model_file)

@@ -1,11 +1,16 @@
 """Controller design on a motor model: state feedback, integral action, observer (Tsiolakis 2022)."""
 
 from motorid.control.approx import dominant_second_order
-from motorid.control.design import SCHEMA, Design, DesignSettings, design_controller, output_row
+from motorid.control.coordinates import MeasurableRealisation, measurable_realisation, realise_in, sensor_unit
+from motorid.control.design import SCHEMA, Design, DesignSettings, design_controller, design_model, output_row
 from motorid.control.feedback import (
+    POLE_RATIO_MAX,
+    UNCONTROLLABLE_TOL,
     ControlDesignError,
     check_controllable,
+    check_pole_range,
     check_poles,
+    pbh_margins,
     k1_for_damping,
     parse_poles,
     place_gains,
@@ -20,8 +25,10 @@ from motorid.control.routh import AffinePoly, affine_char_poly, routh_array, rou
 
 __all__ = [
     "dominant_second_order",
-    "SCHEMA", "Design", "DesignSettings", "design_controller", "output_row",
-    "ControlDesignError", "check_controllable", "check_poles", "k1_for_damping", "parse_poles",
+    "MeasurableRealisation", "measurable_realisation", "realise_in", "sensor_unit",
+    "SCHEMA", "Design", "DesignSettings", "design_controller", "design_model", "output_row",
+    "POLE_RATIO_MAX", "UNCONTROLLABLE_TOL", "ControlDesignError", "check_controllable", "check_pole_range",
+    "check_poles", "pbh_margins", "k1_for_damping", "parse_poles",
     "place_gains", "poles_from_damping", "poles_from_specs", "reference_gain",
     "augment_integral", "integral_gains", "integral_poly", "routh_violations",
     "check_observable", "observer_gain", "output_feedback_matrix",

@@ -1,7 +1,9 @@
 """One controller design on a :class:`~motorid.model.MotorModel`: the ``motorid design`` job.
 
 Combines state feedback (:mod:`.feedback`), integral action (:mod:`.integral`) and an observer
-(:mod:`.observer`) into a frozen :class:`Design` written as CONTRACT.md "Design JSON".
+(:mod:`.observer`) into a frozen :class:`Design` written as CONTRACT.md "Design JSON".  The
+design is done in measurable coordinates (:mod:`.coordinates`), so ``K`` has one gain per
+sensor; the row on the identified model's own states is kept as ``K_model``.
 """
 
 from __future__ import annotations
@@ -13,9 +15,11 @@ from typing import Any
 
 import numpy as np
 
+from motorid.control.coordinates import measurable_realisation, realise_in, sensor_unit
 from motorid.control.feedback import (
     ControlDesignError,
     check_controllable,
+    check_pole_range,
     check_gains,
     check_poles,
     k1_for_damping,
@@ -30,9 +34,13 @@ from motorid.control.routh import affine_char_poly, routh_conditions
 from motorid.errors import OptionError
 from motorid.model import MotorModel
 
-__all__ = ["SCHEMA", "DesignSettings", "Design", "design_controller", "output_row"]
+__all__ = ["SCHEMA", "LARGE_GAIN", "DesignSettings", "Design", "design_controller", "design_model", "output_row"]
 
 SCHEMA = "motorid.design/1"
+#: A state-feedback gain above this (volts of input per volt of a sensor) gets a warning: it
+#: turns a 1 mV sensor error into 10 V at the amplifier and the sampled loop needs control
+#: intervals far below the 1 ms of the simulation.  The lab report's gains are 5–20.
+LARGE_GAIN = 1e4
 
 
 @dataclass(frozen=True, slots=True)
@@ -75,6 +83,41 @@ class DesignSettings:
     observer_poles: tuple[complex, ...] | None = None
     output: str | None = None
 
+    def __post_init__(self) -> None:
+        for name, option in (("damping", "--damping"), ("wn", "--wn"), ("settling_time_s", "--settling-time")):
+            v = getattr(self, name)
+            if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise OptionError(f"{option} must be a finite number > 0, got {v!r}")
+        for name, option in (("k2", "--k2"), ("ki", "--ki"), ("overshoot_pct", "--overshoot")):
+            v = getattr(self, name)
+            if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v)):
+                raise OptionError(f"{option} must be a finite number, got {v!r}")
+        if self.overshoot_pct is not None and not 0 <= self.overshoot_pct < 100:
+            raise OptionError(f"--overshoot must be a percentage in [0, 100), got {self.overshoot_pct!r}")
+        for name, option in (("poles", "--poles"), ("observer_poles", "--observer-poles")):
+            v = getattr(self, name)
+            if v is not None and (len(v) == 0 or not np.all(np.isfinite(np.asarray(v, dtype=complex)))):
+                raise OptionError(f"{option} must be finite numbers, got {list(v)}")
+        if self.integral_pole is not None and not np.isfinite(complex(self.integral_pole)):
+            raise OptionError(f"--integral-pole must be a finite number, got {self.integral_pole!r}")
+        ways = [self.poles is not None, self.damping is not None,
+                self.settling_time_s is not None or self.overshoot_pct is not None]
+        if sum(ways) != 1:
+            raise OptionError("give exactly one of --poles, --damping (with --k2 or --wn), "
+                              "or --settling-time with --overshoot")
+        if self.damping is not None and (self.k2 is None) == (self.wn is None):
+            raise OptionError("--damping needs exactly one of --k2 (the report's design) or --wn")
+        if self.damping is None and (self.k2 is not None or self.wn is not None):
+            raise OptionError("--k2 and --wn go with --damping")
+        if ways[2] and (self.settling_time_s is None or self.overshoot_pct is None):
+            raise OptionError("--settling-time and --overshoot go together")
+        if self.ki is not None and self.integral_pole is not None:
+            raise OptionError("give --ki or --integral-pole, not both")
+        if (self.ki is not None or self.integral_pole is not None) and not self.integral:
+            raise OptionError("--ki and --integral-pole need --integral")
+        if self.output is not None and self.output not in ("position", "velocity", "current"):
+            raise OptionError(f"--output {self.output!r}: use position, velocity or current")
+
 
 def _pairs(values: np.ndarray | None) -> list[list[float]] | None:
     if values is None:
@@ -93,7 +136,8 @@ class Design:
     Attributes
     ----------
     states : tuple of str
-        The model's state names (the order of ``K``).
+        The states ``K`` acts on, in order: measured quantities (``position``, ``velocity``,
+        ``current``, ``acceleration``, …; :mod:`.coordinates`) for identified models.
     output : str
         The measured channel ``y`` (integrator and observer input).
     K : ndarray, shape (n,)
@@ -114,6 +158,11 @@ class Design:
     routh : tuple of str
         Routh–Hurwitz conditions on the gains for this model (eqs. 43–47).
     warnings : tuple of str
+    model_states : tuple of str or None
+        The identified model's own state names when the design was done in measurable
+        coordinates (:mod:`.coordinates`); None when ``states`` are the model's.
+    transform : ndarray, shape (n, n), or None
+        ``T`` of ``states = T · model_states``; ``K @ T`` is the gain row on the model's states.
     """
 
     states: tuple[str, ...]
@@ -127,11 +176,39 @@ class Design:
     output_feedback_poles: np.ndarray | None
     routh: tuple[str, ...]
     warnings: tuple[str, ...] = field(default=())
+    model_states: tuple[str, ...] | None = None
+    transform: np.ndarray | None = None
+
+    @property
+    def K_model(self) -> np.ndarray:
+        """The gain row on the identified model's own states (``K T``; ``K`` without a transform)."""
+        return self.K if self.transform is None else self.K @ self.transform
+
+    @property
+    def L_model(self) -> np.ndarray | None:
+        """The observer gain on the model's own states (``T⁻¹ L``)."""
+        if self.L is None or self.transform is None:
+            return self.L
+        return np.linalg.solve(self.transform, self.L)
+
+    def sensor_gains(self) -> list[tuple[str, float, str]]:
+        """``(state, gain, unit)`` per measured quantity, e.g. ``("velocity", 8.5, "per V of the tacho")``."""
+        return [(name, float(k), sensor_unit(name)) for name, k in zip(self.states, self.K)]
 
     def to_json(self) -> dict[str, Any]:
-        """The CONTRACT.md "Design JSON" dict (schema ``motorid.design/1``), plus ``output`` and
-        ``output_feedback_poles``."""
-        return {
+        """The CONTRACT.md "Design JSON" dict (schema ``motorid.design/1``), plus ``output``,
+        ``output_feedback_poles``, ``gains`` (per sensor) and, for a design in measurable
+        coordinates, ``model_states``, ``transform``, ``K_model`` and ``L_model``."""
+        extra: dict[str, Any] = {
+            "gains": [{"state": n, "gain": g, "unit": u} for n, g, u in self.sensor_gains()],
+        }
+        if self.transform is not None and self.model_states is not None:
+            extra["model_states"] = list(self.model_states)
+            extra["transform"] = [[float(v) for v in row] for row in self.transform]
+            extra["K_model"] = [float(v) for v in self.K_model]
+            lm = self.L_model
+            extra["L_model"] = None if lm is None else [float(v) for v in lm]
+        return extra | {
             "schema": SCHEMA,
             "states": list(self.states),
             "output": self.output,
@@ -152,30 +229,104 @@ class Design:
 
     @classmethod
     def from_json(cls, data: Any, *, file: str | None = None) -> "Design":
-        """Rebuild a design from :meth:`to_json` output.
+        """Rebuild a design from :meth:`to_json` output, checking every entry's type and shape.
 
         Raises
         ------
         OptionError
-            On a wrong schema or malformed entries.
+            On a wrong schema or a malformed entry (the message names the key).
         """
         try:
-            if not isinstance(data, dict) or data.get("schema") != SCHEMA:
-                got = data.get("schema") if isinstance(data, dict) else type(data).__name__
-                raise OptionError(f"not a motorid design: schema is {got!r}, expected {SCHEMA!r}", file=file)
-            c = lambda p: None if p is None else np.array([complex(a, b) for a, b in p])  # noqa: E731
-            K = check_gains(data["K"], "design K")
-            L = None if data.get("L") is None else check_gains(data["L"], "design L")
-            return cls(tuple(data["states"]), str(data.get("output", "position")), K,
-                       None if data.get("kr") is None else float(data["kr"]),
-                       None if data.get("ki") is None else float(data["ki"]), L,
-                       c(data.get("closed_loop_poles") or []), c(data.get("observer_poles")),
-                       c(data.get("output_feedback_poles")), tuple(data.get("routh") or ()),
-                       tuple(data.get("warnings") or ()))
+            return cls._from_json(data)
         except OptionError as exc:
-            raise exc.with_file(file) if file else exc from None
-        except (KeyError, TypeError, ValueError) as exc:
+            raise (exc.with_file(file) if file else exc) from None
+        except (KeyError, TypeError, ValueError, AttributeError, IndexError, RecursionError) as exc:
             raise OptionError(f"not a motorid design: bad or missing entry ({exc!s})", file=file) from None
+
+    @classmethod
+    def _from_json(cls, data: Any) -> "Design":
+        if not isinstance(data, dict) or data.get("schema") != SCHEMA:
+            got = data.get("schema") if isinstance(data, dict) else type(data).__name__
+            raise OptionError(f"not a motorid design: schema is {got!r}, expected {SCHEMA!r}")
+
+        def bad(key: str, what: str) -> OptionError:
+            return OptionError(f"not a motorid design: key {key!r} {what}")
+
+        def names(key: str) -> tuple[str, ...]:
+            v = data.get(key)
+            if not isinstance(v, list) or not v or not all(isinstance(x, str) and x for x in v) \
+                    or len(set(v)) != len(v):
+                raise bad(key, "must be a non-empty list of distinct state names")
+            return tuple(v)
+
+        def vector(key: str, n: int | None, optional: bool = False) -> np.ndarray | None:
+            v = data.get(key)
+            if v is None and optional:
+                return None
+            if not isinstance(v, list) or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
+                raise bad(key, "must be a list of numbers")
+            arr = np.array(v, dtype=float)
+            if n is not None and arr.size != n:
+                raise bad(key, f"has {arr.size} entries, expected {n} (one per state)")
+            if not np.all(np.isfinite(arr)):
+                raise bad(key, "must hold finite numbers")
+            return arr
+
+        def number(key: str) -> float | None:
+            v = data.get(key)
+            if v is None:
+                return None
+            if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(float(v)):
+                raise bad(key, "must be a finite number or null")
+            return float(v)
+
+        def poles(key: str) -> np.ndarray | None:
+            v = data.get(key)
+            if v is None:
+                return None
+            if not isinstance(v, list) or not all(
+                    isinstance(p, list) and len(p) == 2 and all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                                                for x in p) for p in v):
+                raise bad(key, "must be a list of [re, im] pairs")
+            arr = np.array([complex(a, b) for a, b in v], dtype=complex)
+            if not np.all(np.isfinite(arr)):
+                raise bad(key, "must hold finite numbers")
+            return arr
+
+        def strings(key: str) -> tuple[str, ...]:
+            v = data.get(key) or []
+            if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
+                raise bad(key, "must be a list of strings")
+            return tuple(v)
+
+        states = names("states")
+        n = len(states)
+        k = vector("K", n)
+        out = data.get("output", "position")
+        if not isinstance(out, str):
+            raise bad("output", "must be a channel name")
+        model_states = transform = None
+        if data.get("transform") is not None or data.get("model_states") is not None:
+            model_states = names("model_states")
+            t = data.get("transform")
+            if not isinstance(t, list) or len(t) != n or len(model_states) != n:
+                raise bad("transform", f"must be a {n}×{n} matrix (states × model_states)")
+            transform = np.vstack([_matrix_row(row, "transform", n) for row in t])
+        return cls(states, out, k, number("kr"), number("ki"), vector("L", n, optional=True),
+                   poles("closed_loop_poles") if data.get("closed_loop_poles") is not None else np.zeros(0, complex),
+                   poles("observer_poles"), poles("output_feedback_poles"), strings("routh"), strings("warnings"),
+                   model_states, transform)
+
+
+def _matrix_row(row: Any, key: str, n: int) -> np.ndarray:
+    """One row of a JSON matrix as ``n`` finite floats, or OptionError naming ``key``."""
+    if not isinstance(row, list) or len(row) != n or not all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) for x in row):
+        raise OptionError(f"not a motorid design: key {key!r} must be a matrix of numbers with {n} columns")
+    arr = np.array(row, dtype=float)
+    if not np.all(np.isfinite(arr)):
+        raise OptionError(f"not a motorid design: key {key!r} must hold finite numbers")
+    return arr
 
 
 def output_row(model: MotorModel, output: str | None) -> tuple[str, np.ndarray]:
@@ -200,8 +351,62 @@ def _gain_names(n: int) -> tuple[str, ...]:
     return tuple(f"k{i + 1}" for i in range(n))
 
 
+def design_model(model: MotorModel, design: "Design") -> MotorModel:
+    """``model`` in the coordinates ``design`` was made in (its ``states``).
+
+    Parameters
+    ----------
+    model : MotorModel
+        The identified model (any realisation the design was made from).
+    design : Design
+
+    Returns
+    -------
+    MotorModel
+        ``model`` itself when the design's states are its own; else the model re-expressed
+        with the design's recorded ``transform`` (or, for a design without one, the
+        measurable realisation of :mod:`.coordinates`).
+
+    Raises
+    ------
+    OptionError
+        When the design was made for a model with other states.
+    """
+    if tuple(design.states) == tuple(model.states) and design.transform is None:
+        return model
+    n = model.A.shape[0]
+    if design.transform is not None and design.model_states is not None:
+        if tuple(design.model_states) == tuple(model.states) and design.transform.shape == (n, n):
+            return realise_in(model, design.transform, tuple(design.states))
+    else:
+        mr = measurable_realisation(model)
+        if mr.states == tuple(design.states):
+            return mr.model
+    raise OptionError(f"the design is for states {list(design.model_states or design.states)}, "
+                      f"the model has {list(model.states)}; design on this model first")
+
+
+def _check_placed(placed: np.ndarray, wanted: np.ndarray) -> list[str]:
+    """A warning when the eigenvalues reached differ from the poles asked for."""
+    got = list(np.asarray(placed, dtype=complex))
+    scale = max(1.0, float(np.max(np.abs(wanted))))
+    worst = 0.0
+    for w in np.asarray(wanted, dtype=complex):
+        j = int(np.argmin([abs(g - w) for g in got]))
+        worst = max(worst, abs(got.pop(j) - w))
+    # repeated poles of a defective loop come out of eig split by ~eps^(1/m); 1e-4 leaves triples
+    if worst > 1e-4 * scale:
+        return [f"the closed-loop poles reached differ from the ones asked for by up to {worst:.3g} "
+                "(ill-conditioned placement); check the poles printed"]
+    return []
+
+
 def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
     """Design state feedback (with optional integral action and observer) for ``model``.
+
+    The design is done in measurable coordinates (:func:`.coordinates.measurable_realisation`:
+    position, velocity, current or acceleration), so ``K`` holds one gain per sensor; the
+    row on the model's own states is :attr:`Design.K_model`.
 
     Parameters
     ----------
@@ -216,7 +421,8 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
     ------
     OptionError
         Conflicting or missing pole specifications, bad poles (count, conjugates, finiteness,
-        unstable observer poles), non-finite gains.
+        magnitude, unstable observer poles), non-finite gains, a pole pair asked of a
+        one-state model.
     ControlDesignError
         Uncontrollable or unobservable model, no stabilising ``k1`` for the given ``k2``.
 
@@ -224,45 +430,48 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
     ----------
     Tsiolakis 2022, eqs. 30–58.
     """
-    s = settings
-    a, b = model.A, model.B
-    n = a.shape[0]
-    out_name, c = output_row(model, s.output)
-    names = _gain_names(n)
+    s = settings  # validated on construction (DesignSettings.__post_init__)
     ways = [s.poles is not None, s.damping is not None, s.settling_time_s is not None or s.overshoot_pct is not None]
-    if sum(ways) != 1:
-        raise OptionError("give exactly one of --poles, --damping (with --k2 or --wn), "
-                          "or --settling-time with --overshoot")
-    if s.ki is not None and s.integral_pole is not None:
-        raise OptionError("give --ki or --integral-pole, not both")
-    if (s.ki is not None or s.integral_pole is not None) and not s.integral:
-        raise OptionError("--ki and --integral-pole need --integral")
+    mr = measurable_realisation(model)
+    work = mr.model
+    a, b = work.A, work.B
+    n = a.shape[0]
+    out_name, c = output_row(work, s.output)
+    names = _gain_names(n)
+    # a pole pair (damping/ωn, settling time/overshoot) on the loop with the integrator when the
+    # integrator's pole is not given otherwise
+    pair_with_integrator = s.integral and s.ki is None and s.integral_pole is None and s.poles is None
+    n_pair = n + 1 if pair_with_integrator else n
+    if (ways[2] or s.wn is not None) and n_pair < 2:
+        which = "--damping/--wn" if s.wn is not None else "--settling-time/--overshoot"
+        raise OptionError(f"{which} place a pole pair, but this model has one state ({work.states[0]}): "
+                          "give one real pole with --poles (e.g. --poles -5), or add --integral to place "
+                          "the pair with the integrator")
     check_controllable(a, b)
     if s.observer_poles is not None:
         from motorid.control.observer import check_observable
 
         check_observable(a, c, out_name)
-    warnings: list[str] = []
+    warnings: list[str] = list(mr.warnings)
     k: np.ndarray | None = None
     poles: np.ndarray | None = None
     if s.poles is not None:
         raw = np.asarray(s.poles, dtype=complex)
         want = n + 1 if (s.integral and raw.size == n + 1 and s.ki is None and s.integral_pole is None) else n
         poles = check_poles(raw, want, option="--poles")
+        check_pole_range(poles, a)
     elif s.damping is not None:
-        if (s.k2 is None) == (s.wn is None):
-            raise OptionError("--damping needs exactly one of --k2 (the report's design) or --wn")
         if s.k2 is not None:
             k2 = float(check_gains([s.k2], "--k2")[0])
             k1, _ = k1_for_damping(a, b, k2, float(s.damping))
             k = np.array([[k1, k2]])
         else:
-            poles, w = poles_from_damping(float(s.damping), float(s.wn), n)
+            poles, w = poles_from_damping(float(s.damping), float(s.wn), n_pair)
+            check_pole_range(poles, a, option="--wn")
             warnings += w
     else:
-        if s.settling_time_s is None or s.overshoot_pct is None:
-            raise OptionError("--settling-time and --overshoot go together")
-        poles, w = poles_from_specs(float(s.settling_time_s), float(s.overshoot_pct), n)
+        poles, w = poles_from_specs(float(s.settling_time_s), float(s.overshoot_pct), n_pair)
+        check_pole_range(poles, a, option="--settling-time")
         warnings += w
 
     ki: float | None = None
@@ -275,6 +484,7 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
             ip = check_poles([s.integral_pole], 1, "integral", "--integral-pole")
             if ip[0].imag != 0:
                 raise OptionError("--integral-pole must be real (a lone complex pole has no conjugate)")
+            check_pole_range(ip, a, "integral", "--integral-pole")
             state_poles = poles if poles is not None else np.linalg.eigvals(a - b @ k)
             k, ki = integral_gains(a, b, c, np.concatenate([state_poles, ip]))
         elif s.ki is not None:
@@ -293,12 +503,16 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
 
         aa, ba = augment_integral(a, b, c)
         cl = np.linalg.eigvals(aa - ba @ gains.reshape(1, -1))
+        if poles is not None and poles.size == n + 1:
+            warnings += _check_placed(cl, poles)
     else:
         if k is None:
             k = place_gains(a, b, poles)
         poly = affine_char_poly(a, b, names)
         routh = routh_conditions(poly)
         cl = np.linalg.eigvals(a - b @ k)
+        if poles is not None:
+            warnings += _check_placed(cl, poles)
         if np.any(cl.real >= 0):
             warnings.append("the state-feedback loop is unstable; kr is not meaningful")
         kr = reference_gain(a, b, c, k)
@@ -307,11 +521,20 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
     if not np.all(np.isfinite(k_row)) or (ki is not None and not math.isfinite(ki)):
         raise ControlDesignError("the placement gave non-finite gains; choose other poles")
 
+    big = float(np.max(np.abs(k_row)))
+    if big > LARGE_GAIN:
+        i = int(np.argmax(np.abs(k_row)))
+        warnings.append(f"the gain on {work.states[i]} is {k_row[i]:.3g}: far beyond what a sensor and an "
+                        "amplifier can use (noise × that gain; a sampled loop needs a much shorter interval); "
+                        "check the model's open-loop poles or ask for slower closed-loop poles")
     l_col = obs = ofb = None
     if s.observer_poles is not None:
         op = check_poles(np.asarray(s.observer_poles, dtype=complex), n, "observer", "--observer-poles",
                          require_stable=True)
+        check_pole_range(op, a, "observer", "--observer-poles")
         l_col = observer_gain(a, c, op, out_name)
+        if not np.all(np.isfinite(l_col)):
+            raise ControlDesignError("the observer placement gave non-finite gains; choose other observer poles")
         obs = np.linalg.eigvals(a - l_col @ c)
         ofb = np.linalg.eigvals(output_feedback_matrix(a, b, c, k, l_col, ki))
         slow_obs = float(np.max(obs.real))
@@ -319,5 +542,6 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
             warnings.append("the observer is not clearly faster than the controller (its slowest pole "
                             f"{slow_obs:.3g} vs {float(np.max(cl.real)):.3g}); estimates will lag")
         l_col = l_col.ravel()
-    return Design(tuple(model.states), out_name, k_row, kr, ki, l_col, cl, obs, ofb, tuple(routh),
-                  tuple(warnings))
+    changed = mr.changed
+    return Design(tuple(work.states), out_name, k_row, kr, ki, l_col, cl, obs, ofb, tuple(routh),
+                  tuple(warnings), mr.source_states if changed else None, mr.transform if changed else None)

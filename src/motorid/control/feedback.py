@@ -13,6 +13,7 @@ from collections.abc import Sequence
 
 import control
 import numpy as np
+import scipy.linalg
 
 from motorid.errors import OptionError
 
@@ -22,7 +23,11 @@ __all__ = [
     "check_poles",
     "check_gains",
     "check_controllable",
+    "check_pole_range",
+    "pbh_margins",
     "place_gains",
+    "UNCONTROLLABLE_TOL",
+    "POLE_RATIO_MAX",
     "poles_from_damping",
     "poles_from_specs",
     "k1_for_damping",
@@ -108,38 +113,119 @@ def check_gains(values: Sequence[float] | np.ndarray, option: str) -> np.ndarray
     return g
 
 
+#: Relative distance to uncontrollability below which a pair ``(A, B)`` is refused: the
+#: smallest singular value of ``[λI − A, B]`` over the eigenvalues ``λ`` (PBH test), on the
+#: balanced realisation with ``B`` scaled to the norm of ``A``, divided by that norm.  Exact
+#: round-off would be ~1e-15; an eigenvalue of a double (Jordan) block is computed only to
+#: ~√eps ≈ 1.5e-8 relative, so the threshold sits above that.  A model this close to losing
+#: a mode would need gains ~1e7 times its scale to move it.
+UNCONTROLLABLE_TOL = 1e-7
+#: Poles (closed-loop or observer) farther from the origin than this many times the model's
+#: fastest open-loop pole (at least 1 rad/s) are refused as absurd: the gains would be of the
+#: order of that ratio to the power of the number of states and no amplifier or sensor
+#: bandwidth could realise them.
+POLE_RATIO_MAX = 1e4
+
+
+def pbh_margins(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Scale-free PBH measure of controllability of ``(A, B)``, one value per eigenvalue.
+
+    The realisation is balanced (``scipy.linalg.matrix_balance``, a diagonal similarity) and
+    the input columns scaled to the norm of ``A``; then for every eigenvalue ``λ`` the
+    smallest singular value of ``[λI − A, B]`` relative to ``‖A‖`` is taken (0 for a mode the
+    input cannot reach).
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        The margins and the eigenvalues they belong to.
+    """
+    a = np.asarray(a, dtype=float)
+    n = a.shape[0]
+    b = np.asarray(b, dtype=float).reshape(n, -1)
+    ab, (scale, _) = scipy.linalg.matrix_balance(a, permute=False, separate=True)
+    bb = b / scale[:, None]
+    lams = np.linalg.eigvals(ab)
+    na = float(np.linalg.norm(ab, 2))
+    nb = float(np.linalg.norm(bb, 2))
+    if nb == 0.0:
+        return np.zeros(n), lams
+    norm = na if na > 0 else nb
+    bb = bb * (norm / nb)
+    margins = np.array([float(np.linalg.svd(np.hstack([lam * np.eye(n) - ab, bb]), compute_uv=False)[-1]) / norm
+                        for lam in lams])
+    return margins, lams
+
+
 def check_controllable(a: np.ndarray, b: np.ndarray, what: str = "model") -> None:
     """Raise ControlDesignError when ``(A, B)`` is not controllable.
 
-    The rank of ``ctrb(A, B)`` is taken with an SVD tolerance relative to its largest
-    singular value (python-control's ``ctrb`` builds the matrix; numpy gives the rank).
+    Scale-free: the PBH test of :func:`pbh_margins` on the balanced realisation against
+    :data:`UNCONTROLLABLE_TOL` (the rank of the raw ``[B AB …]`` depends on the units of the
+    states and wrongly refused identified models whose states differ in scale by 10⁴).
 
     References
     ----------
-    Tsiolakis 2022, eq. 30.
+    Tsiolakis 2022, eq. 30 (rank of the controllability matrix; PBH is the equivalent test).
     """
-    m = np.asarray(control.ctrb(a, b))
-    sv = np.linalg.svd(m, compute_uv=False)
-    rank = int(np.sum(sv > sv[0] * 1e-9)) if sv.size and sv[0] > 0 else 0
     n = a.shape[0]
-    if rank < n:
+    margins, lams = pbh_margins(a, b)
+    lost = margins < UNCONTROLLABLE_TOL
+    if np.any(lost):
+        rank = n - int(np.sum(lost))
+        lam = complex(lams[int(np.argmin(margins))])
         raise ControlDesignError(
-            f"the {what} is not controllable (rank of [B AB ...] is {rank} < {n} states): "
-            "the input cannot move every state, so its poles cannot all be placed"
+            f"the {what} is not controllable (rank of [B AB ...] is {rank} < {n} states; mode at "
+            f"{lam.real:.4g}{lam.imag:+.4g}j): the input cannot move every state, so its poles cannot all be placed"
         )
+
+
+def check_pole_range(poles: np.ndarray, a: np.ndarray, what: str = "closed-loop", option: str = "--poles") -> None:
+    """Refuse poles more than :data:`POLE_RATIO_MAX` × the model's fastest pole from the origin.
+
+    Raises
+    ------
+    OptionError
+        Naming the option, the pole and the largest sensible magnitude.
+    """
+    p = np.asarray(poles, dtype=complex).ravel()
+    ref = max(1.0, float(np.max(np.abs(np.linalg.eigvals(a)))) if a.size else 1.0)
+    limit = POLE_RATIO_MAX * ref
+    big = p[np.abs(p) > limit]
+    if big.size:
+        raise OptionError(f"{option}: {what} pole {big[0]:.4g} is absurdly far from the model's dynamics "
+                          f"(fastest open-loop pole {ref:.4g} rad/s); keep poles within {limit:.3g} rad/s")
 
 
 def place_gains(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
     """Gain row ``K`` with ``eig(A − B K) = poles``.
 
     ``control.place`` (Tits–Yang, robust) for distinct poles; ``control.acker`` when a pole is
-    repeated (critical damping), which ``place`` cannot assign with one input.
+    repeated (critical damping), which ``place`` cannot assign with one input.  Both run on the
+    balanced realisation (``scipy.linalg.matrix_balance``) so states of very different scales
+    (position volts next to acceleration volts per second) do not spoil the placement.
+
+    Raises
+    ------
+    ControlDesignError
+        When the placement fails numerically.
     """
     p = np.asarray(poles, dtype=complex)
-    scale = max(1.0, float(np.max(np.abs(p))))
-    repeated = any(abs(p[i] - p[j]) < 1e-6 * scale for i in range(p.size) for j in range(i + 1, p.size))
-    k = control.acker(a, b, p) if repeated else control.place(a, b, p)
-    return np.real(np.asarray(k, dtype=float).reshape(1, -1))
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float).reshape(a.shape[0], -1)
+    ab, (scale, _) = scipy.linalg.matrix_balance(a, permute=False, separate=True)
+    bb = b / scale[:, None]
+    pmax = max(1.0, float(np.max(np.abs(p)))) if p.size else 1.0
+    repeated = any(abs(p[i] - p[j]) < 1e-6 * pmax for i in range(p.size) for j in range(i + 1, p.size))
+    try:
+        with np.errstate(all="ignore"):
+            kb = control.acker(ab, bb, p) if repeated else control.place(ab, bb, p)
+    except (ValueError, np.linalg.LinAlgError, ArithmeticError) as exc:
+        raise ControlDesignError(f"pole placement failed for poles {list(np.round(p, 6))} ({exc}); "
+                                 "choose other poles") from None
+    # x = diag(scale) x_b, so K x = K_b x_b gives K = K_b diag(scale)⁻¹
+    k = np.real(np.asarray(kb, dtype=float).reshape(1, -1)) / scale[None, :]
+    return k
 
 
 def poles_from_damping(zeta: float, wn: float, n: int) -> tuple[np.ndarray, list[str]]:

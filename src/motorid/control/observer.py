@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-import control
-
-from motorid.control.feedback import ControlDesignError, place_gains
+from motorid.control.feedback import UNCONTROLLABLE_TOL, ControlDesignError, pbh_margins, place_gains
 
 __all__ = ["check_observable", "observer_gain", "output_feedback_matrix"]
 
@@ -14,13 +12,16 @@ __all__ = ["check_observable", "observer_gain", "output_feedback_matrix"]
 def check_observable(a: np.ndarray, c: np.ndarray, output: str = "output") -> None:
     """Raise ControlDesignError when ``(A, C)`` is not observable.
 
+    The PBH test on the dual pair with the tolerance of
+    :func:`~motorid.control.feedback.check_controllable` (scale-free).
+
     References
     ----------
     Tsiolakis 2022, eq. 48.
     """
-    w = np.asarray(control.obsv(a, c))
-    sv = np.linalg.svd(w, compute_uv=False)
-    rank = int(np.sum(sv > sv[0] * 1e-9)) if sv.size and sv[0] > 0 else 0
+    # duality: (A, C) is observable iff (Aᵀ, Cᵀ) is controllable; same scale-free PBH test
+    margins, _ = pbh_margins(np.asarray(a, dtype=float).T, np.asarray(c, dtype=float).T)
+    rank = a.shape[0] - int(np.sum(margins < UNCONTROLLABLE_TOL))
     if rank < a.shape[0]:
         raise ControlDesignError(
             f"the model is not observable from its {output} (rank of [C; CA; ...] is {rank} < "

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
-from motorid.control.design import Design, output_row
+from motorid.control.design import Design, design_model, output_row
 from motorid.errors import OptionError
 from motorid.model import MotorModel
 
@@ -300,9 +300,12 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
     Parameters
     ----------
     model : MotorModel
-        The plant for ``plant='linear'``; the observer's model in every case.
+        The plant for ``plant='linear'``; the observer's model in every case.  A design made
+        in measurable coordinates (:func:`motorid.control.design_controller`) runs on the
+        model re-expressed in them (:func:`motorid.control.design.design_model`), so the
+        states, ``x0`` and ``xhat0`` are the design's (position, velocity, …).
     design : Design
-        Gains (``K``, ``kr`` or ``ki``, optional ``L``); its states must be the model's.
+        Gains (``K``, ``kr`` or ``ki``, optional ``L``) for this model.
     settings : SimulationSettings
 
     Returns
@@ -320,6 +323,8 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
     Tsiolakis 2022, §2.2 (step, brake, sinusoid), §3.2 (integral action, z(0)), §4.2 (observer).
     """
     s = settings
+    # a design in measurable coordinates runs on the model re-expressed in them
+    model = design_model(model, design)
     a, b = model.A, model.B
     n = a.shape[0]
     if tuple(design.states) != tuple(model.states) or design.K.size != n:
