@@ -79,8 +79,15 @@ def _design_view(ident: Identification, design: Mapping[str, Any] | None) -> dic
     view: dict[str, Any] = dict(design)
     model = ident.model
     des = Design.from_json(design)
-    if tuple(des.states) == tuple(model.states):
+    try:
+        # a design in measurable coordinates (position, velocity, current…) is simulated on
+        # the model re-expressed in them (simulate_closed_loop does the change of states)
         sim = simulate_closed_loop(model, des, SimulationSettings())
+    except MotorIdError as exc:
+        sim = None
+        view["note"] = (f"the design (states {list(des.states)}) cannot be simulated on the identified model "
+                        f"(states {list(model.states)}): {exc.message}")
+    if sim is not None:
         cols = sim.columns()
         view["simulation"] = {
             "time": cols["time"].tolist(),
@@ -89,9 +96,6 @@ def _design_view(ident: Identification, design: Mapping[str, Any] | None) -> dic
             "metrics": {k: v for k, v in sim.metrics.__dict__.items()} if hasattr(sim.metrics, "__dict__")
             else {f: getattr(sim.metrics, f) for f in sim.metrics.__dataclass_fields__},
         }
-    else:
-        view["note"] = (f"the design's states {list(des.states)} are not the identified model's "
-                        f"{list(model.states)}: identify with --method pinv --order 2 to simulate it here")
     try:
         kp = np.linspace(0.5, 60.0, 40)
         kv = np.linspace(0.0, 8.0, 40)

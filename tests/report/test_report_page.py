@@ -86,3 +86,18 @@ def test_identify_report_with_design_shows_closed_loop_and_modes(demo, run_cli, 
     design = html[html.index('<section id="design">'):]
     assert 'alt="closed loop"' in design and 'alt="mode map"' in design and "settling_time_s" in design
     assert 'alt="ALL0003"' in html  # the validation overlay
+
+
+def test_report_simulates_a_design_made_on_the_default_model(demo, run_cli, tmp_path):
+    """Issue 11: the chain as a user runs it with default options — the demo's own model
+    (output-error states x1..x3), a design on it in measurable coordinates, and the report
+    of the same identification must show the closed loop, not a note that it cannot."""
+    d, page = tmp_path / "d.json", tmp_path / "r.html"
+    res = run_cli("design", demo / "model.json", "--damping", "0.7", "--wn", "5", "--json", d)
+    assert res.code == 0, res.err
+    res = run_cli("identify", "--velocity", demo / "ALL0001", "--position", demo / "ALL0000",
+                  "--current", demo / "ALL0002", "--report", page, "--design", d)
+    assert res.code == 0, res.err
+    html = page.read_text(encoding="utf-8")
+    design = html[html.index('<section id="design">'):]
+    assert 'alt="closed loop"' in design and "cannot be simulated" not in design

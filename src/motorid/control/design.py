@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from motorid._threads import single_blas_thread
 from motorid.control.coordinates import measurable_realisation, realise_in, sensor_unit
 from motorid.control.feedback import (
     ControlDesignError,
@@ -401,6 +402,7 @@ def _check_placed(placed: np.ndarray, wanted: np.ndarray) -> list[str]:
     return []
 
 
+@single_blas_thread
 def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
     """Design state feedback (with optional integral action and observer) for ``model``.
 

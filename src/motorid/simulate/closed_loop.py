@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
+from motorid._threads import single_blas_thread
 from motorid.control.design import Design, design_model, output_row
 from motorid.errors import OptionError
 from motorid.model import MotorModel
@@ -294,6 +295,7 @@ def _vector(values: tuple[float, ...] | None, n: int, option: str) -> np.ndarray
     return v
 
 
+@single_blas_thread
 def simulate_closed_loop(model: MotorModel, design: Design, settings: SimulationSettings) -> SimulationResult:
     """Run the designed controller in closed loop.
 

@@ -40,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from motorid._threads import single_blas_thread
 from motorid.errors import OptionError
 from motorid.model import MotorModel
 
@@ -396,6 +397,7 @@ class ModeMap:
         return {m: int(np.sum(self.labels == i)) for i, m in enumerate(MODES)}
 
 
+@single_blas_thread
 def mode_map(plant: ServoPlant, kp: np.ndarray, kv: np.ndarray, criteria: ModeCriteria = ModeCriteria()) -> ModeMap:
     """Classify the saturated Fig. 4 loop at every (Kp, Kv) of the grid.
 
