@@ -24,7 +24,7 @@ from motorid.identify.markov import MarkovSettings, markov_identify
 from motorid.identify.pinv import PinvSettings, pinv_identify
 from motorid.identify.result import IdentificationError
 from motorid.identify.sanity import SanityReport, sanity_checks
-from motorid.metrics import fit_percent
+from motorid.metrics import fit_percent, nrmse
 from motorid.model import MotorModel, step_nrmse
 
 __all__ = ["METHODS", "IdentifySettings", "Identification", "identify_experiment", "identify_conditioned"]
@@ -131,7 +131,7 @@ def _settled_warning(t: np.ndarray, v: np.ndarray) -> list[str]:
         cut = tail.size // blocks * blocks
         bt = tt[:cut].reshape(blocks, -1).mean(axis=1)
         bv = tail[:cut].reshape(blocks, -1).mean(axis=1)
-        coef, cov = np.polyfit(bt, bv, 1, cov=True)
+        _, cov = np.polyfit(bt, bv, 1, cov=True)
         se = float(np.sqrt(max(cov[0, 0], 0.0))) * (t[-1] - tt[0])
         if abs(drift) <= 3.0 * se:
             return []
@@ -268,20 +268,19 @@ _RUNNERS: dict[str, Callable[[ConditionedExperiment, IdentifySettings], MotorMod
 
 
 def _with_fit(model: MotorModel, cond: ConditionedExperiment) -> MotorModel:
+    """The model with its fit on the full-rate record: NRMSE (CONTRACT.md: RMS error over the
+    measured steady-state change) of velocity and position, and MATLAB compare's fit % of every
+    channel it predicts, all from one step response with the model's dead time applied."""
     t, v, _ = _velocity(cond, full=True)
     if "record_length_s" not in model.settings:
         # first_order() cancels only pole-zero pairs slower than the record (model.py)
         model = model.replace(settings={**dict(model.settings), "record_length_s": float(t[-1])})
-    fit = dict(model.fit)
-    fit["velocity_nrmse"] = float(step_nrmse(model, t, v, channel="velocity", step_volts=cond.step_volts))
-    if "position" in cond.full_outputs and "position" in model.outputs:
-        fit["position_nrmse"] = float(
-            step_nrmse(model, t, cond.full_outputs["position"], channel="position", step_volts=cond.step_volts)
-        )
-    # MATLAB compare's fit % of every channel the model predicts (its delay applied;
-    # CONTRACT.md fit.<channel>_fit_percent)
     with np.errstate(over="ignore", invalid="ignore"):
         resp = model.step_response(t, cond.step_volts)
+    fit = dict(model.fit)
+    fit["velocity_nrmse"] = nrmse(v, resp["velocity"], reference="final")
+    if "position" in cond.full_outputs and "position" in resp:
+        fit["position_nrmse"] = nrmse(cond.full_outputs["position"], resp["position"], reference="final")
     measured = {"velocity": v, **{k: y for k, y in cond.full_outputs.items() if k != "velocity"}}
     for channel, y in measured.items():
         if channel in resp:
