@@ -41,7 +41,7 @@ def test_model_worse_than_a_first_order_baseline_is_flagged_on_a_real_produced_m
     assert not r.sanity.passed
     text = " ".join(r.sanity.failures)
     assert "worse than three parameters" in text
-    assert "DC gain" in text and "read off the final level" in text
+    assert "DC gain" in text and "read off the record" in text and "steady state is not the record" in text
     assert any(w.startswith("SANITY CHECK FAILED") for w in r.model.warnings)
     assert r.model.extras["sanity"]["passed"] is False
 
