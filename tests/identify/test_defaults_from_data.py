@@ -168,3 +168,20 @@ def test_a_long_log_is_fitted_on_the_part_the_dynamics_need() -> None:
     lo, hi = r.model.uncertainty["time_constant"]["ci95"]
     assert hi - lo < 0.01
     assert fo.time_constant_s + r.model.delay_s == pytest.approx(0.33, rel=0.01)
+
+
+def test_ripple_that_never_goes_away_is_not_told_to_record_longer() -> None:
+    """Issue 11, item 7: a low-speed step keeps its commutator ripple to the end; that is not
+    an unsettled record.  A record that really still rises is told so."""
+    dt = 4e-3
+    k = np.arange(-200, 2300)
+    t = k * dt
+    u = np.where(k >= 0, 2.0, 0.0)
+    settled = np.where(k >= 0, 0.3 * (1 - np.exp(-np.maximum(t, 0) / 0.4)), 0.0)
+    ripple = 0.02 * np.sin(2 * np.pi * 1.3 * t) * (k >= 0)  # 7 % of the level, 1.3 Hz
+    noise = np.random.default_rng(6).normal(0, 0.002, t.size)
+    r = identify_experiment({"velocity": _capture(t, settled + ripple + noise, u=u)}, IdentifySettings(method="classic"))
+    assert not any("record longer" in w for w in r.model.warnings), r.model.warnings
+    rising = np.where(k >= 0, 0.3 * (1 - np.exp(-np.maximum(t, 0) / 4.0)), 0.0)  # τ 4 s in a 9 s record
+    r = identify_experiment({"velocity": _capture(t, rising + noise, u=u)}, IdentifySettings(method="classic"))
+    assert any("record longer" in w for w in r.model.warnings)
