@@ -188,6 +188,12 @@ def build_report(inp: ReportInputs) -> str:
                     rows.append([f"{key[:-1]} {i + 1}", f"{item['value'][0]:.5g}{item['value'][1]:+.3g}j",
                                  item["std"], f"[{item['ci95'][0]}, {item['ci95'][1]}]"])
             body += _table(["quantity", "value", "std", "95% interval"], rows)
+            body += ("<p class=muted>What the intervals include: the noise of every channel (its AR model), "
+                     "the nuisance parameters fitted with the model (pre-step levels, capture timing, the "
+                     "encoder span, the dead time), the error of the step level read off the input channel"
+                     + (", and the uncertainty of the structure itself (BIC-weighted spread of the candidate "
+                        "structures)" if "structure_std" in u.get("dc_gain", {}) else "")
+                     + f". Method: {html.escape(str(u.get('method', '')))}</p>")
         noise = model.extras.get("noise")
         if noise:
             body += "<p>noise model of the output-error fit (AR whitening of each channel's residuals):</p>"
