@@ -402,6 +402,44 @@ def _check_placed(placed: np.ndarray, wanted: np.ndarray) -> list[str]:
     return []
 
 
+def _dead_time_warnings(delay_s: float, a: np.ndarray, b: np.ndarray, c: np.ndarray, k: np.ndarray,
+                        ki: float | None) -> list[str]:
+    """What the model's dead time does to the state-feedback loop.
+
+    Pole placement works on the delay-free state-space model.  Broken at the plant input, the
+    loop ``L(s) = K(sI − A)⁻¹B`` (with the integrator row when there is one) has phase
+    margin ``φ`` at its crossover ``ω``: a dead time longer than ``φ/ω`` (the delay margin)
+    makes the closed loop unstable (python-control's ``stability_margins``).
+    """
+    if not delay_s > 0:
+        return []
+    import control
+
+    n = a.shape[0]
+    if ki is not None:
+        a_l = np.block([[a, np.zeros((n, 1))], [c.reshape(1, n), np.zeros((1, 1))]])
+        b_l = np.vstack([b.reshape(n, 1), [[0.0]]])
+        k_l = np.hstack([k.reshape(1, n), [[ki]]])
+    else:
+        a_l, b_l, k_l = a, b.reshape(n, 1), k.reshape(1, n)
+    try:
+        _, pm, _, _, wp, _ = control.stability_margins(control.ss(a_l, b_l, k_l, 0.0))
+    except (ValueError, np.linalg.LinAlgError):
+        return [f"the model has a {1e3 * delay_s:.3g} ms dead time that pole placement ignores; its effect on "
+                "the loop could not be computed: simulate the design (motorid simulate applies the dead time)"]
+    if not (np.isfinite(pm) and np.isfinite(wp) and wp > 0):
+        return [f"the model has a {1e3 * delay_s:.3g} ms dead time that pole placement ignores (the loop "
+                "gain never crosses 1, so it cannot destabilise it); simulate applies it"]
+    margin = float(np.deg2rad(pm) / wp)
+    if delay_s >= margin:
+        return [f"UNSTABLE with the model's dead time: the loop tolerates at most {1e3 * margin:.3g} ms of "
+                f"delay (phase margin {pm:.3g}° at {wp:.3g} rad/s) and the model has {1e3 * delay_s:.3g} ms; "
+                "ask for slower closed-loop poles"]
+    return [f"the model's {1e3 * delay_s:.3g} ms dead time is not in the pole placement: the loop tolerates "
+            f"{1e3 * margin:.3g} ms (phase margin {pm:.3g}° at {wp:.3g} rad/s), so the closed loop is less "
+            "damped than the poles say; simulate applies the dead time"]
+
+
 @single_blas_thread
 def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
     """Design state feedback (with optional integral action and observer) for ``model``.
@@ -544,6 +582,7 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
             warnings.append("the observer is not clearly faster than the controller (its slowest pole "
                             f"{slow_obs:.3g} vs {float(np.max(cl.real)):.3g}); estimates will lag")
         l_col = l_col.ravel()
+    warnings += _dead_time_warnings(model.delay_s, a, b, c, k, ki)
     changed = mr.changed
     return Design(tuple(work.states), out_name, k_row, kr, ki, l_col, cl, obs, ofb, tuple(routh),
                   tuple(warnings), mr.source_states if changed else None, mr.transform if changed else None)

@@ -348,6 +348,12 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
     warnings: list[str] = []
 
     phi, gam = _zoh(a, b, s.dt_s)
+    # the identified dead time is part of the plant (not of the state-space matrices): the
+    # linear plant receives u delayed by whole control steps
+    lag = int(round(model.delay_s / s.dt_s)) if s.plant != "trainer" else 0
+    if lag:
+        warnings.append(f"the model's dead time of {1e3 * model.delay_s:.3g} ms is applied to the plant input "
+                        f"({lag} step(s) of {s.dt_s:g} s)")
     if use_obs:
         phi_o, gam_o = _zoh(a - l_col @ c, np.hstack([b, l_col]), s.dt_s)
     trainer = None
@@ -381,13 +387,17 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
             if trainer is not None:
                 trainer.advance(u, t[i])
             else:
-                x = phi @ x + gam[:, 0] * (u + d[i])
+                u_plant = u if not lag else (us[i - lag] if i >= lag else 0.0)
+                x = phi @ x + gam[:, 0] * (u_plant + d[i])
             if zs is not None:
                 z += s.dt_s * (y - r[i])  # exact: y − r is held over the interval
             if use_obs:
                 xh = phi_o @ xh + gam_o @ np.array([u, y])
     if not np.all(np.isfinite(ys)):
         warnings.append("the response diverged (non-finite values): the closed loop is unstable")
+    elif np.max(np.abs(ys)) > 1e3 * max(float(np.max(np.abs(r))), 1.0) + 1e3 * float(np.max(np.abs(xs[0]), initial=0.0)):
+        warnings.append("the response diverged (it grew a thousandfold beyond the reference): the closed loop is "
+                        "unstable")
     if s.saturation_v is not None and np.any(np.abs(uraw) > sat):
         warnings.append(f"the actuator saturated (|u| reached {np.nanmax(np.abs(uraw)):.3g} V > {sat:g} V)")
     metrics = response_metrics(t, ys, r, us, s.reference.kind == "step")
