@@ -16,7 +16,7 @@ import numpy as np
 import typer
 
 from motorid.errors import OptionError
-from motorid.io import check_writable
+from motorid.io import atomic_outputs, check_writable
 
 __all__ = ["model_app", "model_from_params_cmd", "model_from_step_test_cmd", "design", "simulate", "modes",
            "register", "load_model"]
@@ -78,6 +78,27 @@ def _check_outputs(outputs: list[tuple[Optional[Path], str, Optional[str]]], for
     check_writable([p for p, _, _ in outputs], force=force)
 
 
+def _check_numbers(values: dict[str, Optional[float]], positive: tuple[str, ...] = ()) -> None:
+    """Refuse, naming the option, a non-finite number (or one ≤ 0 among ``positive``)."""
+    for option, v in values.items():
+        if v is None:
+            continue
+        if not np.isfinite(v):
+            raise OptionError(f"{option} must be a finite number, got {v}")
+        if option in positive and not v > 0:
+            raise OptionError(f"{option} must be greater than 0, got {v:g}")
+
+
+def _plot_to(outs, target: Path, plot, *args, **kwargs) -> None:
+    """Draw a figure into the temporary file of ``target`` (``outs``: :func:`motorid.io.atomic_outputs`)."""
+    from motorid.io.atomic import write_error
+
+    try:
+        plot(*args, outs.path(target), **kwargs)
+    except OSError as exc:
+        raise write_error(target, exc) from None
+
+
 def _floats(text: Optional[str], option: str) -> Optional[tuple[float, ...]]:
     if text is None:
         return None
@@ -120,7 +141,8 @@ def model_from_params_cmd(
     _check_outputs([(json_out, "--json", None)], force)
     model = model_from_params(MotorParams(km=km, kT=kt, gear=parse_ratio(gear), k0=k0, Tm_s=tm))
     if json_out is not None:
-        json_out.write_text(model.to_json_text() + "\n", encoding="utf-8")
+        with atomic_outputs() as outs:
+            outs.write_text(json_out, model.to_json_text() + "\n")
     _print_model(model, json_out)
 
 
@@ -144,7 +166,8 @@ def model_from_step_test_cmd(
     typer.echo(f"km = {p.km:.4g} rpm/V, kT = {p.kT:.4g} V/rpm, k0 = {p.k0:.4g}, kμ = {p.gear:.4g}, Tm = {p.Tm_s:g} s")
     model = model_from_params(p)
     if json_out is not None:
-        json_out.write_text(model.to_json_text() + "\n", encoding="utf-8")
+        with atomic_outputs() as outs:
+            outs.write_text(json_out, model.to_json_text() + "\n")
     _print_model(model, json_out)
 
 
@@ -201,7 +224,8 @@ def design(
     for w in d.warnings:
         typer.echo(f"warning: {w}")
     if json_out is not None:
-        json_out.write_text(d.to_json_text() + "\n", encoding="utf-8")
+        with atomic_outputs() as outs:
+            outs.write_text(json_out, d.to_json_text() + "\n")
         typer.echo(f"design JSON: {json_out}")
 
 
@@ -233,10 +257,16 @@ def simulate(
     from motorid.simulate.closed_loop import ReferenceSignal, SimulationSettings, plot_simulation, simulate_closed_loop
 
     _check_outputs([(csv_out, "--csv", None), (json_out, "--json", None), (png, "--png", ".png")], force)
+    _check_numbers({"--level": level, "--initial-ref": initial_ref, "--amplitude": amplitude, "--start": start,
+                    "--disturbance": disturbance, "--disturbance-start": disturbance_start, "--z0": z0,
+                    "--frequency": frequency if reference != "step" else None})
     if plant == "trainer":
         from motorid.trainer import preset as _preset
 
-        _preset(preset)  # an unknown preset is refused before any work
+        try:
+            _preset(preset)  # an unknown preset is refused before any work
+        except OptionError as exc:
+            raise OptionError(f"--preset: {exc.message}") from None
     settings = SimulationSettings(
         duration_s=duration, dt_s=dt if dt is not None else (2e-3 if plant == "trainer" else 1e-3),
         reference=ReferenceSignal(kind=reference, level_v=level, initial_v=initial_ref, amplitude_v=amplitude,
@@ -256,15 +286,16 @@ def simulate(
                f"tracking RMS {m.tracking_rms_v:.4g} V, peak |u| {m.peak_control_v:.4g} V")
     for w in res.warnings:
         typer.echo(f"warning: {w}")
-    if csv_out is not None:
-        csv_out.write_text(res.to_csv_text(), encoding="utf-8")
-        typer.echo(f"time series CSV: {csv_out}")
-    if json_out is not None:
-        json_out.write_text(res.to_json_text() + "\n", encoding="utf-8")
-        typer.echo(f"simulation JSON: {json_out}")
-    if png is not None:
-        plot_simulation(res, png, title=f"{model_file.name} + {design_file.name} ({plant})")
-        typer.echo(f"plot: {png}")
+    with atomic_outputs() as outs:  # the CSV, JSON and plot appear together, or none
+        if csv_out is not None:
+            outs.write_text(csv_out, res.to_csv_text())
+        if json_out is not None:
+            outs.write_text(json_out, res.to_json_text() + "\n")
+        if png is not None:
+            _plot_to(outs, png, plot_simulation, res, title=f"{model_file.name} + {design_file.name} ({plant})")
+    for label, path in (("time series CSV", csv_out), ("simulation JSON", json_out), ("plot", png)):
+        if path is not None:
+            typer.echo(f"{label}: {path}")
 
 
 def modes(
@@ -283,6 +314,8 @@ def modes(
     from motorid.simulate.modes import MODES, ModeCriteria, mode_map, modes_json, parse_range, plot_mode_maps, servo_plants
 
     _check_outputs([(json_out, "--json", None), (png, "--png", ".png")], force)
+    _check_numbers({"--step": step, "--saturation": saturation, "--duration": duration, "--extra-pole": extra_pole},
+                   positive=("--step", "--saturation", "--duration", "--extra-pole"))
     kp_axis, kv_axis = parse_range(kp, "--kp"), parse_range(kv, "--kv")
     criteria = ModeCriteria(step_v=step, saturation_v=saturation, duration_s=duration)
     model = load_model(model_file)
@@ -299,12 +332,14 @@ def modes(
         counts = mm.counts()
         typer.echo(f"{pl.name}: " + ", ".join(f"{m} {counts[m]}" for m in MODES)
                    + f"  ({kp_axis.size}×{kv_axis.size} grid, {mm.steps} steps, {elapsed:.2f} s)")
-    if json_out is not None:
-        json_out.write_text(json.dumps(modes_json(tuple(maps), criteria), indent=1) + "\n", encoding="utf-8")
-        typer.echo(f"modes JSON: {json_out}")
-    if png is not None:
-        plot_mode_maps(tuple(maps), png)
-        typer.echo(f"map image: {png}")
+    with atomic_outputs() as outs:
+        if json_out is not None:
+            outs.write_text(json_out, json.dumps(modes_json(tuple(maps), criteria), indent=1) + "\n")
+        if png is not None:
+            _plot_to(outs, png, plot_mode_maps, tuple(maps))
+    for label, path in (("modes JSON", json_out), ("map image", png)):
+        if path is not None:
+            typer.echo(f"{label}: {path}")
 
 
 def register(app: typer.Typer) -> None:

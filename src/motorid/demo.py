@@ -20,7 +20,7 @@ from typing import Any
 from motorid._threads import single_blas_thread
 from motorid.inspection import CaptureSummary, describe_capture
 from motorid.errors import OutputExistsError
-from motorid.io import check_writable, read_capture, write_tds_capture
+from motorid.io import atomic_folder, check_writable, read_capture, write_tds_capture
 
 __all__ = ["DemoRow", "DemoResult", "CAPTURE_ORDER", "run_demo"]
 
@@ -102,7 +102,13 @@ def run_demo(
             file=str(out),
         )
     exp = run_experiment(preset, step_volts=step_volts, seed=seed)
-    out.mkdir(parents=True, exist_ok=True)
+    # all the demo's files appear, or none: a failure (full disk) puts back what was there
+    with atomic_folder(out, _targets(out)):
+        return _write_demo(out, exp, preset=preset, seed=seed, step_volts=step_volts, force=force)
+
+
+def _write_demo(out: Path, exp: Any, *, preset: str, seed: int, step_volts: float, force: bool) -> DemoResult:
+    """Write the example captures, read them back, identify, write the model and report."""
     captures = dict(exp.captures)
     captures.update(exp.validation)
     rows: list[DemoRow] = []

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from motorid.capture import Capture
+from motorid.conditioning.checks import check_step_responses
 from motorid.conditioning.denoise import fft_denoise
 from motorid.conditioning.resample import ratio_for_interval, sample_reduction
 from motorid.conditioning.response import StepResponse, step_response
@@ -158,6 +159,7 @@ def condition_experiment(
     warnings: list[str] = []
     for r in responses.values():
         warnings.extend(f"{r.source}: {w}" for w in r.warnings)
+    warnings.extend(check_step_responses(captures, responses))  # stalled, clipped, no dynamics (issue 12)
     items = list(responses.values())
     for a in items:
         for b in items:
