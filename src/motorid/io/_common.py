@@ -8,16 +8,26 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Mapping, Sequence
+import stat
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
 
-from motorid.capture import ChannelInfo, validate_samples
+from motorid.capture import ChannelInfo
 from motorid.errors import CaptureDataError, CaptureFormatError, OutputExistsError
 
 __all__ = [
     "PathLike",
+    "MAX_TEXT_BYTES",
+    "CAREFUL_MAX_BYTES",
+    "MIN_SAMPLES",
+    "MAX_ABS_VALUE",
+    "SAMPLE_INTERVAL_RANGE_S",
+    "check_capture_file",
+    "read_head",
+    "plain_number",
+    "check_samples",
     "read_bytes",
     "read_text",
     "split_lines",
@@ -51,23 +61,112 @@ _MAGIC: tuple[tuple[bytes, str], ...] = (
 )
 
 
-def read_bytes(path: PathLike) -> bytes:
+#: Largest text capture (CSV) read, in bytes: 512 MiB, about 20 million rows of a
+#: ``time,input,velocity`` log (26 bytes a row) or 11 million rows of a Tektronix CSV.
+MAX_TEXT_BYTES = 512 * 1024 * 1024
+#: Above this size a file that the vectorised parser cannot read is not re-read row by row
+#: into memory (about 23 bytes of memory per byte of file); its first bad line is found by
+#: a streaming scan instead.
+CAREFUL_MAX_BYTES = 16 * 1024 * 1024
+#: Fewest samples a file may hold to be read as a capture (the identification asks for more:
+#: the step detection needs 10 samples before the step and 20 after).
+MIN_SAMPLES = 2
+#: Largest magnitude accepted in a time or value column: no instrument writes 1e300 volts;
+#: raw encoder counts and epoch time stamps in microseconds stay below it.
+MAX_ABS_VALUE = 1e15
+#: Sample intervals (seconds) a capture may have: 1 ps (faster than any scope) to 3 h.
+SAMPLE_INTERVAL_RANGE_S = (1e-12, 1e4)
+
+_NOT_REGULAR = (
+    (stat.S_ISFIFO, "a named pipe (FIFO)"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def _open(path: PathLike):
+    """Open for binary reading (one place, so tests can simulate a permission error as root)."""
+    return open(path, "rb")
+
+
+def check_capture_file(path: PathLike, *, max_bytes: int = MAX_TEXT_BYTES) -> int:
+    """Check that ``path`` is a regular, readable file of a size the readers support.
+
+    Nothing is opened before :func:`os.stat` says the path is a regular file, so a named
+    pipe or a device (``/dev/zero``) is refused at once instead of blocking or never ending.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The capture file.
+    max_bytes : int
+        Largest size accepted.
+
+    Returns
+    -------
+    int
+        The file size in bytes.
+
+    Raises
+    ------
+    CaptureFormatError
+        Missing, a folder, not a regular file, not readable, or larger than ``max_bytes``.
+    """
+    file = str(path)
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise CaptureFormatError("no such file; check the path", file=file) from None
+    except OSError as exc:
+        raise CaptureFormatError(f"cannot access the file ({exc.strerror or exc})", file=file) from None
+    if stat.S_ISDIR(st.st_mode):
+        raise CaptureFormatError("is a folder, not a capture file", file=file)
+    if not stat.S_ISREG(st.st_mode):
+        what = next((w for test, w in _NOT_REGULAR if test(st.st_mode)), "not a regular file")
+        raise CaptureFormatError(f"is {what}, not a capture file; give a regular file", file=file)
+    if not os.access(path, os.R_OK):
+        raise CaptureFormatError("cannot read the file (permission denied); check its permissions", file=file)
+    if st.st_size > max_bytes:
+        raise CaptureFormatError(
+            f"is {st.st_size / 2**20:.0f} MiB; the largest capture read is {max_bytes / 2**20:.0f} MiB "
+            "(about 20 million rows): shorten or decimate the record first",
+            file=file,
+        )
+    return int(st.st_size)
+
+
+def _os_error(exc: OSError, file: str) -> CaptureFormatError:
+    why = "permission denied; check its permissions" if isinstance(exc, PermissionError) else (
+        exc.strerror or str(exc))
+    return CaptureFormatError(f"cannot read the file ({why})", file=file)
+
+
+def read_head(path: PathLike, n: int = 64 * 1024) -> bytes:
+    """The first ``n`` bytes of a capture file (checked by :func:`check_capture_file`)."""
+    check_capture_file(path)
+    try:
+        with _open(path) as fh:
+            return fh.read(n)
+    except OSError as exc:
+        raise _os_error(exc, str(path)) from exc
+
+
+def read_bytes(path: PathLike, *, max_bytes: int = MAX_TEXT_BYTES) -> bytes:
     """Read a whole file, turning OS errors into :class:`CaptureFormatError`.
 
     Raises
     ------
     CaptureFormatError
-        When the file is missing, is a folder or cannot be read.
+        When the file is missing, is a folder, a pipe or a device, is larger than
+        ``max_bytes`` or cannot be read.
     """
-    p = Path(path)
-    if not p.exists():
-        raise CaptureFormatError("no such file; check the path", file=str(path))
-    if p.is_dir():
-        raise CaptureFormatError("is a folder, not a capture file", file=str(path))
+    check_capture_file(path, max_bytes=max_bytes)
     try:
-        return p.read_bytes()
+        with _open(path) as fh:
+            return fh.read(max_bytes + 1)
     except OSError as exc:
-        raise CaptureFormatError(f"cannot read the file ({exc.strerror or exc})", file=str(path)) from exc
+        raise _os_error(exc, str(path)) from exc
 
 
 def binary_kind(head: bytes) -> str | None:
@@ -189,6 +288,8 @@ def column_to_floats(
     CaptureFormatError
         On an empty or non-numeric cell: ``file:row: <what>: cannot read 'abc' as a number``.
     """
+    if isinstance(cells, np.ndarray) and cells.dtype.kind == "f":
+        return cells  # already parsed by the vectorised reader
     if not decimal_comma and all(isinstance(c, str) for c in cells):
         try:
             # numpy's C conversion is ~30x faster than a Python loop; it raises on the first
@@ -213,29 +314,104 @@ def _short(text: str, limit: int = 40) -> str:
     return text if len(text) <= limit else text[: limit - 1] + "…"
 
 
+def plain_number(x: float) -> str:
+    """A number as a user writes it: ``2.404``, ``1e+300``, ``nan`` (never ``np.float64(2.404)``)."""
+    return f"{float(x):.10g}"
+
+
+def check_samples(
+    time_s: np.ndarray,
+    channels: Mapping[str, np.ndarray],
+    *,
+    file: str,
+    line_of: Callable[[int], int | None],
+    rel_jitter: float = 0.01,
+    min_samples: int = MIN_SAMPLES,
+    time_name: str = "time",
+) -> None:
+    """Check a record's samples; raise naming the file line of the first bad one.
+
+    The checks of :func:`motorid.capture.validate_samples` (finite values, strictly
+    increasing and uniform time) plus a range check (``|x| <= MAX_ABS_VALUE``), a sample
+    interval in :data:`SAMPLE_INTERVAL_RANGE_S` and at least ``min_samples`` samples.
+    Numbers in messages are plain (``2.404``).
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Sample times (s).
+    channels : Mapping[str, ndarray]
+        The used value columns by the name a message gives them (``"column 'velocity'"``).
+    file : str
+        File name for the message.
+    line_of : callable
+        Sample index → 1-based line (row) of the file; called only to build a message.
+    rel_jitter : float
+        Allowed deviation of a time step from the median step, relative.
+    min_samples : int
+        Fewest samples accepted.
+    time_name : str
+        How a message names the time column (``"column D (time)"``).
+
+    Raises
+    ------
+    CaptureDataError
+        The first problem found, as ``file:line: what``.
+    """
+    t = np.asarray(time_s, dtype=float)
+    n = t.size
+    for name, col in ((time_name, t), *channels.items()):
+        col = np.asarray(col, dtype=float)
+        if col.shape != t.shape:
+            raise CaptureDataError(f"{name} has {col.size} values but time has {n}", file=file)
+        with np.errstate(invalid="ignore"):
+            bad = np.flatnonzero(~(np.abs(col) <= MAX_ABS_VALUE))
+        if bad.size:
+            i = int(bad[0])
+            x = float(col[i])
+            why = "is not a finite number" if not math.isfinite(x) else (
+                f"is out of range (|x| > {MAX_ABS_VALUE:g}): not a measurement; check the column and its units")
+            raise CaptureDataError(f"{name} value {plain_number(x)} {why}", file=file, row=line_of(i))
+    if n < min_samples:
+        raise CaptureDataError(f"only {n} sample(s): a capture needs at least {min_samples}", file=file)
+    dt = np.diff(t)
+    bad = np.flatnonzero(dt <= 0)
+    if bad.size:
+        i = int(bad[0]) + 1
+        what = "duplicated" if dt[i - 1] == 0 else "goes backwards"
+        raise CaptureDataError(f"{time_name} {what} ({plain_number(t[i - 1])} then {plain_number(t[i])}): "
+                               "time must increase", file=file, row=line_of(i))
+    med = float(np.median(dt))
+    lo, hi = SAMPLE_INTERVAL_RANGE_S
+    if not lo <= med <= hi:
+        raise CaptureDataError(
+            f"sample interval {plain_number(med)} s is outside {lo:g}…{hi:g} s: the time column is not in "
+            "seconds (or not a time axis); map the right column or convert it", file=file)
+    bad = np.flatnonzero(np.abs(dt - med) > rel_jitter * med + 1e-12 * max(1.0, float(np.max(np.abs(t)))))
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise CaptureDataError(
+            f"time step {plain_number(dt[i - 1])} s differs from the sample interval {plain_number(med)} s "
+            "(gap or corrupt record)", file=file, row=line_of(i))
+
+
 def validate_rows(
     time_s: np.ndarray,
     channels: Mapping[str, np.ndarray],
     *,
     file: str,
     rows: Sequence[int] | np.ndarray,
+    time_name: str = "time",
 ) -> None:
-    """:func:`motorid.capture.validate_samples` with the real file row of every sample.
-
-    ``validate_samples`` assumes consecutive rows from ``first_row``; readers that skip a
-    header, comments or blank lines pass the row of each sample here instead.
+    """:func:`check_samples` with the file row of every sample given as a sequence.
 
     Raises
     ------
     CaptureDataError
-        As :func:`~motorid.capture.validate_samples`, with the row a user can open.
+        As :func:`check_samples`, with the row a user can open.
     """
-    try:
-        validate_samples(time_s, channels, file=file, first_row=0)
-    except CaptureDataError as exc:
-        if exc.row is None or not 0 <= exc.row < len(rows):
-            raise
-        raise CaptureDataError(exc.message, file=file, row=int(rows[exc.row])) from None
+    check_samples(time_s, channels, file=file, time_name=time_name,
+                  line_of=lambda i: int(rows[i]) if 0 <= i < len(rows) else None)
 
 
 def check_writable(
@@ -348,3 +524,64 @@ def rail_clipping_warning(values_v: np.ndarray, info: ChannelInfo, label: str) -
         return None
     pct = 100.0 * min(clipped, n) / n
     return f"{label} clipped at the scope rails on {pct:.0f}% of the record; increase V/div"
+
+
+# --------------------------------------------------------------------------- large files
+
+#: Encoding of the vectorised parser: the numbers are ASCII, Latin-1 maps every byte.
+FAST_ENCODING = "latin-1"
+
+
+def load_columns(
+    path: PathLike, *, skiprows: int, delimiter: str | None, usecols: Sequence[int] | None
+) -> np.ndarray:
+    """Numeric columns of a text table with numpy's C parser (``np.loadtxt``), streamed.
+
+    The file is read in blocks, so the memory is the result (8 bytes a value), not the text.
+    Empty lines are skipped; anything else that is not a number raises :class:`ValueError`
+    (the caller then finds the exact line with a careful, row-by-row reading).
+
+    Returns
+    -------
+    ndarray, shape (rows, columns)
+    """
+    import warnings as _warnings
+
+    with _warnings.catch_warnings():
+        _warnings.simplefilter("error")  # "input contained no data" is a failure, not a warning
+        return np.loadtxt(path, dtype=float, delimiter=delimiter, skiprows=skiprows, usecols=usecols,
+                          comments=None, quotechar=None, encoding=FAST_ENCODING, ndmin=2)
+
+
+def iter_lines(path: PathLike, start: int = 0):
+    """``(line number, text)`` of a text file from 0-based line ``start``, streamed (no list)."""
+    with open(path, encoding=FAST_ENCODING, newline=None) as fh:
+        for k, line in enumerate(fh):
+            if k >= start:
+                yield k + 1, line.rstrip("\r\n")
+
+
+class LineOfSample(Sequence):
+    """The file line of sample ``i`` of a table read by :func:`load_columns`, found lazily.
+
+    Used only to name a line in an error message: it scans the file from ``start`` counting
+    the non-empty lines as numpy does, so a 10-million-row file is scanned once, in seconds,
+    and only when something is wrong.
+    """
+
+    def __init__(self, path: PathLike, start: int, n: int) -> None:
+        self._path, self._start, self._n = path, start, n
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __getitem__(self, i):  # type: ignore[override]
+        if isinstance(i, slice):
+            raise TypeError("LineOfSample does not slice")
+        k = -1
+        for number, text in iter_lines(self._path, self._start):
+            if text:
+                k += 1
+                if k == i:
+                    return number
+        return None

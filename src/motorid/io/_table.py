@@ -125,12 +125,19 @@ class _Assignment:
     role_columns: dict[str, int]  # further role columns (position when output is velocity…)
 
 
+def _column_list(names: Sequence[str], limit: int = 12) -> str:
+    """The header names for a message: quoted, each cut to 30 characters, at most ``limit``."""
+    shown = [repr(n if len(n) <= 30 else n[:29] + "…") for n in names[:limit]]
+    more = f", … ({len(names)} columns)" if len(names) > limit else ""
+    return ", ".join(shown) + more
+
+
 def _resolve_mapping(
     names: Sequence[str], columns: Mapping[str, str] | None, file: str
 ) -> dict[str, int]:
     if not columns:
         return {}
-    available = ", ".join(repr(n) for n in names)
+    available = _column_list(names)
     out: dict[str, int] = {}
     for key, col in columns.items():
         if key not in COLUMN_KEYS:
@@ -164,7 +171,7 @@ def _assign(
             return mapping[cat]
         return cats[cat][0] if cats[cat] else None
 
-    available = ", ".join(repr(n) for n in names)
+    available = _column_list(names)
     time = pick("time")
     if time is None:
         raise CaptureFormatError(
@@ -260,7 +267,7 @@ def capture_from_table(
     mapping = _resolve_mapping(names, columns, file)
     # A column is numeric when its first cell is a number; then all of it must be (checked
     # when converting), else the column is text (a date, a comment) and is left out.
-    numeric = [bool(col) and parse_number(col[0], decimal_comma=decimal_comma) is not None for col in cells]
+    numeric = [len(col) > 0 and parse_number(col[0], decimal_comma=decimal_comma) is not None for col in cells]
     asg = _assign(names, numeric, mapping, role, file)
 
     def values(j: int) -> np.ndarray:
@@ -283,7 +290,18 @@ def capture_from_table(
         while key in extra:
             key += "_"
         extra[key] = values(j)
-    validate_rows(time_s, checked, file=file, rows=rows)
+    validate_rows(time_s, {f"{where} {k!r}": v for k, v in checked.items()}, file=file, rows=rows,
+                  time_name=f"{where} {names[asg.time]!r}")
+    notes = list(warnings)
+    role_keys = set(asg.role_columns)
+    for key, v in extra.items():
+        if key in role_keys:
+            continue
+        bad = np.flatnonzero(~np.isfinite(v))
+        if bad.size:
+            # a column no model uses may hold gaps; say so rather than refuse the file
+            notes.append(f"{file}: {where} {key!r} has {bad.size} value(s) that are not finite numbers "
+                         f"(first at line {rows[int(bad[0])]}); it is not used")
 
     def info(j: int) -> ChannelInfo:
         return ChannelInfo(name=names[j], units=_units_from_name(names[j]))
@@ -298,5 +316,5 @@ def capture_from_table(
         input_info=None if asg.input is None else info(asg.input),
         role_hint=asg.role_hint,
         extra=extra,
-        warnings=tuple(warnings),
+        warnings=tuple(notes),
     )

@@ -15,23 +15,13 @@ from pathlib import Path
 
 from motorid.capture import Capture
 from motorid.errors import CaptureFormatError, OptionError
-from motorid.io._common import TEXT_SNIFF_BYTES, PathLike, binary_kind, decode_text, split_lines
+from motorid.io._common import TEXT_SNIFF_BYTES, PathLike, binary_kind, decode_text, read_head, split_lines
 from motorid.io._table import check_role
 from motorid.io.plaincsv import PLAIN_FORMAT, read_plain_csv, sniff_table
 from motorid.io.spreadsheet import XLSX_FORMAT, read_xlsx_capture
 from motorid.io.tektronix import TDS_FORMAT, save_all_files, looks_like_tds, read_tds_capture
 
 __all__ = ["detect_format", "read_capture"]
-
-
-def _head(path: Path, file: str) -> bytes:
-    if not path.exists():
-        raise CaptureFormatError("no such file; check the path", file=file)
-    try:
-        with open(path, "rb") as fh:
-            return fh.read(64 * 1024)
-    except OSError as exc:
-        raise CaptureFormatError(f"cannot read the file ({exc.strerror or exc})", file=file) from exc
 
 
 def detect_format(path: PathLike) -> str:
@@ -58,7 +48,7 @@ def detect_format(path: PathLike) -> str:
     if p.is_dir():
         save_all_files(p)  # raises when the folder holds no channel files
         return TDS_FORMAT
-    head = _head(p, file)
+    head = read_head(p)  # refuses pipes and devices before opening them (they would block)
     if head.startswith(b"PK\x03\x04"):
         try:
             with zipfile.ZipFile(p) as zf:

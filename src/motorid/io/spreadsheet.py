@@ -31,6 +31,16 @@ __all__ = ["XLSX_FORMAT", "read_xlsx_capture", "write_openchoice_xlsx"]
 
 XLSX_FORMAT = "xlsx"
 
+#: Largest workbook file read (bytes, compressed).
+MAX_XLSX_BYTES = 64 * 1024 * 1024
+#: Largest uncompressed content of a workbook (sum over its zip members, from the zip
+#: directory, checked before parsing): 64 MiB of XML is about a million cells (300 000 rows
+#: of three columns), some 20 s of openpyxl.  An OpenChoice sheet of 2500 rows is 2 MiB.
+MAX_XLSX_UNCOMPRESSED = 64 * 1024 * 1024
+#: Largest compression ratio of a zip member above 1 MiB: spreadsheet XML compresses 5–20×;
+#: a "zip bomb" (1.5 GB of repeated shared strings) thousands of times.
+MAX_XLSX_RATIO = 100
+
 _DECIMAL_COMMA = re.compile(r"^\s*[+-]?\d+,\d*([eE][+-]?\d+)?\s*$")
 _HEADER_BY_ROLE = {"velocity": "Speed", "position": "Position", "current": "Current"}
 
@@ -308,16 +318,38 @@ def _capture_from_sheet(
                               columns=columns, role=role, where=f"sheet {g.sheet!r} column")
 
 
+def _one_line(exc: BaseException, limit: int = 160) -> str:
+    """An exception's text on one line (openpyxl's messages hold newlines), shortened."""
+    text = " ".join(str(exc).split())
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+def _check_zip_sizes(zf: zipfile.ZipFile, file: str) -> None:
+    """Refuse a workbook whose zip directory promises too much XML (before parsing any)."""
+    total = 0
+    for info in zf.infolist():
+        total += info.file_size
+        if info.file_size > 2**20 and info.file_size > MAX_XLSX_RATIO * max(info.compress_size, 1):
+            raise CaptureFormatError(
+                f"refused: {info.filename} expands {info.file_size / max(info.compress_size, 1):.0f}-fold to "
+                f"{info.file_size / 2**20:.0f} MiB (a zip bomb?); save the capture as CSV", file=file)
+    if total > MAX_XLSX_UNCOMPRESSED:
+        raise CaptureFormatError(
+            f"refused: the workbook holds {total / 2**20:.0f} MiB of XML, above the {MAX_XLSX_UNCOMPRESSED >> 20} MiB "
+            "read from spreadsheets; save the capture as CSV (read up to 512 MiB)", file=file)
+
+
 def _open_workbook(path: Path, file: str):
     import openpyxl  # deferred: only spreadsheet users pay for the import
 
-    data = read_bytes(path)
+    data = read_bytes(path, max_bytes=MAX_XLSX_BYTES)
     if not data.startswith(b"PK\x03\x04"):
         raise CaptureFormatError("not a capture: not an .xlsx workbook (no zip signature)", file=file)
     try:
         with zipfile.ZipFile(io.BytesIO(data)) as zf:
             if "xl/workbook.xml" not in zf.namelist():
                 raise CaptureFormatError("not a capture: a zip archive, not an .xlsx workbook", file=file)
+            _check_zip_sizes(zf, file)
         with warnings.catch_warnings():
             # openpyxl warns about styles and extensions it ignores; they do not matter here
             warnings.simplefilter("ignore")
@@ -326,8 +358,8 @@ def _open_workbook(path: Path, file: str):
     except MotorIdError:
         raise
     except Exception as exc:  # noqa: BLE001 - openpyxl raises many types on damaged files
-        raise CaptureFormatError(f"not a capture: unreadable .xlsx workbook ({type(exc).__name__}: {exc})",
-                                 file=file) from exc
+        raise CaptureFormatError(f"not a capture: unreadable .xlsx workbook ({type(exc).__name__}: "
+                                 f"{_one_line(exc)})", file=file) from exc
 
 
 def read_xlsx_capture(
@@ -388,7 +420,8 @@ def read_xlsx_capture(
             try:
                 rows = list(wb.worksheets[k].iter_rows(min_row=1, min_col=1, values_only=True))
             except Exception as exc:  # noqa: BLE001 - damaged sheet XML surfaces as many types
-                raise CaptureFormatError(f"not a capture: unreadable sheet {names[k]!r} ({exc})", file=file) from exc
+                raise CaptureFormatError(f"not a capture: unreadable sheet {names[k]!r} ({type(exc).__name__}: "
+                                         f"{_one_line(exc)})", file=file) from exc
             g = _grid(rows, names[k])
             if _time_columns(g):
                 return _capture_from_sheet(g, file, columns, role)

@@ -22,9 +22,18 @@ from pathlib import Path
 import numpy as np
 
 from motorid.capture import Capture, ChannelInfo, ScopeInfo
-from motorid.errors import CaptureDataError, CaptureFormatError, OptionError
+from motorid.errors import CaptureDataError, CaptureFormatError, MotorIdError, OptionError
 from motorid.io._common import (
+    CAREFUL_MAX_BYTES,
+    LineOfSample,
     PathLike,
+    binary_kind,
+    check_capture_file,
+    decode_text,
+    iter_lines,
+    load_columns,
+    plain_number,
+    read_head,
     check_writable,
     column_to_floats,
     parse_number,
@@ -232,6 +241,7 @@ def _record_length(meta: dict[str, object], file: str) -> int | None:
 
 
 def _parse_tds(text: str, path: Path, file: str) -> TdsChannel:
+    """The careful reader: every line split, every cell checked (small files, exact errors)."""
     lines = split_lines(text)
     if not lines:
         raise CaptureFormatError("empty file: not a capture", file=file)
@@ -246,18 +256,7 @@ def _parse_tds(text: str, path: Path, file: str) -> TdsChannel:
         )
     data = split[start:]
     rows = np.arange(start + 1, len(split) + 1)
-    n = len(data)
-    rl = _record_length(meta, file)
-    if rl is not None and n != rl:
-        if n < rl:
-            raise CaptureDataError(
-                f"truncated: {n} of the {rl} samples its Record Length says; copy the file from the scope again",
-                file=file,
-            )
-        raise CaptureDataError(
-            f"{n} data lines but Record Length says {rl}: the file was edited; use the file the scope saved",
-            file=file,
-        )
+    _check_length(meta, len(data), file)
     short = next((i for i, f in enumerate(data) if len(f) < 5), None)
     if short is not None:
         raise CaptureFormatError(
@@ -269,7 +268,82 @@ def _parse_tds(text: str, path: Path, file: str) -> TdsChannel:
                               decimal_comma=decimal_comma)
     values_v = column_to_floats([f[4] for f in data], rows, file=file, what="column E (value)",
                                 decimal_comma=decimal_comma)
-    validate_rows(time_s, {"value": values_v}, file=file, rows=rows)
+    resaved = delim != "," or sum(len(f) == 5 for f in data) > len(data) // 2
+    return _channel(meta, time_s, values_v, rows, resaved, path, file)
+
+
+def _check_length(meta: dict[str, object], n: int, file: str) -> None:
+    rl = _record_length(meta, file)
+    if rl is not None and n != rl:
+        if n < rl:
+            raise CaptureDataError(
+                f"truncated: {n} of the {rl} samples its Record Length says; copy the file from the scope again",
+                file=file,
+            )
+        raise CaptureDataError(
+            f"{n} data lines but Record Length says {rl}: the file was edited; use the file the scope saved",
+            file=file,
+        )
+    if rl is None and n < _N_META_ROWS:
+        raise CaptureDataError(
+            f"truncated: {n} line(s) and no Record Length; a Tektronix CSV has at least {_N_META_ROWS} "
+            "(its metadata rows); copy the file from the scope again", file=file)
+
+
+def _read_tds_fast(path: Path, file: str) -> TdsChannel:
+    """The common case with numpy's C parser: metadata from the first lines, columns D and E."""
+    head = read_head(path)
+    if head.startswith((b"\xff\xfe", b"\xfe\xff")) or binary_kind(head[:8192]) is not None or b'"' in head:
+        raise _NoFastPath("it is UTF-16, binary or quoted")
+    cut = head.rfind(b"\n")
+    lines = split_lines(decode_text(head[: cut + 1] if cut > 0 else head, file=file))[: 4 * _N_META_ROWS]
+    if not lines:
+        raise _NoFastPath("it is empty")
+    delim, decimal_comma = _delimiter(lines)
+    if decimal_comma:
+        raise _NoFastPath("it uses a decimal comma")
+    split = [ln.split(delim) for ln in lines]
+    start = 1 if _is_header_row(split[0], decimal_comma) else 0
+    meta = _read_metadata(split, start, file, decimal_comma)
+    if not meta:
+        raise _NoFastPath("it has no Tektronix metadata")
+    arr = load_columns(path, skiprows=start, delimiter=delim, usecols=(3, 4))
+    n = arr.shape[0]
+    _check_length(meta, n, file)
+    data = split[start:]
+    resaved = delim != "," or sum(len(f) == 5 for f in data) > len(data) // 2
+    return _channel(meta, arr[:, 0], arr[:, 1], LineOfSample(path, start, n), resaved, path, file)
+
+
+class _NoFastPath(Exception):
+    """The file needs the row-by-row reader."""
+
+
+def _first_bad_line(path: Path, file: str) -> MotorIdError:
+    """The careful check of a large file, streamed: its first line without numbers in D and E."""
+    head = split_lines(decode_text(read_head(path, 8192), file=file))
+    delim, decimal_comma = _delimiter(head)
+    start = 1 if head and _is_header_row(head[0].split(delim), decimal_comma) else 0
+    for number, line in iter_lines(path, start):
+        if not line:
+            continue
+        f = line.split(delim)
+        if len(f) < 5:
+            return CaptureFormatError(f"{len(f)} field(s); a Tektronix CSV line has 6 (label,value,,time,value,)",
+                                      file=file, row=number)
+        for k, what in ((3, "column D (time)"), (4, "column E (value)")):
+            if parse_number(f[k], decimal_comma=decimal_comma) is None:
+                text = f[k].strip()
+                problem = "empty cell" if not text else f"cannot read {text[:40]!r} as a number"
+                return CaptureFormatError(f"{what}: {problem}", file=file, row=number)
+    return CaptureFormatError("cannot read columns D and E as numbers", file=file)
+
+
+def _channel(meta: dict[str, object], time_s: np.ndarray, values_v: np.ndarray, rows, resaved: bool,
+             path: Path, file: str) -> TdsChannel:
+    n = time_s.size
+    rl = _record_length(meta, file)
+    validate_rows(time_s, {"column E (value)": values_v}, file=file, rows=rows, time_name="column D (time)")
 
     name = _channel_name(meta, path)
     channel = ChannelInfo(
@@ -287,22 +361,22 @@ def _parse_tds(text: str, path: Path, file: str) -> TdsChannel:
         firmware=meta.get("firmware"),
         record_length=rl,
         horizontal_scale_s=meta.get("horizontal_scale"),
-        trigger_index=None if tp is None else int(round(tp)),
+        trigger_index=None if tp is None or abs(tp) > 1e9 else int(round(tp)),
     )
     label = f"{path.name} ({name})"
     warnings: list[str] = []
     si = meta.get("sample_interval")
     dt = float(np.median(np.diff(time_s)))
     if si is not None and abs(dt - si) > 0.01 * abs(si):
-        warnings.append(f"{label}: Sample Interval {si:g} s differs from the time column's step "
-                        f"{dt:g} s; the time column is used")
+        warnings.append(f"{label}: Sample Interval {plain_number(si)} s differs from the time column's step "
+                        f"{plain_number(dt)} s; the time column is used")
     hs = meta.get("horizontal_scale")
     # The TDS1000/2000 record spans the 10 screen divisions: 10 · s/div ÷ sample interval.
     expected = 10 * hs / si if (rl is None and si and hs) else float(n)
     if math.isfinite(expected) and abs(expected) < 1e9 and round(expected) != n:
         warnings.append(f"{label}: no Record Length field, and {n} samples where the Horizontal Scale "
                         f"implies {round(expected)}: the file may be truncated")
-    if delim != "," or sum(len(f) == 5 for f in data) > n // 2:
+    if resaved:
         warnings.append(f"{label}: re-saved by a spreadsheet (not the scope's 6-field layout); "
                         "numbers may have been rounded")
     clip = rail_clipping_warning(values_v, channel, label)
@@ -335,20 +409,39 @@ def read_tds_channel(path: PathLike) -> TdsChannel:
         non-uniform time (naming the row).
     """
     p = Path(path)
-    return _parse_tds(read_text(p), p, str(path))
+    file = str(path)
+    size = check_capture_file(p)
+    try:
+        return _read_tds_fast(p, file)
+    except _NoFastPath as why:
+        if size > CAREFUL_MAX_BYTES:
+            raise CaptureFormatError(
+                f"is {size / 2**20:.0f} MiB and {why}: such files are read up to {CAREFUL_MAX_BYTES >> 20} MiB; "
+                "use the file the scope saved", file=file) from None
+    except (ValueError, MotorIdError) as exc:
+        if size > CAREFUL_MAX_BYTES:
+            if isinstance(exc, MotorIdError):
+                raise
+            raise _first_bad_line(p, file) from None
+    return _parse_tds(read_text(p), p, file)
 
 
-def save_all_files(folder: Path) -> list[Path]:
+def save_all_files(folder: Path, *, _descend: bool = True) -> list[Path]:
     """The ``FnnnnCHx.CSV`` files of a Save-All folder (or of its single ``ALLnnnn`` subfolder)."""
+    if not os.access(folder, os.R_OK | os.X_OK):
+        raise CaptureFormatError("cannot list the folder (permission denied); check its permissions",
+                                 file=str(folder))
     try:
         entries = sorted(folder.iterdir())
     except OSError as exc:
-        raise CaptureFormatError(f"cannot list the folder ({exc.strerror or exc})", file=str(folder)) from exc
+        why = "permission denied" if isinstance(exc, PermissionError) else (exc.strerror or str(exc))
+        raise CaptureFormatError(f"cannot list the folder ({why})", file=str(folder)) from exc
     found = [(m, e) for e in entries if e.is_file() and (m := _CH_FILE.match(e.name))]
     if not found:
         subs = [e for e in entries if e.is_dir() and _ALL_FOLDER.match(e.name)]
-        if len(subs) == 1:
-            return save_all_files(subs[0])
+        if len(subs) == 1 and _descend:
+            # one level only: a link from ALL0000 to itself must not name the folder 40 times
+            return save_all_files(subs[0], _descend=False)
         raise CaptureFormatError(
             "no FnnnnCH1.CSV/FnnnnCH2.CSV files in this folder (the scope's 'Save All' ALLnnnn "
             "folder holds them); give the CSV files themselves",
@@ -391,13 +484,15 @@ def _check_same_acquisition(a: TdsChannel, b: TdsChannel, source: str) -> None:
     fix = "save both channels with 'Save All'"
     if a.n_samples != b.n_samples:
         raise CaptureDataError(f"{what}: {a.n_samples} vs {b.n_samples} samples; {fix}", file=source)
-    dt_a = a.sample_interval_s or float(np.median(np.diff(a.time_s)))
-    dt_b = b.sample_interval_s or float(np.median(np.diff(b.time_s)))
+    # the time columns' own steps (readers checked them: positive, uniform), never a metadata field
+    dt_a = float(np.median(np.diff(a.time_s)))
+    dt_b = float(np.median(np.diff(b.time_s)))
     if abs(dt_a - dt_b) > 1e-6 * max(abs(dt_a), abs(dt_b)):
-        raise CaptureDataError(f"{what}: sample intervals {dt_a:g} s vs {dt_b:g} s; {fix}", file=source)
+        raise CaptureDataError(f"{what}: sample intervals {plain_number(dt_a)} s vs {plain_number(dt_b)} s; {fix}",
+                               file=source)
     gap = float(np.max(np.abs(a.time_s - b.time_s)))
     if gap > 0.01 * dt_a:
-        raise CaptureDataError(f"{what}: their time axes differ by up to {gap:g} s; {fix}", file=source)
+        raise CaptureDataError(f"{what}: their time axes differ by up to {plain_number(gap)} s; {fix}", file=source)
 
 
 def read_tds_capture(paths_or_folder: PathLike | Sequence[PathLike]) -> Capture:
