@@ -18,7 +18,8 @@ Cases (paper's 4 ms sampling, 5.92 V step, position + velocity + current capture
   stick-slip friction, dead-zone, wrap glitches.
 
 Methods: the paper's pinv (reduced state, 100 ms, five-point: as published), the paper's
-Markov method, the classic 63 % method, motorid's ``oe`` (order auto), ``srivc``, ``auto``;
+Markov method (``markov``: Taylor basis, as published) and its Laguerre-basis form
+(``markov-laguerre``, issue 14), the classic 63 % method, motorid's ``oe`` (order auto), ``srivc``, ``auto``;
 peers run in the same process: python-control's ERA on the differenced step response
 (converted to continuous time), a ``scipy.optimize.curve_fit`` of ``k(1 − e^{−t/τ})``, and
 SIPPY's N4SID (``sippy-unipi``) when it imports.
@@ -51,7 +52,7 @@ TRUE_ORDER = {"first-order": 1, "second-order": 2, "third-order": 3, "electrical
 #: Presets written to files by motorid.trainer.realsetups (read back as a user's captures).
 REAL_SETUP_PRESETS = ("fast-tbs1000", "pwm-encoder", "daq-deadtime")
 #: Methods that run on the real-setup presets (the rest assume the paper's three captures).
-REAL_SETUP_METHODS = ("pinv", "classic", "oe", "srivc", "auto", "peer:curve_fit")
+REAL_SETUP_METHODS = ("pinv", "markov-laguerre", "classic", "oe", "srivc", "auto", "peer:curve_fit")
 
 
 def electrical_7ms():
@@ -68,7 +69,12 @@ def electrical_7ms():
 def config_of(name: str):
     return electrical_7ms() if name == "electrical-7ms" else preset(name)
 
-METHODS = ("pinv", "markov", "classic", "oe", "srivc", "auto", "peer:era", "peer:curve_fit", "peer:n4sid")
+METHODS = ("pinv", "markov", "markov-laguerre", "classic", "oe", "srivc", "auto", "peer:era", "peer:curve_fit",
+           "peer:n4sid")
+#: Bench method names that are ``motorid`` methods with settings: ``markov`` stays the paper's
+#: Taylor procedure as published; ``markov-laguerre`` is its Laguerre-basis form (issue 14).
+METHOD_SETTINGS = {"markov": {"method": "markov", "markov_basis": "taylor"},
+                   "markov-laguerre": {"method": "markov", "markov_basis": "laguerre"}}
 
 
 def first_order_of(num, den) -> tuple[float, float]:
@@ -166,7 +172,7 @@ def real_setup_run(name: str, seed: int, methods):
                     dc, tau, order = peer_curve_fit(cond)
                     ci = None
                 else:
-                    m = identify_conditioned(cond, IdentifySettings(method=method)).model
+                    m = identify_conditioned(cond, IdentifySettings(**METHOD_SETTINGS.get(method, {"method": method}))).model
                     fo = m.first_order()
                     dc, tau = fo.dc_gain, fo.time_constant_s + m.delay_s
                     order = len([p for p in m.poles() if abs(p) > 1e-9])
@@ -212,9 +218,14 @@ def one_run(args):
                 else:
                     order_opt = 2 if method == "pinv" else "auto"  # pinv as published: [θ, θ̇]
                     cond = cond_paper if method in ("pinv",) else cond_fine
-                    m = identify_conditioned(cond, IdentifySettings(method=method, order=order_opt)).model
+                    kw = METHOD_SETTINGS.get(method, {"method": method})
+                    m = identify_conditioned(cond, IdentifySettings(**kw, order=order_opt)).model
                     fo = m.first_order()
                     dc, tau = fo.dc_gain, fo.time_constant_s
+                    if method == "markov-laguerre":
+                        # its dead time stands in for the poles faster than a few samples: the
+                        # moments τ of G·e^(−sθ) is τ + θ (as for the real set-ups below)
+                        tau += m.delay_s
                     order = len([p for p in m.poles() if abs(p) > 1e-9])
                     if "velocity" in m.outputs and "position" in m.outputs and m.method in ("pinv",):
                         order = m.order

@@ -19,7 +19,7 @@ from rich.console import Console
 from rich.table import Table
 
 from motorid.errors import MotorIdError, OptionError
-from motorid.io import check_writable
+from motorid.io import atomic_outputs, check_writable
 from motorid.notation import poly_text
 
 app = typer.Typer(
@@ -109,6 +109,7 @@ def _check_options(
     t0: Optional[float] = None,
     markov_params: Optional[int] = None,
     markov_window: Optional[float] = None,
+    markov_basis: Optional[str] = None,
 ) -> None:
     """Check every option a command got against the library's own allowed values.
 
@@ -154,6 +155,10 @@ def _check_options(
     _number("--t0", t0, unit=" s")
     _number("--markov-params", markov_params, at_least=3)
     _number("--markov-window", markov_window, above=0, unit=" s")
+    if markov_basis is not None:
+        from motorid.identification import MARKOV_BASES
+
+        _choice("--markov-basis", markov_basis, MARKOV_BASES)
 
 
 def _check_against_captures(caps: dict, *, step_volts: Optional[float], record_length: Optional[float]) -> None:
@@ -390,7 +395,17 @@ def _print_model(con: Console, model, title: str) -> None:
                                                          "markov_order", "oe_order", "agree"))
         extra = f" — {st['evidence']}" if "evidence" in st else ""
         con.print(f"stage {st['stage']}: {desc}{extra}")
-    if "hankel_singular_values_scaled" in model.extras:
+    if model.extras.get("markov_basis") == "laguerre":
+        ex = model.extras
+        con.print(f"Laguerre basis: a = {ex['laguerre_pole']:.4g} 1/s, N = {ex['laguerre_terms']}; coefficients "
+                  + ", ".join(f"{x:.4g}" for x in ex["laguerre_coefficients"][:8])
+                  + (" …" if ex["laguerre_terms"] > 8 else "")
+                  + f"; DC gain from them {ex['laguerre_dc_gain']:.5g} ± {1.96 * ex['laguerre_dc_gain_std']:.2g} (95%)")
+        con.print("Hankel singular values of the Laguerre coefficients (normalised): "
+                  + ", ".join(f"{x:.3g}" for x in ex["hankel_singular_values_scaled"])
+                  + f"; noise floor {ex['hankel_noise_floor']:.3g}")
+        con.print(f"Markov settings: {ex.get('markov_choice', '')}")
+    elif "hankel_singular_values_scaled" in model.extras:
         ex = model.extras
         con.print("Hankel singular values (normalised), time-scaled: "
                   + ", ".join(f"{x:.3g}" for x in ex["hankel_singular_values_scaled"])
@@ -433,6 +448,7 @@ def identify(
     structure: Annotated[str, typer.Option(help="pinv: free, or known (θ row of A known).")] = "free",
     markov_params: Annotated[Optional[int], typer.Option("--markov-params", help="Markov parameters Lm (paper: 11; default: chosen by fit).")] = None,
     markov_window: Annotated[Optional[float], typer.Option("--markov-window", help="Markov window Tε in s (default: chosen by fit).")] = None,
+    markov_basis: Annotated[str, typer.Option("--markov-basis", help="markov: laguerre (generalised Markov parameters on a Laguerre basis, default) or taylor (the paper's procedure exactly).")] = "laguerre",
     sync: Annotated[str, typer.Option(help="Synchronisation: interp or index (the paper's).")] = "interp",
     delay: Annotated[Optional[bool], typer.Option("--delay/--no-delay", help="oe/auto: fit a dead time in every structure (--delay) or in none (--no-delay); default: tried when the data stay flat for a while after the step, BIC decides.")] = None,
     step_volts: Annotated[Optional[float], typer.Option("--step-volts", help="Step level for captures without an input channel.")] = None,
@@ -452,7 +468,8 @@ def identify(
 
     _check_options(method=method, order=order, reduction=reduction, derivative=derivative, structure=structure,
                    sync=sync, ratio=ratio, sample_interval=sample_interval, record_length=record_length,
-                   step_volts=step_volts, t0=t0, markov_params=markov_params, markov_window=markov_window)
+                   step_volts=step_volts, t0=t0, markov_params=markov_params, markov_window=markov_window,
+                   markov_basis=markov_basis)
     check_writable({"--json": json_out, "--matlab": matlab_out, "--report": report_out}, force=force,
                    create_parents=False)
     if (validate or design) and report_out is None:
@@ -467,6 +484,7 @@ def identify(
         markov_params=markov_params,
         markov_window_s=markov_window,
         delay=delay,
+        markov_basis=markov_basis,
     )
     caps = _read_roles(position, velocity, current, columns, force_role=force_role)
     _check_against_captures(caps, step_volts=step_volts, record_length=record_length)
@@ -479,17 +497,18 @@ def identify(
     con = _console()
     _print_model(con, result.model, "identified model")
     con.print(f"choice: {result.reason}")
-    if json_out is not None:
-        json_out.write_text(result.model.to_json_text(), encoding="utf-8")
-        con.print(f"model JSON: {json_out}")
-    if matlab_out is not None:
-        matlab_out.write_text(result.model.to_matlab(), encoding="utf-8")
-        con.print(f"MATLAB/Octave script: {matlab_out}")
-    if report_out is not None:
-        from motorid.reporting import make_report
+    with atomic_outputs() as outs:  # all outputs appear together, or none (a failing report leaves no JSON)
+        if json_out is not None:
+            outs.write_text(json_out, result.model.to_json_text())
+        if matlab_out is not None:
+            outs.write_text(matlab_out, result.model.to_matlab())
+        if report_out is not None:
+            from motorid.reporting import make_report
 
-        report_out.write_text(make_report(result, caps, validation=checks, design=doc), encoding="utf-8")
-        con.print(f"report: {report_out}")
+            outs.write_text(report_out, make_report(result, caps, validation=checks, design=doc))
+    for label, path in (("model JSON", json_out), ("MATLAB/Octave script", matlab_out), ("report", report_out)):
+        if path is not None:
+            con.print(f"{label}: {path}")
     _strict_exit(result, strict)
 
 
@@ -602,7 +621,8 @@ def report(
     checks = _validation_captures(validate, columns)
     doc = read_design(design) if design is not None else None
     result = identify_experiment(caps, settings, step_volts=step_volts)
-    out.write_text(make_report(result, caps, validation=checks, design=doc), encoding="utf-8")
+    with atomic_outputs() as outs:
+        outs.write_text(out, make_report(result, caps, validation=checks, design=doc))
     _console().print(f"report: {out}")
     _strict_exit(result, strict)
 
@@ -675,7 +695,8 @@ def sweep(
     for cell, why in res.failures.items():
         con.print(f"[yellow]failed[/yellow] {cell}: {why}")
     if json_out is not None:
-        json_out.write_text(json.dumps(res.to_json(), indent=2) + "\n", encoding="utf-8")
+        with atomic_outputs() as outs:
+            outs.write_text(json_out, json.dumps(res.to_json(), indent=2) + "\n")
         con.print(f"table JSON: {json_out}")
 
 

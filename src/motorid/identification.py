@@ -34,6 +34,8 @@ __all__ = ["METHODS", "IdentifySettings", "Identification", "identify_experiment
 METHODS: tuple[str, ...] = ("auto", "pinv", "markov", "classic", "oe", "srivc", "paper-auto")
 #: The paper's own methods (Masoud 2019 §III–IV, lab report §1.1).
 PAPER_METHODS: tuple[str, ...] = ("pinv", "markov", "classic")
+#: Bases of the Markov method (``--markov-basis``): Laguerre (default) or the paper's Taylor.
+MARKOV_BASES: tuple[str, ...] = ("laguerre", "taylor")
 
 
 @dataclass(frozen=True, slots=True)
@@ -63,7 +65,16 @@ class IdentifySettings:
         ``oe``/``auto``: ``True`` fits a pure delay (dead time of the drive, a late trigger)
         in every structure, ``False`` none; ``None`` (default) tries it when the data stay
         in their noise band for a few samples after the step and lets BIC decide.
+    markov_basis : str
+        ``laguerre`` (default): generalised Markov parameters on a Laguerre basis
+        (:mod:`motorid.identify.laguerre`; ``markov_params`` sets the number of terms,
+        ``markov_window_s`` the part of the record fitted); ``taylor``: the paper's
+        procedure exactly (:mod:`motorid.identify.markov`).
     """
+
+    def __post_init__(self) -> None:
+        if self.markov_basis not in MARKOV_BASES:
+            raise OptionError(f"--markov-basis must be one of {', '.join(MARKOV_BASES)}, not {self.markov_basis!r}")
 
     method: str = "auto"
     order: str | int = "auto"
@@ -73,6 +84,7 @@ class IdentifySettings:
     markov_params: int | None = None
     markov_window_s: float | None = None
     delay: bool | None = None
+    markov_basis: str = "laguerre"
 
 
 @dataclass(frozen=True, slots=True)
@@ -205,7 +217,32 @@ def _pinv_states(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel
     return model.replace(states=tuple(states), outputs=tuple(states))
 
 
+def _markov_laguerre(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
+    """Generalised Markov parameters on a Laguerre basis (issue 14): a, N and the dead time
+    from the measured response time, by BIC; the order from the Hankel singular values above
+    the coefficients' noise floor; the recorded input channel drives the regressors."""
+    from motorid.identify.laguerre import LaguerreSettings, laguerre_identify
+
+    t = cond.full_time_s
+    output = "velocity" if "velocity" in cond.full_outputs else "position"
+    y = cond.full_outputs[output]
+    u = cond.full_input_v
+    if s.markov_window_s is not None:
+        keep = t <= s.markov_window_s * (1 + 1e-9)
+        t, y, u = t[keep], y[keep], u[keep]
+    lset = LaguerreSettings(n_terms=s.markov_params, order=s.order if s.order == "auto" else int(s.order))
+    res = laguerre_identify(t, y, cond.step_volts, lset, input_v=u, output=output,
+                            response_time_s=cond.response_time_s, dead_time_s=cond.dead_time_s)
+    notes = [] if output == "velocity" else [
+        "no velocity capture: the Laguerre expansion is of the position channel's derivative "
+        "(position volts per second), fitted to the position itself"]
+    model = res.to_model()
+    return model.replace(warnings=tuple(model.warnings) + tuple(notes), sample_interval_s=float(t[1] - t[0]))
+
+
 def _markov(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
+    if s.markov_basis == "laguerre":
+        return _markov_laguerre(cond, s)
     t, v_meas, notes = _velocity(cond, full=True)
     dt = float(t[1] - t[0])
     # the k-th Markov parameter amplifies noise like k!: take the 8-bit quantisation noise and

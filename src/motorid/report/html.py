@@ -213,6 +213,18 @@ def build_report(inp: ReportInputs) -> str:
         if mk is None or "hankel_singular_values_scaled" not in mk.extras:
             return "<p>the Markov method was not run</p>"
         ex = mk.extras
+        if ex.get("markov_basis") == "laguerre":
+            sv = ex["hankel_singular_values_scaled"]
+            floor = ex["hankel_noise_floor"]
+            rows = [[i + 1, x, "above" if x > floor else "below"] for i, x in enumerate(sv)]
+            coef = [[k, g, sd] for k, (g, sd) in enumerate(zip(ex["laguerre_coefficients"],
+                                                               ex["laguerre_coefficients_std"]))]
+            return (f"<p>Generalised Markov parameters on a Laguerre basis: pole a = {ex['laguerre_pole']:.4g} 1/s, "
+                    f"N = {ex['laguerre_terms']} terms; DC gain from the coefficients √(2/a)·Σ(−1)ᵏg_k = "
+                    f"{ex['laguerre_dc_gain']:.5g} ± {ex['laguerre_dc_gain_std']:.2g}.</p>"
+                    + _table(["k", "σ_k / σ_1", f"vs noise floor {floor:.3g}"], rows)
+                    + "<p>Laguerre coefficients:</p>" + _table(["k", "g_k", "std"], coef)
+                    + f"<p class=muted>{html.escape(str(ex.get('markov_choice', '')))}</p>")
         return (_img(figures.hankel_values(ex["hankel_singular_values_scaled"], ex["hankel_singular_values_raw"],
                                            ex.get("hankel_noise_floor")), "Hankel singular values")
                 + f"<p class=muted>{html.escape(str(ex.get('markov_choice', '')))}</p>")
