@@ -217,6 +217,10 @@ def _pinv_states(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel
     return model.replace(states=tuple(states), outputs=tuple(states))
 
 
+#: Most samples the Laguerre least squares takes (an evenly sub-sampled record beyond).
+LAGUERRE_SAMPLES = 5000
+
+
 def _markov_laguerre(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
     """Generalised Markov parameters on a Laguerre basis (issue 14): a, N and the dead time
     from the measured response time, by BIC; the order from the Hankel singular values above
@@ -227,9 +231,16 @@ def _markov_laguerre(cond: ConditionedExperiment, s: IdentifySettings) -> MotorM
     output = "velocity" if "velocity" in cond.full_outputs else "position"
     y = cond.full_outputs[output]
     u = cond.full_input_v
-    if s.markov_window_s is not None:
-        keep = t <= s.markov_window_s * (1 + 1e-9)
+    from motorid.refinement import fit_record_length
+
+    # the part of the record the dynamics need (as for the output-error fit), at most
+    # LAGUERRE_SAMPLES samples: a 3000 s log took 40 s of SVDs of 300 000-row regressors
+    length = fit_record_length(cond) if s.markov_window_s is None else s.markov_window_s
+    if length is not None:
+        keep = t <= length * (1 + 1e-9)
         t, y, u = t[keep], y[keep], u[keep]
+    step = max(1, int(np.ceil(t.size / LAGUERRE_SAMPLES)))
+    t, y, u = t[::step], y[::step], u[::step]
     lset = LaguerreSettings(n_terms=s.markov_params, order=s.order if s.order == "auto" else int(s.order))
     res = laguerre_identify(t, y, cond.step_volts, lset, input_v=u, output=output,
                             response_time_s=cond.response_time_s, dead_time_s=cond.dead_time_s)

@@ -26,7 +26,8 @@ def test_pinv_reduced_recovers_first_order_within_10_percent(paper_runs):
 
 def test_markov_detects_order_2_or_3_on_the_paper_preset(paper_runs):
     orders = [
-        identify_experiment({"velocity": e.captures["velocity"]}, IdentifySettings(method="markov")).model.order
+        identify_experiment({"velocity": e.captures["velocity"]},
+                            IdentifySettings(method="markov", markov_basis="taylor")).model.order
         for e in paper_runs
     ]
     assert set(orders) <= {2, 3}, orders
@@ -36,7 +37,8 @@ def test_markov_detects_order_2_without_the_amplifier_zero():
     orders = []
     for s in SEEDS:
         e = run_experiment("second-order", seed=s, validation=False, roles=("velocity",))
-        orders.append(identify_experiment(dict(e.captures), IdentifySettings(method="markov")).model.order)
+        orders.append(identify_experiment(dict(e.captures),
+                                          IdentifySettings(method="markov", markov_basis="taylor")).model.order)
     assert set(orders) == {2}, orders
 
 
