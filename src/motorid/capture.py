@@ -211,7 +211,7 @@ def validate_samples(
     if bad.size:
         i = int(bad[0]) + 1
         what = "duplicated" if dt[bad[0]] == 0 else "goes backwards"
-        raise CaptureDataError(f"time {what} ({t[i - 1]!r} then {t[i]!r})", file=file, row=first_row + i)
+        raise CaptureDataError(f"time {what} ({float(t[i - 1]):.10g} then {float(t[i]):.10g})", file=file, row=first_row + i)
     med = float(np.median(dt))
     bad = np.flatnonzero(np.abs(dt - med) > rel_jitter * med + 1e-12 * max(1.0, float(np.max(np.abs(t)))))
     if bad.size:
