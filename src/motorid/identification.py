@@ -471,8 +471,9 @@ def identify_conditioned(cond: ConditionedExperiment, settings: IdentifySettings
         sample_interval_chosen_s=cond.sample_interval_s,
     )
     model = model.replace(settings=settings_doc, step_volts=cond.step_volts)
+    recorded = {r.source: r.input_v[r.time_s >= 0] for r in cond.responses.values() if r.edge.method != "onset"}
     sanity = sanity_checks(model, t, v, cond.step_volts, sample_interval_s=float(t[1] - t[0]),
-                           unwhitened=unwhitened)
+                           unwhitened=unwhitened, input_v=recorded)
     gate = tuple(f"SANITY CHECK FAILED — {f}" for f in sanity.failures)
     model = model.replace(
         warnings=tuple(dict.fromkeys(gate + tuple(model.warnings) + tuple(extra_warn))),

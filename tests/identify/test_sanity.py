@@ -94,3 +94,20 @@ def test_first_order_baseline_recovers_a_first_order_plus_dead_time() -> None:
     assert par["dc_gain"] == pytest.approx(2.0, rel=1e-4)
     assert par["time_constant"] == pytest.approx(0.3, rel=1e-3)
     assert par["delay"] == pytest.approx(0.05, abs=2e-3)
+
+
+def test_closed_loop_records_are_flagged_not_silently_modelled(real_dir) -> None:
+    """The HSLU closed-loop files record the controller's output as the "input": not a step.
+    Identified as if it were one, the model is that of a step that did not happen."""
+    from motorid.io import read_capture
+
+    for name in ("12_dc_step_20_25_00.csv", "12_dc_step_20_25_05.csv", "09_dc_step_20_25_05.csv"):
+        cap = read_capture(real_dir / "hslu-rtl-dcmotor" / "csv" / name, role="velocity")
+        r = identify_experiment({"velocity": cap})
+        assert any("it is not a step" in f for f in r.sanity.failures), (name, r.sanity.failures)
+
+
+def test_closed_loop_record_without_a_step_is_refused_with_the_reason(real_dir, run_cli) -> None:
+    res = run_cli("identify", "--velocity", real_dir / "hslu-rtl-dcmotor" / "csv" / "09_dc_step_20_25_00.csv")
+    assert res.code == 2
+    assert "open-loop step" in res.err and len(res.err.strip().splitlines()) == 1

@@ -209,7 +209,8 @@ def step_edge(
     if total == 0 or resid_rms > max(4.0 * noise_eff, 0.1 * abs(amp)) or abs(amp) < 8.0 * resid_rms:
         raise StepNotFoundError(
             f"no step in the input channel (two-level fit residual {resid_rms:.3g} V, "
-            f"jump {amp:.3g} V, noise {noise_eff:.2g} V)",
+            f"jump {amp:.3g} V, noise {noise_eff:.2g} V): identify needs an open-loop step on the input "
+            "(a closed-loop record, a sine or a ramp is not one; motorid validate scores a model on any input)",
             file=file,
         )
     # The change point can land one sample early/late when an edge sample sits halfway

@@ -13,7 +13,10 @@ the fit's own numbers, so the model is checked against things it does not contro
    of the measured response against the model's own step response;
 4. the headline numbers inside their own intervals;
 5. (output-error fits) the estimate with and without the AR whitening: when they disagree
-   by more than their uncertainty the noise model has taken structure for noise.
+   by more than their uncertainty the noise model has taken structure for noise;
+6. the recorded input is a step: every method here models the response to one, so a
+   closed-loop record (the controller's output on CH1) gives the model of a step that did
+   not happen.
 
 A failed check is a warning with its explanation; ``--strict`` turns it into exit 3.
 """
@@ -45,6 +48,9 @@ TOLERANCES: Mapping[str, float] = {
     "white_rel": 0.05,
     # an NRMSE above this is no model of the record at all
     "max_nrmse": 0.25,
+    # RMS variation of the recorded input after its edge, relative to the step: 8-bit codes
+    # and probe noise stay well under 1 %; a closed loop's control signal varies by 2–10 %
+    "input_rms_rel": 0.02,
 }
 
 
@@ -145,6 +151,7 @@ def sanity_checks(
     sample_interval_s: float,
     measured_t63_s: float | None = None,
     unwhitened: Mapping[str, float] | None = None,
+    input_v: Mapping[str, np.ndarray] | None = None,
 ) -> SanityReport:
     """Run the sanity gate on one model.
 
@@ -164,6 +171,9 @@ def sanity_checks(
     unwhitened : Mapping, optional
         ``dc_gain``, ``time_constant`` (+ ``delay``) of the same structure fitted without
         the AR noise model, with ``dc_gain_std``/``time_constant_std`` of the whitened fit.
+    input_v : Mapping[str, ndarray], optional
+        Each capture's recorded input increment after its step (captures with an input
+        channel only), keyed by file.
 
     Returns
     -------
@@ -251,4 +261,16 @@ def sanity_checks(
                 f"{label} {a:.4g} with the AR noise model, {b:.4g} without" + ("" if ok else
                  ": the noise model absorbed a misfit of the structure (try --order auto, or --delay when "
                  "the drive has a dead time)")))
+    for source, u in (input_v or {}).items():
+        u = np.asarray(u, dtype=float)
+        if u.size < 5 or not step_volts:
+            continue
+        var = float(np.sqrt(np.mean((u - step_volts) ** 2)) / abs(step_volts))
+        ok = bool(var <= tol["input_rms_rel"])
+        checks.append(SanityCheck(
+            "the input is a step", ok,
+            f"the input recorded in {source} varies by {100 * var:.2g}% (RMS) of the {step_volts:.4g} V step after its edge"
+            + ("" if ok else ": it is not a step (a closed-loop record, or a drive that sags), and every method here "
+               "models the response to a step — this is the model of a step that did not happen; identify from an "
+               "open-loop step, and score a model on this record with motorid validate")))
     return SanityReport(tuple(checks))
