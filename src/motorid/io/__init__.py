@@ -7,7 +7,7 @@ input.  :func:`read_capture` picks the reader from the file's content.
 """
 
 from motorid.io._common import check_writable
-from motorid.io.atomic import OutputWriteError, atomic_folder, atomic_outputs  # noqa: F401 - all-or-nothing outputs
+from motorid.io.atomic import OutputWriteError, atomic_folder, atomic_outputs
 from motorid.io.detect import detect_format, read_capture
 from motorid.io.plaincsv import read_plain_csv
 from motorid.io.spreadsheet import read_xlsx_capture, write_openchoice_xlsx
@@ -21,6 +21,9 @@ from motorid.io.tektronix import (
 
 __all__ = [
     "check_writable",
+    "atomic_outputs",
+    "atomic_folder",
+    "OutputWriteError",
     "read_capture",
     "detect_format",
     "read_tds_channel",

@@ -11,11 +11,12 @@ import os
 import stat
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 
 from motorid.capture import ChannelInfo
-from motorid.errors import CaptureDataError, CaptureFormatError, OutputExistsError
+from motorid.errors import CaptureDataError, CaptureFormatError, MotorIdError, OutputExistsError
 
 __all__ = [
     "PathLike",
@@ -68,6 +69,43 @@ MAX_TEXT_BYTES = 512 * 1024 * 1024
 #: into memory (about 23 bytes of memory per byte of file); its first bad line is found by
 #: a streaming scan instead.
 CAREFUL_MAX_BYTES = 16 * 1024 * 1024
+T = TypeVar("T")
+
+
+class NoFastPath(Exception):
+    """The file needs the row-by-row reader (the reason, in words, is the message)."""
+
+
+def read_fast_or_careful(
+    file: str,
+    size: int,
+    fast: Callable[[], T],
+    careful: Callable[[], T],
+    first_bad_line: Callable[[], MotorIdError],
+    advice: str,
+) -> T:
+    """The vectorised reader, with the careful row-by-row one for what it cannot read.
+
+    The careful reader gives the exact line of a bad cell, but holds about 23 bytes of
+    memory per byte of file: above :data:`CAREFUL_MAX_BYTES` a file the fast reader refuses
+    is refused with ``advice`` (a layout it cannot read) or with its first bad line, found by
+    a streaming scan (a bad cell).
+    """
+    try:
+        return fast()
+    except NoFastPath as why:
+        if size > CAREFUL_MAX_BYTES:
+            raise CaptureFormatError(
+                f"is {size / 2**20:.0f} MiB and {why}: such files are read up to {CAREFUL_MAX_BYTES >> 20} MiB; "
+                f"{advice}", file=file) from None
+    except (ValueError, MotorIdError) as exc:
+        if size > CAREFUL_MAX_BYTES:
+            if isinstance(exc, MotorIdError):
+                raise
+            raise first_bad_line() from None
+    return careful()
+
+
 #: Fewest samples a file may hold to be read as a capture (the identification asks for more:
 #: the step detection needs 10 samples before the step and 20 after).
 MIN_SAMPLES = 2

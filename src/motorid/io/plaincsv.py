@@ -17,11 +17,12 @@ import numpy as np
 from motorid.capture import Capture
 from motorid.errors import CaptureFormatError, MotorIdError
 from motorid.io._common import (
-    CAREFUL_MAX_BYTES,
     LineOfSample,
+    NoFastPath,
     PathLike,
     binary_kind,
     check_capture_file,
+    read_fast_or_careful,
     decode_text,
     iter_lines,
     load_columns,
@@ -129,50 +130,35 @@ def read_plain_csv(
     check_role(role)
     file = str(path)
     size = check_capture_file(path)
-    try:
-        return _read_fast(path, file, columns, role)
-    except _NoFastPath as why:
-        if size > CAREFUL_MAX_BYTES:
-            raise CaptureFormatError(
-                f"is {size / 2**20:.0f} MiB and {why}: such files are read up to {CAREFUL_MAX_BYTES >> 20} MiB; "
-                "save it as a comma-separated CSV with a '.' decimal point", file=file) from None
-    except (ValueError, MotorIdError) as exc:
-        if size > CAREFUL_MAX_BYTES:
-            # too big to re-read into memory row by row: find the first bad line by streaming
-            if isinstance(exc, MotorIdError):
-                raise
-            raise _first_bad_line(path, file) from None
-    return _read_careful(path, file, columns, role)
-
-
-class _NoFastPath(Exception):
-    """The file needs the row-by-row reader (quotes, decimal comma, UTF-16, no header)."""
+    return read_fast_or_careful(
+        file, size, lambda: _read_fast(path, file, columns, role), lambda: _read_careful(path, file, columns, role),
+        lambda: _first_bad_line(path, file), "save it as a comma-separated CSV with a '.' decimal point")
 
 
 def _fast_layout(path: PathLike, file: str) -> tuple[int, str | None, list[str], list[str]]:
     """From the file's first 64 KiB: header line index, delimiter, names, first data cells."""
     head = read_head(path)
     if head.startswith((b"\xff\xfe", b"\xfe\xff")) or binary_kind(head[:8192]) is not None:
-        raise _NoFastPath("it is UTF-16 or binary")
+        raise NoFastPath("it is UTF-16 or binary")
     if b'"' in head:
-        raise _NoFastPath("it has quoted fields")
+        raise NoFastPath("it has quoted fields")
     cut = head.rfind(b"\n")
     text = decode_text(head[: cut + 1] if cut > 0 else head, file=file)
     lines = split_lines(text)
     idx = _content_lines(lines)
     if len(idx) < 2:
-        raise _NoFastPath("it has fewer than two lines")
+        raise NoFastPath("it has fewer than two lines")
     h = idx[0]
     delim = _delimiter(lines[h])
     names = _split(lines[h], delim)
     first = _split(lines[idx[1]], delim)
     if len(names) < 2 or all(parse_number(n) is not None for n in names if n.strip()):
-        raise _NoFastPath("it has no header row")
+        raise NoFastPath("it has no header row")
     if delim in (";", "\t", None) and any(_DECIMAL_COMMA_CELL.match(c) for i in idx[1:21]
                                           for c in _split(lines[i], delim)):
-        raise _NoFastPath("it uses a decimal comma")
+        raise NoFastPath("it uses a decimal comma")
     if _comment_between(lines, h, idx[1]):
-        raise _NoFastPath("it has comment lines after the header")
+        raise NoFastPath("it has comment lines after the header")
     return h, delim, names, first
 
 

@@ -24,11 +24,12 @@ import numpy as np
 from motorid.capture import Capture, ChannelInfo, ScopeInfo
 from motorid.errors import CaptureDataError, CaptureFormatError, MotorIdError, OptionError
 from motorid.io._common import (
-    CAREFUL_MAX_BYTES,
     LineOfSample,
+    NoFastPath,
     PathLike,
     binary_kind,
     check_capture_file,
+    read_fast_or_careful,
     decode_text,
     iter_lines,
     load_columns,
@@ -294,29 +295,25 @@ def _read_tds_fast(path: Path, file: str) -> TdsChannel:
     """The common case with numpy's C parser: metadata from the first lines, columns D and E."""
     head = read_head(path)
     if head.startswith((b"\xff\xfe", b"\xfe\xff")) or binary_kind(head[:8192]) is not None or b'"' in head:
-        raise _NoFastPath("it is UTF-16, binary or quoted")
+        raise NoFastPath("it is UTF-16, binary or quoted")
     cut = head.rfind(b"\n")
     lines = split_lines(decode_text(head[: cut + 1] if cut > 0 else head, file=file))[: 4 * _N_META_ROWS]
     if not lines:
-        raise _NoFastPath("it is empty")
+        raise NoFastPath("it is empty")
     delim, decimal_comma = _delimiter(lines)
     if decimal_comma:
-        raise _NoFastPath("it uses a decimal comma")
+        raise NoFastPath("it uses a decimal comma")
     split = [ln.split(delim) for ln in lines]
     start = 1 if _is_header_row(split[0], decimal_comma) else 0
     meta = _read_metadata(split, start, file, decimal_comma)
     if not meta:
-        raise _NoFastPath("it has no Tektronix metadata")
+        raise NoFastPath("it has no Tektronix metadata")
     arr = load_columns(path, skiprows=start, delimiter=delim, usecols=(3, 4))
     n = arr.shape[0]
     _check_length(meta, n, file)
     data = split[start:]
     resaved = delim != "," or sum(len(f) == 5 for f in data) > len(data) // 2
     return _channel(meta, arr[:, 0], arr[:, 1], LineOfSample(path, start, n), resaved, path, file)
-
-
-class _NoFastPath(Exception):
-    """The file needs the row-by-row reader."""
 
 
 def _first_bad_line(path: Path, file: str) -> MotorIdError:
@@ -411,19 +408,8 @@ def read_tds_channel(path: PathLike) -> TdsChannel:
     p = Path(path)
     file = str(path)
     size = check_capture_file(p)
-    try:
-        return _read_tds_fast(p, file)
-    except _NoFastPath as why:
-        if size > CAREFUL_MAX_BYTES:
-            raise CaptureFormatError(
-                f"is {size / 2**20:.0f} MiB and {why}: such files are read up to {CAREFUL_MAX_BYTES >> 20} MiB; "
-                "use the file the scope saved", file=file) from None
-    except (ValueError, MotorIdError) as exc:
-        if size > CAREFUL_MAX_BYTES:
-            if isinstance(exc, MotorIdError):
-                raise
-            raise _first_bad_line(p, file) from None
-    return _parse_tds(read_text(p), p, file)
+    return read_fast_or_careful(file, size, lambda: _read_tds_fast(p, file), lambda: _parse_tds(read_text(p), p, file),
+                                lambda: _first_bad_line(p, file), "use the file the scope saved")
 
 
 def save_all_files(folder: Path, *, _descend: bool = True) -> list[Path]:
