@@ -19,7 +19,6 @@ import numpy as np
 import pytest
 
 import motorid.io._common as common
-import motorid.io.plaincsv as plaincsv
 import motorid.io.tektronix as tektronix
 from motorid.errors import CaptureDataError, CaptureFormatError, MotorIdError
 from motorid.io import read_capture, read_tds_capture
@@ -159,7 +158,7 @@ def _set(i: int, j: int, text: str):
 def test_row_errors_name_the_line_and_column_with_plain_numbers(tmp_path, monkeypatch, careful_max, edit, line,
                                                                 column, words):
     # line = 1 header line + 1-based sample; the "large file" path streams instead of re-reading
-    monkeypatch.setattr(plaincsv, "CAREFUL_MAX_BYTES", careful_max)
+    monkeypatch.setattr(common, "CAREFUL_MAX_BYTES", careful_max)
     f = _log(tmp_path / "log.csv", edit=edit)
     with pytest.raises(MotorIdError) as err:
         read_capture(f)
@@ -219,7 +218,7 @@ def test_tds_value_error_names_the_file_line(tmp_path, monkeypatch):
     lines[999] = ",".join(fields)
     f = write_lines(tmp_path / "F0000CH1.CSV", lines, "\r\n")
     for careful_max in (common.CAREFUL_MAX_BYTES, 0):
-        monkeypatch.setattr(tektronix, "CAREFUL_MAX_BYTES", careful_max)
+        monkeypatch.setattr(common, "CAREFUL_MAX_BYTES", careful_max)
         with pytest.raises(CaptureDataError) as err:
             read_capture(f)
         msg = _message(err)
@@ -232,7 +231,7 @@ def test_tds_garbage_cell_on_the_large_file_path(tmp_path, monkeypatch):
     fields[3] = "12:00"
     lines[1499] = ",".join(fields)
     f = write_lines(tmp_path / "F0000CH1.CSV", lines)
-    monkeypatch.setattr(tektronix, "CAREFUL_MAX_BYTES", 0)
+    monkeypatch.setattr(common, "CAREFUL_MAX_BYTES", 0)
     with pytest.raises(CaptureFormatError, match="column D") as err:
         read_capture(f)
     assert _message(err).startswith(f"{f}:1500: ")
