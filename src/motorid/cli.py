@@ -707,9 +707,17 @@ _register_control(app)
 
 def main() -> None:
     """Console-script entry point: run the app and map errors to exit codes."""
+    import os
+
+    from threadpoolctl import threadpool_limits
+
+    # The library limits BLAS to one thread around its entry points (motorid._threads); the
+    # CLI process does only such tiny work, so it limits the rest too (printing, JSON):
+    # numpy's OpenBLAS is loaded already and is limited here; scipy's own copy is loaded
+    # later and reads the variable when it starts (a user's own setting is kept).
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    threadpool_limits(limits=1, user_api="blas")
     try:
-        # the library limits BLAS to one thread around its own entry points
-        # (motorid._threads); nothing to do here
         app(standalone_mode=False)
     except MotorIdError as exc:
         print(f"motorid: error: {exc}", file=sys.stderr)
