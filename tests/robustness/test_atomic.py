@@ -133,3 +133,27 @@ def test_demo_disk_full_puts_back_the_previous_demo(tmp_path, monkeypatch, run_c
     assert res.code == 2 and "disk is full" in res.err, res
     assert sorted(p.name for p in out.iterdir()) == ["model.json"]
     assert (out / "model.json").read_text() == "earlier model"
+
+
+def test_an_output_that_is_not_a_regular_file_is_refused_and_left_alone(tmp_path, run_cli):
+    """A rename at commit replaces whatever is at the target: as root, `--json /dev/full
+    --force` turned the device node into a regular file.  A FIFO stands in for a device here
+    (a test must not risk the machine's /dev if the code regresses)."""
+    import os
+    import stat
+
+    from motorid.trainer.experiment import run_experiment
+    from motorid.io import write_tds_capture
+
+    fifo = tmp_path / "out.json"
+    os.mkfifo(fifo)
+    with pytest.raises(OutputWriteError, match="named pipe"):
+        with atomic_outputs() as outs:
+            outs.write_text(fifo, "{}")
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode)
+    e = run_experiment("second-order", seed=1, roles=("velocity",), validation=False)
+    cap = write_tds_capture(tmp_path / "ALL0001", e.captures["velocity"], index=1)
+    for option in ("--json", "--report", "--matlab"):
+        res = run_cli("identify", "--velocity", cap, option, fifo, "--force")
+        assert res.code == 2 and "not a file" in res.err and len(res.err.strip().splitlines()) == 1
+        assert stat.S_ISFIFO(os.stat(fifo).st_mode)

@@ -503,6 +503,10 @@ def check_writable(
                 raise OptionError(f"is a file, not a folder: give {what} a folder to write into", file=str(p))
         elif p.is_dir():
             raise OptionError(f"is a folder: give {what} a file name (a file in that folder)", file=str(p))
+        elif p.exists() and not p.is_file():
+            # a device, FIFO or socket: writing would block, fail, or (renamed onto) replace it
+            raise OptionError(f"is a device, pipe or socket, not a file: give {what} a regular file path "
+                              "(to drop an output, leave the option out)", file=str(p))
         # the nearest existing ancestor must be a writable folder
         parent = p if folder and p.exists() else p.parent
         missing = not parent.exists()

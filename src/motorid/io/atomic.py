@@ -53,6 +53,31 @@ def write_error(target: Path | str, exc: OSError) -> OutputWriteError:
                             "or choose another folder", file=str(target))
 
 
+def refuse_special(target: Path | str) -> None:
+    """Refuse an output path that exists and is not a regular file (a device, a FIFO, a
+    socket): the rename at commit would replace it — as root, ``--json /dev/full --force``
+    turned the device node into a regular file.
+
+    Raises
+    ------
+    OutputWriteError
+        Naming the path and what it is.
+    """
+    import stat
+
+    try:
+        mode = os.stat(target).st_mode
+    except OSError:
+        return  # does not exist (yet): a new file
+    if stat.S_ISDIR(mode):
+        return  # a folder is refused by check_writable with its own message
+    if not stat.S_ISREG(mode):
+        kind = ("a character device" if stat.S_ISCHR(mode) else "a block device" if stat.S_ISBLK(mode)
+                else "a named pipe (FIFO)" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode)
+                else "not a regular file")
+        raise OutputWriteError(f"is {kind}, not a file: give the output a regular file path", file=str(target))
+
+
 def _final_mode(target: Path) -> int:
     """Permissions the committed file gets: the old file's, else the umask's default."""
     try:
@@ -87,6 +112,7 @@ class AtomicOutputs:
         target = Path(target)
         if target in self._pending:
             return self._pending[target]
+        refuse_special(target)
         try:
             fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=f".part{target.suffix}",
                                        dir=target.parent if str(target.parent) else ".")
