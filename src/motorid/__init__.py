@@ -1,13 +1,151 @@
 """motorid: identify a DC servo-motor model from oscilloscope step captures.
 
+Front door
+==========
+::
+
+    import motorid as mi
+    exp = mi.read_experiment(position="D/ALL0000", velocity="D/ALL0001", current="D/ALL0002")
+    fit = mi.identify(exp)                     # keyword-only options: method=, order=, ...
+    print(fit.summary())                       # the text `motorid identify` prints
+    fit.params["dc_gain"].value, fit.params["dc_gain"].ci95
+    des = mi.design(fit.model, damping=0.7, wn=5.0)
+    sim = mi.simulate(fit.model, des, duration_s=3.0); sim.plot()
+    mi.write_report("report.html", fit, design=des)
+
+.. autosummary::
+
+   read_experiment  -- read the captures of one step experiment, one per role
+   identify         -- identify the motor model (``motorid identify``)
+   design           -- state feedback, integral action, observer (``motorid design``)
+   simulate         -- closed-loop run on the model or the virtual trainer (``motorid simulate``)
+   write_report     -- the self-contained HTML report (``motorid report``)
+
+Results
+=======
+
+.. autosummary::
+
+   Experiment           -- the captures of one experiment by role, with the files' SHA-256
+   IdentificationResult -- model, params, stages, fit, warnings, sanity, provenance, summary()
+   ParameterEstimate    -- value, stderr and 95 % interval of one identified quantity
+   Provenance           -- motorid version, input files' SHA-256, settings
+   MotorModel           -- the identified state-space model (python-control objects inside)
+   Design               -- a designed controller (gains, poles, observer)
+   SimulationResult     -- closed-loop time series and metrics; plot() returns a Figure
+
+Data and errors
+===============
+
+.. autosummary::
+
+   Capture      -- raw samples of one scope acquisition (CH1 input, CH2 output)
+   ChannelInfo  -- one channel's scope metadata (probe, scale, label)
+   ScopeInfo    -- the scope's metadata (model, firmware, trigger)
+   MotorIdError -- base class of every error caused by the user's input
+
+Stages
+======
 Data flows one way: :mod:`motorid.io` (read capture files) →
 :mod:`motorid.conditioning` (edge, sync, unwrap, reduce, differentiate, denoise) →
-identification → model → control/simulation → report.  :mod:`motorid.trainer` is the
-virtual servo trainer that stands in for the bench hardware.
+:mod:`motorid.identification` (the methods in :mod:`motorid.identify`) → :mod:`motorid.model` →
+:mod:`motorid.control` / :mod:`motorid.simulate` → :mod:`motorid.report`.
+:mod:`motorid.trainer` is the virtual servo trainer that stands in for the bench hardware.
+
+``import motorid`` stays light: the front door and the result types load on first use.
 """
+
+from __future__ import annotations
+
+import importlib
+import sys
+import types
+from typing import Any
 
 from motorid.capture import Capture, ChannelInfo, ScopeInfo
 from motorid.errors import MotorIdError
 
-__all__ = ["Capture", "ChannelInfo", "ScopeInfo", "MotorIdError"]
+__all__ = [
+    "read_experiment", "identify", "design", "simulate", "write_report",
+    "Experiment", "IdentificationResult", "ParameterEstimate", "Provenance",
+    "MotorModel", "Design", "SimulationResult",
+    "Capture", "ChannelInfo", "ScopeInfo", "MotorIdError",
+]
 __version__ = "0.1.0"
+
+#: Public names loaded on first use, and the module each lives in.
+_LAZY: dict[str, str] = {
+    "read_experiment": "motorid.frontdoor",
+    "design": "motorid.frontdoor",
+    "write_report": "motorid.frontdoor",
+    "Experiment": "motorid.frontdoor",
+    "IdentificationResult": "motorid.frontdoor",
+    "ParameterEstimate": "motorid.frontdoor",
+    "Provenance": "motorid.frontdoor",
+    "MotorModel": "motorid.model",
+    "Design": "motorid.control.design",
+    "SimulationResult": "motorid.simulate.closed_loop",
+}
+
+
+class _FrontDoorFunction:
+    """``mi.identify`` / ``mi.simulate``: the front-door function, which shares its name with a
+    stage subpackage (:mod:`motorid.identify`, :mod:`motorid.simulate`).
+
+    Calling it calls :func:`motorid.frontdoor.identify` (resp. ``simulate``); any attribute
+    it does not have is the subpackage's, so ``motorid.identify.pinv`` and
+    ``import motorid.simulate.closed_loop as cl`` keep working.
+    """
+
+    def __init__(self, name: str, doc: str) -> None:
+        self.__name__ = self.__qualname__ = name
+        self.__module__ = "motorid"
+        self.__doc__ = doc
+
+    def _function(self) -> Any:
+        return getattr(importlib.import_module("motorid.frontdoor"), self.__name__)
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        return self._function()(*args, **kwargs)
+
+    def __getattr__(self, name: str) -> Any:
+        if name == "__wrapped__":  # inspect.signature / help() follow it to the real function
+            return self._function()
+        if name.startswith("__"):
+            raise AttributeError(name)
+        return getattr(importlib.import_module(f"motorid.{self.__name__}"), name)
+
+    def __repr__(self) -> str:
+        return f"<function motorid.{self.__name__}>"
+
+
+identify = _FrontDoorFunction(
+    "identify", "Identify the motor model of an experiment: see :func:`motorid.frontdoor.identify`.")
+simulate = _FrontDoorFunction(
+    "simulate", "Run a design in closed loop: see :func:`motorid.frontdoor.simulate`.")
+
+
+class _Package(types.ModuleType):
+    """The package module: importing the ``identify``/``simulate`` subpackages (which sets
+    them as attributes of their parent) must not replace the front-door functions."""
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name in ("identify", "simulate") and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'motorid' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
+
+
+sys.modules[__name__].__class__ = _Package

@@ -16,7 +16,7 @@ import json
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import scipy.linalg
@@ -25,6 +25,9 @@ from motorid._threads import single_blas_thread
 from motorid.control.design import Design, design_model, output_row
 from motorid.errors import OptionError
 from motorid.model import MotorModel
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = [
     "REFERENCE_KINDS",
@@ -36,6 +39,7 @@ __all__ = [
     "response_metrics",
     "simulate_closed_loop",
     "plot_simulation",
+    "simulation_figure",
 ]
 
 #: Reference waveforms: a step (report §2.2.1), a sinusoid (§2.2.3) and the trainer's test signals.
@@ -227,6 +231,21 @@ class SimulationResult:
 
     def to_json_text(self) -> str:
         return json.dumps(self.to_json(), indent=1)
+
+    def plot(self, title: str = "") -> "Figure":
+        """Output and reference, control input, and states against time.
+
+        Parameters
+        ----------
+        title : str
+            Figure title (none when empty).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            Three stacked axes; save it with ``fig.savefig(path)`` (see :func:`simulation_figure`).
+        """
+        return simulation_figure(self, title)
 
 
 def reference_values(ref: ReferenceSignal, time_s: np.ndarray) -> np.ndarray:
@@ -450,23 +469,29 @@ class _TrainerLoop:
         self.state = (float(resp.current_a[1]), float(resp.motor_speed_rad_s[1]), float(resp.motor_angle_rad[1]))
 
 
-def plot_simulation(result: SimulationResult, path: str | Path, title: str = "") -> None:
-    """Write a PNG of output and reference, control input, and true vs estimated states.
+def simulation_figure(result: SimulationResult, title: str = "") -> "Figure":
+    """Draw output and reference, control input, and true vs estimated states.
+
+    The figure is a :class:`matplotlib.figure.Figure` made without pyplot: no backend is
+    chosen and no global figure state is touched, so it shows in a notebook and saves anywhere.
 
     Parameters
     ----------
     result : SimulationResult
-    path : str or Path
-        PNG file to write (overwritten; the caller checks ``--force``).
+        A closed-loop run.
     title : str
-    """
-    import matplotlib
+        Figure title (none when empty).
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Three stacked axes sharing the time axis.
+    """
+    from matplotlib.figure import Figure
 
     t = result.time_s
-    fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
+    fig = Figure(figsize=(8, 8))
+    axes = fig.subplots(3, 1, sharex=True)
     ax = axes[0]
     ax.plot(t, result.reference_v, "k--", label="reference r")
     ax.plot(t, result.output_v, label=f"output y ({result.output})")
@@ -491,5 +516,19 @@ def plot_simulation(result: SimulationResult, path: str | Path, title: str = "")
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(str(path), dpi=100)
-    plt.close(fig)
+    return fig
+
+
+def plot_simulation(result: SimulationResult, path: str | Path, title: str = "") -> None:
+    """Write a PNG of :func:`simulation_figure` (output, control input, states).
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A closed-loop run.
+    path : str or Path
+        PNG file to write (overwritten; the caller checks ``--force``).
+    title : str
+        Figure title (none when empty).
+    """
+    result.plot(title).savefig(str(path), dpi=100)

@@ -1,0 +1,713 @@
+"""The Python front door: captures → model → controller → closed loop → report in five calls.
+
+>>> import motorid as mi                                             # doctest: +SKIP
+>>> exp = mi.read_experiment(position="D/ALL0000", velocity="D/ALL0001", current="D/ALL0002")
+>>> fit = mi.identify(exp)
+>>> print(fit.summary())
+>>> des = mi.design(fit.model, damping=0.7, wn=5.0)
+>>> sim = mi.simulate(fit.model, des, duration_s=3.0); sim.plot()
+>>> mi.write_report("report.html", fit, design=des)
+
+Each function is a thin layer over the library (:func:`motorid.io.read_capture`,
+:func:`motorid.identification.identify_experiment`, :func:`motorid.control.design.design_controller`,
+:func:`motorid.simulate.closed_loop.simulate_closed_loop`, :func:`motorid.reporting.make_report`):
+it checks the keyword options, naming the Python parameter in the one-line
+:class:`~motorid.errors.MotorIdError` it raises, and returns a frozen result.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from importlib.metadata import PackageNotFoundError, version
+from os import PathLike
+from pathlib import Path
+from types import MappingProxyType
+from typing import TYPE_CHECKING, Any, Literal
+
+from motorid.capture import Capture
+from motorid.errors import OptionError
+
+if TYPE_CHECKING:
+    from motorid.control.design import Design
+    from motorid.identification import Identification
+    from motorid.identify.sanity import SanityReport
+    from motorid.model import MotorModel
+    from motorid.simulate.closed_loop import ReferenceSignal, SimulationResult
+
+__all__ = [
+    "Experiment",
+    "ParameterEstimate",
+    "Provenance",
+    "IdentificationResult",
+    "read_experiment",
+    "identify",
+    "design",
+    "simulate",
+    "write_report",
+]
+
+#: The roles a capture can be given as, in the order the command line lists them.
+ROLES: tuple[str, ...] = ("position", "velocity", "current")
+#: Values of ``order`` besides ``"auto"``.
+ORDERS: tuple[int, ...] = (1, 2, 3)
+
+CapturePath = str | PathLike[str] | Sequence[str | PathLike[str]]
+
+
+def _choice(param: str, value: Any, allowed: Sequence[Any]) -> None:
+    if value not in allowed:
+        raise OptionError(f"{param}={value!r} is unknown; use one of {', '.join(map(repr, allowed))}")
+
+
+def _positive(param: str, value: Any) -> None:
+    if value is not None and not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        raise OptionError(f"{param}={value!r}: give a finite number greater than 0")
+
+
+# --------------------------------------------------------------------------------- experiment
+
+
+@dataclass(frozen=True, slots=True)
+class Experiment:
+    """The captures of one step experiment, by role, as read from the files.
+
+    Attributes
+    ----------
+    captures : Mapping[str, Capture]
+        ``position``, ``velocity`` and/or ``current`` (read-only mapping).
+    step_volts : float or None
+        Step level for captures without an input channel (CH1 gives it otherwise) [V].
+    t0_s : float or None
+        Step instant on the files' time axis (default: CH1's edge, or the response's onset) [s].
+    sources : Mapping[str, tuple of str]
+        The file(s) or folder each role was read from.
+    sha256 : Mapping[str, str]
+        SHA-256 (hex) of every input file, keyed by path (a folder gives each of its files).
+    """
+
+    captures: Mapping[str, Capture]
+    step_volts: float | None = None
+    t0_s: float | None = None
+    sources: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    sha256: Mapping[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "captures", MappingProxyType(dict(self.captures)))
+        object.__setattr__(self, "sources", MappingProxyType(dict(self.sources)))
+        object.__setattr__(self, "sha256", MappingProxyType(dict(self.sha256)))
+
+
+def _paths(spec: CapturePath) -> list[Path]:
+    if isinstance(spec, (str, PathLike)):
+        return [Path(spec)]
+    return [Path(p) for p in spec]
+
+
+def _file_digests(paths: Sequence[Path]) -> dict[str, str]:
+    """SHA-256 of each file (each regular file of a folder), for the provenance record."""
+    files: list[Path] = []
+    for p in paths:
+        files.extend(sorted(f for f in p.iterdir() if f.is_file()) if p.is_dir() else [p])
+    digests = {}
+    for f in files:
+        h = hashlib.sha256()
+        with open(f, "rb") as fh:
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                h.update(block)
+        digests[str(f)] = h.hexdigest()
+    return digests
+
+
+def read_experiment(
+    *,
+    position: CapturePath | None = None,
+    velocity: CapturePath | None = None,
+    current: CapturePath | None = None,
+    step_volts: float | None = None,
+    t0: float | None = None,
+    columns: Mapping[str, str] | None = None,
+    force_role: bool = False,
+) -> Experiment:
+    """Read the captures of one step experiment, one per role.
+
+    Parameters
+    ----------
+    position, velocity, current : path or [CH1, CH2] pair, optional
+        A capture file (Tektronix CSV, ``.xlsx``, plain CSV), a scope ``ALLnnnn`` folder, or
+        a sequence of Tektronix channel files (CH1 = input, CH2 = output).  ``velocity`` or
+        ``position`` is required.
+    step_volts : float, optional
+        Step level [V] for captures without an input channel.
+    t0 : float, optional
+        Step instant [s] on the files' time axis.
+    columns : Mapping[str, str], optional
+        Column map of plain tables, e.g. ``{"time": "t", "input": "u", "velocity": "rpm"}``.
+    force_role : bool
+        Keep a role even when the capture confidently looks like another one.
+
+    Returns
+    -------
+    Experiment
+        The captures by role, the step options and the files' SHA-256.
+
+    Raises
+    ------
+    OptionError
+        No velocity or position capture; a bad ``step_volts``/``t0``; a capture that looks
+        like another role (the same check as the command line's ``--force-role``).
+    CaptureFormatError, CaptureDataError
+        A missing or unreadable file (the message names it).
+    """
+    from motorid.conditioning.role import role_conflict
+    from motorid.io import read_capture
+
+    given = {"position": position, "velocity": velocity, "current": current}
+    given = {role: spec for role, spec in given.items() if spec is not None}
+    if "velocity" not in given and "position" not in given:
+        raise OptionError("read_experiment needs velocity= or position= (a capture file or ALLnnnn folder)")
+    if step_volts is not None and not (isinstance(step_volts, (int, float)) and math.isfinite(step_volts)
+                                       and step_volts != 0):
+        raise OptionError(f"step_volts={step_volts!r}: give a finite, non-zero number of volts "
+                          "(a negative value is a step down)")
+    if t0 is not None and not (isinstance(t0, (int, float)) and math.isfinite(t0)):
+        raise OptionError(f"t0={t0!r}: give a finite time in seconds")
+    captures: dict[str, Capture] = {}
+    sources: dict[str, tuple[str, ...]] = {}
+    digests: dict[str, str] = {}
+    for role, spec in given.items():
+        paths = _paths(spec)
+        arg = str(paths[0]) if len(paths) == 1 else [str(p) for p in paths]
+        cap = read_capture(arg, columns=columns, role=role)
+        if not force_role:
+            looks = role_conflict(cap, role)
+            if looks is not None:
+                raise OptionError(f"given as {role}= but looks like a {looks.role} capture ({looks.reason}); "
+                                  f"pass it as {looks.role}=, or force_role=True to keep {role}=",
+                                  file=str(paths[0]))
+        captures[role] = cap
+        sources[role] = tuple(str(p) for p in paths)
+        digests.update(_file_digests(paths))
+    return Experiment(captures, None if step_volts is None else float(step_volts),
+                      None if t0 is None else float(t0), sources, digests)
+
+
+# ------------------------------------------------------------------------------ identification
+
+
+@dataclass(frozen=True, slots=True)
+class ParameterEstimate:
+    """One identified quantity with its uncertainty (as lmfit's ``Parameter``).
+
+    Attributes
+    ----------
+    value : float or complex
+        The estimate (a complex pole or zero is a complex number).
+    stderr : float
+        Standard error (NaN when the method gives no interval).
+    ci95 : tuple of (float, float) or None
+        95 % interval (``None`` when the method gives none); for a complex pole or zero,
+        the interval of its real part.
+    """
+
+    value: float | complex
+    stderr: float = float("nan")
+    ci95: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Provenance:
+    """How a result was obtained.
+
+    Attributes
+    ----------
+    version : str
+        motorid's version.
+    inputs_sha256 : Mapping[str, str]
+        SHA-256 of every input file, keyed by path.
+    settings : Mapping[str, Any]
+        The identification settings (``IdentifySettings`` as a dict) with ``step_volts`` and ``t0_s``.
+    """
+
+    version: str
+    inputs_sha256: Mapping[str, str]
+    settings: Mapping[str, Any]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "inputs_sha256", MappingProxyType(dict(self.inputs_sha256)))
+        object.__setattr__(self, "settings", MappingProxyType(dict(self.settings)))
+
+
+@dataclass(frozen=True, slots=True)
+class IdentificationResult:
+    """An identified motor model with everything about how it was obtained.
+
+    Attributes
+    ----------
+    model : MotorModel
+        The model (python-control objects inside: ``model.velocity_tf()``, ``model.ss()``).
+    params : Mapping[str, ParameterEstimate]
+        ``dc_gain`` [V/V], ``time_constant`` [s], ``delay`` [s] (when fitted), ``pole_1``…,
+        ``zero_1``… [1/s] (read-only).
+    stages : tuple of Mapping
+        What each stage of ``method="auto"`` found.
+    fit : Mapping[str, float]
+        Goodness of fit (``velocity_nrmse`` as a fraction, ``*_fit_percent``).
+    warnings : tuple of str
+        Everything the method was unsure about, the sanity gate's failures first.
+    sanity : SanityReport
+        The sanity gate's checks.
+    reason : str
+        Why this model was chosen.
+    provenance : Provenance
+        Version, input files' SHA-256 and settings.
+    experiment : Experiment
+        The captures it was identified from.
+    identification : Identification
+        The pipeline's own result (conditioned data, every candidate model).
+    """
+
+    model: MotorModel
+    params: Mapping[str, ParameterEstimate]
+    stages: tuple[Mapping[str, Any], ...]
+    fit: Mapping[str, float]
+    warnings: tuple[str, ...]
+    sanity: SanityReport
+    reason: str
+    provenance: Provenance
+    experiment: Experiment
+    identification: Identification
+
+    def summary(self) -> str:
+        """The text ``motorid identify`` prints for the same captures and options.
+
+        Returns
+        -------
+        str
+            Model, transfer functions, poles, intervals, stages, fit, checks and warnings
+            (lines not wrapped), then the ``choice:`` line.
+        """
+        from motorid.report.summary import model_summary
+
+        return "\n".join([*model_summary(self.model, "identified model"), f"choice: {self.reason}"])
+
+    def to_json(self) -> dict[str, Any]:
+        """The model JSON (CONTRACT.md "Model JSON"), the dict ``motorid identify --json`` writes.
+
+        Returns
+        -------
+        dict
+            :meth:`MotorModel.to_json` of :attr:`model`.
+        """
+        return self.model.to_json()
+
+
+def _estimate(item: Mapping[str, Any]) -> ParameterEstimate:
+    value = item.get("value")
+    if isinstance(value, (list, tuple)):
+        re_, im_ = (float(x) for x in value)
+        value = complex(re_, im_) if im_ != 0 else re_
+    std = item.get("std")
+    ci = item.get("ci95")
+    stderr = float("nan") if std is None else float(std)
+    interval = None
+    if ci is not None and len(ci) == 2 and all(x is not None and math.isfinite(float(x)) for x in ci):
+        interval = (float(ci[0]), float(ci[1]))
+    return ParameterEstimate(value, stderr, interval)
+
+
+def _roots_by_size(values: Any) -> list[float | complex]:
+    # as the uncertainty block lists them: slowest first
+    out = sorted((complex(v) for v in values), key=lambda v: (-v.real, -v.imag))
+    return [v.real if v.imag == 0 else v for v in out]
+
+
+def _params(model: MotorModel) -> dict[str, ParameterEstimate]:
+    """The model's headline quantities: its ``uncertainty`` intervals where the method gives them."""
+    u = model.uncertainty
+    fo = model.first_order()
+    params: dict[str, ParameterEstimate] = {}
+    for key, value in (("dc_gain", fo.dc_gain), ("time_constant", fo.time_constant_s)):
+        params[key] = _estimate(u[key]) if key in u else ParameterEstimate(float(value))
+    if "delay" in u:
+        params["delay"] = _estimate(u["delay"])
+    elif model.delay_s > 0:
+        params["delay"] = ParameterEstimate(model.delay_s)
+    for name, roots in (("pole", model.poles()), ("zero", model.zeros())):
+        items = u.get(f"{name}s")
+        if items:
+            for i, item in enumerate(items):
+                params[f"{name}_{i + 1}"] = _estimate(item)
+        else:
+            for i, value in enumerate(_roots_by_size(roots)):
+                params[f"{name}_{i + 1}"] = ParameterEstimate(value)
+    return params
+
+
+def _package_version() -> str:
+    try:
+        return version("motorid")
+    except PackageNotFoundError:  # a source tree that is not installed
+        from motorid import __version__
+
+        return __version__
+
+
+def identify(
+    experiment: Experiment,
+    *,
+    method: Literal["auto", "pinv", "markov", "classic", "oe", "srivc", "paper-auto"] = "auto",
+    order: Literal["auto", 1, 2, 3] = "auto",
+    sample_interval: float | Literal["auto"] = "auto",
+    delay: bool | None = None,
+    markov_basis: Literal["laguerre", "taylor"] = "laguerre",
+    markov_params: int | None = None,
+    markov_window_s: float | None = None,
+    ratio: int | None = None,
+    record_length_s: float | None = None,
+    reduction: str = "subsample",
+    derivative: str = "five_point",
+    structure: str = "free",
+    sync: str = "interp",
+) -> IdentificationResult:
+    """Identify the motor model of an experiment (``motorid identify`` in Python).
+
+    Parameters
+    ----------
+    experiment : Experiment
+        From :func:`read_experiment`.
+    method : str
+        ``auto`` (the paper's methods → output-error refinement → order selection →
+        uncertainty), ``pinv``, ``markov``, ``classic``, ``oe``, ``srivc`` or ``paper-auto``.
+    order : "auto" or int
+        1–3: for ``pinv`` the number of states, for the others the poles of the velocity TF.
+    sample_interval : float or "auto"
+        Sample interval after reduction [s] (``auto``: chosen from the measured response; the
+        paper's: 0.1).
+    delay : bool or None
+        ``oe``/``auto``: fit a dead time (``True``), none (``False``), or let BIC decide (``None``).
+    markov_basis : str
+        ``laguerre`` (generalised Markov parameters on a Laguerre basis) or ``taylor`` (the
+        paper's procedure).
+    markov_params : int, optional
+        Markov parameters / Laguerre terms (default: chosen by fit).
+    markov_window_s : float, optional
+        Markov window Tε [s] (default: chosen by fit).
+    ratio : int, optional
+        Sample reduction ratio (overrides ``sample_interval``).
+    record_length_s : float, optional
+        Seconds kept after the step (default: all).
+    reduction : str
+        ``subsample`` (paper), ``block_mean`` or ``fir``.
+    derivative : str
+        ``euler``, ``central``, ``five_point`` (paper) or ``savgol`` (pinv).
+    structure : str
+        pinv: ``free`` or ``known``.
+    sync : str
+        ``interp`` or ``index`` (the paper's).
+
+    Returns
+    -------
+    IdentificationResult
+        The model, its parameters with intervals, stages, fit, warnings, sanity checks and
+        provenance.
+
+    Raises
+    ------
+    OptionError
+        An unknown or out-of-range option (the message names the parameter).
+    IdentificationError, ConditioningError, StepNotFoundError
+        Data that cannot give a model (the message names the file and what would fix it).
+    """
+    from motorid.conditioning.derivative import DERIVATIVE_METHODS
+    from motorid.conditioning.pipeline import ConditioningSettings
+    from motorid.conditioning.resample import REDUCTION_METHODS
+    from motorid.conditioning.sync import SYNC_METHODS
+    from motorid.identification import MARKOV_BASES, METHODS, IdentifySettings, identify_experiment
+    from motorid.identify.pinv import PINV_STRUCTURES
+
+    if not isinstance(experiment, Experiment):
+        raise OptionError(f"identify needs the Experiment of read_experiment(...), got {type(experiment).__name__}")
+    _choice("method", method, METHODS)
+    _choice("order", order, ("auto", *ORDERS))
+    _choice("markov_basis", markov_basis, MARKOV_BASES)
+    _choice("reduction", reduction, REDUCTION_METHODS)
+    _choice("derivative", derivative, DERIVATIVE_METHODS)
+    _choice("structure", structure, PINV_STRUCTURES)
+    _choice("sync", sync, SYNC_METHODS)
+    _choice("delay", delay, (None, True, False))
+    if sample_interval != "auto":
+        _positive("sample_interval", sample_interval)
+    _positive("markov_window_s", markov_window_s)
+    _positive("record_length_s", record_length_s)
+    if ratio is not None and not (isinstance(ratio, int) and ratio >= 1):
+        raise OptionError(f"ratio={ratio!r}: give a whole number ≥ 1")
+    if markov_params is not None and not (isinstance(markov_params, int) and markov_params >= 3):
+        raise OptionError(f"markov_params={markov_params!r}: give a whole number ≥ 3")
+    settings = IdentifySettings(
+        method=method,
+        order=order,
+        conditioning=ConditioningSettings(
+            sample_interval_s=None if ratio is not None else sample_interval,
+            ratio=ratio, reduction=reduction, record_length_s=record_length_s, sync=sync,
+        ),
+        derivative=derivative,
+        structure=structure,
+        markov_params=markov_params,
+        markov_window_s=markov_window_s,
+        delay=delay,
+        markov_basis=markov_basis,
+    )
+    ident = identify_experiment(experiment.captures, settings, step_volts=experiment.step_volts,
+                                t0_s=experiment.t0_s)
+    model = ident.model
+    provenance = Provenance(
+        version=_package_version(),
+        inputs_sha256=experiment.sha256,
+        settings={**asdict(settings), "step_volts": experiment.step_volts, "t0_s": experiment.t0_s},
+    )
+    return IdentificationResult(
+        model=model,
+        params=MappingProxyType(_params(model)),
+        stages=tuple(model.stages),
+        fit=model.fit,
+        warnings=tuple(model.warnings),
+        sanity=ident.sanity,
+        reason=ident.reason,
+        provenance=provenance,
+        experiment=experiment,
+        identification=ident,
+    )
+
+
+# ---------------------------------------------------------------------------- design, simulate
+
+
+def _model_of(model: Any, param: str = "model") -> MotorModel:
+    from motorid.model import MotorModel
+
+    if isinstance(model, IdentificationResult):
+        return model.model
+    if isinstance(model, MotorModel):
+        return model
+    raise OptionError(f"{param}= must be a MotorModel or an IdentificationResult, got {type(model).__name__}")
+
+
+def _poles(param: str, values: Any) -> tuple[complex, ...] | None:
+    if values is None:
+        return None
+    try:
+        return tuple(complex(v) for v in (values if isinstance(values, Sequence) else list(values)))
+    except (TypeError, ValueError):
+        raise OptionError(f"{param}={values!r}: give a sequence of numbers (complex for a pair)") from None
+
+
+def design(
+    model: MotorModel | IdentificationResult,
+    *,
+    poles: Sequence[complex] | None = None,
+    damping: float | None = None,
+    wn: float | None = None,
+    k2: float | None = None,
+    settling_time: float | None = None,
+    overshoot: float | None = None,
+    integral: bool = False,
+    ki: float | None = None,
+    integral_pole: complex | None = None,
+    observer_poles: Sequence[complex] | None = None,
+    output: str | None = None,
+) -> Design:
+    """Design state feedback, integral action and an observer (``motorid design`` in Python).
+
+    Give exactly one way of placing the poles: ``poles``; ``damping`` with ``wn`` or ``k2``;
+    or ``settling_time`` with ``overshoot``.
+
+    Parameters
+    ----------
+    model : MotorModel or IdentificationResult
+        The plant.
+    poles : sequence of complex, optional
+        Closed-loop poles (``n``, or ``n + 1`` with integral action).
+    damping : float, optional
+        ζ, with ``wn`` [rad/s] or ``k2`` (the lab report's design, eqs. 32–36).
+    wn, k2 : float, optional
+        Natural frequency [rad/s]; velocity gain.
+    settling_time, overshoot : float, optional
+        2 % settling time [s] and percent overshoot [%].
+    integral : bool
+        Add ``ż = y − r`` and ``u = −K x − ki z``.
+    ki : float, optional
+        Given integral gain (Routh-checked).
+    integral_pole : complex, optional
+        The extra pole placed with the state poles.
+    observer_poles : sequence of complex, optional
+        Luenberger observer poles.
+    output : str, optional
+        Measured channel ``y`` (default: position if the model has it, else velocity).
+
+    Returns
+    -------
+    Design
+        Gains ``K``, ``kr`` or ``ki``, observer ``L``, closed-loop poles, warnings
+        (``design.to_json()`` is CONTRACT.md "Design JSON").
+
+    Raises
+    ------
+    OptionError, ControlDesignError
+        Conflicting or missing specifications, bad poles, an uncontrollable model.
+    """
+    from motorid.control.design import DesignSettings, design_controller
+
+    settings = DesignSettings(
+        poles=_poles("poles", poles), damping=damping, k2=k2, wn=wn, settling_time_s=settling_time,
+        overshoot_pct=overshoot, integral=integral, ki=ki, integral_pole=integral_pole,
+        observer_poles=_poles("observer_poles", observer_poles), output=output,
+    )
+    return design_controller(_model_of(model), settings)
+
+
+def simulate(
+    model: MotorModel | IdentificationResult,
+    design: Design,
+    *,
+    duration_s: float = 3.0,
+    reference: str | ReferenceSignal = "step",
+    level_v: float = 5.0,
+    saturation: float | None = None,
+    disturbance: float | None = None,
+    disturbance_start_s: float = 0.0,
+    plant: Literal["linear", "trainer"] = "linear",
+    dt_s: float | None = None,
+    x0: Sequence[float] | None = None,
+    z0: float = 0.0,
+    xhat0: Sequence[float] | None = None,
+    trainer_preset: str = "lab-report",
+) -> SimulationResult:
+    """Run a design in closed loop on the model or the virtual trainer (``motorid simulate``).
+
+    Parameters
+    ----------
+    model : MotorModel or IdentificationResult
+        The plant (``plant="linear"``) and the observer's model.
+    design : Design
+        From :func:`design`.
+    duration_s : float
+        Record length [s].
+    reference : str or ReferenceSignal
+        ``step``, ``sine``, ``triangle``, ``square`` (with ``level_v``), or a
+        :class:`motorid.simulate.ReferenceSignal` for every detail.
+    level_v : float
+        Step level (or the mean of a periodic reference) [V] when ``reference`` is a name.
+    saturation : float, optional
+        Actuator rails ±V (default: none).
+    disturbance : float, optional
+        Load as an input-equivalent voltage opposing positive motion [V].
+    disturbance_start_s : float
+        When the load is applied [s].
+    plant : str
+        ``linear`` (the model) or ``trainer`` (the nonlinear virtual trainer).
+    dt_s : float, optional
+        Control interval [s] (default 1 ms on the model, 2 ms on the trainer).
+    x0, xhat0 : sequence of float, optional
+        Initial plant state and observer estimate (default zero).
+    z0 : float
+        Initial integrator state.
+    trainer_preset : str
+        Trainer preset for ``plant="trainer"``.
+
+    Returns
+    -------
+    SimulationResult
+        Time series and metrics; ``.plot()`` returns a matplotlib Figure.
+
+    Raises
+    ------
+    OptionError
+        Bad settings, or a design for other states than the model's.
+    """
+    from motorid.control.design import Design
+    from motorid.simulate.closed_loop import ReferenceSignal, SimulationSettings, simulate_closed_loop
+
+    if not isinstance(design, Design):
+        raise OptionError(f"design= must be the Design of mi.design(...), got {type(design).__name__}")
+    ref = reference if isinstance(reference, ReferenceSignal) else ReferenceSignal(kind=reference, level_v=level_v)
+    settings = SimulationSettings(
+        duration_s=duration_s,
+        dt_s=dt_s if dt_s is not None else (2e-3 if plant == "trainer" else 1e-3),
+        reference=ref,
+        saturation_v=saturation,
+        disturbance_v=0.0 if disturbance is None else disturbance,
+        disturbance_start_s=disturbance_start_s,
+        x0=None if x0 is None else tuple(float(v) for v in x0),
+        z0=z0,
+        xhat0=None if xhat0 is None else tuple(float(v) for v in xhat0),
+        plant=plant,
+        trainer_preset=trainer_preset,
+    )
+    return simulate_closed_loop(_model_of(model), design, settings)
+
+
+# -------------------------------------------------------------------------------------- report
+
+
+def _validation_captures(validation: Sequence[Any]) -> dict[str, Capture]:
+    from motorid.io import read_capture
+
+    if isinstance(validation, (str, PathLike, Capture)):
+        validation = [validation]
+    caps = [v if isinstance(v, Capture) else read_capture(str(v)) for v in validation]
+    # keyed by file name; two captures of the same name in different folders keep their paths
+    short = [Path(c.source).name for c in caps]
+    return {(k if short.count(k) == 1 else c.source): c for k, c in zip(short, caps)}
+
+
+def write_report(
+    path: str | PathLike[str],
+    fit: IdentificationResult,
+    *,
+    design: Design | Mapping[str, Any] | None = None,
+    validation: Sequence[str | PathLike[str] | Capture] = (),
+    overwrite: bool = True,
+) -> Path:
+    """Write the self-contained HTML report of an identification (``motorid report``).
+
+    Parameters
+    ----------
+    path : path
+        The HTML file; its folder must exist.  Written atomically: a failure leaves no file.
+    fit : IdentificationResult
+        From :func:`identify`.
+    design : Design or Mapping, optional
+        A design (or its JSON dict) to show with its closed-loop step response.
+    validation : sequence of paths or Captures
+        Captures of other inputs (sine, triangle, square…) to validate the model on.
+    overwrite : bool
+        Replace an existing file (``False``: refuse, as the command line without ``--force``).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    OptionError, OutputExistsError, OutputWriteError
+        A path that cannot be written (missing folder, a folder, an existing file with
+        ``overwrite=False``, a full disk).
+    """
+    from motorid.control.design import Design
+    from motorid.io import atomic_outputs, check_writable
+    from motorid.reporting import make_report
+
+    if not isinstance(fit, IdentificationResult):
+        raise OptionError(f"write_report needs the result of mi.identify(...), got {type(fit).__name__}")
+    out = Path(path)
+    check_writable({"path": out}, force=overwrite, create_parents=False)
+    doc = design.to_json() if isinstance(design, Design) else (None if design is None else dict(design))
+    page = make_report(fit.identification, fit.experiment.captures, validation=_validation_captures(validation),
+                       design=doc)
+    with atomic_outputs() as outs:
+        outs.write_text(out, page)
+    return out

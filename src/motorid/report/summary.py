@@ -1,0 +1,189 @@
+"""The plain-text summary of an identified model: what ``motorid identify`` prints.
+
+One source for the command line (which adds colour) and for
+:meth:`motorid.IdentificationResult.summary` (plain text).  Each line is a tuple of
+``(text, style)`` spans; ``style`` is a rich style name (``""``: none), so the command line
+can colour a line without the text passing through rich's markup parser.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from motorid.notation import poly_text
+
+__all__ = ["Span", "SummaryLine", "model_summary", "model_summary_lines"]
+
+#: A piece of a line and its rich style (``""``: plain).
+Span = tuple[str, str]
+#: One printed line.
+SummaryLine = tuple[Span, ...]
+
+#: Style of the warnings the sanity gate adds (``SANITY CHECK FAILED — …``).
+_FAILED_STYLE = "bold red"
+#: Style of every other warning's ``warning:`` prefix.
+_WARNING_STYLE = "yellow"
+
+
+def _plain(text: str) -> SummaryLine:
+    return ((text, ""),)
+
+
+def _complex_text(re_: float, im_: float) -> str:
+    return f"{re_:.4g}" if abs(im_) < 1e-12 else f"{re_:.4g}{im_:+.4g}j"
+
+
+def _header(model: Any, title: str) -> list[SummaryLine]:
+    lines = [((title, "bold"), (f": method {model.method}, order {model.order}, states {list(model.states)}, "
+                                 f"step {model.step_volts:.4g} V", ""))]
+    lines.append(_plain(f"A = {np.array2string(model.A, precision=5, suppress_small=False)}"))
+    lines.append(_plain(f"B = {np.array2string(model.B.ravel(), precision=5, suppress_small=False)}ᵀ"))
+    for name in ("velocity", "position", "current"):
+        try:
+            tf = getattr(model, f"{name}_tf")()
+        except Exception:  # noqa: BLE001 - a channel the model does not have
+            tf = None
+        if tf is None:
+            continue
+        num, den = np.ravel(tf.num[0][0]), np.ravel(tf.den[0][0])
+        lines.append(_plain(f"H_{name}(s) = ({poly_text(num)}) / ({poly_text(den)})"))
+    poles = ", ".join(f"{p.real:.4g}{p.imag:+.4g}j" if abs(p.imag) > 1e-12 else f"{p.real:.4g}"
+                      for p in model.poles())
+    lines.append(_plain(f"poles: {poles}"))
+    fo = model.first_order()
+    lines.append(_plain(f"first order: k/(s+p) = {fo.k:.4g}/(s + {fo.p:.4g}); dc gain {fo.dc_gain:.4g} V/V, "
+                        f"τ = {fo.time_constant_s:.4g} s"))
+    if model.delay_s > 0:
+        lines.append(_plain(f"dead time: {1e3 * model.delay_s:.4g} ms (every H(s) above times "
+                            f"e^(−s·{model.delay_s:.4g})); mean residence time τ + dead time = "
+                            f"{fo.time_constant_s + model.delay_s:.4g} s"))
+    return lines
+
+
+def _uncertainty(u: Mapping[str, Any]) -> list[SummaryLine]:
+    lines: list[SummaryLine] = []
+    if not u:
+        return lines
+    for key, label in (("dc_gain", "dc gain"), ("time_constant", "τ (s)")):
+        item = u[key]
+        lo, hi = item["ci95"]
+        lines.append(_plain(f"{label}: {item['value']:.5g} ± {1.96 * item['std']:.2g} "
+                            f"(95% interval [{lo:.5g}, {hi:.5g}])"))
+    if "delay" in u:
+        item = u["delay"]
+        lines.append(_plain(f"delay: {1e3 * item['value']:.3g} ms ± {1.96e3 * item['std']:.2g} ms (95%; not in "
+                            "the state-space model: add it as e^(-s·delay), e.g. control.pade)"))
+    for name in ("poles", "zeros"):
+        for i, item in enumerate(u.get(name, [])):
+            re_, im_ = item["value"]
+            lines.append(_plain(f"{name[:-1]} {i + 1}: {_complex_text(re_, im_)} ± {1.96 * item['std']:.2g} (95%)"))
+    return lines
+
+
+def _noise_and_stages(model: Any) -> list[SummaryLine]:
+    lines: list[SummaryLine] = []
+    noise = model.extras.get("noise")
+    if noise:
+        parts = []
+        for role, nm in noise.items():
+            use = "; scale only: its 8-bit codes are not dithered by noise" if nm.get("use") == "scale only" else ""
+            parts.append(f"{role} σ {nm['sigma']:.3g} V (AR order {nm['ar_order']}{use})")
+        lines.append(_plain("noise model of the output-error fit: " + ", ".join(parts)))
+    for st in model.stages:
+        desc = ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
+                         for k, v in st.items() if k in ("method", "order", "dc_gain", "time_constant",
+                                                         "markov_order", "oe_order", "agree"))
+        extra = f" — {st['evidence']}" if "evidence" in st else ""
+        lines.append(_plain(f"stage {st['stage']}: {desc}{extra}"))
+    return lines
+
+
+def _markov(extras: Mapping[str, Any]) -> list[SummaryLine]:
+    ex = extras
+    if ex.get("markov_basis") == "laguerre":
+        return [
+            _plain(f"Laguerre basis: a = {ex['laguerre_pole']:.4g} 1/s, N = {ex['laguerre_terms']}; coefficients "
+                   + ", ".join(f"{x:.4g}" for x in ex["laguerre_coefficients"][:8])
+                   + (" …" if ex["laguerre_terms"] > 8 else "")
+                   + f"; DC gain from them {ex['laguerre_dc_gain']:.5g} ± "
+                   f"{1.96 * ex['laguerre_dc_gain_std']:.2g} (95%)"),
+            _plain("Hankel singular values of the Laguerre coefficients (normalised): "
+                   + ", ".join(f"{x:.3g}" for x in ex["hankel_singular_values_scaled"])
+                   + f"; noise floor {ex['hankel_noise_floor']:.3g}"),
+            _plain(f"Markov settings: {ex.get('markov_choice', '')}"),
+        ]
+    if "hankel_singular_values_scaled" in ex:
+        return [
+            _plain("Hankel singular values (normalised), time-scaled: "
+                   + ", ".join(f"{x:.3g}" for x in ex["hankel_singular_values_scaled"])
+                   + "; raw (seconds): " + ", ".join(f"{x:.3g}" for x in ex["hankel_singular_values_raw"])
+                   + f"; noise floor {ex['hankel_noise_floor']:.3g}"),
+            _plain(f"Markov settings: {ex.get('markov_choice', '')}"),
+        ]
+    return []
+
+
+def _fit_and_checks(model: Any) -> list[SummaryLine]:
+    lines: list[SummaryLine] = []
+    for key, val in model.fit.items():
+        if key.endswith("_fit_percent"):
+            lines.append(_plain(f"fit {key}: {val:.2f}% (MATLAB compare: 100·(1 − ‖y − ŷ‖/‖y − mean y‖))"))
+        else:
+            lines.append(_plain(f"fit {key}: {100 * val:.2f}% (RMS error / measured steady-state change)"))
+    for note in model.extras.get("conditioning", ()) or ():
+        lines.append(_plain(f"automatic choice: {note}"))
+    sanity = model.extras.get("sanity")
+    if isinstance(sanity, Mapping) and sanity.get("checks"):
+        failed = [c for c in sanity["checks"] if not c["passed"]]
+        if failed:
+            lines.append(((f"sanity checks: {len(failed)} of {len(sanity['checks'])} FAILED — read the warnings "
+                           "before using this model", _FAILED_STYLE),))
+        else:
+            lines.append(_plain(f"sanity checks: all {len(sanity['checks'])} passed (stable, better than a "
+                                "first-order baseline, agrees with the read-off gain and 63 % time, headline "
+                                "inside its interval)"))
+    for w in model.warnings:
+        style = _FAILED_STYLE if w.startswith("SANITY CHECK FAILED") else _WARNING_STYLE
+        lines.append((("warning:", style), (f" {w}", "")))
+    return lines
+
+
+def model_summary_lines(model: Any, title: str = "identified model") -> list[SummaryLine]:
+    """The summary of a model as styled lines (what ``motorid identify`` prints, in colour).
+
+    Parameters
+    ----------
+    model : MotorModel
+        An identified model.
+    title : str
+        The first line's heading.
+
+    Returns
+    -------
+    list of SummaryLine
+        One entry per printed line, each a tuple of ``(text, rich style)`` spans.
+    """
+    return (_header(model, title) + _uncertainty(model.uncertainty) + _noise_and_stages(model)
+            + _markov(model.extras) + _fit_and_checks(model))
+
+
+def model_summary(model: Any, title: str = "identified model") -> list[str]:
+    """The summary of a model as plain text lines (what ``motorid identify`` prints).
+
+    Parameters
+    ----------
+    model : MotorModel
+        An identified model.
+    title : str
+        The first line's heading.
+
+    Returns
+    -------
+    list of str
+        The lines, without styles or line ends; a line may be longer than a terminal (the
+        command line wraps them to its width).
+    """
+    return ["".join(text for text, _ in line) for line in model_summary_lines(model, title)]

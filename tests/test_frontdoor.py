@@ -1,0 +1,170 @@
+"""The Python front door (issue 13): ``import motorid as mi`` and the five calls on the demo."""
+
+from __future__ import annotations
+
+import json
+import math
+import pydoc
+import subprocess
+import sys
+import time
+
+import control
+import numpy as np
+import pytest
+
+import motorid as mi
+from motorid.errors import CaptureFormatError, MotorIdError, OptionError
+
+FRONT_DOOR = ("read_experiment", "identify", "design", "simulate", "write_report")
+
+
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory):
+    from motorid.demo import run_demo
+
+    out = tmp_path_factory.mktemp("frontdoor") / "D"
+    run_demo(out, seed=0)
+    return out
+
+
+@pytest.fixture(scope="module")
+def fit(demo):
+    exp = mi.read_experiment(position=demo / "ALL0000", velocity=demo / "ALL0001", current=demo / "ALL0002")
+    t = time.perf_counter()
+    result = mi.identify(exp)
+    # timing is measured in bench/frontdoor_speed.py, not asserted here (issue 13: < 2 s)
+    print(f"mi.identify on the demo: {time.perf_counter() - t:.2f} s")
+    return result
+
+
+def test_issue_example_runs_as_written(demo, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "D").symlink_to(demo)
+    exp = mi.read_experiment(position="D/ALL0000", velocity="D/ALL0001", current="D/ALL0002")
+    fit = mi.identify(exp)
+    text = fit.summary()
+    assert text.startswith("identified model: method ")
+    fit.params["dc_gain"].value, fit.params["dc_gain"].stderr, fit.params["dc_gain"].ci95
+    assert isinstance(fit.model.velocity_tf(), control.TransferFunction)
+    des = mi.design(fit.model, damping=0.7, wn=5.0)
+    sim = mi.simulate(fit.model, des, duration_s=3.0)
+    fig = sim.plot()
+    assert fig.axes
+    mi.write_report("report.html", fit, design=des)
+    assert (tmp_path / "report.html").is_file()
+
+
+def test_help_lists_the_front_door():
+    text = pydoc.render_doc(mi, renderer=pydoc.plaintext)
+    for name in (*FRONT_DOOR, "IdentificationResult", "ParameterEstimate", "MotorIdError"):
+        assert name in text, name
+    # every public name is in the catalogue and can be reached
+    for name in mi.__all__:
+        assert name in mi.__doc__, name
+        assert getattr(mi, name) is not None
+
+
+def test_import_motorid_stays_light():
+    code = ("import sys, motorid; heavy = [m for m in ('scipy', 'control', 'matplotlib', 'typer', 'rich') "
+            "if m in sys.modules]; print(','.join(heavy))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == ""
+
+
+def test_subpackages_named_like_the_front_door_still_import():
+    # mi.identify / mi.simulate share their names with the stage subpackages
+    code = ("import motorid as mi; import motorid.simulate.closed_loop as cl; import motorid.identify.pinv; "
+            "assert callable(mi.simulate) and callable(mi.identify); "
+            "assert mi.identify.pinv is motorid.identify.pinv; print(cl.__name__)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "motorid.simulate.closed_loop"
+
+
+def test_params_carry_value_stderr_and_interval(fit):
+    dc = fit.params["dc_gain"]
+    assert dc.ci95 is not None and dc.ci95[0] < dc.value < dc.ci95[1]
+    assert dc.stderr > 0
+    # the headline gain is the velocity TF's DC gain, computed independently by python-control
+    assert dc.value == pytest.approx(float(control.dcgain(fit.model.velocity_tf())), rel=1e-9)
+    # each pole of the model is a parameter (the roots of the TF's denominator, by numpy)
+    den = np.ravel(fit.model.velocity_tf().den[0][0])
+    roots = np.sort_complex(np.roots(den))
+    got = np.sort_complex(np.array([complex(p.value) for k, p in fit.params.items() if k.startswith("pole_")]))
+    np.testing.assert_allclose(got, roots, rtol=1e-6)
+    with pytest.raises(TypeError):
+        fit.params["dc_gain"] = dc  # read-only
+
+
+def test_method_without_interval_gives_nan_stderr(demo):
+    exp = mi.read_experiment(velocity=demo / "ALL0001")
+    fit = mi.identify(exp, method="classic")
+    tau = fit.params["time_constant"]
+    assert math.isnan(tau.stderr) and tau.ci95 is None
+    assert tau.value == pytest.approx(fit.model.first_order().time_constant_s)
+
+
+def test_summary_and_json_equal_the_cli(fit, demo, run_cli, tmp_path):
+    m = tmp_path / "m.json"
+    res = run_cli("identify", "--position", demo / "ALL0000", "--velocity", demo / "ALL0001",
+                  "--current", demo / "ALL0002", "--json", m)
+    assert res.code == 0, res.err
+    printed = res.out.split("\nmodel JSON: ")[0]
+    # the CLI wraps long lines at its console width; the words and their order are the same
+    assert printed.split() == fit.summary().split()
+    assert json.loads(m.read_text()) == json.loads(json.dumps(fit.to_json()))
+
+
+def test_simulation_plot_is_a_figure_of_the_run(fit):
+    from matplotlib.figure import Figure
+
+    des = mi.design(fit, damping=0.7, wn=5.0)
+    sim = mi.simulate(fit, des, duration_s=3.0)
+    fig = sim.plot(title="run")
+    assert isinstance(fig, Figure) and len(fig.axes) == 3
+    line = fig.axes[0].get_lines()[1]
+    np.testing.assert_array_equal(line.get_ydata(), sim.output_v)
+
+
+def test_write_report_writes_html(fit, tmp_path):
+    des = mi.design(fit.model, damping=0.7, wn=5.0)
+    path = mi.write_report(tmp_path / "r.html", fit, design=des, validation=[])
+    assert path.read_text(encoding="utf-8").startswith("<!DOCTYPE html>")
+    from motorid.errors import OutputExistsError
+
+    with pytest.raises(OutputExistsError):
+        mi.write_report(tmp_path / "r.html", fit, overwrite=False)
+
+
+def test_provenance_records_version_files_and_settings(fit, demo):
+    import hashlib
+
+    prov = fit.provenance
+    assert prov.version == mi.__version__
+    f = demo / "ALL0001" / "F0001CH2.CSV"
+    assert prov.inputs_sha256[str(f)] == hashlib.sha256(f.read_bytes()).hexdigest()
+    assert prov.settings["method"] == "auto"
+
+
+@pytest.mark.parametrize("call, kind, word", [
+    (lambda exp: mi.identify(exp, method="bogus"), OptionError, "method"),
+    (lambda exp: mi.identify(exp, order=5), OptionError, "order"),
+    (lambda exp: mi.identify(exp, sample_interval=-1.0), OptionError, "sample_interval"),
+    (lambda exp: mi.identify("not an experiment"), OptionError, "Experiment"),
+    (lambda exp: mi.read_experiment(velocity="/nonexistent/ALL0001"), CaptureFormatError, "no such file"),
+    (lambda exp: mi.read_experiment(current="x.csv"), OptionError, "velocity="),
+    (lambda exp: mi.design(object(), damping=0.7, wn=5.0), OptionError, "model="),
+])
+def test_bad_input_raises_one_line_motorid_error(demo, call, kind, word):
+    exp = mi.read_experiment(velocity=demo / "ALL0001")
+    with pytest.raises(kind) as info:
+        call(exp)
+    assert isinstance(info.value, MotorIdError)
+    assert "\n" not in str(info.value) and word in str(info.value)
+
+
+def test_role_check_names_the_parameter(demo):
+    with pytest.raises(OptionError, match="force_role=True"):
+        mi.read_experiment(velocity=demo / "ALL0000")  # the position sawtooth
+    exp = mi.read_experiment(velocity=demo / "ALL0000", force_role=True)
+    assert set(exp.captures) == {"velocity"}
