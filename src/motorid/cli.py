@@ -7,7 +7,6 @@ it), 1 internal error (traceback behind ``--debug``).
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
 import math
 import sys
 import traceback
@@ -20,7 +19,6 @@ from rich.table import Table
 
 from motorid.errors import MotorIdError, OptionError
 from motorid.io import atomic_outputs, check_writable
-from motorid.notation import poly_text
 
 app = typer.Typer(
     add_completion=False,
@@ -343,94 +341,13 @@ def _conditioning(ratio, sample_interval, record_length, reduction, sync):
 
 
 def _print_model(con: Console, model, title: str) -> None:
-    import numpy as np
+    from rich.text import Text
 
-    fo = model.first_order()
-    con.print(f"[bold]{title}[/bold]: method {model.method}, order {model.order}, states {list(model.states)}, "
-              f"step {model.step_volts:.4g} V")
-    np.set_printoptions(precision=5, suppress=False)
-    con.print(f"A = {np.array2string(model.A, precision=5)}")
-    con.print(f"B = {np.array2string(model.B.ravel(), precision=5)}ᵀ")
-    for name in ("velocity", "position", "current"):
-        try:
-            tf = getattr(model, f"{name}_tf")()
-        except Exception:  # noqa: BLE001 - a channel the model does not have
-            tf = None
-        if tf is None:
-            continue
-        num, den = np.ravel(tf.num[0][0]), np.ravel(tf.den[0][0])
-        con.print(f"H_{name}(s) = ({poly_text(num)}) / ({poly_text(den)})")
-    poles = ", ".join(f"{p.real:.4g}{p.imag:+.4g}j" if abs(p.imag) > 1e-12 else f"{p.real:.4g}" for p in model.poles())
-    con.print(f"poles: {poles}")
-    con.print(f"first order: k/(s+p) = {fo.k:.4g}/(s + {fo.p:.4g}); dc gain {fo.dc_gain:.4g} V/V, "
-              f"τ = {fo.time_constant_s:.4g} s")
-    if model.delay_s > 0:
-        con.print(f"dead time: {1e3 * model.delay_s:.4g} ms (every H(s) above times e^(−s·{model.delay_s:.4g})); "
-                  f"mean residence time τ + dead time = {fo.time_constant_s + model.delay_s:.4g} s")
-    u = model.uncertainty
-    if u:
-        for key, label in (("dc_gain", "dc gain"), ("time_constant", "τ (s)")):
-            item = u[key]
-            lo, hi = item["ci95"]
-            con.print(f"{label}: {item['value']:.5g} ± {1.96 * item['std']:.2g} (95% interval [{lo:.5g}, {hi:.5g}])")
-        if "delay" in u:
-            item = u["delay"]
-            con.print(f"delay: {1e3 * item['value']:.3g} ms ± {1.96e3 * item['std']:.2g} ms (95%; not in the "
-                      "state-space model: add it as e^(-s·delay), e.g. control.pade)")
-        for name in ("poles", "zeros"):
-            for i, item in enumerate(u.get(name, [])):
-                re_, im_ = item["value"]
-                val = f"{re_:.4g}" if abs(im_) < 1e-12 else f"{re_:.4g}{im_:+.4g}j"
-                con.print(f"{name[:-1]} {i + 1}: {val} ± {1.96 * item['std']:.2g} (95%)")
-    noise = model.extras.get("noise")
-    if noise:
-        parts = []
-        for role, nm in noise.items():
-            use = "; scale only: its 8-bit codes are not dithered by noise" if nm.get("use") == "scale only" else ""
-            parts.append(f"{role} σ {nm['sigma']:.3g} V (AR order {nm['ar_order']}{use})")
-        con.print("noise model of the output-error fit: " + ", ".join(parts))
-    for st in model.stages:
-        desc = ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
-                         for k, v in st.items() if k in ("method", "order", "dc_gain", "time_constant",
-                                                         "markov_order", "oe_order", "agree"))
-        extra = f" — {st['evidence']}" if "evidence" in st else ""
-        con.print(f"stage {st['stage']}: {desc}{extra}")
-    if model.extras.get("markov_basis") == "laguerre":
-        ex = model.extras
-        con.print(f"Laguerre basis: a = {ex['laguerre_pole']:.4g} 1/s, N = {ex['laguerre_terms']}; coefficients "
-                  + ", ".join(f"{x:.4g}" for x in ex["laguerre_coefficients"][:8])
-                  + (" …" if ex["laguerre_terms"] > 8 else "")
-                  + f"; DC gain from them {ex['laguerre_dc_gain']:.5g} ± {1.96 * ex['laguerre_dc_gain_std']:.2g} (95%)")
-        con.print("Hankel singular values of the Laguerre coefficients (normalised): "
-                  + ", ".join(f"{x:.3g}" for x in ex["hankel_singular_values_scaled"])
-                  + f"; noise floor {ex['hankel_noise_floor']:.3g}")
-        con.print(f"Markov settings: {ex.get('markov_choice', '')}")
-    elif "hankel_singular_values_scaled" in model.extras:
-        ex = model.extras
-        con.print("Hankel singular values (normalised), time-scaled: "
-                  + ", ".join(f"{x:.3g}" for x in ex["hankel_singular_values_scaled"])
-                  + "; raw (seconds): " + ", ".join(f"{x:.3g}" for x in ex["hankel_singular_values_raw"])
-                  + f"; noise floor {ex['hankel_noise_floor']:.3g}")
-        con.print(f"Markov settings: {ex.get('markov_choice', '')}")
-    for key, val in model.fit.items():
-        if key.endswith("_fit_percent"):
-            con.print(f"fit {key}: {val:.2f}% (MATLAB compare: 100·(1 − ‖y − ŷ‖/‖y − mean y‖))")
-        else:
-            con.print(f"fit {key}: {100 * val:.2f}% (RMS error / measured steady-state change)")
-    for note in model.extras.get("conditioning", ()) or ():
-        con.print(f"automatic choice: {note}")
-    sanity = model.extras.get("sanity")
-    if isinstance(sanity, Mapping) and sanity.get("checks"):
-        failed = [c for c in sanity["checks"] if not c["passed"]]
-        if failed:
-            con.print(f"[bold red]sanity checks: {len(failed)} of {len(sanity['checks'])} FAILED — read the "
-                      "warnings before using this model[/bold red]")
-        else:
-            con.print(f"sanity checks: all {len(sanity['checks'])} passed (stable, better than a first-order "
-                      "baseline, agrees with the read-off gain and 63 % time, headline inside its interval)")
-    for w in model.warnings:
-        style = "bold red" if w.startswith("SANITY CHECK FAILED") else "yellow"
-        con.print(f"[{style}]warning:[/{style}] {w}")
+    from motorid.report.summary import model_summary_lines
+
+    # the text is the library's (motorid.report.summary); the CLI only adds the colours
+    for line in model_summary_lines(model, title):
+        con.print(Text.assemble(*line))
 
 
 @app.command()
