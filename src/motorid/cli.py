@@ -559,8 +559,8 @@ def sweep(
     position: Annotated[Optional[list[str]], typer.Option(help="Position capture.")] = None,
     velocity: Annotated[Optional[list[str]], typer.Option(help="Velocity capture.")] = None,
     current: Annotated[Optional[list[str]], typer.Option(help="Armature-current capture.")] = None,
-    lengths: Annotated[str, typer.Option(help="Record lengths in s (paper: 1.9,2.4,2.9).")] = "1.9,2.4,2.9",
-    intervals: Annotated[str, typer.Option(help="Sample intervals in s (paper: 0.04..0.12).")] = "0.04,0.06,0.08,0.1,0.12",
+    lengths: Annotated[str, typer.Option(help="Record lengths in s, 'auto' (65–100 % of the record) or 'paper' (1.9,2.4,2.9).")] = "auto",
+    intervals: Annotated[str, typer.Option(help="Sample intervals in s, 'auto' (0.4–1.2 × the automatic interval) or 'paper' (0.04..0.12).")] = "auto",
     method: Annotated[str, typer.Option(help="Identification method (paper: pinv).")] = "pinv",
     order: Annotated[str, typer.Option(help="auto, 1, 2 or 3.")] = "auto",
     reduction: Annotated[str, typer.Option(help="subsample (paper), block_mean or fir.")] = "subsample",
@@ -579,13 +579,25 @@ def sweep(
 
     _check_options(method=method, order=order, reduction=reduction, step_volts=step_volts)
     check_writable({"--json": json_out}, force=force, create_parents=False)
-    lens, ints = _floats(lengths, "--lengths"), _floats(intervals, "--intervals")
+    from motorid.sweep import PAPER_INTERVALS_S, PAPER_LENGTHS_S, data_grid
+
+    def axis(spec: str, option: str, paper: tuple[float, ...]) -> Optional[list[float]]:
+        word = spec.strip().lower()
+        return None if word == "auto" else list(paper) if word == "paper" else _floats(spec, option)
+
+    lens = axis(lengths, "--lengths", PAPER_LENGTHS_S)
+    ints = axis(intervals, "--intervals", PAPER_INTERVALS_S)
     _one_per_role(position, velocity, current)
     settings = IdentifySettings(
         method=method, order=order if order == "auto" else int(order),
         conditioning=ConditioningSettings(reduction=reduction),
     )
     caps = _read_roles(position, velocity, current, columns, force_role=force_role)
+    grid_note = None
+    if lens is None or ints is None:
+        auto_lens, auto_ints, grid_note = data_grid(caps, step_volts=step_volts)
+        lens = auto_lens if lens is None else lens
+        ints = auto_ints if ints is None else ints
     _check_against_captures(caps, step_volts=step_volts, record_length=min(lens))
     con = _console()
     # no bar when stderr is not a terminal: a transient bar still leaves a blank line there,
@@ -606,6 +618,8 @@ def sweep(
             *(f"k = {res.k[i, j]:.4f} τ = {res.tau_s[i, j]:.4f}" for j in range(len(res.lengths_s))),
         )
     con.print(table)
+    if grid_note:
+        con.print(grid_note)
     sp = res.spread()
     con.print(f"spread (half-range / median): k ±{100 * sp['k']:.1f}%, τ ±{100 * sp['tau']:.1f}%, "
               f"dc gain ±{100 * sp['dc_gain']:.1f}%")

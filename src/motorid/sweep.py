@@ -20,7 +20,7 @@ from motorid.conditioning.pipeline import condition_experiment
 from motorid.errors import ConditioningError, MotorIdError
 from motorid.identification import IdentifySettings, identify_conditioned, with_conditioning
 
-__all__ = ["PAPER_LENGTHS_S", "PAPER_INTERVALS_S", "SweepResult", "sensitivity_table"]
+__all__ = ["PAPER_LENGTHS_S", "PAPER_INTERVALS_S", "SweepResult", "data_grid", "sensitivity_table"]
 
 #: Record lengths of the paper's Tables 1–3.
 PAPER_LENGTHS_S: tuple[float, ...] = (1.9, 2.4, 2.9)
@@ -67,6 +67,42 @@ class SweepResult:
             "record_lengths": list(self.lengths_s), "sample_intervals": list(self.intervals_s),
             "cells": cells, "spread": self.spread(), "failures": self.failures,
         }
+
+
+#: Record lengths of the automatic grid, as fractions of the record after the step (the
+#: paper's 1.9/2.4/2.9 s of a ~2.9 s record).
+LENGTH_FRACTIONS: tuple[float, ...] = (0.65, 0.82, 1.0)
+#: Sample intervals of the automatic grid, as multiples of the automatic interval (the
+#: measured 63 % time / 5; the paper's 0.04–0.12 s around its 0.1 s).
+INTERVAL_FACTORS: tuple[float, ...] = (0.4, 0.6, 0.8, 1.0, 1.2)
+
+
+def data_grid(captures: Mapping[str, Capture], *, step_volts: float | None = None
+              ) -> tuple[tuple[float, ...], tuple[float, ...], str]:
+    """Record lengths and sample intervals of a sensitivity table, from the data.
+
+    The paper's grid (1.9–2.9 s × 0.04–0.12 s) is about its 0.43 s motor and 2.9 s records: on
+    a 16 ms motor recorded for 0.35 s no cell of it can be computed.  The same grid in the
+    data's own time scales: lengths of 65, 82 and 100 % of the record after the step, intervals
+    of 0.4–1.2 × the automatic one (the measured 63 % time / 5), never below the recording's.
+
+    Returns
+    -------
+    (lengths_s, intervals_s, note)
+        The axes and a sentence saying how they were chosen.
+    """
+    from motorid.conditioning.pipeline import ConditioningSettings
+
+    cond = condition_experiment(captures, ConditioningSettings(), step_volts=step_volts)
+    record = float(cond.full_time_s[-1])
+    dt = float(cond.full_time_s[1] - cond.full_time_s[0])
+    base = cond.sample_interval_s if np.isfinite(cond.sample_interval_s) else record / 25
+    lengths = tuple(float(f"{record * f:.4g}") for f in LENGTH_FRACTIONS)
+    intervals = tuple(sorted({float(f"{max(dt, base * f):.4g}") for f in INTERVAL_FACTORS}))
+    note = (f"grid from the data: record lengths {', '.join(f'{x:g}' for x in lengths)} s (65–100 % of the "
+            f"{record:.4g} s after the step), sample intervals {', '.join(f'{x:g}' for x in intervals)} s "
+            f"(0.4–1.2 × the automatic {base:.4g} s); the paper's grid: --lengths paper --intervals paper")
+    return lengths, intervals, note
 
 
 def _num(x: float) -> float | None:
