@@ -12,7 +12,7 @@ from motorid.capture import Capture
 from motorid.errors import CaptureFormatError, MotorIdError
 from motorid.identification import Identification, IdentifySettings
 from motorid.report import ReportInputs, build_report
-from motorid.sweep import sensitivity_table
+from motorid.sweep import PAPER_LENGTHS_S, data_grid, sensitivity_table
 
 __all__ = ["make_report", "read_design"]
 
@@ -48,15 +48,25 @@ def make_report(
     """The HTML report of an identification (see :func:`motorid.report.build_report`).
 
     The sensitivity table is the paper's: pinv with the reduced state over 1.9/2.4/2.9 s ×
-    40–120 ms, so a student sees the drift the paper reports next to the model.
+    40–120 ms, so a student sees the drift the paper reports next to the model — or, when the
+    record is shorter than the paper's lengths (a fast motor), the same grid in the data's own
+    time scales (:func:`motorid.sweep.data_grid`).
     """
     table = None
     if sweep:
+        cond = ident.conditioned
+        # captures without an input channel were identified with the user's step level
+        step = cond.step_volts if any(c.input_v is None for c in captures.values()) else None
         try:
             order = 2 if "position" in captures else 1  # the paper's reduced state [θ, θ̇]
-            table = sensitivity_table(captures, settings=IdentifySettings(method="pinv", order=order))
+            axes: dict[str, Any] = {}
+            if float(cond.full_time_s[-1]) < max(PAPER_LENGTHS_S):
+                lengths, intervals, _ = data_grid(captures, step_volts=step)
+                axes = {"lengths_s": lengths, "intervals_s": intervals}
+            table = sensitivity_table(captures, settings=IdentifySettings(method="pinv", order=order),
+                                      step_volts=step, **axes)
         except MotorIdError:
-            table = None  # e.g. a record shorter than the paper's lengths: the section says so
+            table = None  # the section says the table could not be computed
     return build_report(ReportInputs(ident, captures, validation or {}, table, _design_view(ident, design), truth, title))
 
 

@@ -101,3 +101,19 @@ def test_report_simulates_a_design_made_on_the_default_model(demo, run_cli, tmp_
     html = page.read_text(encoding="utf-8")
     design = html[html.index('<section id="design">'):]
     assert 'alt="closed loop"' in design and "cannot be simulated" not in design
+
+
+def test_report_of_a_fast_motor_without_input_channel_has_every_section(tmp_path, run_cli):
+    """A 16 ms motor on a TBS1000, tacho + shunt, no input channel, 0.35 s of record: the
+    sensitivity table uses the data's own grid (the paper's lengths are longer than the record)
+    and the user's --step-volts."""
+    from motorid.trainer.realsetups import write_real_setup
+
+    rec = write_real_setup("fast-tbs1000", tmp_path / "rec", seed=2)
+    page = tmp_path / "r.html"
+    res = run_cli("report", "--out", page, *[str(a) for a in rec.cli_args])
+    assert res.code == 0, res.err
+    html = page.read_text(encoding="utf-8")
+    for sid in SECTIONS:
+        assert f'<section id="{sid}">' in html, sid
+    assert 'alt="sensitivity maps"' in html
