@@ -68,14 +68,19 @@ def test_whitened_and_unwhitened_disagreement_is_flagged(real_dir) -> None:
 
 
 def test_default_path_on_the_real_rig_passes(real_dir) -> None:
+    """Reference test on the HSLU rig (PROVENANCE.md): the authors' gain (tangent method) within
+    1 %, and their hand-refined PT2 + dead time's mean residence time 2·T1 + Td within 5 % (their
+    fit is a reference, not ground truth: 5 % is the issue's tolerance for the residence time)."""
     from motorid.io import read_capture
 
-    for name, gain in (("06_dc_step_5_15_00.csv", 245.5), ("06_dc_step_5_15_05.csv", 150.5)):
+    for name, gain, residence in (("06_dc_step_5_15_00.csv", 245.5, 2 * 0.1468 + 0.035),
+                                  ("06_dc_step_5_15_05.csv", 150.5, 2 * 0.1015 + 0.045)):
         cap = read_capture(real_dir / "hslu-rtl-dcmotor" / "csv" / name, role="velocity")
         r = identify_experiment({"velocity": cap})
         assert r.sanity.passed, (name, r.sanity.failures)
-        # the authors' gain (tangent method; PROVENANCE.md) within 1 %
-        assert r.model.first_order().dc_gain == pytest.approx(gain, rel=0.01)
+        fo = r.model.first_order()
+        assert fo.dc_gain == pytest.approx(gain, rel=0.01)
+        assert fo.time_constant_s + r.model.delay_s == pytest.approx(residence, rel=0.05)
 
 
 def test_pinv_at_the_papers_interval_on_a_dead_time_rig_is_flagged(real_dir) -> None:
