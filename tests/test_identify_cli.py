@@ -120,7 +120,8 @@ def test_identify_real_hslu_log(run_cli, real_dir, tmp_path):
 def test_sweep_prints_the_paper_table(demo, run_cli, tmp_path):
     out, _ = demo
     j = tmp_path / "s.json"
-    res = run_cli("sweep", "--velocity", out / "ALL0001", "--position", out / "ALL0000", "--json", j)
+    res = run_cli("sweep", "--velocity", out / "ALL0001", "--position", out / "ALL0000", "--json", j,
+                  "--lengths", "paper", "--intervals", "paper")
     assert res.code == 0, res.err
     assert "40 ms" in res.out and "2.9 s" in res.out and "spread" in res.out
     doc = json.loads(j.read_text())
