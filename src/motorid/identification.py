@@ -484,6 +484,11 @@ def identify_conditioned(cond: ConditionedExperiment, settings: IdentifySettings
     sanity = sanity_checks(model, t[keep][::step], v[keep][::step], cond.step_volts,
                            sample_interval_s=float(t[1] - t[0]), unwhitened=unwhitened, input_v=recorded)
     gate = tuple(f"SANITY CHECK FAILED — {f}" for f in sanity.failures)
+    if np.isfinite(model.dc_gain()) and model.dc_gain() < 0:
+        # legitimate (a tacho wired the other way round), but a student should know it
+        extra_warn.append(f"negative DC gain ({model.dc_gain():.4g}): the measured channel moves against the "
+                          "input — a sensor wired with the other polarity, or a negative step; the model keeps "
+                          "the sign, so a controller designed on it has the matching sign")
     model = model.replace(
         warnings=tuple(dict.fromkeys(gate + tuple(model.warnings) + tuple(extra_warn))),
         extras={**dict(model.extras), "choice": reason, "conditioning": list(cond.notes),

@@ -116,3 +116,14 @@ def test_closed_loop_record_without_a_step_is_refused_with_the_reason(real_dir, 
     res = run_cli("identify", "--velocity", real_dir / "hslu-rtl-dcmotor" / "csv" / "09_dc_step_20_25_00.csv")
     assert res.code == 2
     assert "open-loop step" in res.err and len(res.err.strip().splitlines()) == 1
+
+
+def test_a_reversed_tacho_gives_a_negative_gain_with_a_warning() -> None:
+    from dataclasses import replace as dc_replace
+
+    e = run_experiment("second-order", seed=2, roles=("velocity",), validation=False)
+    cap = e.captures["velocity"]
+    flipped = dc_replace(cap, output_v=-cap.output_v)
+    r = identify_experiment({"velocity": flipped}, IdentifySettings(method="classic"))
+    assert r.model.dc_gain() == pytest.approx(-e.truth.dc_gain * (1 - e.truth.equivalent_input_offset_v / e.step_volts), rel=0.02)
+    assert any("negative DC gain" in w for w in r.model.warnings)
