@@ -136,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
     for name, seed, code, edc, eres, ci, wall, nw, err in rows:
         note = f" ({err[:70]})" if err else ""
         print(f"| {name} | {seed} | {code}{note} | {edc:+.2f} | {eres:+.2f} | {ci} | {wall:.1f} | {nw} |")
-    print("\n| setup | runs | exit 0 | dc gain |err| % median / worst | residence |err| % median / worst |"
+    print("\n| setup | runs | exit 0 | dc gain abs err % median / worst | residence abs err % median / worst |"
           " headline in ci95 | wall s median |")
     print("|---|---|---|---|---|---|---|")
     for name in dict.fromkeys(r[0] for r in rows):
