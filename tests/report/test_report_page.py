@@ -117,3 +117,29 @@ def test_report_of_a_fast_motor_without_input_channel_has_every_section(tmp_path
     for sid in SECTIONS:
         assert f'<section id="{sid}">' in html, sid
     assert 'alt="sensitivity maps"' in html
+
+
+def test_figures_leave_the_callers_matplotlib_backend_alone(tmp_path):
+    """No ``matplotlib.use("Agg")`` in library code (issue 13): a notebook's backend stays."""
+    import subprocess
+    import sys
+    import textwrap
+
+    code = textwrap.dedent(
+        f"""
+        import matplotlib
+        matplotlib.use("pdf")
+        from motorid.demo import run_demo
+        run_demo({str(tmp_path / 'D')!r}, seed=5)
+        from motorid.simulate.modes import ModeCriteria, mode_map, plot_mode_maps, servo_plants
+        from motorid.model import MotorModel
+        import json, numpy as np
+        m = MotorModel.from_json(json.load(open({str(tmp_path / 'D' / 'model.json')!r})))
+        maps = tuple(mode_map(p, np.linspace(1, 20, 5), np.linspace(0, 4, 5), ModeCriteria()) for p in servo_plants(m))
+        plot_mode_maps(maps, {str(tmp_path / 'm.png')!r})
+        print(matplotlib.get_backend())
+        """
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "pdf"
+    assert (tmp_path / "m.png").read_bytes()[:4] == b"\x89PNG"

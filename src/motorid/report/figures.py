@@ -1,4 +1,5 @@
-"""The report's figures, each a function of data returning PNG bytes (matplotlib, Agg).
+"""The report's figures, each a function of data returning PNG bytes (matplotlib figures made
+without pyplot, so the caller's backend is never switched).
 
 The figure numbers of Masoud 2019 that each one corresponds to are given in the docstrings.
 """
@@ -8,17 +9,14 @@ from __future__ import annotations
 import io
 from collections.abc import Mapping, Sequence
 
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from motorid.capture import Capture  # noqa: E402
-from motorid.conditioning.denoise import fft_denoise  # noqa: E402
-from motorid.conditioning.derivative import derivative  # noqa: E402
-from motorid.conditioning.pipeline import ConditionedExperiment  # noqa: E402
-from motorid.model import MotorModel  # noqa: E402
+from motorid.capture import Capture
+from motorid.conditioning.denoise import fft_denoise
+from motorid.conditioning.derivative import derivative
+from motorid.conditioning.pipeline import ConditionedExperiment
+from motorid.model import MotorModel
 
 __all__ = [
     "png",
@@ -36,18 +34,24 @@ __all__ = [
 DPI = 80
 
 
-def png(fig: plt.Figure) -> bytes:
-    """Render and close a figure."""
+def _subplots(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float], **kwargs):
+    """``pyplot.subplots`` without pyplot: a :class:`~matplotlib.figure.Figure` of its own (no
+    global figure manager, no backend switch — a notebook's backend is left alone)."""
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots(nrows, ncols, **kwargs)
+
+
+def png(fig: Figure) -> bytes:
+    """Render a figure to PNG bytes (the figure is not kept by any manager)."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=DPI, bbox_inches="tight")
-    plt.close(fig)
     return buf.getvalue()
 
 
 def raw_captures(captures: Mapping[str, Capture]) -> bytes:
     """The captures as recorded, CH1 and CH2 on each file's own time axis (paper Fig. 25)."""
     n = len(captures)
-    fig, axes = plt.subplots(n, 1, figsize=(8, 2.2 * n), squeeze=False)
+    fig, axes = _subplots(n, 1, figsize=(8, 2.2 * n), squeeze=False)
     for ax, (role, cap) in zip(axes[:, 0], captures.items()):
         if cap.input_v is not None:
             ax.plot(cap.time_s, cap.input_v, lw=0.8, label="CH1 input")
@@ -65,7 +69,7 @@ def conditioned_signals(cond: ConditionedExperiment, derivative_method: str = "f
     """Synchronised, unwrapped, reduced step responses and the numerical derivative (Figs. 16–17, 26)."""
     roles = list(cond.full_outputs)
     extra = 1 if "position" in roles else 0
-    fig, axes = plt.subplots(len(roles) + extra, 1, figsize=(8, 2.2 * (len(roles) + extra)), squeeze=False)
+    fig, axes = _subplots(len(roles) + extra, 1, figsize=(8, 2.2 * (len(roles) + extra)), squeeze=False)
     for ax, role in zip(axes[:, 0], roles):
         ax.plot(cond.full_time_s, cond.full_outputs[role], lw=0.8, label=f"{role}, synchronised")
         ax.plot(cond.time_s, cond.outputs[role], "o", ms=3, label=f"reduced ×{cond.ratio}")
@@ -92,7 +96,7 @@ def current_denoising(cond: ConditionedExperiment) -> bytes:
     t = cond.full_time_s
     raw = cond.full_outputs["current"]
     den = fft_denoise(raw, float(t[1] - t[0]))
-    fig, ax = plt.subplots(figsize=(8, 2.6))
+    fig, ax = _subplots(figsize=(8, 2.6))
     ax.plot(t, raw, lw=0.5, alpha=0.6, label="recorded")
     ax.plot(t, den.values, lw=1.2, label=f"FFT denoised (cut-off {den.cutoff_hz:.3g} Hz)")
     ax.set_xlabel("time from the step (s)")
@@ -104,7 +108,7 @@ def current_denoising(cond: ConditionedExperiment) -> bytes:
 
 def pole_zero(model: MotorModel) -> bytes:
     """Poles (×) and zeros (○) of the velocity TF, with their 95% intervals when known."""
-    fig, ax = plt.subplots(figsize=(5, 3.4))
+    fig, ax = _subplots(figsize=(5, 3.4))
     poles, zeros = model.poles(), model.zeros()
     ax.plot(np.real(poles), np.imag(poles), "x", ms=9, mew=2, label="poles")
     if zeros.size:
@@ -133,7 +137,7 @@ def step_fit(model: MotorModel, cond: ConditionedExperiment) -> bytes:
     if not roles and "velocity" in cond.full_outputs:
         roles = ["velocity"]
     sim = model.step_response(t, cond.step_volts)
-    fig, axes = plt.subplots(2, len(roles), figsize=(4 * len(roles), 4.2), squeeze=False,
+    fig, axes = _subplots(2, len(roles), figsize=(4 * len(roles), 4.2), squeeze=False,
                              gridspec_kw={"height_ratios": [3, 1]})
     for j, role in enumerate(roles):
         y = cond.full_outputs[role]
@@ -154,7 +158,7 @@ def step_fit(model: MotorModel, cond: ConditionedExperiment) -> bytes:
 
 def hankel_values(scaled: Sequence[float], raw: Sequence[float], floor: float | None) -> bytes:
     """Normalised Hankel singular values, time-scaled and raw (order evidence, paper §IV)."""
-    fig, ax = plt.subplots(figsize=(5, 3))
+    fig, ax = _subplots(figsize=(5, 3))
     k = np.arange(1, len(scaled) + 1)
     ax.semilogy(k, np.maximum(scaled, 1e-16), "o-", label="time-scaled")
     ax.semilogy(np.arange(1, len(raw) + 1), np.maximum(raw, 1e-16), "s--", label="raw (seconds)")
@@ -169,7 +173,7 @@ def hankel_values(scaled: Sequence[float], raw: Sequence[float], floor: float | 
 
 def sweep_maps(lengths: Sequence[float], intervals: Sequence[float], k: np.ndarray, tau: np.ndarray) -> bytes:
     """Heat maps of k and τ over record length × sample interval (paper Tables 1–3)."""
-    fig, axes = plt.subplots(1, 2, figsize=(8, 3))
+    fig, axes = _subplots(1, 2, figsize=(8, 3))
     for ax, data, name in ((axes[0], k, "k"), (axes[1], tau, "τ (s)")):
         im = ax.imshow(data, aspect="auto", origin="upper", cmap="viridis")
         ax.set_xticks(range(len(lengths)), [f"{x:g} s" for x in lengths])
@@ -188,7 +192,7 @@ def sweep_maps(lengths: Sequence[float], intervals: Sequence[float], k: np.ndarr
 def validation_overlay(time_s: np.ndarray, input_v: np.ndarray, measured: np.ndarray, simulated: np.ndarray,
                        title: str) -> bytes:
     """Model driven by a recorded test signal vs the measured response (paper Figs. 36–38)."""
-    fig, ax = plt.subplots(figsize=(8, 2.6))
+    fig, ax = _subplots(figsize=(8, 2.6))
     ax.plot(time_s, input_v, lw=0.6, alpha=0.5, label="input (CH1)")
     ax.plot(time_s, measured, lw=0.7, label="measured")
     ax.plot(time_s, simulated, lw=1.2, label="model")
@@ -202,7 +206,7 @@ def validation_overlay(time_s: np.ndarray, input_v: np.ndarray, measured: np.nda
 
 def closed_loop(time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str) -> bytes:
     """Closed-loop response: output, reference, control effort (and estimated states)."""
-    fig, axes = plt.subplots(2, 1, figsize=(8, 4), sharex=True)
+    fig, axes = _subplots(2, 1, figsize=(8, 4), sharex=True)
     for name, y in series.items():
         ax = axes[1] if name.startswith("u") or "control" in name else axes[0]
         ax.plot(time_s, y, lw=1, label=name)

@@ -447,16 +447,15 @@ def modes_json(maps: tuple[ModeMap, ...], criteria: ModeCriteria) -> dict[str, A
 
 def plot_mode_maps(maps: tuple[ModeMap, ...], path: str | Path) -> None:
     """Write the maps side by side as a PNG (one colour per mode)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.colors import ListedColormap
+    from matplotlib.figure import Figure
     from matplotlib.patches import Patch
 
     colours = ["#d62728", "#1f77b4", "#2ca02c", "#bcbd22", "#ff7f0e", "#9467bd"]
     cmap = ListedColormap(colours)
-    fig, axes = plt.subplots(1, len(maps), figsize=(5.5 * len(maps), 5), squeeze=False)
+    # a Figure of its own, not pyplot's: no backend switch in the caller's session
+    fig = Figure(figsize=(5.5 * len(maps), 5))
+    axes = fig.subplots(1, len(maps), squeeze=False)
     for ax, m in zip(axes[0], maps):
         ext = [m.kp[0], m.kp[-1], m.kv[0], m.kv[-1]]
         ax.imshow(m.labels, origin="lower", aspect="auto", extent=ext, cmap=cmap, vmin=-0.5,
@@ -468,7 +467,6 @@ def plot_mode_maps(maps: tuple[ModeMap, ...], path: str | Path) -> None:
                ncol=len(MODES), fontsize="small")
     fig.tight_layout(rect=(0, 0.07, 1, 1))
     fig.savefig(str(path), dpi=100)
-    plt.close(fig)
 
 
 def write_modes_json(maps: tuple[ModeMap, ...], criteria: ModeCriteria, path: str | Path) -> None:
