@@ -91,3 +91,28 @@ def test_inspect_human_table(run_cli, real_dir):
     res = run_cli("inspect", f)
     assert res.code == 0, res.err
     assert "plain-csv" in res.out and "velocity" in res.out
+
+
+def test_every_user_error_is_a_motorid_error_and_its_builtin() -> None:
+    """Issue 13: all error classes in motorid.errors, each a MotorIdError and the matching
+    built-in, and still importable where they used to live."""
+    import motorid.conditioning.edge as edge
+    import motorid.control.feedback as feedback
+    import motorid.errors as errors
+    import motorid.identify.result as result
+    import motorid.io.atomic as atomic
+    import motorid.model as model
+
+    assert edge.ResponseNotStepError is errors.ResponseNotStepError
+    assert feedback.ControlDesignError is errors.ControlDesignError
+    assert result.IdentificationError is errors.IdentificationError
+    assert atomic.OutputWriteError is errors.OutputWriteError
+    assert model.ModelFormatError is errors.ModelFormatError
+    builtin = {"OutputExistsError": FileExistsError, "OutputWriteError": OSError}
+    for name in errors.__all__:
+        cls = getattr(errors, name)
+        assert issubclass(cls, errors.MotorIdError)
+        if name != "MotorIdError":
+            assert issubclass(cls, builtin.get(name, ValueError)), name
+    err = errors.OutputWriteError("cannot write", file="x.json")
+    assert str(err) == "x.json: cannot write" and isinstance(err, OSError)

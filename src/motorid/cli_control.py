@@ -15,7 +15,7 @@ from typing import Annotated, Optional
 import numpy as np
 import typer
 
-from motorid.errors import OptionError
+from motorid.errors import MotorIdError, OptionError
 from motorid.io import atomic_outputs, check_writable
 
 __all__ = ["model_app", "model_from_params_cmd", "model_from_step_test_cmd", "design", "simulate", "modes",
@@ -95,6 +95,8 @@ def _plot_to(outs, target: Path, plot, *args, **kwargs) -> None:
 
     try:
         plot(*args, outs.path(target), **kwargs)
+    except MotorIdError:  # already one line (OutputWriteError is an OSError too)
+        raise
     except OSError as exc:
         raise write_error(target, exc) from None
 

@@ -1,8 +1,12 @@
-"""User-facing error types.
+"""User-facing error types: all of them, in one place.
 
 Every user mistake (a bad file, a bad option, data that cannot give a model) raises a
 subclass of :class:`MotorIdError`.  The CLI turns these into one line on stderr and exit
-code 2; any other exception is a bug (exit 1, traceback behind ``--debug``).
+code 2; any other exception is a bug (exit 1, traceback behind ``--debug``).  Each class is
+also the matching built-in (``ValueError`` for bad values and data, ``FileExistsError`` and
+``OSError`` for outputs), as python-control's ``ControlDimension(ValueError)``: a caller's
+``except ValueError`` sees them.  The modules that raise them re-export them under their old
+names (``motorid.model.ModelFormatError``, ``motorid.identify.result.IdentificationError``…).
 """
 
 from __future__ import annotations
@@ -14,7 +18,12 @@ __all__ = [
     "StepNotFoundError",
     "ConditioningError",
     "OutputExistsError",
+    "OutputWriteError",
     "OptionError",
+    "ResponseNotStepError",
+    "ControlDesignError",
+    "ModelFormatError",
+    "IdentificationError",
 ]
 
 
@@ -51,25 +60,50 @@ class MotorIdError(Exception):
         return type(self)(self.message, file=file, row=self.row)
 
 
-class CaptureFormatError(MotorIdError):
+class CaptureFormatError(MotorIdError, ValueError):
     """The file is not a capture in any supported format, or it cannot be parsed."""
 
 
-class CaptureDataError(MotorIdError):
+class CaptureDataError(MotorIdError, ValueError):
     """The file parses but its samples are unusable (NaN, bad time axis, mismatched channels)."""
 
 
-class StepNotFoundError(MotorIdError):
+class StepNotFoundError(MotorIdError, ValueError):
     """No usable step edge in the input channel (or in the response, without one)."""
 
 
-class ConditioningError(MotorIdError):
+class ResponseNotStepError(StepNotFoundError):
+    """The input channel changes like a response (exponential rise), not like a step."""
+
+
+class ConditioningError(MotorIdError, ValueError):
     """A conditioning step cannot be applied to these data with these settings."""
 
 
-class OutputExistsError(MotorIdError):
+class OutputExistsError(MotorIdError, FileExistsError):
     """Refusing to overwrite an existing file without ``--force``."""
 
 
-class OptionError(MotorIdError):
+class OutputWriteError(MotorIdError, OSError):
+    """An output file could not be written (disk full, permissions, read-only file system, a
+    path that is a device)."""
+
+
+class OptionError(MotorIdError, ValueError):
     """A command-line option or a function argument has an invalid value."""
+
+
+class ControlDesignError(OptionError):
+    """A controller or observer cannot be designed for this model with these settings."""
+
+
+class ModelFormatError(MotorIdError, ValueError):
+    """A model JSON file (or a model built by hand) is malformed."""
+
+
+class IdentificationError(MotorIdError, ValueError):
+    """The data cannot give a model with the requested method and settings.
+
+    Raised, for example, when too few samples remain for the requested order or when the
+    step response never rises; the message says what would fix it.
+    """

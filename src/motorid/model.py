@@ -28,7 +28,7 @@ import control
 import numpy as np
 import scipy.linalg
 
-from motorid.errors import MotorIdError, OptionError
+from motorid.errors import ModelFormatError, OptionError
 
 __all__ = [
     "SCHEMA",
@@ -52,8 +52,7 @@ CANCEL_TOL_REL = 0.02
 EXACT_CANCEL_TOL = 1e-8
 
 
-class ModelFormatError(MotorIdError):
-    """A model JSON file (or a model built by hand) is malformed."""
+# ModelFormatError lives in motorid.errors with every other user-facing error; importable here
 
 
 @dataclass(frozen=True, slots=True)

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from motorid.errors import StepNotFoundError
+from motorid.errors import ResponseNotStepError, StepNotFoundError
 
 __all__ = [
     "StepEdge",
@@ -40,8 +40,7 @@ MAX_STEP_RISE_SAMPLES = 8
 RESPONSE_RISE_FRACTION = 0.01
 
 
-class ResponseNotStepError(StepNotFoundError):
-    """The input channel changes like a response (exponential rise), not like a step."""
+# ResponseNotStepError lives in motorid.errors with every other user-facing error
 
 
 @dataclass(frozen=True, slots=True)

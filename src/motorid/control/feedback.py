@@ -15,7 +15,7 @@ import control
 import numpy as np
 import scipy.linalg
 
-from motorid.errors import OptionError
+from motorid.errors import ControlDesignError, OptionError
 
 __all__ = [
     "ControlDesignError",
@@ -35,8 +35,7 @@ __all__ = [
 ]
 
 
-class ControlDesignError(OptionError):
-    """A controller or observer cannot be designed for this model with these settings."""
+# ControlDesignError lives in motorid.errors with every other user-facing error
 
 
 def parse_poles(text: str, option: str = "--poles") -> np.ndarray:

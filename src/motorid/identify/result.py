@@ -4,17 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from motorid.errors import MotorIdError
+from motorid.errors import IdentificationError
 
 __all__ = ["IdentificationError", "equilibrated_condition"]
 
 
-class IdentificationError(MotorIdError):
-    """The data cannot give a model with the requested method and settings.
-
-    Raised, for example, when too few samples remain for the requested order or when the
-    step response never rises; the message says what would fix it.
-    """
+# IdentificationError lives in motorid.errors with every other user-facing error
 
 
 def equilibrated_condition(regressor: np.ndarray) -> float:

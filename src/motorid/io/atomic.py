@@ -26,13 +26,12 @@ import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-from motorid.errors import MotorIdError
+from motorid.errors import MotorIdError, OutputWriteError
 
 __all__ = ["OutputWriteError", "AtomicOutputs", "atomic_outputs", "atomic_folder"]
 
 
-class OutputWriteError(MotorIdError):
-    """An output file could not be written (disk full, permissions, read-only file system)."""
+# OutputWriteError lives in motorid.errors with every other user-facing error
 
 
 def _reason(exc: OSError) -> str:
@@ -195,6 +194,8 @@ def atomic_outputs() -> Iterator[AtomicOutputs]:
         raise
     try:
         outs.commit()
+    except MotorIdError:  # commit's own one-line error (an OSError too): as it is
+        raise
     except OSError as exc:  # pragma: no cover - commit maps its own errors
         raise write_error("the output", exc) from None
 
@@ -254,6 +255,9 @@ def atomic_folder(folder: Path | str, targets: Iterable[Path | str]) -> Iterator
         raise write_error(folder, exc) from None
     try:
         yield folder
+    except MotorIdError:  # a user-facing error of the block (some are OSErrors too): as it is
+        rollback()
+        raise
     except OSError as exc:
         rollback()
         raise write_error(folder, exc) from None
