@@ -73,8 +73,30 @@ class IdentifySettings:
     """
 
     def __post_init__(self) -> None:
+        # settings validate themselves (issue 13), naming the Python parameter
+        from motorid.conditioning.derivative import DERIVATIVE_METHODS
+        from motorid.identify.pinv import PINV_STRUCTURES
+
         if self.markov_basis not in MARKOV_BASES:
             raise OptionError(f"--markov-basis must be one of {', '.join(MARKOV_BASES)}, not {self.markov_basis!r}")
+        if self.method not in METHODS:
+            raise OptionError(f"method must be one of {', '.join(METHODS)}, got {self.method!r}")
+        if isinstance(self.order, bool) or self.order not in ("auto", 1, 2, 3):
+            raise OptionError(f"order must be 'auto', 1, 2 or 3, got {self.order!r}")
+        if self.derivative not in DERIVATIVE_METHODS:
+            raise OptionError(f"derivative must be one of {', '.join(DERIVATIVE_METHODS)}, got {self.derivative!r}")
+        if self.structure not in PINV_STRUCTURES:
+            raise OptionError(f"structure must be one of {', '.join(PINV_STRUCTURES)}, got {self.structure!r}")
+        mp = self.markov_params
+        if mp is not None and (isinstance(mp, bool) or not isinstance(mp, (int, np.integer)) or mp < 3):
+            raise OptionError(f"markov_params must be None or a whole number >= 3, got {mp!r}")
+        mw = self.markov_window_s
+        if mw is not None and not (isinstance(mw, (int, float)) and np.isfinite(mw) and mw > 0):
+            raise OptionError(f"markov_window_s must be None or a positive number of seconds, got {mw!r}")
+        if self.delay is not None and not isinstance(self.delay, (bool, np.bool_)):
+            raise OptionError(f"delay must be None, True or False, got {self.delay!r}")
+        if not isinstance(self.conditioning, ConditioningSettings):
+            raise OptionError(f"conditioning must be a ConditioningSettings, got {type(self.conditioning).__name__}")
 
     method: str = "auto"
     order: str | int = "auto"

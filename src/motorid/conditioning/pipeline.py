@@ -58,6 +58,30 @@ class ConditioningSettings:
     denoise_current: bool = True
     step_tolerance: float = 0.03
 
+    def __post_init__(self) -> None:
+        # settings validate themselves (issue 13): a wrong value fails here, naming the
+        # parameter, not deep inside the pipeline
+        import math
+
+        from motorid.conditioning.resample import REDUCTION_METHODS
+        from motorid.conditioning.sync import SYNC_METHODS
+
+        si = self.sample_interval_s
+        if not (si is None or si == "auto" or (isinstance(si, (int, float)) and not isinstance(si, bool)
+                                                and math.isfinite(si) and si > 0)):
+            raise OptionError(f"sample_interval_s must be 'auto', None or a positive number of seconds, got {si!r}")
+        if self.ratio is not None and not (isinstance(self.ratio, (int, np.integer)) and self.ratio >= 1):
+            raise OptionError(f"ratio must be a whole number >= 1, got {self.ratio!r}")
+        if self.reduction not in REDUCTION_METHODS:
+            raise OptionError(f"reduction must be one of {', '.join(REDUCTION_METHODS)}, got {self.reduction!r}")
+        rl = self.record_length_s
+        if rl is not None and not (isinstance(rl, (int, float)) and math.isfinite(rl) and rl > 0):
+            raise OptionError(f"record_length_s must be None or a positive number of seconds, got {rl!r}")
+        if self.sync not in SYNC_METHODS:
+            raise OptionError(f"sync must be one of {', '.join(SYNC_METHODS)}, got {self.sync!r}")
+        if not (isinstance(self.step_tolerance, (int, float)) and 0 < self.step_tolerance < 1):
+            raise OptionError(f"step_tolerance must be between 0 and 1, got {self.step_tolerance!r}")
+
 
 @dataclass(frozen=True, slots=True)
 class ConditionedExperiment:
