@@ -2,6 +2,8 @@
 
 import re
 
+import pytest
+
 from conftest import REPO
 
 
@@ -14,3 +16,14 @@ def test_tutorial_code_blocks_run(tmp_path, monkeypatch, capsys):
     for i, block in enumerate(blocks):
         exec(compile(block, f"tutorial block {i + 1}", "exec"), namespace)  # noqa: S102 - our own docs
     assert (tmp_path / "report.html").is_file()
+    # the numbers the tutorial shows, against the trainer's truth (independent of our output):
+    # the paper's pinv at its 100 ms within 2 % in DC gain; auto within 0.5 % of the gain a
+    # step shows (linear × (1 − offset/step)), its interval covering the linear τ
+    exp, paper, best = namespace["exp"], namespace["paper"], namespace["best"]
+    assert paper.conditioned.sample_interval_s == pytest.approx(0.1, rel=1e-6)
+    effective = exp.truth.dc_gain * (1 - exp.truth.equivalent_input_offset_v / exp.step_volts)
+    assert paper.model.first_order().dc_gain == pytest.approx(effective, rel=0.02)
+    assert best.model.first_order().dc_gain == pytest.approx(effective, rel=0.005)
+    lo, hi = best.model.uncertainty["time_constant"]["ci95"]
+    assert lo <= exp.truth.time_constant_s <= hi
+    assert namespace["again"].to_json() == best.model.to_json()
