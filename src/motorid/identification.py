@@ -245,6 +245,19 @@ LAGUERRE_SAMPLES = 5000
 SANITY_SAMPLES = 20000
 
 
+def _dynamic_part(cond: ConditionedExperiment, max_samples: int, time_s: np.ndarray, *arrays: np.ndarray,
+                  length_s: float | None = None) -> tuple[np.ndarray, ...]:
+    """The part of a full-rate record the dynamics need — as long as the output-error fit's
+    (:func:`motorid.refinement.fit_record_length`), or ``length_s`` — evenly thinned to at most
+    ``max_samples`` samples; ``arrays`` share ``time_s``'s grid."""
+    from motorid.refinement import fit_record_length
+
+    length = fit_record_length(cond) if length_s is None else length_s
+    keep = np.ones(time_s.size, dtype=bool) if length is None else time_s <= length * (1 + 1e-9)
+    step = max(1, int(np.ceil(np.count_nonzero(keep) / max_samples)))
+    return tuple(a[keep][::step] for a in (time_s, *arrays))
+
+
 def _markov_laguerre(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
     """Generalised Markov parameters on a Laguerre basis (issue 14): a, N and the dead time
     from the measured response time, by BIC; the order from the Hankel singular values above
@@ -255,16 +268,8 @@ def _markov_laguerre(cond: ConditionedExperiment, s: IdentifySettings) -> MotorM
     output = "velocity" if "velocity" in cond.full_outputs else "position"
     y = cond.full_outputs[output]
     u = cond.full_input_v
-    from motorid.refinement import fit_record_length
-
-    # the part of the record the dynamics need (as for the output-error fit), at most
-    # LAGUERRE_SAMPLES samples: a 3000 s log took 40 s of SVDs of 300 000-row regressors
-    length = fit_record_length(cond) if s.markov_window_s is None else s.markov_window_s
-    if length is not None:
-        keep = t <= length * (1 + 1e-9)
-        t, y, u = t[keep], y[keep], u[keep]
-    step = max(1, int(np.ceil(t.size / LAGUERRE_SAMPLES)))
-    t, y, u = t[::step], y[::step], u[::step]
+    # a 3000 s log took 40 s of SVDs of 300 000-row regressors
+    t, y, u = _dynamic_part(cond, LAGUERRE_SAMPLES, t, y, u, length_s=s.markov_window_s)
     lset = LaguerreSettings(n_terms=s.markov_params, order=s.order if s.order == "auto" else int(s.order))
     res = laguerre_identify(t, y, cond.step_volts, lset, input_v=u, output=output,
                             response_time_s=cond.response_time_s, dead_time_s=cond.dead_time_s)
@@ -496,14 +501,9 @@ def identify_conditioned(cond: ConditionedExperiment, settings: IdentifySettings
     )
     model = model.replace(settings=settings_doc, step_volts=cond.step_volts)
     recorded = {r.source: r.input_v[r.time_s >= 0] for r in cond.responses.values() if r.edge.method != "onset"}
-    # the gate looks at the part of the record the dynamics need, at most SANITY_SAMPLES
-    # samples (its first-order baseline is a nonlinear fit: 9 s on a 10-million-sample log)
-    from motorid.refinement import fit_record_length
-
-    length = fit_record_length(cond)
-    keep = slice(None) if length is None else t <= length * (1 + 1e-9)
-    step = max(1, int(np.ceil(t[keep].size / SANITY_SAMPLES)))
-    sanity = sanity_checks(model, t[keep][::step], v[keep][::step], cond.step_volts,
+    # its first-order baseline is a nonlinear fit: 9 s on a 10-million-sample log
+    t_gate, v_gate = _dynamic_part(cond, SANITY_SAMPLES, t, v)
+    sanity = sanity_checks(model, t_gate, v_gate, cond.step_volts,
                            sample_interval_s=float(t[1] - t[0]), unwhitened=unwhitened, input_v=recorded)
     gate = tuple(f"SANITY CHECK FAILED — {f}" for f in sanity.failures)
     if np.isfinite(model.dc_gain()) and model.dc_gain() < 0:
