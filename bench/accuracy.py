@@ -151,18 +151,12 @@ def real_setup_run(name: str, seed: int, methods):
     import tempfile
     from pathlib import Path
 
-    from motorid.io import read_capture
     from motorid.trainer.realsetups import write_real_setup
 
     out = {}
     with tempfile.TemporaryDirectory() as tmp:
         rec = write_real_setup(name, Path(tmp) / "rec", seed=seed)
-        args = list(rec.cli_args)
-        # the captures a user names on the command line (--velocity X --current Y ...)
-        caps = {flag[2:]: read_capture(args[i + 1], role=flag[2:]) for i, flag in enumerate(args)
-                if flag in ("--position", "--velocity", "--current")}
-        step = float(args[args.index("--step-volts") + 1]) if "--step-volts" in args else None
-        cond = condition_experiment(caps, ConditioningSettings(), step_volts=step)
+        cond = condition_experiment(rec.read_captures(), ConditioningSettings(), step_volts=rec.step_volts)
         for method in methods:
             if method not in REAL_SETUP_METHODS:
                 continue

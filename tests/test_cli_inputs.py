@@ -287,14 +287,11 @@ def test_sweep_grid_comes_from_the_data_for_a_fast_motor(tmp_path, run_cli):
     """Issue 11, item 1, for the sweep: the paper's grid (1.9–2.9 s × 0.04–0.12 s) has no cell a
     0.35 s record of a 16 ms motor allows; the default grid is the data's own."""
     from motorid.sweep import PAPER_LENGTHS_S, data_grid
-    from motorid.io import read_capture
     from motorid.trainer.realsetups import write_real_setup
 
     rec = write_real_setup("fast-tbs1000", tmp_path / "rec", seed=1)
     args = [str(a) for a in rec.cli_args]
-    caps = {flag[2:]: read_capture(args[i + 1], role=flag[2:]) for i, flag in enumerate(args)
-            if flag in ("--velocity", "--current")}
-    lengths, intervals, note = data_grid(caps, step_volts=12.28)
+    lengths, intervals, note = data_grid(rec.read_captures(), step_volts=rec.step_volts)
     record = max(lengths)
     assert max(lengths) < min(PAPER_LENGTHS_S) and min(lengths) == pytest.approx(0.65 * record, rel=1e-3)
     assert all(i >= rec.sample_interval_s * (1 - 1e-9) for i in intervals)

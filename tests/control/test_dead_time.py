@@ -10,7 +10,6 @@ import pytest
 
 from motorid.control.design import DesignSettings, design_controller
 from motorid.identification import identify_experiment
-from motorid.io import read_capture
 from motorid.simulate.closed_loop import SimulationSettings, simulate_closed_loop
 from motorid.trainer.realsetups import write_real_setup
 
@@ -18,9 +17,7 @@ from motorid.trainer.realsetups import write_real_setup
 @pytest.fixture(scope="module")
 def model(tmp_path_factory):
     rec = write_real_setup("daq-deadtime", tmp_path_factory.mktemp("daq") / "rec", seed=0)
-    args = list(rec.cli_args)
-    cap = read_capture(args[args.index("--velocity") + 1], role="velocity")
-    m = identify_experiment({"velocity": cap}).model
+    m = identify_experiment(rec.read_captures()).model
     assert m.delay_s == pytest.approx(rec.truth.delay_s, abs=0.01)  # the dead time was found
     return m
 

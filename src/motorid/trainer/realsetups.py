@@ -34,7 +34,7 @@ from types import MappingProxyType
 import control
 import numpy as np
 
-from motorid.capture import ChannelInfo, ScopeInfo
+from motorid.capture import Capture, ChannelInfo, ScopeInfo
 from motorid.errors import OptionError
 from motorid.io._common import check_writable
 from motorid.io.tektronix import write_tds_channel
@@ -143,6 +143,21 @@ class RealSetupRecording:
     config: TrainerConfig
     seed: int
     sample_interval_s: float
+
+    def read_captures(self) -> dict[str, Capture]:
+        """The captures a user names in :attr:`cli_args` (``--velocity X --current Y``), read
+        back with :func:`motorid.io.read_capture`, keyed by role."""
+        from motorid.io import read_capture
+
+        args = list(self.cli_args)
+        return {flag[2:]: read_capture(args[i + 1], role=flag[2:]) for i, flag in enumerate(args)
+                if flag in ("--position", "--velocity", "--current")}
+
+    @property
+    def step_volts(self) -> float | None:
+        """The ``--step-volts`` a user gives (set-ups without an input channel), else None."""
+        args = list(self.cli_args)
+        return float(args[args.index("--step-volts") + 1]) if "--step-volts" in args else None
 
 
 def _fast_tbs1000() -> TrainerConfig:
