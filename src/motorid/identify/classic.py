@@ -15,7 +15,7 @@ import numpy as np
 from motorid.errors import OptionError
 from motorid.identify.result import IdentificationError
 
-__all__ = ["ClassicResult", "classic_first_order", "SETTLE_WARN"]
+__all__ = ["ClassicResult", "classic_first_order", "first_crossing", "SETTLE_WARN"]
 
 #: Change over the last 20 % of the record, relative to the final value, above which the
 #: record is reported as not settled.
@@ -64,6 +64,28 @@ class ClassicResult:
             outputs=("velocity",), step_volts=self.step_volts, method="classic",
             settings={"final_fraction": 0.1, "rise_fraction": _RISE}, warnings=self.warnings,
         )
+
+
+def first_crossing(time_s: np.ndarray, y: np.ndarray, level: float) -> tuple[float, int]:
+    """First time ``y`` reaches ``level`` (rising for a positive level, falling for a negative
+    one), linearly interpolated between the samples either side.
+
+    Returns
+    -------
+    (float, int)
+        The time and the index of the first sample at or past the level; ``(nan, -1)`` when
+        it is never reached, ``(time_s[0], 0)`` when the first sample is already past it.
+    """
+    rel = (y - level) * (np.sign(level) or 1.0)
+    idx = np.flatnonzero(rel >= 0)
+    if idx.size == 0:
+        return float("nan"), -1
+    i = int(idx[0])
+    if i == 0:
+        return float(time_s[0]), 0
+    dy = y[i] - y[i - 1]
+    frac = (level - y[i - 1]) / dy if dy != 0 else 0.0
+    return float(time_s[i - 1] + frac * (time_s[i] - time_s[i - 1])), i
 
 
 def classic_first_order(time_s: Any, y: Any, step_volts: float, *, t0: float = 0.0) -> ClassicResult:
@@ -120,18 +142,11 @@ def classic_first_order(time_s: Any, y: Any, step_volts: float, *, t0: float = 0
     if drift > SETTLE_WARN:
         warnings.append(f"velocity has not settled: it changes {100 * drift:.1f}% over the last 20% of the "
                         "record; record longer for a reliable gain")
-    level = _RISE * final
-    rel = (v - level) * np.sign(final)
-    idx = np.flatnonzero(rel >= 0)
-    if idx.size == 0:
+    t63, i = first_crossing(t, v, _RISE * final)
+    if i < 0:
         raise IdentificationError("the velocity never reaches 63.2 % of its final value")
-    i = int(idx[0])
     if i == 0:
-        t63 = t[0]
         warnings.append("velocity is already above 63.2 % at the step; time constant is unreliable")
-    else:
-        # Linear interpolation between the samples around the crossing.
-        t63 = t[i - 1] + (t[i] - t[i - 1]) * (level - v[i - 1]) / (v[i] - v[i - 1])
     tau = float(t63 - t0)
     if tau <= 0:
         raise IdentificationError("the 63.2 % crossing is at the step edge; cannot estimate a time constant")

@@ -29,6 +29,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.optimize
 
+from motorid.identify.classic import first_crossing
+
 __all__ = ["SanityCheck", "SanityReport", "first_order_baseline", "sanity_checks", "TOLERANCES"]
 
 #: Tolerances of the gate, each with its reason.
@@ -129,17 +131,8 @@ def first_order_baseline(time_s: np.ndarray, y: np.ndarray, step_volts: float) -
 
 
 def _t63(t: np.ndarray, y: np.ndarray, final: float) -> float:
-    z = y * np.sign(final)
-    idx = np.flatnonzero(z >= 0.632 * abs(final))
-    if not idx.size:
-        return float("nan")
-    k = int(idx[0])
-    if k == 0:
-        return float(t[0])
-    # linear interpolation between the samples either side of the crossing
-    z0, z1 = z[k - 1], z[k]
-    frac = (0.632 * abs(final) - z0) / (z1 - z0) if z1 != z0 else 0.0
-    return float(t[k - 1] + frac * (t[k] - t[k - 1]))
+    """63.2 % time of a response towards ``final`` (the classic read-off's crossing)."""
+    return first_crossing(t, y, (1.0 - np.exp(-1.0)) * final)[0]
 
 
 def sanity_checks(
