@@ -68,8 +68,6 @@ ORDERS: tuple[str, ...] = ("auto", "1", "2", "3")
 MIN_RECORD_SAMPLES = 20
 #: Samples after reduction the conditioning needs (see ``condition_experiment``).
 MIN_REDUCED_SAMPLES = 6
-#: ``--step-volts`` may differ from a CH1 step by this fraction before it is refused.
-STEP_VOLTS_TOLERANCE = 0.05
 
 
 def _choice(option: str, value: Optional[str], allowed) -> None:
@@ -159,33 +157,20 @@ def _check_options(
         _choice("--markov-basis", markov_basis, MARKOV_BASES)
 
 
-def _check_against_captures(caps: dict, *, step_volts: Optional[float], record_length: Optional[float]) -> None:
-    """Checks of options that need the captures (read, not yet conditioned).
+def _check_against_captures(caps: dict, *, record_length: Optional[float]) -> None:
+    """Checks of options that need the captures (read, not yet conditioned); a ``--step-volts``
+    contradicting a CH1 step is refused by the conditioning itself (``step_response``).
 
     Raises
     ------
     OptionError
-        A ``--record-length`` shorter than :data:`MIN_RECORD_SAMPLES` samples of a capture, or
-        a ``--step-volts`` that contradicts the step on a capture's CH1.
+        A ``--record-length`` shorter than :data:`MIN_RECORD_SAMPLES` samples of a capture.
     """
-    from motorid.conditioning.edge import step_edge
-
     for cap in caps.values():
         dt = float(cap.time_s[-1] - cap.time_s[0]) / max(cap.n_samples - 1, 1)
         if record_length is not None and record_length < MIN_RECORD_SAMPLES * dt:
             raise OptionError(f"--record-length {record_length:g} s holds fewer than {MIN_RECORD_SAMPLES} samples "
                               f"(Δt {dt:.3g} s): give at least {MIN_RECORD_SAMPLES * dt:.3g} s", file=cap.source)
-        if step_volts is None or cap.input_v is None:
-            continue
-        try:
-            edge = step_edge(cap.time_s, cap.input_v, file=cap.source)
-        except MotorIdError:
-            continue  # the conditioning reports a CH1 without a step in its own words
-        amp = edge.amplitude_v
-        if abs(step_volts - amp) > STEP_VOLTS_TOLERANCE * abs(amp):
-            raise OptionError(f"--step-volts {step_volts:g} contradicts the {amp:.4g} V step on its CH1: "
-                              "leave --step-volts out (CH1 gives the step) or check the probe setting",
-                              file=cap.source)
 
 
 def _strict_exit(result, strict: bool) -> None:
@@ -404,7 +389,7 @@ def identify(
         markov_basis=markov_basis,
     )
     caps = _read_roles(position, velocity, current, columns, force_role=force_role)
-    _check_against_captures(caps, step_volts=step_volts, record_length=record_length)
+    _check_against_captures(caps, record_length=record_length)
     checks = _validation_captures(validate, columns) if report_out is not None else {}
     if report_out is not None:
         from motorid.reporting import read_design
@@ -534,7 +519,7 @@ def report(
     _one_per_role(position, velocity, current)
     settings = IdentifySettings(method=method, conditioning=_conditioning(None, sample_interval, None, "subsample", "interp"))
     caps = _read_roles(position, velocity, current, columns, force_role=force_role)
-    _check_against_captures(caps, step_volts=step_volts, record_length=None)
+    _check_against_captures(caps, record_length=None)
     checks = _validation_captures(validate, columns)
     doc = read_design(design) if design is not None else None
     result = identify_experiment(caps, settings, step_volts=step_volts)
@@ -598,7 +583,7 @@ def sweep(
         auto_lens, auto_ints, grid_note = data_grid(caps, step_volts=step_volts)
         lens = auto_lens if lens is None else lens
         ints = auto_ints if ints is None else ints
-    _check_against_captures(caps, step_volts=step_volts, record_length=min(lens))
+    _check_against_captures(caps, record_length=min(lens))
     con = _console()
     # no bar when stderr is not a terminal: a transient bar still leaves a blank line there,
     # and the error line (exit 2) must be the only one a script sees

@@ -189,3 +189,15 @@ def test_ripple_that_never_goes_away_is_not_told_to_record_longer() -> None:
     rising = np.where(k >= 0, 0.3 * (1 - np.exp(-np.maximum(t, 0) / 4.0)), 0.0)  # τ 4 s in a 9 s record
     r = identify_experiment({"velocity": _capture(t, rising + noise, u=u)}, IdentifySettings(method="classic"))
     assert any("record longer" in w for w in r.model.warnings)
+
+
+def test_a_step_level_contradicting_ch1_is_refused_by_the_library() -> None:
+    """The check lives in the conditioning, so the CLI, the front door and scripts get it."""
+    from motorid.errors import OptionError
+    from motorid.trainer.experiment import run_experiment
+
+    e = run_experiment("second-order", seed=1, roles=("velocity",), validation=False)
+    with pytest.raises(OptionError, match="contradicts the 5.92 V step"):
+        condition_experiment(dict(e.captures), step_volts=-5.0)
+    cond = condition_experiment(dict(e.captures), step_volts=5.95)  # within 5 %: the user's level
+    assert cond.step_volts == pytest.approx(5.95)

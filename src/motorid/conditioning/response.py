@@ -9,9 +9,12 @@ import numpy as np
 from motorid.capture import ROLES, Capture
 from motorid.conditioning.edge import StepEdge, response_onset, step_edge
 from motorid.conditioning.unwrap import unwrap_position
-from motorid.errors import ConditioningError, StepNotFoundError
+from motorid.errors import ConditioningError, OptionError, StepNotFoundError
 
-__all__ = ["StepResponse", "step_response"]
+__all__ = ["StepResponse", "step_response", "STEP_VOLTS_TOLERANCE"]
+
+#: Largest relative difference between a given ``step_volts`` and the step recorded on CH1.
+STEP_VOLTS_TOLERANCE = 0.05
 
 
 @dataclass(frozen=True, slots=True)
@@ -113,6 +116,12 @@ def step_response(
     if capture.input_v is not None:
         edge = step_edge(t, capture.input_v, file=capture.source)
         amp = edge.amplitude_v if step_volts is None else float(step_volts)
+        if abs(amp - edge.amplitude_v) > STEP_VOLTS_TOLERANCE * abs(edge.amplitude_v):
+            # a given level that contradicts the recorded step (a sign slip, a 10x probe
+            # setting) would scale every gain silently
+            raise OptionError(f"--step-volts (step_volts) {amp:g} contradicts the {edge.amplitude_v:.4g} V step "
+                              "on its CH1: leave it out (CH1 gives the step) or check the probe setting",
+                              file=capture.source)
     else:
         if step_volts is None:
             raise StepNotFoundError(
