@@ -44,7 +44,7 @@ import scipy.linalg
 import scipy.optimize
 
 from motorid.conditioning.pipeline import ConditioningSettings, condition_experiment
-from motorid.identification import IdentifySettings, identify_conditioned
+from motorid.identify.pipeline import IdentifySettings, identify_conditioned
 from motorid.trainer import preset, run_experiment
 
 #: The true velocity-TF order of each preset (number of poles that matter).

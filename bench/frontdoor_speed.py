@@ -38,7 +38,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
     args = ap.parse_args()
-    from motorid.demo import run_demo
+    from motorid.cli.demo import run_demo
 
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "D"

@@ -20,8 +20,8 @@ import numpy as np
 import scipy.linalg
 
 from motorid.conditioning.pipeline import condition_experiment
-from motorid.demo import run_demo
-from motorid.identification import IdentifySettings, identify_conditioned, identify_experiment
+from motorid.cli.demo import run_demo
+from motorid.identify.pipeline import IdentifySettings, identify_conditioned, identify_experiment
 from motorid.io import read_capture
 
 

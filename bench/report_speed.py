@@ -1,7 +1,7 @@
 """Time to generate the demo experiment's HTML report (issue 6 target: ≤ 3 s).
 
 Run: ``python3 bench/report_speed.py [--repeat 3]``.  Identification is done once; the
-timed part is :func:`motorid.reporting.make_report` (sensitivity table + every figure).
+timed part is :func:`motorid.report.assemble.make_report` (sensitivity table + every figure).
 """
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from motorid.demo import run_demo
-from motorid.identification import identify_experiment
+from motorid.cli.demo import run_demo
+from motorid.identify.pipeline import identify_experiment
 from motorid.io import read_capture
-from motorid.reporting import make_report
+from motorid.report.assemble import make_report
 
 
 def main() -> None:

@@ -30,7 +30,7 @@ class CliResult:
 @pytest.fixture
 def run_cli(capsys, monkeypatch):
     """Run ``motorid ARGS`` in-process through the real entry point (error mapping included)."""
-    from motorid.cli import main
+    from motorid.cli.app import main
 
     def run(*args: str) -> CliResult:
         monkeypatch.setattr(sys, "argv", ["motorid", *map(str, args)])

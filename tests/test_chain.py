@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from motorid.cli import app
+from motorid.cli.app import app
 from motorid.control.design import LARGE_GAIN, Design, DesignSettings, design_controller
 from motorid.model import MotorModel
 from motorid.simulate.closed_loop import ReferenceSignal, SimulationSettings, simulate_closed_loop

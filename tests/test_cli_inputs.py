@@ -257,7 +257,7 @@ def test_sweep_exits_2_when_every_cell_fails(caps, run_cli, tmp_path):
 
 
 def test_strict_exits_3_after_writing_the_outputs(caps, run_cli, tmp_path, monkeypatch):
-    import motorid.identification as ident
+    import motorid.identify.pipeline as ident
 
     real = ident.identify_experiment
 
@@ -286,7 +286,7 @@ def test_strict_exits_3_after_writing_the_outputs(caps, run_cli, tmp_path, monke
 def test_sweep_grid_comes_from_the_data_for_a_fast_motor(tmp_path, run_cli):
     """Issue 11, item 1, for the sweep: the paper's grid (1.9–2.9 s × 0.04–0.12 s) has no cell a
     0.35 s record of a 16 ms motor allows; the default grid is the data's own."""
-    from motorid.sweep import PAPER_LENGTHS_S, data_grid
+    from motorid.analysis.sweep import PAPER_LENGTHS_S, data_grid
     from motorid.trainer.realsetups import write_real_setup
 
     rec = write_real_setup("fast-tbs1000", tmp_path / "rec", seed=1)

@@ -7,7 +7,7 @@ import pytest
 
 @pytest.fixture(scope="module")
 def demo_dir(tmp_path_factory):
-    from motorid.demo import run_demo
+    from motorid.cli.demo import run_demo
 
     out = tmp_path_factory.mktemp("demo") / "D"
     run_demo(out, seed=3)

@@ -21,7 +21,7 @@ FRONT_DOOR = ("read_experiment", "identify", "design", "simulate", "write_report
 
 @pytest.fixture(scope="module")
 def demo(tmp_path_factory):
-    from motorid.demo import run_demo
+    from motorid.cli.demo import run_demo
 
     out = tmp_path_factory.mktemp("frontdoor") / "D"
     run_demo(out, seed=0)

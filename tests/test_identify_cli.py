@@ -29,7 +29,7 @@ def check_contract_model(doc):
 
 @pytest.fixture(scope="module")
 def demo(tmp_path_factory):
-    from motorid.demo import run_demo
+    from motorid.cli.demo import run_demo
 
     out = tmp_path_factory.mktemp("iddemo") / "D"
     res = run_demo(out, seed=1)

@@ -16,9 +16,9 @@ import pytest
 from motorid.capture import Capture, ChannelInfo
 from motorid.errors import MotorIdError, OptionError
 from motorid.io import read_capture
-from motorid.metrics import fit_percent, nrmse, response_change
+from motorid.identify.metrics import fit_percent, nrmse, response_change
 from motorid.model import MotorModel, model_from_velocity_tf, step_nrmse
-from motorid.validation import validate_capture
+from motorid.analysis.validation import validate_capture
 
 REAL_CSV = ("hslu-rtl-dcmotor", "csv")
 REAL_COLUMNS = "time=time_s,input=motor_voltage_V,velocity=speed_rpm"
@@ -168,7 +168,7 @@ def test_unknown_or_missing_channel():
 # ------------------------------------------------------------------- the demo
 @pytest.fixture(scope="module")
 def demo(tmp_path_factory):
-    from motorid.demo import run_demo
+    from motorid.cli.demo import run_demo
 
     out = tmp_path_factory.mktemp("valdemo") / "D"
     run_demo(out, seed=0)
@@ -251,8 +251,8 @@ def test_bad_inputs_exit_2_with_one_line(demo, run_cli, tmp_path):
 
 def test_validation_section_of_the_report(demo):
     """The report's validation section uses the new result (and survives a bad capture)."""
-    from motorid.identification import identify_experiment, IdentifySettings
-    from motorid.reporting import make_report
+    from motorid.identify.pipeline import identify_experiment, IdentifySettings
+    from motorid.report.assemble import make_report
 
     caps = {"velocity": read_capture(demo / "ALL0001")}
     ident = identify_experiment(caps, IdentifySettings(method="classic"))

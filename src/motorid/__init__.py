@@ -48,7 +48,7 @@ Stages
 ======
 Data flows one way: :mod:`motorid.io` (read capture files) →
 :mod:`motorid.conditioning` (edge, sync, unwrap, reduce, differentiate, denoise) →
-:mod:`motorid.identification` (the methods in :mod:`motorid.identify`) → :mod:`motorid.model` →
+:mod:`motorid.identify.pipeline` (the methods in :mod:`motorid.identify`) → :mod:`motorid.model` →
 :mod:`motorid.control` / :mod:`motorid.simulate` → :mod:`motorid.report`.
 :mod:`motorid.trainer` is the virtual servo trainer that stands in for the bench hardware.
 

@@ -9,8 +9,8 @@
 >>> mi.write_report("report.html", fit, design=des)
 
 Each function is a thin layer over the library (:func:`motorid.io.read_capture`,
-:func:`motorid.identification.identify_experiment`, :func:`motorid.control.design.design_controller`,
-:func:`motorid.simulate.closed_loop.simulate_closed_loop`, :func:`motorid.reporting.make_report`):
+:func:`motorid.identify.pipeline.identify_experiment`, :func:`motorid.control.design.design_controller`,
+:func:`motorid.simulate.closed_loop.simulate_closed_loop`, :func:`motorid.report.assemble.make_report`):
 it checks the keyword options, naming the Python parameter in the one-line
 :class:`~motorid.errors.MotorIdError` it raises, and returns a frozen result.
 """
@@ -32,7 +32,7 @@ from motorid.errors import OptionError
 
 if TYPE_CHECKING:
     from motorid.control.design import Design
-    from motorid.identification import Identification
+    from motorid.identify.pipeline import Identification
     from motorid.identify.sanity import SanityReport
     from motorid.model import MotorModel
     from motorid.simulate.closed_loop import ReferenceSignal, SimulationResult
@@ -410,7 +410,7 @@ def identify(
         Data that cannot give a model (the message names the file and what would fix it).
     """
     from motorid.conditioning.pipeline import ConditioningSettings
-    from motorid.identification import IdentifySettings, identify_experiment
+    from motorid.identify.pipeline import IdentifySettings, identify_experiment
 
     if not isinstance(experiment, Experiment):
         raise OptionError(f"identify needs the Experiment of read_experiment(...), got {type(experiment).__name__}")
@@ -615,6 +615,10 @@ def simulate(
         plant=plant,
         trainer_preset=trainer_preset,
     )
+    if plant == "trainer":
+        from motorid.trainer.closed_loop import simulate_on_trainer
+
+        return simulate_on_trainer(_model_of(model), design, settings)
     return simulate_closed_loop(_model_of(model), design, settings)
 
 
@@ -668,7 +672,7 @@ def write_report(
     """
     from motorid.control.design import Design
     from motorid.io import atomic_outputs, check_writable
-    from motorid.reporting import make_report
+    from motorid.report.assemble import make_report
 
     if not isinstance(fit, IdentificationResult):
         raise OptionError(f"write_report needs the result of mi.identify(...), got {type(fit).__name__}")

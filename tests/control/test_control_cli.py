@@ -1,7 +1,7 @@
 """The control commands (``model from-params``, ``design``, ``simulate``, ``modes``) on a test app.
 
-The commands are registered with :func:`motorid.cli_control.register` on a fresh typer app, as
-``motorid.cli`` does; user errors surface as MotorIdError (``main()`` maps them to exit 2).
+The commands are registered with :func:`motorid.cli.control.register` on a fresh typer app, as
+``motorid.cli.app`` does; user errors surface as MotorIdError (``main()`` maps them to exit 2).
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import pytest
 import typer
 from typer.testing import CliRunner
 
-from motorid.cli_control import register
+from motorid.cli.control import register
 from motorid.errors import MotorIdError, OutputExistsError
 
 runner = CliRunner()

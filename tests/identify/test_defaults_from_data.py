@@ -10,9 +10,9 @@ import pytest
 from motorid.capture import Capture, ChannelInfo, ScopeInfo
 from motorid.conditioning.pipeline import ConditioningSettings, condition_experiment
 from motorid.conditioning.timescale import auto_reduction_ratio, response_times
-from motorid.identification import IdentifySettings, identify_experiment
+from motorid.identify.pipeline import IdentifySettings, identify_experiment
 from motorid.model import MotorModel, model_from_velocity_tf
-from motorid.refinement import structure_uncertainty
+from motorid.identify.stages import structure_uncertainty
 
 
 def _capture(t: np.ndarray, y: np.ndarray, *, u: np.ndarray | None = None, source: str = "<test>") -> Capture:
@@ -154,7 +154,7 @@ def test_structure_uncertainty_widens_only_with_a_close_runner_up() -> None:
 def test_a_long_log_is_fitted_on_the_part_the_dynamics_need() -> None:
     """A 3000 s log of a 0.33 s motor (issue 11, item 7): it used to be fitted as 1.2 s block
     means (interval ±0.64 s); the fit now takes 50 time constants after the step."""
-    from motorid.refinement import MAX_RECORD_TIME_CONSTANTS, fit_record_length
+    from motorid.identify.stages import MAX_RECORD_TIME_CONSTANTS, fit_record_length
     from motorid.conditioning.pipeline import condition_experiment
 
     rng = np.random.default_rng(5)

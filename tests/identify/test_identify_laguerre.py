@@ -143,7 +143,7 @@ def _trainer(name: str, case: str, seed: int):
 @pytest.mark.parametrize("name", ["first-order", "second-order", "third-order"])
 def test_trainer_gain_within_2_percent_and_nrmse_within_3_percent(name: str, case: str) -> None:
     from motorid.conditioning.pipeline import ConditioningSettings, condition_experiment
-    from motorid.identification import IdentifySettings, identify_conditioned
+    from motorid.identify.pipeline import IdentifySettings, identify_conditioned
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -164,7 +164,7 @@ def test_trainer_gain_within_2_percent_and_nrmse_within_3_percent(name: str, cas
 
 
 def test_real_rig_matches_the_output_error_fit(real_dir) -> None:
-    from motorid.identification import IdentifySettings, identify_experiment
+    from motorid.identify.pipeline import IdentifySettings, identify_experiment
     from motorid.io import read_capture
 
     files = sorted((real_dir / "hslu-rtl-dcmotor" / "csv").glob("06_*.csv"))
@@ -184,7 +184,7 @@ def test_real_rig_matches_the_output_error_fit(real_dir) -> None:
 
 @pytest.fixture(scope="module")
 def demo_dir(tmp_path_factory):
-    from motorid.demo import run_demo
+    from motorid.cli.demo import run_demo
 
     out = tmp_path_factory.mktemp("lagdemo") / "D"
     run_demo(out, seed=2)

@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from motorid.identification import IdentifySettings, identify_experiment
+from motorid.identify.pipeline import IdentifySettings, identify_experiment
 from motorid.trainer import preset, run_experiment
 
 
@@ -45,7 +45,7 @@ def test_oe_beats_the_paper_pinv_on_a_noisy_capture():
 
 
 def test_auto_json_has_uncertainty_and_stages(tmp_path, run_cli):
-    from motorid.demo import run_demo
+    from motorid.cli.demo import run_demo
 
     out = tmp_path / "D"
     run_demo(out, seed=2)

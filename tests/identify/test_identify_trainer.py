@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from motorid.identification import IdentifySettings, identify_experiment
+from motorid.identify.pipeline import IdentifySettings, identify_experiment
 from motorid.trainer import run_experiment
 
 SEEDS = range(20)

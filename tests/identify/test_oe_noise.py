@@ -23,8 +23,8 @@ from motorid.identify.output_error import (
     position_closed_form,
     position_scale_fit,
 )
-from motorid.identification import IdentifySettings, identify_conditioned
-from motorid.refinement import noise_model, oe_stage, step_level_std
+from motorid.identify.pipeline import IdentifySettings, identify_conditioned
+from motorid.identify.stages import noise_model, oe_stage, step_level_std
 from motorid.trainer import preset, run_experiment
 
 STEP_V = 5.92

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from motorid.conditioning.pipeline import ConditioningSettings
-from motorid.identification import IdentifySettings, identify_experiment
+from motorid.identify.pipeline import IdentifySettings, identify_experiment
 from motorid.identify.sanity import first_order_baseline, sanity_checks
 from motorid.model import model_from_velocity_tf
 from motorid.trainer.experiment import run_experiment

@@ -10,7 +10,7 @@ import pytest
 
 from motorid.conditioning.pipeline import ConditioningSettings
 from motorid.errors import OptionError
-from motorid.identification import IdentifySettings
+from motorid.identify.pipeline import IdentifySettings
 
 
 @pytest.mark.parametrize("changes, name", [

@@ -16,7 +16,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from motorid.cli_control import _load_design, load_model
+from motorid.control.design_io import load_design as _load_design
+from motorid.model.serialize import load_model
 from motorid.control.design import Design, DesignSettings, design_controller
 from motorid.control.params import MotorParams, model_from_params
 from motorid.errors import MotorIdError

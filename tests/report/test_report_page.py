@@ -11,7 +11,7 @@ from motorid.report import SECTIONS
 
 @pytest.fixture(scope="module")
 def demo(tmp_path_factory):
-    from motorid.demo import run_demo
+    from motorid.cli.demo import run_demo
 
     out = tmp_path_factory.mktemp("repdemo") / "D"
     run_demo(out, seed=4)
@@ -129,7 +129,7 @@ def test_figures_leave_the_callers_matplotlib_backend_alone(tmp_path):
         f"""
         import matplotlib
         matplotlib.use("pdf")
-        from motorid.demo import run_demo
+        from motorid.cli.demo import run_demo
         run_demo({str(tmp_path / 'D')!r}, seed=5)
         from motorid.simulate.modes import ModeCriteria, mode_map, plot_mode_maps, servo_plants
         from motorid.model import MotorModel

@@ -1,4 +1,4 @@
-"""Run corpus cases through ``motorid.cli:main`` in one process, each under a time limit.
+"""Run corpus cases through ``motorid.cli.app:main`` in one process, each under a time limit.
 
 ``python runner.py CASES.json RESULTS.json [TIMEOUT_S]``: CASES is a list of ``{id, dir,
 argv}``; for each case the real entry point runs with that argv (stdout/stderr captured, exit
@@ -31,7 +31,7 @@ def _alarm(signum, frame):
 
 
 def run_case(argv: list[str], timeout_s: float) -> tuple[object, str, str, float]:
-    from motorid.cli import _state, main
+    from motorid.cli.app import _state, main
 
     _state["debug"] = False
     out, err = io.StringIO(), io.StringIO()

@@ -123,7 +123,7 @@ def test_demo_disk_full_puts_back_the_previous_demo(tmp_path, monkeypatch, run_c
     out = tmp_path / "demo"
     out.mkdir()
     (out / "model.json").write_text("earlier model")
-    import motorid.reporting as rep
+    import motorid.report.assemble as rep
 
     def boom(*a, **k):
         raise OSError(errno.ENOSPC, "No space left on device")

@@ -4,7 +4,7 @@ Each case of :mod:`corpus` must end in exit 2 with 1–3 lines naming the file o
 exit 0 (with the expected warning); never an internal error or a traceback; nothing in its
 folder written or changed on a failure; within the time limit, under a 2 GiB address-space
 limit.  The cases run grouped, several hundred in a few subprocesses (``runner.py``, in-process
-``motorid.cli:main`` per case with a timer); the ones that could hang (FIFOs, devices) run one
+``motorid.cli.app:main`` per case with a timer); the ones that could hang (FIFOs, devices) run one
 per subprocess with a hard timeout.
 """
 

@@ -82,12 +82,21 @@ def test_observer_estimate_converges(model):
 
 def test_trainer_plant_close_to_model(model, sf):
     s = SimulationSettings(duration_s=0.8, dt_s=4e-3, x0=(2.0, 0.0), saturation_v=10.0, plant="trainer")
-    res = simulate_closed_loop(model, sf, s)
+    from motorid.trainer.closed_loop import simulate_on_trainer
+
+    res = simulate_on_trainer(model, sf, s)
     lin = simulate_closed_loop(model, sf, SimulationSettings(duration_s=0.8, dt_s=4e-3, x0=(2.0, 0.0),
                                                              saturation_v=10.0))
     # the lab-report trainer is built from the same km, kT, Tm but has a 2 ms electrical pole,
     # friction and a dead-zone: the output should follow the model to within ~0.1 V of a 3 V move
     assert np.max(np.abs(res.output_v - lin.output_v)) < 0.15
+
+
+def test_trainer_plant_must_be_passed_in(model, sf):
+    # simulate does not import the trainer: a trainer run without its loop is refused, by name
+    s = SimulationSettings(duration_s=0.1, dt_s=4e-3, x0=(2.0, 0.0), plant="trainer")
+    with pytest.raises(OptionError, match="simulate_on_trainer"):
+        simulate_closed_loop(model, sf, s)
 
 
 def test_outputs_and_plot(model, sf, tmp_path):

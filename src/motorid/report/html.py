@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 
 from motorid.capture import Capture
-from motorid.identification import Identification
-from motorid.notation import poly_text
+from motorid.identify.pipeline import Identification
+from motorid.model.notation import poly_text
 from motorid.report import figures
 
 __all__ = ["ReportInputs", "build_report", "SECTIONS"]
@@ -50,13 +50,13 @@ class ReportInputs:
     Attributes
     ----------
     identification : Identification
-        The result of :func:`motorid.identification.identify_experiment`.
+        The result of :func:`motorid.identify.pipeline.identify_experiment`.
     captures : Mapping[str, Capture]
         The raw captures by role.
     validation : Mapping[str, Capture]
         Captures of other inputs (sine, triangle, square…) to validate the model on.
     sweep : Any
-        A :class:`motorid.sweep.SweepResult` or ``None``.
+        A :class:`motorid.analysis.sweep.SweepResult` or ``None``.
     design : Mapping or None
         A design JSON (``motorid.design/1``) and, under ``"simulation"``, a closed-loop run
         ``{"time": [...], "series": {name: [...]}, "metrics": {...}}``; ``"modes_png"``: bytes.
@@ -261,7 +261,7 @@ def build_report(inp: ReportInputs) -> str:
         if not inp.validation:
             return "<p>no validation captures given (<code>--validate CAP...</code>)</p>"
         from motorid.errors import MotorIdError
-        from motorid.validation import validate_capture
+        from motorid.analysis.validation import validate_capture
 
         body, rows = "", []
         for name, cap in inp.validation.items():

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from motorid.notation import poly_text
+from motorid.model.notation import poly_text
 
 __all__ = ["Span", "SummaryLine", "model_summary", "model_summary_lines"]
 

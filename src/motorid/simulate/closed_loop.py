@@ -4,8 +4,8 @@ The loop is sampled: at each instant the controller reads the measured states (o
 observer's estimate), computes ``u = −K x − ki z + kr r``, clips it to the actuator rails and
 holds it for one interval.  The linear plant is advanced with its exact ZOH discretisation
 (``expm`` of the augmented matrix, once); the trainer's nonlinear plant
-(:func:`motorid.trainer.simulate_plant`) is advanced one interval at a time through its public
-API.  ``ż = y − r`` (report eq. 40) is integrated exactly for a held ``y − r``.
+is passed in (:class:`ClosedLoopPlant`; :mod:`motorid.trainer.closed_loop`) and advanced one
+interval at a time.  ``ż = y − r`` (report eq. 40) is integrated exactly for a held ``y − r``.
 """
 
 from __future__ import annotations
@@ -14,9 +14,9 @@ import csv
 import io
 import json
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 import scipy.linalg
@@ -253,7 +253,7 @@ def reference_values(ref: ReferenceSignal, time_s: np.ndarray) -> np.ndarray:
     t = np.asarray(time_s, dtype=float)
     if ref.kind == "step":
         return np.where(t >= ref.start_s, ref.level_v, ref.initial_v)
-    from motorid.trainer.signals import test_signal
+    from motorid.simulate.signals import test_signal
 
     wave = test_signal(t - ref.start_s, ref.kind, amplitude_v=ref.amplitude_v, frequency_hz=ref.frequency_hz)
     return ref.level_v + np.where(t >= ref.start_s, wave, 0.0)
@@ -315,7 +315,28 @@ def _vector(values: tuple[float, ...] | None, n: int, option: str) -> np.ndarray
 
 
 @single_blas_thread
-def simulate_closed_loop(model: MotorModel, design: Design, settings: SimulationSettings) -> SimulationResult:
+class ClosedLoopPlant(Protocol):
+    """A plant other than the linear model, advanced one control interval at a time.
+
+    The virtual trainer's nonlinear plant (:class:`motorid.trainer.closed_loop.TrainerLoop`)
+    is one: it is passed in, so this module does not depend on the trainer.
+    """
+
+    def start(self, model: MotorModel, settings: SimulationSettings, x0: np.ndarray) -> list[str]:
+        """Start from the model-state vector ``x0``; return warnings about the run."""
+
+    def measured(self) -> np.ndarray:
+        """The measured states, in the model's state order."""
+
+    def output(self, name: str) -> float:
+        """The measured channel ``name`` (volts)."""
+
+    def advance(self, u: float, t: float) -> None:
+        """Hold ``u`` for one control interval starting at time ``t``."""
+
+
+def simulate_closed_loop(model: MotorModel, design: Design, settings: SimulationSettings, *,
+                         plant: ClosedLoopPlant | None = None) -> SimulationResult:
     """Run the designed controller in closed loop.
 
     Parameters
@@ -328,6 +349,9 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
     design : Design
         Gains (``K``, ``kr`` or ``ki``, optional ``L``) for this model.
     settings : SimulationSettings
+    plant : ClosedLoopPlant, optional
+        The plant of a ``plant='trainer'`` run (required then; see
+        :func:`motorid.trainer.closed_loop.simulate_on_trainer`, which passes it).
 
     Returns
     -------
@@ -377,7 +401,11 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
         phi_o, gam_o = _zoh(a - l_col @ c, np.hstack([b, l_col]), s.dt_s)
     trainer = None
     if s.plant == "trainer":
-        trainer = _TrainerLoop(model, design, s, x, warnings)
+        if plant is None:
+            raise OptionError("plant='trainer' needs the trainer's loop: use "
+                              "motorid.trainer.closed_loop.simulate_on_trainer")
+        trainer = plant
+        warnings += plant.start(model, s, x)
         if not use_obs and any(name not in ("position", "velocity") for name in model.states):
             raise OptionError("the trainer measures only position and velocity; this model's states "
                               f"{list(model.states)} need an observer (--observer-poles in the design)")
@@ -422,51 +450,6 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
     metrics = response_metrics(t, ys, r, us, s.reference.kind == "step")
     return SimulationResult(t, r, ys, us, uraw, xs, xhs, zs, tuple(model.states), design.output, metrics,
                             tuple(warnings))
-
-
-class _TrainerLoop:
-    """The virtual trainer stepped one control interval at a time via ``simulate_plant``.
-
-    Each call restarts the plant from the previous (current, speed, angle); the amplifier's
-    lead/lag state is not carried over (``simulate_plant`` has no argument for it), so presets
-    with a lead/lag get a warning.
-    """
-
-    def __init__(self, model: MotorModel, design: Design, s: SimulationSettings, x0: np.ndarray,
-                 warnings: list[str]) -> None:
-        from motorid.trainer import preset
-
-        self.cfg = preset(s.trainer_preset).quiet()
-        if s.saturation_v is None:
-            self.cfg = self.cfg  # the trainer's own rails still act
-        if self.cfg.amp_lag_s > 0:
-            warnings.append(f"trainer preset {s.trainer_preset!r} has an amplifier lead/lag whose state "
-                            "restarts each control interval in this closed-loop run")
-        self.brake_nm = abs(s.disturbance_v) * self.cfg.amp_gain * self.cfg.k_motor / self.cfg.ra_ohm
-        self.dist_start = s.disturbance_start_s
-        self.dt = s.dt_s
-        self.names = model.states
-        self.pos_per_rad = self.cfg.pot_span_v / (2 * math.pi) * self.cfg.gear_ratio
-        x0d = dict(zip(model.states, x0))
-        self.offset = float(x0d.get("position", 0.0))
-        w0 = float(x0d.get("velocity", 0.0)) / self.cfg.tacho_v_per_rad_s
-        self.state = (0.0, w0, 0.0)
-
-    def measured(self) -> np.ndarray:
-        _, w, ang = self.state
-        vals = {"position": self.offset + self.pos_per_rad * ang, "velocity": self.cfg.tacho_v_per_rad_s * w}
-        return np.array([vals.get(name, 0.0) for name in self.names])
-
-    def output(self, name: str) -> float:
-        _, w, ang = self.state
-        return self.offset + self.pos_per_rad * ang if name == "position" else self.cfg.tacho_v_per_rad_s * w
-
-    def advance(self, u: float, t: float) -> None:
-        from motorid.trainer import simulate_plant
-
-        cfg = self.cfg if t < self.dist_start or self.brake_nm == 0 else replace(self.cfg, brake_nm=self.brake_nm)
-        resp = simulate_plant(cfg, np.array([0.0, self.dt]), np.array([u, u]), initial=self.state)
-        self.state = (float(resp.current_a[1]), float(resp.motor_speed_rad_s[1]), float(resp.motor_angle_rad[1]))
 
 
 def simulation_figure(result: SimulationResult, title: str = "") -> "Figure":

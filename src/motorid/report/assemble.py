@@ -2,36 +2,17 @@
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping
-from pathlib import Path
 from typing import Any
 
 from motorid._threads import single_blas_thread
 from motorid.capture import Capture
-from motorid.errors import CaptureFormatError, MotorIdError
-from motorid.identification import Identification, IdentifySettings
+from motorid.errors import MotorIdError
+from motorid.identify.pipeline import Identification, IdentifySettings
 from motorid.report import ReportInputs, build_report
-from motorid.sweep import PAPER_LENGTHS_S, data_grid, sensitivity_table
+from motorid.analysis.sweep import PAPER_LENGTHS_S, data_grid, sensitivity_table
 
-__all__ = ["make_report", "read_design"]
-
-
-def read_design(path: Path) -> dict[str, Any]:
-    """A design JSON (``motorid.design/1``), checked for its schema.
-
-    Raises
-    ------
-    CaptureFormatError
-        When the file is not JSON or not a design.
-    """
-    try:
-        doc = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise CaptureFormatError(f"not a readable design JSON ({exc})", file=str(path)) from None
-    if not isinstance(doc, dict) or doc.get("schema") != "motorid.design/1":
-        raise CaptureFormatError("not a motorid design (schema motorid.design/1 expected)", file=str(path))
-    return doc
+__all__ = ["make_report"]
 
 
 @single_blas_thread
@@ -50,7 +31,7 @@ def make_report(
     The sensitivity table is the paper's: pinv with the reduced state over 1.9/2.4/2.9 s ×
     40–120 ms, so a student sees the drift the paper reports next to the model — or, when the
     record is shorter than the paper's lengths (a fast motor), the same grid in the data's own
-    time scales (:func:`motorid.sweep.data_grid`).
+    time scales (:func:`motorid.analysis.sweep.data_grid`).
     """
     table = None
     if sweep:

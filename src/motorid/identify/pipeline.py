@@ -24,7 +24,7 @@ from motorid.identify.markov import MarkovSettings, markov_identify
 from motorid.identify.pinv import PinvSettings, pinv_identify
 from motorid.identify.result import IdentificationError
 from motorid.identify.sanity import SanityReport, sanity_checks
-from motorid.metrics import fit_percent, nrmse
+from motorid.identify.metrics import fit_percent, nrmse
 from motorid.model import MotorModel, step_nrmse
 
 __all__ = ["METHODS", "IdentifySettings", "Identification", "identify_experiment", "identify_conditioned"]
@@ -248,9 +248,9 @@ SANITY_SAMPLES = 20000
 def _dynamic_part(cond: ConditionedExperiment, max_samples: int, time_s: np.ndarray, *arrays: np.ndarray,
                   length_s: float | None = None) -> tuple[np.ndarray, ...]:
     """The part of a full-rate record the dynamics need — as long as the output-error fit's
-    (:func:`motorid.refinement.fit_record_length`), or ``length_s`` — evenly thinned to at most
+    (:func:`motorid.identify.stages.fit_record_length`), or ``length_s`` — evenly thinned to at most
     ``max_samples`` samples; ``arrays`` share ``time_s``'s grid."""
-    from motorid.refinement import fit_record_length
+    from motorid.identify.stages import fit_record_length
 
     length = fit_record_length(cond) if length_s is None else length_s
     keep = np.ones(time_s.size, dtype=bool) if length is None else time_s <= length * (1 + 1e-9)
@@ -350,7 +350,7 @@ def _with_fit(model: MotorModel, cond: ConditionedExperiment) -> MotorModel:
     channel it predicts, all from one step response with the model's dead time applied."""
     t, v, _ = _velocity(cond, full=True)
     if "record_length_s" not in model.settings:
-        # first_order() cancels only pole-zero pairs slower than the record (model.py)
+        # first_order() cancels only pole-zero pairs slower than the record (model/simplify.py)
         model = model.replace(settings={**dict(model.settings), "record_length_s": float(t[-1])})
     with np.errstate(over="ignore", invalid="ignore"):
         resp = model.step_response(t, cond.step_volts)
@@ -393,7 +393,7 @@ def _summary(name: str, m: MotorModel) -> dict[str, Any]:
 
 def _unwhitened(cond: ConditionedExperiment, sel: Any) -> dict[str, float] | None:
     """The chosen structure refitted without the AR noise model (for the sanity gate)."""
-    from motorid.refinement import oe_stage
+    from motorid.identify.stages import oe_stage
 
     try:
         res, m = oe_stage(cond, sel.model, sel.structure, delay=sel.delay, noise=sel.noise, white=True)
@@ -410,7 +410,7 @@ def _unwhitened(cond: ConditionedExperiment, sel: Any) -> dict[str, float] | Non
 def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: MotorModel, init_name: str,
             stages: list[dict[str, Any]]) -> tuple[MotorModel, str, dict[str, float] | None]:
     """Output-error refinement with order selection (``oe`` and ``auto``), SRIVC as a second opinion."""
-    from motorid.refinement import select_order, srivc_stage
+    from motorid.identify.stages import select_order, srivc_stage
 
     orders = (1, 2, 3) if settings.order == "auto" else (int(settings.order),)
     sel = select_order(cond, init, orders, delay=settings.delay)
@@ -466,7 +466,7 @@ def identify_conditioned(cond: ConditionedExperiment, settings: IdentifySettings
             reason += "; not run: " + "; ".join(f"{k} ({v})" for k, v in failures.items())
         model = candidates[best]
         if settings.method == "srivc":
-            from motorid.refinement import STRUCTURES, srivc_stage
+            from motorid.identify.stages import STRUCTURES, srivc_stage
 
             orders = (1, 2, 3) if settings.order == "auto" else (int(settings.order),)
             tried: list[tuple[float, MotorModel, tuple[int, int]]] = []

@@ -11,7 +11,7 @@ estimated with the score, by linear least squares (the output is linear in both)
 
 and reported.  A position channel is unwrapped (:func:`motorid.conditioning.unwrap.unwrap_position`);
 a step capture is scored as ``identify`` scores it: on the increments from the pre-step
-baseline, NRMSE over the steady-state change (:mod:`motorid.metrics`).  The model's fitted
+baseline, NRMSE over the steady-state change (:mod:`motorid.identify.metrics`).  The model's fitted
 dead time (``delay_s``) delays the input.
 """
 
@@ -30,7 +30,7 @@ from motorid.conditioning.edge import step_edge
 from motorid.conditioning.response import step_response
 from motorid.conditioning.unwrap import unwrap_position
 from motorid.errors import CaptureDataError, OptionError, StepNotFoundError
-from motorid.metrics import fit_percent, nrmse
+from motorid.identify.metrics import fit_percent, nrmse
 from motorid.model import CHANNELS, MotorModel
 
 __all__ = ["ValidationResult", "validate_capture", "model_delay_s"]
@@ -55,7 +55,7 @@ class ValidationResult:
         step, the increment from the pre-step baseline) and the model's output [V] with the
         estimated initial state and offset.
     nrmse : float
-        RMS(measured − simulated) / measured change of the response (:func:`motorid.metrics.nrmse`
+        RMS(measured − simulated) / measured change of the response (:func:`motorid.identify.metrics.nrmse`
         with ``nrmse_reference``).
     fit_percent : float
         MATLAB ``compare``'s ``100·(1 − ‖y − ŷ‖/‖y − ȳ‖)``.

@@ -16,46 +16,15 @@ import numpy as np
 import typer
 
 from motorid.errors import MotorIdError, OptionError
+from motorid.control.design_io import load_design as _load_design
 from motorid.io import atomic_outputs, check_writable
+from motorid.model.serialize import load_model
 
 __all__ = ["model_app", "model_from_params_cmd", "model_from_step_test_cmd", "design", "simulate", "modes",
            "register", "load_model"]
 
 model_app = typer.Typer(no_args_is_help=True, help="Build a motor model without identification.")
 
-
-
-def _read_json(path: Path, what: str) -> object:
-    from motorid.model import ModelFormatError
-
-    if not path.is_file():
-        raise OptionError(f"{what} file not found", file=str(path))
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ModelFormatError(f"not a JSON {what} ({exc.__class__.__name__}: line "
-                               f"{getattr(exc, 'lineno', '?')})", file=str(path)) from None
-    except RecursionError:
-        raise ModelFormatError(f"not a motorid {what}: the JSON is nested too deeply", file=str(path)) from None
-    except OSError as exc:
-        raise OptionError(f"cannot read the {what} file ({exc.strerror or exc})", file=str(path)) from None
-
-
-def load_model(path: Path):  # -> MotorModel
-    """Read a ``motorid.model/1`` JSON file (one-line errors naming the file)."""
-    from motorid.model import ModelFormatError, MotorModel
-
-    data = _read_json(path, "model")
-    try:
-        return MotorModel.from_json(data, file=str(path))
-    except (RecursionError, OverflowError, ZeroDivisionError, FloatingPointError) as exc:
-        raise ModelFormatError(f"not a motorid model: bad entry ({exc.__class__.__name__})", file=str(path)) from None
-
-
-def _load_design(path: Path):  # -> Design
-    from motorid.control.design import Design
-
-    return Design.from_json(_read_json(path, "design"), file=str(path))
 
 
 def _check_outputs(outputs: list[tuple[Optional[Path], str, Optional[str]]], force: bool) -> None:
@@ -279,7 +248,12 @@ def simulate(
     model = load_model(model_file)
     d = _load_design(design_file)
     try:
-        res = simulate_closed_loop(model, d, settings)
+        if plant == "trainer":
+            from motorid.trainer.closed_loop import simulate_on_trainer
+
+            res = simulate_on_trainer(model, d, settings)
+        else:
+            res = simulate_closed_loop(model, d, settings)
     except OptionError as exc:
         raise exc.with_file(str(design_file)) from None
     m = res.metrics

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from motorid._threads import single_blas_thread
-from motorid.inspection import CaptureSummary, describe_capture
+from motorid.conditioning.inspect import CaptureSummary, describe_capture
 from motorid.errors import OutputExistsError
 from motorid.io import atomic_folder, check_writable, read_capture, write_tds_capture
 
@@ -136,14 +136,14 @@ def _write_demo(out: Path, exp: Any, *, preset: str, seed: int, step_volts: floa
     }
     truth_path.write_text(json.dumps(doc, indent=2, default=float) + "\n", encoding="utf-8")
     # the main job on what was written: identify from the files, as a user would
-    from motorid.identification import identify_experiment
+    from motorid.identify.pipeline import identify_experiment
 
     read_back = {role: read_capture(out / f"ALL{CAPTURE_ORDER.index(role):04d}")
                  for role in ("position", "velocity", "current") if role in exp.captures}
     ident = identify_experiment(read_back)
     model_path = out / "model.json"
     model_path.write_text(ident.model.to_json_text(), encoding="utf-8")
-    from motorid.reporting import make_report
+    from motorid.report.assemble import make_report
 
     checks = {name: read_capture(out / f"ALL{CAPTURE_ORDER.index(name):04d}")
               for name in ("sine", "triangle", "square") if name in exp.validation}

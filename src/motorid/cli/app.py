@@ -115,7 +115,7 @@ def _check_options(
         One line naming the option, the value and what is allowed.
     """
     if method is not None:
-        from motorid.identification import METHODS
+        from motorid.identify.pipeline import METHODS
 
         _choice("--method", method, METHODS)
     _choice("--order", order, ORDERS)
@@ -152,7 +152,7 @@ def _check_options(
     _number("--markov-params", markov_params, at_least=3)
     _number("--markov-window", markov_window, above=0, unit=" s")
     if markov_basis is not None:
-        from motorid.identification import MARKOV_BASES
+        from motorid.identify.pipeline import MARKOV_BASES
 
         _choice("--markov-basis", markov_basis, MARKOV_BASES)
 
@@ -190,7 +190,7 @@ def inspect(
     step_volts: Annotated[Optional[float], typer.Option("--step-volts", help="Step level for captures without an input channel.")] = None,
 ) -> None:
     """Describe captures: format, sample interval, step time and level, role, encoder wraps."""
-    from motorid.inspection import describe_capture
+    from motorid.conditioning.inspect import describe_capture
     from motorid.io import read_capture
 
     _check_options(step_volts=step_volts)
@@ -233,7 +233,7 @@ def demo(
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Record an example experiment on the virtual servo trainer and read it back."""
-    from motorid.demo import run_demo
+    from motorid.cli.demo import run_demo
 
     _check_options(preset=preset, step_volts=step_volts)
     check_writable({"--out": out}, force=force, folder=True)
@@ -366,7 +366,7 @@ def identify(
     force_role: Annotated[bool, typer.Option("--force-role", help="Keep a capture's role flag even when it looks like another role.")] = False,
 ) -> None:
     """Identify the motor model from step captures (paper sections III-VI)."""
-    from motorid.identification import IdentifySettings, identify_experiment
+    from motorid.identify.pipeline import IdentifySettings, identify_experiment
 
     _check_options(method=method, order=order, reduction=reduction, derivative=derivative, structure=structure,
                    sync=sync, ratio=ratio, sample_interval=sample_interval, record_length=record_length,
@@ -392,7 +392,7 @@ def identify(
     _check_against_captures(caps, record_length=record_length)
     checks = _validation_captures(validate, columns) if report_out is not None else {}
     if report_out is not None:
-        from motorid.reporting import read_design
+        from motorid.control.design_io import read_design_json as read_design
 
         doc = read_design(design) if design is not None else None
     result = identify_experiment(caps, settings, step_volts=step_volts, t0_s=t0)
@@ -405,7 +405,7 @@ def identify(
         if matlab_out is not None:
             outs.write_text(matlab_out, result.model.to_matlab())
         if report_out is not None:
-            from motorid.reporting import make_report
+            from motorid.report.assemble import make_report
 
             outs.write_text(report_out, make_report(result, caps, validation=checks, design=doc))
     for label, path in (("model JSON", json_out), ("MATLAB/Octave script", matlab_out), ("report", report_out)):
@@ -442,9 +442,9 @@ def validate(
     The initial state and an output offset are estimated by least squares over the whole
     record (reported); a position channel is unwrapped; the model's fitted delay is applied.
     """
-    from motorid.cli_control import load_model
+    from motorid.model.serialize import load_model
     from motorid.model import CHANNELS
-    from motorid.validation import validate_capture
+    from motorid.analysis.validation import validate_capture
 
     if channel not in CHANNELS:
         raise OptionError(f"--channel {channel!r} is unknown: use one of {', '.join(CHANNELS)}")
@@ -511,8 +511,9 @@ def report(
     force_role: Annotated[bool, typer.Option("--force-role", help="Keep a capture's role flag even when it looks like another role.")] = False,
 ) -> None:
     """Identify and write one self-contained HTML report of the experiment."""
-    from motorid.identification import IdentifySettings, identify_experiment
-    from motorid.reporting import make_report, read_design
+    from motorid.identify.pipeline import IdentifySettings, identify_experiment
+    from motorid.control.design_io import read_design_json as read_design
+    from motorid.report.assemble import make_report
 
     _check_options(method=method, sample_interval=sample_interval, step_volts=step_volts)
     check_writable({"--out": out}, force=force, create_parents=False)
@@ -559,12 +560,12 @@ def sweep(
     from rich.progress import Progress
 
     from motorid.conditioning.pipeline import ConditioningSettings
-    from motorid.identification import IdentifySettings
-    from motorid.sweep import sensitivity_table
+    from motorid.identify.pipeline import IdentifySettings
+    from motorid.analysis.sweep import sensitivity_table
 
     _check_options(method=method, order=order, reduction=reduction, step_volts=step_volts)
     check_writable({"--json": json_out}, force=force, create_parents=False)
-    from motorid.sweep import PAPER_INTERVALS_S, PAPER_LENGTHS_S, data_grid
+    from motorid.analysis.sweep import PAPER_INTERVALS_S, PAPER_LENGTHS_S, data_grid
 
     def axis(spec: str, option: str, paper: tuple[float, ...]) -> Optional[list[float]]:
         word = spec.strip().lower()
@@ -616,7 +617,7 @@ def sweep(
         con.print(f"table JSON: {json_out}")
 
 
-from motorid.cli_control import register as _register_control  # noqa: E402 - after the app's own commands
+from motorid.cli.control import register as _register_control  # noqa: E402 - after the app's own commands
 
 _register_control(app)
 

@@ -18,7 +18,7 @@ from motorid._threads import single_blas_thread
 from motorid.capture import Capture
 from motorid.conditioning.pipeline import condition_experiment
 from motorid.errors import ConditioningError, MotorIdError
-from motorid.identification import IdentifySettings, identify_conditioned, with_conditioning
+from motorid.identify.pipeline import IdentifySettings, identify_conditioned, with_conditioning
 
 __all__ = ["PAPER_LENGTHS_S", "PAPER_INTERVALS_S", "SweepResult", "data_grid", "sensitivity_table"]
 
@@ -63,7 +63,7 @@ class SweepResult:
                     "dc_gain": _num(self.dc_gain[i, j]),
                 })
         return {
-            "schema": "motorid.sweep/1", "method": self.method,
+            "schema": "motorid.analysis.sweep/1", "method": self.method,
             "record_lengths": list(self.lengths_s), "sample_intervals": list(self.intervals_s),
             "cells": cells, "spread": self.spread(), "failures": self.failures,
         }

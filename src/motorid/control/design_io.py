@@ -1,0 +1,65 @@
+"""Reading a design JSON (``motorid.design/1``) back: as the typed :class:`Design` for
+``simulate`` and as a plain dict for the report."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from motorid.errors import CaptureFormatError
+from motorid.io.jsonfile import read_json
+
+if TYPE_CHECKING:
+    from motorid.control.design import Design
+
+__all__ = ["load_design", "read_design_json"]
+
+
+def read_design_json(path: Path) -> dict[str, Any]:
+    """A design JSON (``motorid.design/1``) as a dict, checked for its schema.
+
+    Parameters
+    ----------
+    path : Path
+        The design JSON file.
+
+    Returns
+    -------
+    dict
+        The decoded object.
+
+    Raises
+    ------
+    CaptureFormatError
+        When the file is not JSON or not a design.
+    """
+    try:
+        doc = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise CaptureFormatError(f"not a readable design JSON ({exc})", file=str(path)) from None
+    if not isinstance(doc, dict) or doc.get("schema") != "motorid.design/1":
+        raise CaptureFormatError("not a motorid design (schema motorid.design/1 expected)", file=str(path))
+    return doc
+
+
+def load_design(path: Path) -> Design:
+    """Read a design JSON file as a :class:`~motorid.control.design.Design`.
+
+    Parameters
+    ----------
+    path : Path
+        The design JSON file.
+
+    Returns
+    -------
+    Design
+
+    Raises
+    ------
+    ModelFormatError, OptionError
+        One-line errors naming the file.
+    """
+    from motorid.control.design import Design
+
+    return Design.from_json(read_json(path, "design"), file=str(path))

@@ -1,0 +1,150 @@
+"""Responses of a :class:`~motorid.model.motor.MotorModel`: the exact step response on any
+grid and the NRMSE of a model against a measured step.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import scipy.linalg
+
+from motorid.errors import OptionError
+
+if TYPE_CHECKING:
+    from motorid.model.motor import MotorModel
+
+
+def step_response(model: MotorModel, time_s: Any, step_volts: float | None = None) -> dict[str, np.ndarray]:
+    """Exact response of every output channel of ``model`` to a step applied at ``t = 0``.
+
+    Exact for a step on any grid: the matrix exponential of ``[[A, B], [0, 0]]`` once
+    per sample interval on a uniform grid (then a recursion), at each time otherwise;
+    samples before 0 (before ``delay_s`` for a model with a dead time) are zero.
+
+    Parameters
+    ----------
+    time_s : array_like
+        Times in seconds (any grid).
+    step_volts : float, optional
+        Step level; defaults to the model's ``step_volts``.
+
+    Returns
+    -------
+    dict of str to ndarray
+        One array per output channel, in volts.
+
+    Raises
+    ------
+    OptionError
+        When no step level is given or known.
+    """
+    step = model.step_volts if step_volts is None else float(step_volts)
+    if step is None:
+        raise OptionError("step_response needs step_volts (the model has none)")
+    t = np.asarray(time_s, dtype=float).ravel() - model.delay_s
+    n = model.order
+    m = np.zeros((n + 1, n + 1))
+    m[:n, :n] = model.A
+    m[:n, n] = model.B[:, 0]
+    after = t >= 0
+    x = np.zeros((t.size, n))
+    if np.any(after):
+        ta = t[after]
+        d = np.diff(ta)
+        with np.errstate(over="ignore", invalid="ignore"):  # unstable models overflow
+            if ta.size > 2 and np.all(np.abs(d - d[0]) <= 1e-9 * max(abs(d[0]), 1e-300)):
+                # uniform grid: one exact step matrix, then the recursion
+                # x[k+1] = Φ x[k] + Γ·step (exact for a step; 100x faster than an expm
+                # per sample)
+                e1 = scipy.linalg.expm(m * d[0])
+                x0 = scipy.linalg.expm(m * ta[0])[:n, n] * step
+                x[after] = _affine_orbit(e1[:n, :n], e1[:n, n] * step, x0, ta.size)
+            else:
+                e = scipy.linalg.expm(m[None, :, :] * ta[:, None, None])
+                x[after] = e[:, :n, n] * step
+    with np.errstate(over="ignore", invalid="ignore"):
+        y = x @ model.C.T + np.where(after[:, None], model.D[:, 0] * step, 0.0)
+    return {name: y[:, i] for i, name in enumerate(model.outputs)}
+
+
+def _affine_orbit(phi: np.ndarray, gam: np.ndarray, x0: np.ndarray, count: int) -> np.ndarray:
+    """``x[0] = x0``, ``x[k] = Φ x[k−1] + Γ`` for ``k < count``, without a Python loop per sample.
+
+    The affine map ``x ↦ Φx + Γ`` composed with itself ``m`` times is ``x ↦ Φᵐx + c_m`` with
+    ``c_2m = Φᵐ c_m + c_m``: each doubling extends the orbit by a batched product, so a
+    300 000-sample record costs 19 numpy products instead of 300 000 Python iterations
+    (scipy's ``dlsim`` loops in Python; ``lfilter`` would need ``ss2tf``, ill-conditioned
+    for the wide pole spreads of motor models).
+    """
+    n = x0.size
+    out = np.empty((count, n))
+    out[0] = x0
+    power, offset, m = phi.copy(), gam.copy(), 1
+    while m < count:
+        k = min(m, count - m)
+        out[m : m + k] = out[:k] @ power.T + offset
+        offset = power @ offset + offset
+        power = power @ power
+        m *= 2
+    return out
+
+
+def step_nrmse(
+    model: MotorModel,
+    time_s: Any,
+    measured: Any,
+    *,
+    channel: str = "velocity",
+    step_volts: float | None = None,
+) -> float:
+    """RMS of (measured − model) step response divided by the measured steady state.
+
+    Parameters
+    ----------
+    model : MotorModel
+    time_s : array_like
+        Sample times in seconds, 0 at the step edge.
+    measured : array_like
+        The measured channel in volts, same length as ``time_s``.
+    channel : str
+        Output channel to compare.
+    step_volts : float, optional
+        Step level; defaults to the model's.
+
+    Returns
+    -------
+    float
+        ``sqrt(mean((y − ŷ)²)) / |mean of the last 10 % of y|`` (CONTRACT.md,
+        ``fit.velocity_nrmse``).
+
+    Raises
+    ------
+    OptionError
+        On mismatched lengths, an unknown channel or a zero steady state.
+    """
+    t = np.asarray(time_s, dtype=float).ravel()
+    y = np.asarray(measured, dtype=float).ravel()
+    if t.size != y.size or t.size < 2:
+        raise OptionError(f"step_nrmse needs equally long time and data arrays, got {t.size} and {y.size}")
+    if channel not in model.outputs and channel != "position":
+        raise OptionError(f"the model has no {channel!r} output; it has {list(model.outputs)}")
+    if channel in model.outputs:
+        yhat = model.step_response(t, step_volts)[channel]
+    else:
+        # Position of a velocity-only model: integral of the velocity output.
+        step = model.step_volts if step_volts is None else float(step_volts)
+        if step is None:
+            raise OptionError("step_nrmse needs step_volts (the model has none)")
+        from motorid.model.motor import model_from_velocity_tf
+
+        integ = model_from_velocity_tf(*model._row_tf("velocity"), with_position=True)
+        yhat = integ.step_response(t, step)["position"]
+    tail = y[-max(1, y.size // 10):]
+    final = float(np.mean(tail))
+    if final == 0.0:
+        raise OptionError(f"the measured {channel} has a zero steady state; NRMSE is undefined")
+    # an unstable model's response overflows: its NRMSE is infinite, not a warning
+    with np.errstate(over="ignore", invalid="ignore"):
+        value = float(np.sqrt(np.mean((y - yhat) ** 2)) / abs(final))
+    return value if np.isfinite(value) else float("inf")
