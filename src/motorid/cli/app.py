@@ -617,9 +617,14 @@ def sweep(
         con.print(f"table JSON: {json_out}")
 
 
-from motorid.cli.control import register as _register_control  # noqa: E402 - after the app's own commands
+# the other command groups register themselves after the app's own commands (help order)
+from motorid.cli import batch as _batch  # noqa: E402
+from motorid.cli import control as _control  # noqa: E402
+from motorid.cli import scope as _scope  # noqa: E402
+from motorid.cli import serve as _serve  # noqa: E402
 
-_register_control(app)
+for _group in (_control, _scope, _serve, _batch):
+    _group.register(app)
 
 
 def main() -> None:
