@@ -65,7 +65,7 @@ def test_inspect_real_tektronix_samples(run_cli, real_dir):
     objs = json.loads(res.out)
     assert len(objs) == 3
     for obj in objs:
-        assert INSPECT_KEYS <= set(obj)
+        assert set(obj) >= INSPECT_KEYS
         assert obj["format"] == "tds2000-csv"
         assert obj["n_samples"] == 2500
     by_name = {Path(o["file"]).name: o for o in objs}

@@ -29,7 +29,7 @@ def test_inspect_reads_back_step_time_amplitude_and_wraps(demo_dir, run_cli):
     res = run_cli("inspect", "--json", *(demo_dir / truth[n]["folder"] for n in names))
     assert res.code == 0, res.err
     got = json.loads(res.out)
-    for name, item in zip(names, got):
+    for name, item in zip(names, got, strict=False):
         true = truth[name]
         assert item["format"] == "tds2000-csv"
         assert item["role"] == name, item["role_reason"]

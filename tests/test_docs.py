@@ -14,7 +14,7 @@ def test_tutorial_code_blocks_run(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     namespace: dict = {}
     for i, block in enumerate(blocks):
-        exec(compile(block, f"tutorial block {i + 1}", "exec"), namespace)  # noqa: S102 - our own docs
+        exec(compile(block, f"tutorial block {i + 1}", "exec"), namespace)
     assert (tmp_path / "report.html").is_file()
     # the numbers the tutorial shows, against the trainer's truth (independent of our output):
     # the paper's pinv at its 100 ms within 2 % in DC gain; auto within 0.5 % of the gain a

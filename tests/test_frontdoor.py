@@ -46,7 +46,7 @@ def test_issue_example_runs_as_written(demo, tmp_path, monkeypatch):
     text = fit.summary()
     assert text.startswith("identified model: method ")
     fit.params["dc_gain"].value, fit.params["dc_gain"].stderr, fit.params["dc_gain"].ci95
-    assert isinstance(fit.model.velocity_tf(), control.TransferFunction)
+    assert isinstance(fit.model.velocity_tf, control.TransferFunction)
     des = mi.design(fit.model, damping=0.7, wn=5.0)
     sim = mi.simulate(fit.model, des, duration_s=3.0)
     fig = sim.plot()
@@ -86,9 +86,9 @@ def test_params_carry_value_stderr_and_interval(fit):
     assert dc.ci95 is not None and dc.ci95[0] < dc.value < dc.ci95[1]
     assert dc.stderr > 0
     # the headline gain is the velocity TF's DC gain, computed independently by python-control
-    assert dc.value == pytest.approx(float(control.dcgain(fit.model.velocity_tf())), rel=1e-9)
+    assert dc.value == pytest.approx(float(control.dcgain(fit.model.velocity_tf)), rel=1e-9)
     # each pole of the model is a parameter (the roots of the TF's denominator, by numpy)
-    den = np.ravel(fit.model.velocity_tf().den[0][0])
+    den = np.ravel(fit.model.velocity_tf.den[0][0])
     roots = np.sort_complex(np.roots(den))
     got = np.sort_complex(np.array([complex(p.value) for k, p in fit.params.items() if k.startswith("pole_")]))
     np.testing.assert_allclose(got, roots, rtol=1e-6)

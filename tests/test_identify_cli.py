@@ -83,7 +83,6 @@ def test_identify_refuses_to_overwrite_json(demo, run_cli, tmp_path):
 )
 def test_identify_bad_options_exit_2_with_one_line(demo, run_cli, args, match):
     out, _ = demo
-    base = () if not args or args[0] != () else ()
     cmd = ["identify", *args] if args == () else ["identify", "--velocity", out / "ALL0001", *args]
     res = run_cli(*cmd)
     assert res.code == 2, res.out + res.err

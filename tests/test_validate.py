@@ -53,7 +53,7 @@ def test_nrmse_final_is_the_contract_definition_of_identify():
     rng = np.random.default_rng(0)
     y = k * step * (1 - np.exp(-t / tau)) + 0.02 * rng.standard_normal(t.size)
     exact = k * step * (1 - np.exp(-t / tau))
-    by_hand = math.sqrt(sum((a - b) ** 2 for a, b in zip(y, exact)) / t.size) / abs(sum(y[-75:]) / 75)
+    by_hand = math.sqrt(sum((a - b) ** 2 for a, b in zip(y, exact, strict=False)) / t.size) / abs(sum(y[-75:]) / 75)
     assert nrmse(y, exact) == pytest.approx(by_hand, rel=1e-10)
     assert step_nrmse(model, t, y, step_volts=step) == pytest.approx(by_hand, rel=1e-6)
 
@@ -101,7 +101,7 @@ def test_a_record_not_at_rest_scores_without_warmup_and_reports_the_state():
     assert r.input_kind == "recorded" and r.nrmse_reference == "span"
     assert r.nrmse < 1e-3 and r.fit_percent > 99.9
     # state = velocity here: the estimate is the record's first value, 2.0
-    assert dict(zip(r.state_names, r.initial_state))["velocity"] == pytest.approx(2.0, abs=0.01)
+    assert dict(zip(r.state_names, r.initial_state, strict=False))["velocity"] == pytest.approx(2.0, abs=0.01)
 
 
 def test_a_constant_offset_is_estimated_not_scored():

@@ -105,7 +105,7 @@ def test_a_response_on_the_input_channel_is_not_a_step(tau_samples):
     n, dt = 2500, 4e-3
     k = np.arange(n)
     tacho = 4.97 * (1 - np.exp(-np.clip(k - 300, 0, None) / tau_samples)) + rng.normal(0, 0.02, n)
-    with pytest.raises(ResponseNotStepError, match="looks like a response.*--step-volts") as info:
+    with pytest.raises(ResponseNotStepError, match=r"looks like a response.*--step-volts") as info:
         step_edge(k * dt, quantise(tacho, 0.08), file="F0000CH1.CSV")
     # 10 -> 90 % of a first-order rise takes ln(9) time constants; the levels are those of the
     # two-level fit, whose upper mean is below the final value for a slow rise (fewer samples)

@@ -63,7 +63,7 @@ def test_guess_role_from_the_signal(role):
 def test_pipeline_refuses_captures_of_different_step_levels():
     cv, _ = capture("velocity", 300, level=5.92, name="ALL0001")
     cp, _ = capture("position", 400, level=4.0, name="ALL0000")
-    with pytest.raises(ConditioningError, match="ALL0001.*5.92.*ALL0000.*4 V|ALL0000.*ALL0001"):
+    with pytest.raises(ConditioningError, match=r"ALL0001.*5\.92.*ALL0000.*4 V|ALL0000.*ALL0001"):
         condition_experiment({"velocity": cv, "position": cp})
 
 

@@ -36,7 +36,7 @@ PARAMS = ["model", "from-params", "--km", "249.3", "--kT", "3.61e-3", "--gear", 
 @pytest.fixture()
 def model_file(tmp_path):
     out = tmp_path / "m.json"
-    res = runner.invoke(APP, PARAMS + ["--json", str(out)])
+    res = runner.invoke(APP, [*PARAMS, "--json", str(out)])
     assert res.exit_code == 0, res.output
     return out
 
@@ -53,9 +53,9 @@ def test_from_params_then_design_report_numbers(model_file, tmp_path):
 
 
 def test_refuses_overwrite_without_force(model_file):
-    res = runner.invoke(APP, PARAMS + ["--json", str(model_file)])
+    res = runner.invoke(APP, [*PARAMS, "--json", str(model_file)])
     assert isinstance(res.exception, OutputExistsError)
-    assert runner.invoke(APP, PARAMS + ["--json", str(model_file), "--force"]).exit_code == 0
+    assert runner.invoke(APP, [*PARAMS, "--json", str(model_file), "--force"]).exit_code == 0
 
 
 def test_step_test_variant(tmp_path):
@@ -72,7 +72,7 @@ def test_step_test_variant(tmp_path):
     (["--k2", "8.5", "--damping", "1", "--observer-poles=-50,-40", "--output", "velocity"], "not observable"),
 ])
 def test_bad_design_input_is_one_line(model_file, args, msg):
-    res = runner.invoke(APP, ["design", str(model_file)] + args)
+    res = runner.invoke(APP, ["design", str(model_file), *args])
     assert isinstance(res.exception, MotorIdError), res.output
     assert msg in str(res.exception) and "\n" not in str(res.exception)
     assert str(model_file) in str(res.exception)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from motorid.capture import Capture, ChannelInfo, ScopeInfo
-from motorid.conditioning.pipeline import ConditioningSettings, condition_experiment
+from motorid.conditioning.pipeline import condition_experiment
 from motorid.conditioning.timescale import auto_reduction_ratio, response_times
 from motorid.identify.pipeline import IdentifySettings, identify_experiment
 from motorid.model import MotorModel, model_from_velocity_tf
@@ -57,7 +57,7 @@ def test_auto_reduction_keeps_a_fast_motor_identifiable() -> None:
     ratio, why = auto_reduction_ratio(2e-4, 0.45, 0.016)
     assert ratio * 2e-4 == pytest.approx(0.016 / 5, rel=0.1)
     assert "--sample-interval 0.1" in why
-    t, v, i, step, k, tau = _fast_motor()
+    t, v, _i, step, _k, _tau = _fast_motor()
     cond = condition_experiment({"velocity": _capture(t, v)}, step_volts=step)
     assert cond.time_s.size >= 25
     assert cond.sample_interval_s < 0.01
@@ -65,7 +65,7 @@ def test_auto_reduction_keeps_a_fast_motor_identifiable() -> None:
 
 
 def test_one_acquisition_without_input_shares_the_current_onset() -> None:
-    t, v, i, step, k, tau = _fast_motor()
+    t, v, i, step, _k, _tau = _fast_motor()
     caps = {"velocity": _capture(t, v, source="F0000CH1.CSV"), "current": _capture(t, i, source="F0000CH2.CSV")}
     alone = condition_experiment({"velocity": caps["velocity"]}, step_volts=step)
     both = condition_experiment(caps, step_volts=step)
@@ -197,7 +197,7 @@ def test_a_step_level_contradicting_ch1_is_refused_by_the_library() -> None:
     from motorid.trainer.experiment import run_experiment
 
     e = run_experiment("second-order", seed=1, roles=("velocity",), validation=False)
-    with pytest.raises(OptionError, match="contradicts the 5.92 V step"):
+    with pytest.raises(OptionError, match=r"contradicts the 5\.92 V step"):
         condition_experiment(dict(e.captures), step_volts=-5.0)
     cond = condition_experiment(dict(e.captures), step_volts=5.95)  # within 5 %: the user's level
     assert cond.step_volts == pytest.approx(5.95)

@@ -51,7 +51,7 @@ def test_exact_coefficients_are_the_laguerre_inner_products(sys_tf) -> None:
 
     for k in range(6):
         val, _ = scipy.integrate.quad(
-            lambda t: h(t) * math.sqrt(2 * a) * math.exp(-a * t) * scipy.special.eval_laguerre(k, 2 * a * t),
+            lambda t, k=k: h(t) * math.sqrt(2 * a) * math.exp(-a * t) * scipy.special.eval_laguerre(k, 2 * a * t),
             0, 40, limit=400, epsabs=1e-13)
         assert g[k] == pytest.approx(val, rel=1e-8, abs=1e-10)
 

@@ -158,7 +158,7 @@ def test_oe_recovers_a_delay():
 
 
 def test_oe_bic_prefers_the_true_order_on_noisy_data():
-    k, tz, taus = SECOND
+    _k, _tz, _taus = SECOND
     clean = _noise_free(SECOND)["velocity"]
     rng = np.random.default_rng(7)
     sigma = 0.01 * clean[-1]
@@ -170,7 +170,7 @@ def test_oe_bic_prefers_the_true_order_on_noisy_data():
     # the nested 3-pole model starts from the 2-pole fit plus a fast pole (as order selection does)
     taus2 = list(np.exp(fits[2].params[1:3]))
     fits[3] = output_error_fit(T_S, STEP_V, {"velocity": y}, {"velocity": sigma},
-                               init_taus=taus2 + [0.002], init_dc_gain=fits[2].dc_gain, settings=OeSettings(n_poles=3))
+                               init_taus=[*taus2, 0.002], init_dc_gain=fits[2].dc_gain, settings=OeSettings(n_poles=3))
     # 1 pole cannot follow the 40 ms lag (a huge RSS excess); the 3rd pole buys less than ln N
     assert fits[2].bic < fits[1].bic
     assert fits[2].bic < fits[3].bic
@@ -184,7 +184,7 @@ def test_oe_bic_prefers_the_true_order_on_noisy_data():
 # runs it, with pre-step samples; the brief's plain model (no shifts) needs none
 @pytest.mark.parametrize("shifts, n_pre", [(True, 100), (False, 0)], ids=["shifts+pre", "no shifts"])
 def test_oe_intervals_are_honest_in_monte_carlo(shifts, n_pre):
-    k, tz, taus = SECOND
+    k, _tz, _taus = SECOND
     clean = _noise_free(SECOND)["velocity"]
     sigma = 0.01 * clean[-1]  # 1% of the final value, white
     rng = np.random.default_rng(2024)

@@ -1,6 +1,5 @@
 """Issue 3 on the virtual trainer: the paper's methods on noisy, 8-bit, nonlinear captures."""
 
-import numpy as np
 import pytest
 
 from motorid.identify.pipeline import IdentifySettings, identify_experiment

@@ -196,7 +196,7 @@ def test_oe_recovers_a_delay_across_captures_with_their_own_shifts():
     res = output_error_fit(t, STEP_V, data, {ch: 1e-3 for ch in data}, [0.3, 0.05], 0.8,
                            OeSettings(n_poles=2, n_zeros=0, delay=True, shift_bound_s=0.006),
                            pre={ch: np.zeros(300) for ch in data})
-    q = dict(zip(res.param_names, res.params))
+    q = dict(zip(res.param_names, res.params, strict=False))
     assert "shift_velocity" not in q
     assert res.delay_s == pytest.approx(0.05, abs=2e-4)
     assert q["shift_position"] == pytest.approx(0.002, abs=2e-4)
@@ -211,7 +211,7 @@ def test_oe_on_a_position_alone_keeps_velocity_the_derivative_of_position():
     exp = run_experiment("second-order", seed=5, validation=False, roles=("position",))
     cond = condition_experiment(dict(exp.captures), ConditioningSettings(sample_interval_s=None))
     model = identify_conditioned(cond, IdentifySettings(method="oe")).model
-    vel, pos = model.velocity_tf(), model.position_tf()
+    vel, pos = model.velocity_tf, model.position_tf
     w = 1j * np.array([0.3, 3.0, 30.0])
     assert np.allclose(pos(w), vel(w) / w, rtol=1e-9)
     truth_step = exp.truth.dc_gain * (1.0 - exp.truth.equivalent_input_offset_v / exp.step_volts)

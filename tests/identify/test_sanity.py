@@ -95,7 +95,7 @@ def test_pinv_at_the_papers_interval_on_a_dead_time_rig_is_flagged(real_dir) -> 
 def test_first_order_baseline_recovers_a_first_order_plus_dead_time() -> None:
     t = np.arange(0, 3, 0.01)
     y = np.where(t >= 0.05, 2.0 * 5 * (1 - np.exp(-(t - 0.05) / 0.3)), 0.0)
-    fit, par = first_order_baseline(t, y, 5.0)
+    _fit, par = first_order_baseline(t, y, 5.0)
     assert par["dc_gain"] == pytest.approx(2.0, rel=1e-4)
     assert par["time_constant"] == pytest.approx(0.3, rel=1e-3)
     assert par["delay"] == pytest.approx(0.05, abs=2e-3)

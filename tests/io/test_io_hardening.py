@@ -54,7 +54,7 @@ def _log(path: Path, n: int = 200, *, header: str = "time,input,velocity", pre: 
     t = np.arange(n) * 0.01
     u = np.where(np.arange(n) >= 50, 5.0, 0.0)
     y = np.where(np.arange(n) >= 50, 1.5 * (1 - np.exp(-(t - 0.5).clip(0) / 0.3)), 0.0)
-    rows = [[f"{a:.2f}", f"{b:g}", f"{c:.6f}"] for a, b, c in zip(t, u, y)]
+    rows = [[f"{a:.2f}", f"{b:g}", f"{c:.6f}"] for a, b, c in zip(t, u, y, strict=False)]
     if edit is not None:
         edit(rows)
     return write_lines(path, [*pre, header, *(",".join(r) for r in rows)])
@@ -281,7 +281,7 @@ def _write_big_log(path: Path, n: int) -> None:
     with open(path, "w") as fh:
         fh.write("time,input,velocity\n")
         fh.write("".join(f"{a:.4f},{5.0 if k >= n // 10 else 0.0},{b:.6f}\n"
-                         for k, (a, b) in enumerate(zip(t.tolist(), y.tolist()))))
+                         for k, (a, b) in enumerate(zip(t.tolist(), y.tolist(), strict=False))))
 
 
 def test_million_row_log_reads_in_bounded_time_and_memory(tmp_path):

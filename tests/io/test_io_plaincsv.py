@@ -55,7 +55,7 @@ def _table(n: int = 50, dt: float = 0.01) -> tuple[np.ndarray, np.ndarray, np.nd
 
 def test_column_mapping(tmp_path):
     t, u, y = _table()
-    lines = ["t,u,rpm,other"] + [f"{a!r},{b!r},{c!r},1.0" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist())]
+    lines = ["t,u,rpm,other"] + [f"{a!r},{b!r},{c!r},1.0" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist(), strict=False)]
     f = _write(tmp_path, "\n".join(lines))
     cap = read_plain_csv(f, columns={"time": "t", "input": "u", "velocity": "rpm"})
     np.testing.assert_array_equal(cap.output_v, y)
@@ -64,7 +64,7 @@ def test_column_mapping(tmp_path):
     with pytest.raises(OptionError, match="'t', 'u', 'rpm', 'other'") as err:
         read_plain_csv(f, columns={"time": "t", "velocity": "speed"})
     assert str(f) in str(err.value)
-    with pytest.raises(OptionError, match="unknown column role 'speed'.*'rpm'"):
+    with pytest.raises(OptionError, match=r"unknown column role 'speed'.*'rpm'"):
         read_plain_csv(f, columns={"speed": "rpm"})
     with pytest.raises(OptionError, match="role"):
         read_plain_csv(f, role="torque")
@@ -85,7 +85,7 @@ def test_guessing_by_keywords(tmp_path, header, input_name, output_name, role):
     delim = ";" if ";" in header else ("\t" if "\t" in header else ",")
     t, u, y = _table()
     scale = 1000.0 if header.startswith("t_ms") else 1.0
-    body = [delim.join(f"{v!r}" for v in row) for row in zip((t * scale).tolist(), u.tolist(), y.tolist())]
+    body = [delim.join(f"{v!r}" for v in row) for row in zip((t * scale).tolist(), u.tolist(), y.tolist(), strict=False)]
     cap = read_plain_csv(_write(tmp_path, "\n".join([header, *body])))
     assert cap.input_info.name == input_name and cap.output_info.name == output_name
     assert cap.role_hint == role
@@ -94,7 +94,7 @@ def test_guessing_by_keywords(tmp_path, header, input_name, output_name, role):
 
 def test_setpoint_is_not_the_input_and_position_goes_to_extra(tmp_path):
     t, u, y = _table()
-    lines = ["time_s,speed_setpoint,position,velocity"] + [f"{a!r},{b!r},{a * 3!r},{c!r}" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist())]
+    lines = ["time_s,speed_setpoint,position,velocity"] + [f"{a!r},{b!r},{a * 3!r},{c!r}" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist(), strict=False)]
     cap = read_plain_csv(_write(tmp_path, "\n".join(lines)))
     assert cap.input_v is None and cap.output_info.name == "velocity" and cap.role_hint == "velocity"
     assert set(cap.extra) == {"position", "speed_setpoint"}
@@ -104,7 +104,7 @@ def test_setpoint_is_not_the_input_and_position_goes_to_extra(tmp_path):
 
 def test_european_semicolon_decimal_comma_quotes_comments(tmp_path):
     t, u, y = _table()
-    body = [f'{a:.2f};{b:.1f};{c:.6f}'.replace(".", ",") for a, b, c in zip(t.tolist(), u.tolist(), y.tolist())]
+    body = [f'{a:.2f};{b:.1f};{c:.6f}'.replace(".", ",") for a, b, c in zip(t.tolist(), u.tolist(), y.tolist(), strict=False)]
     text = "# logged by my DAQ\n\n" + '"Zeit [s]";"Spannung [V]";"Drehzahl [rpm]"\n' + "\n".join(body) + "\n\n"
     cap = read_plain_csv(_write(tmp_path, text))
     np.testing.assert_allclose(cap.output_v, y, rtol=0, atol=5e-7)  # written with 6 decimals
@@ -114,7 +114,7 @@ def test_european_semicolon_decimal_comma_quotes_comments(tmp_path):
 
 def test_trailing_delimiter_and_crlf(tmp_path):
     t, u, y = _table()
-    text = "time,u,y,\r\n" + "".join(f"{a!r},{b!r},{c!r},\r\n" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist()))
+    text = "time,u,y,\r\n" + "".join(f"{a!r},{b!r},{c!r},\r\n" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist(), strict=False))
     cap = read_plain_csv(_write(tmp_path, text))
     np.testing.assert_array_equal(cap.output_v, y)
 
@@ -122,7 +122,7 @@ def test_trailing_delimiter_and_crlf(tmp_path):
 def _bad(tmp_path, edit_row: int, new: str) -> tuple:
     """A 50-sample log with line ``edit_row`` (1-based, header = 1) replaced."""
     t, u, y = _table()
-    lines = ["time,u,y"] + [f"{a!r},{b!r},{c!r}" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist())]
+    lines = ["time,u,y"] + [f"{a!r},{b!r},{c!r}" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist(), strict=False)]
     lines[edit_row - 1] = new
     return _write(tmp_path, "\n".join(lines)), lines
 
@@ -147,7 +147,7 @@ def test_errors_name_the_row(tmp_path, row, line, exc, match):
 
 def test_row_numbers_count_skipped_lines(tmp_path):
     t, u, y = _table()
-    lines = ["# comment", "", "time,u,y"] + [f"{a!r},{b!r},{c!r}" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist())]
+    lines = ["# comment", "", "time,u,y"] + [f"{a!r},{b!r},{c!r}" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist(), strict=False)]
     lines.insert(10, "")  # a blank line inside the data
     lines[20] = "0.16,6.0,oops"
     f = _write(tmp_path, "\n".join(lines))

@@ -81,7 +81,7 @@ def test_fig21_layout_two_named_outputs(tmp_path):
 
 def test_blocks_without_names_are_ch1_input_ch2_output(tmp_path):
     f = tmp_path / "plain_blocks.xlsx"
-    t, pos, speed = _fig21_sheet(f, header=(None, None, None, None))
+    _t, pos, speed = _fig21_sheet(f, header=(None, None, None, None))
     cap = read_xlsx_capture(f)
     np.testing.assert_allclose(cap.input_v, pos, rtol=1e-14)
     np.testing.assert_allclose(cap.output_v, speed, rtol=1e-14)

@@ -77,14 +77,14 @@ def test_excel_resaved_variant_warns():
 @pytest.mark.parametrize("newline", ["\n", "\r\n"])
 def test_line_endings_and_trailing_blank_line(tmp_path, newline):
     lines = native_lines(need(TDS2012B))
-    f = write_lines(tmp_path / "F0000CH1.CSV", lines + [""], newline)
+    f = write_lines(tmp_path / "F0000CH1.CSV", [*lines, ""], newline)
     a, b = read_tds_channel(f), read_tds_channel(TDS2012B)
     np.testing.assert_array_equal(a.values_v, b.values_v)
     np.testing.assert_array_equal(a.time_s, b.time_s)
 
 
 def test_user_header_row_is_skipped_and_rows_still_exact(tmp_path):
-    lines = ["a,b,c,x,y,d"] + native_lines(need(TDS2012B))
+    lines = ["a,b,c,x,y,d", *native_lines(need(TDS2012B))]
     ch = read_tds_channel(write_lines(tmp_path / "h.csv", lines))
     assert ch.n_samples == 2500 and ch.scope.trigger_index == 1250
     # the 500th sample sits on file line 501 now; a bad cell there must be reported at 501
@@ -132,7 +132,7 @@ def test_overwrite_is_refused_without_force(tmp_path):
     folder = write_tds_capture(tmp_path, cap)
     ch1 = folder / "F0000CH1.CSV"
     ch1.unlink()  # one of the two exists: nothing may be written
-    with pytest.raises(OutputExistsError, match="F0000CH2.CSV"):
+    with pytest.raises(OutputExistsError, match=r"F0000CH2\.CSV"):
         write_tds_capture(tmp_path, cap)
     assert not ch1.exists()
     write_tds_capture(tmp_path, cap, force=True)
@@ -208,9 +208,9 @@ def test_pair_mismatch_names_both_files(tmp_path):
 
 def test_folder_errors(tmp_path):
     (tmp_path / "notes.txt").write_text("hello")
-    with pytest.raises(CaptureFormatError, match="no FnnnnCH1.CSV"):
+    with pytest.raises(CaptureFormatError, match=r"no FnnnnCH1\.CSV"):
         read_tds_capture(tmp_path)
-    with pytest.raises(CaptureFormatError, match="no FnnnnCH1.CSV") as err:
+    with pytest.raises(CaptureFormatError, match=r"no FnnnnCH1\.CSV") as err:
         read_capture(tmp_path)
     assert str(tmp_path) in str(err.value)
     with pytest.raises(OptionError):
@@ -234,7 +234,7 @@ def test_truncated_file_says_how_many(tmp_path):
     with pytest.raises(CaptureDataError, match="truncated"):
         read_tds_channel(f)
     with pytest.raises(CaptureDataError, match="Record Length says 2500"):
-        read_tds_channel(write_lines(f, lines + [",,,00.025000000000,   0.10000,"]))
+        read_tds_channel(write_lines(f, [*lines, ",,,00.025000000000,   0.10000,"]))
 
 
 def test_non_numeric_cell_names_file_row_and_text(tmp_path):

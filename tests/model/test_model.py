@@ -27,23 +27,23 @@ def _pinv_like() -> MotorModel:
 def test_transfer_functions_match_python_control() -> None:
     m = _pinv_like()
     ref = control.ss2tf(m.A, m.B, [[0, 1, 0]], 0)
-    np.testing.assert_allclose(m.velocity_tf().num[0][0], ref.num[0][0] / ref.den[0][0][0], atol=1e-12)
-    assert m.velocity_tf().den[0][0][0] == 1.0
+    np.testing.assert_allclose(m.velocity_tf.num[0][0], ref.num[0][0] / ref.den[0][0][0], atol=1e-12)
+    assert m.velocity_tf.den[0][0][0] == 1.0
     refp = control.ss2tf(m.A, m.B, [[1, 0, 0]], 0)
     # python-control's ss2tf leaves a round-off leading coefficient (−9e-16 s²) that motorid
     # drops: compare the transfer functions, on the imaginary axis
     w = 1j * np.logspace(-2, 3, 12)
-    np.testing.assert_allclose(m.position_tf()(w), refp(w), rtol=1e-9)
-    assert len(m.position_tf().num[0][0]) == 2
-    assert m.current_tf() is not None
+    np.testing.assert_allclose(m.position_tf(w), refp(w), rtol=1e-9)
+    assert len(m.position_tf.num[0][0]) == 2
+    assert m.current_tf is not None
     np.testing.assert_allclose(np.sort_complex(m.poles()), np.sort_complex(np.linalg.eigvals(m.A)), atol=1e-9)
 
 
 def test_velocity_only_model_position_is_integral() -> None:
     m = model_from_velocity_tf([2.0], [1.0, 2.5], step_volts=1.0, method="classic")
     assert m.states == ("velocity",)
-    assert m.current_tf() is None
-    np.testing.assert_allclose(m.position_tf().den[0][0], [1.0, 2.5, 0.0])
+    assert m.current_tf is None
+    np.testing.assert_allclose(m.position_tf.den[0][0], [1.0, 2.5, 0.0])
     fo = m.first_order()
     assert fo.dc_gain == pytest.approx(0.8)
     assert fo.time_constant_s == pytest.approx(0.4)
@@ -112,7 +112,7 @@ def test_cancel_near_removes_pair_and_keeps_dc_gain() -> None:
     # (s + 1.01)/((s + 1)(s + 10)): the pair at -1/-1.01 is 0.1 % of the fastest pole apart.
     m = model_from_velocity_tf([1.0, 1.01], [1.0, 11.0, 10.0], with_position=True)
     c = m.cancel_near(0.01, keep="dc")
-    assert c.velocity_tf().den[0][0].size == 2
+    assert c.velocity_tf.den[0][0].size == 2
     assert c.dc_gain() == pytest.approx(m.dc_gain(), rel=1e-12)
     np.testing.assert_allclose(c.poles(), [-10.0], rtol=1e-9)
     assert "position" in c.outputs

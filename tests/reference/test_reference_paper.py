@@ -70,7 +70,7 @@ def test_eq56_hankel_gives_corrected_eq57_and_its_transfer_function() -> None:
     ours = MotorModel(A=a, B=b, C=np.vstack([c, c @ a]), D=[[0.0], [(c @ b).item()]],
                       states=("x1", "x2", "x3"), outputs=("position", "velocity"))
     ref = control.ss2tf(a, b, c, 0)
-    for got, want in zip(_coeffs(ours.position_tf()), _coeffs(ref)):
+    for got, want in zip(_coeffs(ours.position_tf), _coeffs(ref), strict=False):
         np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
     # The printed denominator s³ + 4.51 s² + 6.53 s + 0.013 (58) matches neither.
     assert not np.allclose(_coeffs(ref)[1], [1, 4.51, 6.53, 0.013], rtol=0.01)
@@ -83,9 +83,9 @@ def test_eq38_gives_corrected_eq39_eq40() -> None:
                    outputs=("position", "velocity"))
     hv = _coeffs(control.ss2tf(a, np.reshape(b, (2, 1)), [[0, 1]], 0))
     hp = _coeffs(control.ss2tf(a, np.reshape(b, (2, 1)), [[1, 0]], 0))
-    for got, want in zip(_coeffs(m.velocity_tf()), hv):
+    for got, want in zip(_coeffs(m.velocity_tf), hv, strict=False):
         np.testing.assert_allclose(got, want, rtol=1e-12)
-    for got, want in zip(_coeffs(m.position_tf()), hp):
+    for got, want in zip(_coeffs(m.position_tf), hp, strict=False):
         np.testing.assert_allclose(got, want, rtol=1e-12)
     # Misprint: (39)/(40) print (2.1751 s + .0103)/(s² + 2.3187 s + .0435) and
     # (2.1751 s + .0104)/(same).  The correct values (seeds/README.md), to the print's
@@ -94,7 +94,7 @@ def test_eq38_gives_corrected_eq39_eq40() -> None:
     np.testing.assert_allclose(hv[1], [1, 2.3103, 0.0240], atol=5e-5)
     np.testing.assert_allclose(hp[0], [-0.0371, 2.160], atol=5e-4)
     # Eq. 41: cancelling the near-origin pair leaves 2.1751/(s + 2.2998).
-    c = _coeffs(m.cancel_near().velocity_tf())
+    c = _coeffs(m.cancel_near().velocity_tf)
     np.testing.assert_allclose(c[0], [2.1751], rtol=1e-4)
     np.testing.assert_allclose(c[1], [1, 2.2998], rtol=1e-4)
 
@@ -104,7 +104,7 @@ def test_eq44_gives_eq45_and_eq46_matrices_give_eq46_tf() -> None:
     m = MotorModel(A=a, B=[0.0, 2.1685], C=np.eye(2), D=None, states=("position", "velocity"),
                    outputs=("position", "velocity"))
     hv = _coeffs(control.ss2tf(a, [[0.0], [2.1685]], [[0, 1]], 0))
-    for got, want in zip(_coeffs(m.velocity_tf()), hv):
+    for got, want in zip(_coeffs(m.velocity_tf), hv, strict=False):
         np.testing.assert_allclose(got, want, rtol=1e-12)
     # (45): 2.1685 s/(s² + 2.2585 s + .0192); ss2tf gives s² + 2.267 s (the printed 2.2585 is
     # not reproduced by the printed A; the paper's own τ = 1/2.2585 = 0.4428 s is).
@@ -115,7 +115,7 @@ def test_eq44_gives_eq45_and_eq46_matrices_give_eq46_tf() -> None:
     b3 = [0, 2.3373, 0.082]
     m3 = MotorModel(A=a3, B=b3, C=[[0, 1, 0]], D=[[0]], states=("position", "velocity", "current"))
     hv3 = _coeffs(control.ss2tf(a3, np.reshape(b3, (3, 1)), [[0, 1, 0]], 0))
-    for got, want in zip(_coeffs(m3.velocity_tf()), hv3):
+    for got, want in zip(_coeffs(m3.velocity_tf), hv3, strict=False):
         np.testing.assert_allclose(got, want, rtol=1e-12)
     # The paper's "≈ (2.337 s + .5630)/(s² + 2.692 s + .597)" is ss2tf's
     # (2.337 s² + .5629 s)/(s³ + 2.692 s² + .5964 s + .0041) with the zero at the origin and
@@ -124,7 +124,7 @@ def test_eq44_gives_eq45_and_eq46_matrices_give_eq46_tf() -> None:
     np.testing.assert_allclose(hv3[0][:2], [2.337, 0.563], rtol=2e-3)
     np.testing.assert_allclose(hv3[1][:3], [1, 2.692, 0.5964], rtol=2e-3)
     # cancel_near with the default 2 % also merges the -0.2356/-0.2408 pair: 2.3373/(s + 2.449).
-    cn, cd = _coeffs(m3.cancel_near().velocity_tf())
+    cn, cd = _coeffs(m3.cancel_near().velocity_tf)
     np.testing.assert_allclose(cn, [2.3373], rtol=1e-4)
     np.testing.assert_allclose(cd, [1, 2.4494], rtol=1e-4)
 

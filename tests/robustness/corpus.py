@@ -74,7 +74,7 @@ def build_base(base: Path) -> None:
 
 
 def plain_csv(t, u, y, *, sep: str = ",", newline: str = "\n", header: str = "time,input,velocity") -> str:
-    rows = [header.replace(",", sep)] + [f"{a:.6f}{sep}{b:.6g}{sep}{c:.6g}" for a, b, c in zip(t, u, y)]
+    rows = [header.replace(",", sep)] + [f"{a:.6f}{sep}{b:.6g}{sep}{c:.6g}" for a, b, c in zip(t, u, y, strict=False)]
     return newline.join(rows) + newline
 
 

@@ -19,7 +19,7 @@ from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from corpus import snapshot  # noqa: E402
+from corpus import snapshot
 
 
 class _Timeout(BaseException):

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import errno
 import io
-import sys
-from pathlib import Path
 
 import pytest
 
@@ -27,10 +25,9 @@ def test_commit_writes_all_and_leaves_no_temporaries(tmp_path):
 def test_failure_leaves_targets_untouched(tmp_path):
     a, b = tmp_path / "a.json", tmp_path / "b.html"
     a.write_text("old")
-    with pytest.raises(RuntimeError):
-        with atomic_outputs() as outs:
-            outs.write_text(a, "new")
-            raise RuntimeError("the report failed")
+    with pytest.raises(RuntimeError), atomic_outputs() as outs:
+        outs.write_text(a, "new")
+        raise RuntimeError("the report failed")
     assert a.read_text() == "old" and not b.exists()
     assert [p.name for p in tmp_path.iterdir()] == ["a.json"]
 
@@ -51,9 +48,8 @@ def test_disk_full_is_one_error_and_no_partial_file(tmp_path, monkeypatch):
         return real_open(path, mode, *args, **kw)
 
     monkeypatch.setattr("builtins.open", fake_open)
-    with pytest.raises(OutputWriteError, match="disk is full"):
-        with atomic_outputs() as outs:
-            outs.write_text(a, "x" * 1000)
+    with pytest.raises(OutputWriteError, match="disk is full"), atomic_outputs() as outs:
+        outs.write_text(a, "x" * 1000)
     assert list(tmp_path.iterdir()) == []
 
 
@@ -99,22 +95,20 @@ def test_atomic_folder_restores_on_failure(tmp_path):
     out.mkdir()
     (out / "model.json").write_text("old model")
     (out / "keep.txt").write_text("not a target")
-    with pytest.raises(OutputWriteError):
-        with atomic_folder(out, [out / "model.json", out / "ALL0000"]):
-            (out / "ALL0000").mkdir()
-            (out / "ALL0000" / "F0000CH1.CSV").write_text("partial")
-            (out / "model.json").write_text("new model")
-            raise OSError(errno.ENOSPC, "No space left on device")
+    with pytest.raises(OutputWriteError), atomic_folder(out, [out / "model.json", out / "ALL0000"]):
+        (out / "ALL0000").mkdir()
+        (out / "ALL0000" / "F0000CH1.CSV").write_text("partial")
+        (out / "model.json").write_text("new model")
+        raise OSError(errno.ENOSPC, "No space left on device")
     assert (out / "model.json").read_text() == "old model"
     assert sorted(p.name for p in out.iterdir()) == ["keep.txt", "model.json"]
 
 
 def test_atomic_folder_removes_a_folder_it_created(tmp_path):
     out = tmp_path / "new"
-    with pytest.raises(KeyboardInterrupt):
-        with atomic_folder(out, [out / "truth.json"]):
-            (out / "truth.json").write_text("{}")
-            raise KeyboardInterrupt
+    with pytest.raises(KeyboardInterrupt), atomic_folder(out, [out / "truth.json"]):
+        (out / "truth.json").write_text("{}")
+        raise KeyboardInterrupt
     assert not out.exists()
 
 
@@ -147,9 +141,8 @@ def test_an_output_that_is_not_a_regular_file_is_refused_and_left_alone(tmp_path
 
     fifo = tmp_path / "out.json"
     os.mkfifo(fifo)
-    with pytest.raises(OutputWriteError, match="named pipe"):
-        with atomic_outputs() as outs:
-            outs.write_text(fifo, "{}")
+    with pytest.raises(OutputWriteError, match="named pipe"), atomic_outputs() as outs:
+        outs.write_text(fifo, "{}")
     assert stat.S_ISFIFO(os.stat(fifo).st_mode)
     e = run_experiment("second-order", seed=1, roles=("velocity",), validation=False)
     cap = write_tds_capture(tmp_path / "ALL0001", e.captures["velocity"], index=1)

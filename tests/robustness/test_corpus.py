@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import corpus  # noqa: E402
+import corpus
 
 CASES = corpus.all_cases()
 RUNNER = Path(__file__).resolve().parent / "runner.py"
@@ -71,7 +71,7 @@ def results(tmp_path_factory) -> dict:
         if c.hang:
             res[c.id] = _run_hang_case(c, root / c.id, base)
     for proc, out in procs:
-        stdout, stderr = proc.communicate(timeout=900)
+        _stdout, stderr = proc.communicate(timeout=900)
         if out.exists():
             res.update(json.loads(out.read_text()))
         if proc.returncode != 0:
