@@ -1,4 +1,5 @@
-"""Shared test fixtures: the real recordings folder and an in-process CLI runner."""
+"""Shared test fixtures: the real recordings folder, the demo captures (built once per test run)
+and an in-process CLI runner."""
 
 from __future__ import annotations
 
@@ -43,3 +44,26 @@ def run_cli(capsys, monkeypatch):
         return CliResult(code, cap.out, cap.err)
 
     return run
+
+
+@dataclass(frozen=True)
+class DemoRun:
+    """The bundled demo experiment, written once per test run (read-only for the tests)."""
+
+    folder: Path
+    result: object  # motorid.cli.demo.DemoResult
+    truth: dict
+
+
+@pytest.fixture(scope="session")
+def demo_run(tmp_path_factory) -> DemoRun:
+    """``motorid demo`` (seed 0) into a session folder: every test reading the demo captures
+    shares this one run instead of simulating, writing and identifying its own."""
+    import json
+
+    from motorid.cli.demo import run_demo
+
+    out = tmp_path_factory.mktemp("demo") / "D"
+    result = run_demo(out, seed=0)
+    return DemoRun(out, result, json.loads(result.truth_path.read_text()))
+

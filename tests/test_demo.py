@@ -6,12 +6,8 @@ import pytest
 
 
 @pytest.fixture(scope="module")
-def demo_dir(tmp_path_factory):
-    from motorid.cli.demo import run_demo
-
-    out = tmp_path_factory.mktemp("demo") / "D"
-    run_demo(out, seed=3)
-    return out
+def demo_dir(demo_run):
+    return demo_run.folder
 
 
 def test_demo_writes_the_scope_layout(demo_dir):

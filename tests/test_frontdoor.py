@@ -20,12 +20,8 @@ FRONT_DOOR = ("read_experiment", "identify", "design", "simulate", "write_report
 
 
 @pytest.fixture(scope="module")
-def demo(tmp_path_factory):
-    from motorid.cli.demo import run_demo
-
-    out = tmp_path_factory.mktemp("frontdoor") / "D"
-    run_demo(out, seed=0)
-    return out
+def demo(demo_run):
+    return demo_run.folder
 
 
 @pytest.fixture(scope="module")

@@ -28,13 +28,8 @@ def check_contract_model(doc):
 
 
 @pytest.fixture(scope="module")
-def demo(tmp_path_factory):
-    from motorid.cli.demo import run_demo
-
-    out = tmp_path_factory.mktemp("iddemo") / "D"
-    res = run_demo(out, seed=1)
-    truth = json.loads(res.truth_path.read_text())
-    return out, truth
+def demo(demo_run):
+    return demo_run.folder, demo_run.truth
 
 
 @pytest.mark.parametrize("method", ["pinv", "markov", "classic", "auto"])

@@ -167,12 +167,8 @@ def test_unknown_or_missing_channel():
 
 # ------------------------------------------------------------------- the demo
 @pytest.fixture(scope="module")
-def demo(tmp_path_factory):
-    from motorid.cli.demo import run_demo
-
-    out = tmp_path_factory.mktemp("valdemo") / "D"
-    run_demo(out, seed=0)
-    return out
+def demo(demo_run):
+    return demo_run.folder
 
 
 def _rows(res):

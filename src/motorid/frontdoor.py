@@ -39,12 +39,12 @@ if TYPE_CHECKING:
 
 __all__ = [
     "Experiment",
+    "IdentificationResult",
     "ParameterEstimate",
     "Provenance",
-    "IdentificationResult",
-    "read_experiment",
-    "identify",
     "design",
+    "identify",
+    "read_experiment",
     "simulate",
     "write_report",
 ]
@@ -235,7 +235,7 @@ class IdentificationResult:
     Attributes
     ----------
     model : MotorModel
-        The model (python-control objects inside: ``model.velocity_tf()``, ``model.ss()``).
+        The model (python-control objects inside: ``model.velocity_tf``, ``model.ss()``).
     params : Mapping[str, ParameterEstimate]
         ``dc_gain`` [V/V], ``time_constant`` [s], ``delay`` [s] (when fitted), ``pole_1``…,
         ``zero_1``… [1/s] (read-only).
@@ -633,7 +633,7 @@ def _validation_captures(validation: Sequence[Any]) -> dict[str, Capture]:
     caps = [v if isinstance(v, Capture) else read_capture(str(v)) for v in validation]
     # keyed by file name; two captures of the same name in different folders keep their paths
     short = [Path(c.source).name for c in caps]
-    return {(k if short.count(k) == 1 else c.source): c for k, c in zip(short, caps)}
+    return {(k if short.count(k) == 1 else c.source): c for k, c in zip(short, caps, strict=False)}
 
 
 def write_report(

@@ -183,12 +183,8 @@ def test_real_rig_matches_the_output_error_fit(real_dir) -> None:
 
 
 @pytest.fixture(scope="module")
-def demo_dir(tmp_path_factory):
-    from motorid.cli.demo import run_demo
-
-    out = tmp_path_factory.mktemp("lagdemo") / "D"
-    run_demo(out, seed=2)
-    return out
+def demo_dir(demo_run):
+    return demo_run.folder
 
 
 def test_cli_markov_default_is_laguerre_and_taylor_still_runs(demo_dir, run_cli, tmp_path) -> None:

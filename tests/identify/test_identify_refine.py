@@ -43,11 +43,8 @@ def test_oe_beats_the_paper_pinv_on_a_noisy_capture():
     assert abs(oe.dc_gain - dc_eff) < abs(pv.dc_gain - dc_eff)
 
 
-def test_auto_json_has_uncertainty_and_stages(tmp_path, run_cli):
-    from motorid.cli.demo import run_demo
-
-    out = tmp_path / "D"
-    run_demo(out, seed=2)
+def test_auto_json_has_uncertainty_and_stages(tmp_path, run_cli, demo_run):
+    out = demo_run.folder
     m = tmp_path / "m.json"
     res = run_cli("identify", "--velocity", out / "ALL0001", "--position", out / "ALL0000",
                   "--current", out / "ALL0002", "--method", "auto", "--json", m)

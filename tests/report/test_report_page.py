@@ -10,12 +10,8 @@ from motorid.report import SECTIONS
 
 
 @pytest.fixture(scope="module")
-def demo(tmp_path_factory):
-    from motorid.cli.demo import run_demo
-
-    out = tmp_path_factory.mktemp("repdemo") / "D"
-    run_demo(out, seed=4)
-    return out
+def demo(demo_run):
+    return demo_run.folder
 
 
 def test_demo_writes_a_self_contained_report(demo):

@@ -42,10 +42,10 @@ from motorid.model.simplify import (
 )
 
 __all__ = [
-    "SCHEMA",
     "CHANNELS",
-    "ModelFormatError",
+    "SCHEMA",
     "FirstOrder",
+    "ModelFormatError",
     "MotorModel",
     "model_from_velocity_tf",
 ]
@@ -92,7 +92,7 @@ def model_from_velocity_tf(
     *,
     with_position: bool = False,
     **meta: Any,
-) -> "MotorModel":
+) -> MotorModel:
     """Realise a velocity transfer function as a :class:`MotorModel`.
 
     Parameters
@@ -148,7 +148,7 @@ def model_from_velocity_tf(
     c_ext[0, 0] = 1.0
     c_ext[1, 1:] = c_row[0]
     d_ext = np.vstack([[[0.0]], d_val])
-    return MotorModel(A=a_ext, B=b_ext, C=c_ext, D=d_ext, states=("position",) + vstates,
+    return MotorModel(A=a_ext, B=b_ext, C=c_ext, D=d_ext, states=("position", *vstates),
                       outputs=("position", "velocity"), **meta)
 
 
@@ -259,7 +259,7 @@ class MotorModel:
         """Number of states."""
         return int(self.A.shape[0])
 
-    def replace(self, **changes: Any) -> "MotorModel":
+    def replace(self, **changes: Any) -> MotorModel:
         """Return a copy with some fields changed (``dataclasses.replace``)."""
         return dataclasses.replace(self, **changes)
 
@@ -280,10 +280,12 @@ class MotorModel:
         num, den, _ = _cancel_pairs(num, den, EXACT_CANCEL_TOL, "leading")
         return _normalise_tf(num, den)
 
+    @property
     def velocity_tf(self) -> control.TransferFunction:
         """Input volts → velocity-channel volts, ``den[0] == 1`` (Masoud 2019, eq. 9)."""
         return control.tf(*self._row_tf("velocity"))
 
+    @property
     def position_tf(self) -> control.TransferFunction:
         """Input volts → position channel; velocity TF / s when there is no position output."""
         if "position" in self.outputs:
@@ -291,6 +293,7 @@ class MotorModel:
         num, den = self._row_tf("velocity")
         return control.tf(num, np.polymul(den, [1.0, 0.0]))
 
+    @property
     def current_tf(self) -> control.TransferFunction | None:
         """Input volts → current channel, or None when the model has no current output."""
         if "current" not in self.outputs:
@@ -348,7 +351,7 @@ class MotorModel:
         return FirstOrder(float(n0 / d0), float(d1 / d0 - n1 / n0))
 
     # --------------------------------------------------------- simplification
-    def cancel_near(self, tol_rel: float = CANCEL_TOL_REL, *, keep: str = "leading") -> "MotorModel":
+    def cancel_near(self, tol_rel: float = CANCEL_TOL_REL, *, keep: str = "leading") -> MotorModel:
         """Cancel near pole-zero pairs of the velocity transfer function.
 
         Parameters
@@ -388,7 +391,7 @@ class MotorModel:
         note = f"cancel_near: cancelled {n} pole-zero pair(s) within {tol_rel:g} of the fastest pole (keep={keep})"
         return self._derived(new_num, new_den, note, {"cancel_tol_rel": tol_rel, "cancel_keep": keep})
 
-    def reduce(self, order: int) -> "MotorModel":
+    def reduce(self, order: int) -> MotorModel:
         """Reduce the velocity transfer function to ``order`` poles, keeping its DC gain.
 
         Balanced truncation with singular-perturbation (``matchdc``) elimination of the
@@ -436,7 +439,7 @@ class MotorModel:
         note = f"reduce: balanced truncation (DC-matched) of the velocity TF to order {order}"
         return self._derived(red_num, red_den, note, {"reduce_order": int(order)})
 
-    def _derived(self, num: np.ndarray, den: np.ndarray, note: str, extra_settings: Mapping[str, Any]) -> "MotorModel":
+    def _derived(self, num: np.ndarray, den: np.ndarray, note: str, extra_settings: Mapping[str, Any]) -> MotorModel:
         return model_from_velocity_tf(
             num, den,
             with_position="position" in self.outputs,
@@ -445,7 +448,7 @@ class MotorModel:
             settings={**self.settings, **extra_settings},
             sample_interval_s=self.sample_interval_s,
             fit={},
-            warnings=self.warnings + (note,),
+            warnings=(*self.warnings, note),
             extras={**self.extras, "derived_from_order": self.order},
         )
 
@@ -496,7 +499,7 @@ class MotorModel:
         return json.dumps(self.to_json(), indent=2)
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any], *, file: str | None = None) -> "MotorModel":
+    def from_json(cls, data: Mapping[str, Any], *, file: str | None = None) -> MotorModel:
         """Rebuild a model from :meth:`to_json` output.
 
         Parameters

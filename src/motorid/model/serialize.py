@@ -1,6 +1,7 @@
-"""Serialising a :class:`~motorid.model.motor.MotorModel`: the CONTRACT.md model JSON (both
-ways) and the Octave/MATLAB script.  JSON is a serialisation at the edge: the model itself
-holds numpy arrays and python-control objects.
+"""Serialising a :class:`~motorid.model.motor.MotorModel`.
+
+The CONTRACT.md model JSON (both ways) and the Octave/MATLAB script.  JSON is a serialisation at the
+edge: the model itself holds numpy arrays and python-control objects.
 """
 
 from __future__ import annotations
@@ -59,7 +60,7 @@ def model_to_dict(model: MotorModel) -> dict[str, Any]:
     """
     cv, dv = model._row("velocity")
     vnum, vden = model._row_tf("velocity")
-    pnum, pden = _tf_coeffs(model.position_tf())
+    pnum, pden = _tf_coeffs(model.position_tf)
     fo = model.first_order()
     data: dict[str, Any] = {
         "schema": SCHEMA,
@@ -88,7 +89,7 @@ def model_to_dict(model: MotorModel) -> dict[str, Any]:
         "settings": dict(model.settings),
         "extras": dict(model.extras),
     }
-    cur = model.current_tf()
+    cur = model.current_tf
     if cur is not None:
         cnum, cden = _tf_coeffs(cur)
         data["current_tf"] = {"num": cnum.tolist(), "den": cden.tolist()}
@@ -157,7 +158,7 @@ def model_to_matlab(model: MotorModel, name: str = "motor") -> str:
 
     cv, dv = model._row("velocity")
     vnum, vden = model._row_tf("velocity")
-    pnum, pden = _tf_coeffs(model.position_tf())
+    pnum, pden = _tf_coeffs(model.position_tf)
     fo = model.first_order()
     lines = [
         f"% {name}: DC servo-motor model identified by motorid (method: {model.method})",

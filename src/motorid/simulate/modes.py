@@ -47,15 +47,15 @@ from motorid.model import MotorModel
 __all__ = [
     "MODES",
     "ModeCriteria",
-    "ServoPlant",
     "ModeMap",
-    "servo_plants",
-    "parse_range",
-    "simulate_servo_grid",
+    "ServoPlant",
     "classify_grid",
     "mode_map",
-    "plot_mode_maps",
     "modes_json",
+    "parse_range",
+    "plot_mode_maps",
+    "servo_plants",
+    "simulate_servo_grid",
 ]
 
 MODES: tuple[str, ...] = ("unstable", "overdamped", "critically_damped", "underdamped", "oscillatory", "chattering")
@@ -123,6 +123,7 @@ class ServoPlant:
 
     @property
     def order(self) -> int:
+        """Number of states."""
         return self.A.shape[0]
 
     def time_constant_s(self) -> float:
@@ -203,7 +204,7 @@ def servo_plants(model: MotorModel, extra_pole: float | None = None) -> tuple[Se
         For a non-positive ``extra_pole`` or a model whose velocity does not settle.
     """
     a, b, cp, cv = _channel_rows(model)
-    vden = np.asarray(model.velocity_tf().den[0][0], dtype=float)
+    vden = np.asarray(model.velocity_tf.den[0][0], dtype=float)
     vorder = int(np.trim_zeros(vden, "f").size - 1)
     fo = model.first_order()
     tau, dc = fo.time_constant_s, fo.dc_gain
@@ -261,8 +262,8 @@ def simulate_servo_grid(plant: ServoPlant, kp: np.ndarray, kv: np.ndarray, crite
     system per call; see ``bench/modes_speed.py``).  The step is ``1/(steps_per_time_constant·max|λ|)``
     over the linearised loops (RK4 is stable to ``|λ h| ≈ 2.8``; the default ``|λ h| = 0.25``
     keeps the error at the saturation corners, where RK4 drops to low order, near 1 % of the
-    step over a limit cycle), at least 400 steps per record.  ``record=True`` also keeps θ at every step (``stats.theta``,
-    shape (steps + 1, N); for tests and small grids).
+    step over a limit cycle), at least 400 steps per record.  ``record=True`` also keeps θ at
+    every step (``stats.theta``, shape (steps + 1, N); for tests and small grids).
 
     Returns
     -------
@@ -429,8 +430,11 @@ def mode_map(plant: ServoPlant, kp: np.ndarray, kv: np.ndarray, criteria: ModeCr
 
 
 def modes_json(maps: tuple[ModeMap, ...], criteria: ModeCriteria) -> dict[str, Any]:
-    """CONTRACT.md "Modes JSON": ``kp``, ``kv``, ``modes`` (of the first map: the 2nd-order one),
-    ``criteria``, plus ``maps`` with every plant's modes and counts."""
+    """CONTRACT.md "Modes JSON".
+
+    ``kp``, ``kv``, ``modes`` (of the first map: the 2nd-order one), ``criteria``, plus ``maps``
+    with every plant's modes and counts.
+    """
     crit = asdict(criteria)
     crit["definitions"] = __doc__.split("Classification criteria")[1].split("References")[0].strip()
     first = maps[0]
@@ -456,15 +460,15 @@ def plot_mode_maps(maps: tuple[ModeMap, ...], path: str | Path) -> None:
     # a Figure of its own, not pyplot's: no backend switch in the caller's session
     fig = Figure(figsize=(5.5 * len(maps), 5))
     axes = fig.subplots(1, len(maps), squeeze=False)
-    for ax, m in zip(axes[0], maps):
+    for ax, m in zip(axes[0], maps, strict=False):
         ext = [m.kp[0], m.kp[-1], m.kv[0], m.kv[-1]]
         ax.imshow(m.labels, origin="lower", aspect="auto", extent=ext, cmap=cmap, vmin=-0.5,
                   vmax=len(MODES) - 0.5, interpolation="nearest")
         ax.set_title(m.plant)
         ax.set_xlabel("Kp")
         ax.set_ylabel("Kv")
-    fig.legend(handles=[Patch(color=c, label=name) for c, name in zip(colours, MODES)], loc="lower center",
-               ncol=len(MODES), fontsize="small")
+    fig.legend(handles=[Patch(color=c, label=name) for c, name in zip(colours, MODES, strict=False)],
+               loc="lower center", ncol=len(MODES), fontsize="small")
     fig.tight_layout(rect=(0, 0.07, 1, 1))
     fig.savefig(str(path), dpi=100)
 
