@@ -1,0 +1,139 @@
+"""Discovery of experiment folders and role assignment (no identification: fast)."""
+
+from __future__ import annotations
+
+
+import pytest
+
+from motorid.batch import discover_experiments
+from motorid.batch.task import assign_roles
+from motorid.errors import MotorIdError, OptionError
+
+
+def test_every_layout_of_the_class_is_found(class_root):
+    root, _ = class_root
+    specs = {s.name: s for s in discover_experiments([root])}
+    assert sorted(specs) == ["bad", "s00", "s01", "s02", "s03/run1"]
+    assert specs["s00"].captures == (("ALL0000",), ("ALL0001",), ("ALL0002",))
+    # loose Tektronix channel files are paired by their Fnnnn prefix
+    assert specs["s01"].captures == (("F0000CH1.CSV", "F0000CH2.CSV"), ("F0001CH1.CSV", "F0001CH2.CSV"))
+    # the manifest names the roles and the validation capture
+    assert dict(specs["s02"].roles) == {"position": ("ALL0000",), "velocity": ("ALL0001",), "current": ("ALL0002",)}
+    assert specs["s02"].validate == (("ALL0003",),)
+    assert "manifest.csv" in specs["s02"].files
+    assert specs["s03/run1"].captures == (("log.csv",),)
+    assert not specs["s00"].roles
+
+
+def test_output_folder_under_a_root_is_not_searched(tmp_path, class_root):
+    import shutil
+
+    root, _ = class_root
+    shutil.copytree(root / "s00", tmp_path / "s00")
+    out = tmp_path / "out"
+    shutil.copytree(root / "s00", out / "s00")  # outputs that look like captures
+    names = [s.name for s in discover_experiments([tmp_path], skip=out)]
+    assert names == ["s00"]
+
+
+def test_a_root_that_is_the_experiment_is_named_by_its_folder(class_root):
+    root, _ = class_root
+    (spec,) = discover_experiments([root / "s00"])
+    assert spec.name == "s00"
+
+
+def test_same_names_under_two_roots_get_their_root_prefixed(tmp_path, class_root):
+    import shutil
+
+    root, _ = class_root
+    for section in ("monday", "tuesday"):
+        shutil.copytree(root / "s00", tmp_path / section / "s00")
+    names = [s.name for s in discover_experiments([tmp_path / "monday", tmp_path / "tuesday"])]
+    assert names == ["monday/s00", "tuesday/s00"]
+
+
+def test_experiment_toml_names_roles_and_options(tmp_path, class_root):
+    import shutil
+
+    root, _ = class_root
+    shutil.copytree(root / "s00", tmp_path / "e")
+    (tmp_path / "e" / "experiment.toml").write_text(
+        'velocity = "ALL0001"\nposition = "ALL0000"\nstep_volts = 5.92\ncolumns = {time = "t"}\n', encoding="utf-8")
+    (spec,) = discover_experiments([tmp_path])
+    assert dict(spec.roles) == {"position": ("ALL0000",), "velocity": ("ALL0001",)}
+    assert spec.step_volts == 5.92 and dict(spec.columns) == {"time": "t"}
+    assert spec.captures == (("ALL0000",), ("ALL0001",))  # ALL0002 is not named: not an input
+
+
+@pytest.mark.parametrize(("text", "words"), [
+    ('velocity = "ALL0009"\n', "ALL0009, which does not exist"),
+    ('velocity = "ALL0001"\nspeed = 3\n', "unknown key(s) speed"),
+    ('current = "ALL0002"\n', "no velocity or position"),
+    ("velocity = \n", "not valid TOML"),
+])
+def test_bad_experiment_toml_is_one_line_naming_the_file(tmp_path, class_root, text, words):
+    import shutil
+
+    root, _ = class_root
+    shutil.copytree(root / "s00", tmp_path / "e")
+    (tmp_path / "e" / "experiment.toml").write_text(text, encoding="utf-8")
+    with pytest.raises(OptionError) as err:
+        discover_experiments([tmp_path])
+    msg = str(err.value)
+    assert words in msg and "experiment.toml" in msg and "\n" not in msg
+
+
+def test_bad_manifest_row_is_named(tmp_path, class_root):
+    import shutil
+
+    root, _ = class_root
+    shutil.copytree(root / "s00", tmp_path / "e")
+    (tmp_path / "e" / "manifest.csv").write_text("role,path\nvelocity,ALL0001\nspeed,ALL0000\n", encoding="utf-8")
+    with pytest.raises(OptionError, match=r"manifest\.csv:3: role 'speed'"):
+        discover_experiments([tmp_path])
+
+
+def test_nothing_found_and_missing_root_are_user_errors(tmp_path):
+    (tmp_path / "notes.txt").write_text("hello", encoding="utf-8")
+    with pytest.raises(OptionError, match="no experiments found"):
+        discover_experiments([tmp_path])
+    with pytest.raises(MotorIdError, match="no such folder"):
+        discover_experiments([tmp_path / "nowhere"])
+
+
+def test_content_hash_follows_file_content_and_settings(tmp_path, class_root):
+    import shutil
+
+    root, _ = class_root
+    shutil.copytree(root / "s00", tmp_path / "e")
+    (spec,) = discover_experiments([tmp_path])
+    h = spec.content_hash({"method": "auto"})
+    assert spec.content_hash({"method": "auto"}) == h
+    assert spec.content_hash({"method": "oe"}) != h
+    f = tmp_path / "e" / "ALL0002" / "F0002CH2.CSV"
+    f.write_bytes(f.read_bytes().replace(b"0", b"1", 1))
+    assert spec.content_hash({"method": "auto"}) != h
+
+
+def test_roles_are_guessed_and_the_rest_left_for_validation(class_root):
+    from motorid.io import read_capture
+
+    root, _ = class_root
+    folder = root / "s02"  # position, velocity, current and a sine capture
+    (spec,) = [s for s in discover_experiments([root]) if s.name == "s02"]
+    caps = {key: read_capture(folder / key[0]) for key in spec.captures}
+    roles, others = assign_roles(spec, caps)
+    # the trainer wrote them in the paper's order: ALL0000 position, ALL0001 velocity, ALL0002 current
+    assert roles == {"position": ("ALL0000",), "velocity": ("ALL0001",), "current": ("ALL0002",)}
+    assert others == [("ALL0003",)]
+
+
+def test_two_captures_of_one_role_are_refused(class_root):
+    from motorid.io import read_capture
+
+    root, _ = class_root
+    (spec,) = [s for s in discover_experiments([root]) if s.name == "s00"]
+    vel = read_capture(root / "s00" / "ALL0001")
+    caps = {("ALL0001",): vel, ("copy",): vel}
+    with pytest.raises(OptionError, match=r"2 captures look like velocity \(ALL0001, copy\)"):
+        assign_roles(spec, caps)
