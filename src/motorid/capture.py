@@ -10,12 +10,13 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
+from typing import overload
 
 import numpy as np
 
 from motorid.errors import CaptureDataError
 
-__all__ = ["ChannelInfo", "ScopeInfo", "Capture", "validate_samples", "ROLES"]
+__all__ = ["ROLES", "Capture", "ChannelInfo", "ScopeInfo", "validate_samples"]
 
 #: The measured quantities a capture's output channel can be.
 ROLES: tuple[str, ...] = ("position", "velocity", "current")
@@ -76,6 +77,14 @@ class ScopeInfo:
     record_length: int | None = None
     horizontal_scale_s: float | None = None
     trigger_index: int | None = None
+
+
+@overload
+def _frozen_array(a: np.ndarray) -> np.ndarray: ...
+
+
+@overload
+def _frozen_array(a: None) -> None: ...
 
 
 def _frozen_array(a: np.ndarray | None) -> np.ndarray | None:
@@ -211,7 +220,8 @@ def validate_samples(
     if bad.size:
         i = int(bad[0]) + 1
         what = "duplicated" if dt[bad[0]] == 0 else "goes backwards"
-        raise CaptureDataError(f"time {what} ({float(t[i - 1]):.10g} then {float(t[i]):.10g})", file=file, row=first_row + i)
+        raise CaptureDataError(f"time {what} ({float(t[i - 1]):.10g} then {float(t[i]):.10g})",
+                               file=file, row=first_row + i)
     med = float(np.median(dt))
     bad = np.flatnonzero(np.abs(dt - med) > rel_jitter * med + 1e-12 * max(1.0, float(np.max(np.abs(t)))))
     if bad.size:

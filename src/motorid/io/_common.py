@@ -19,26 +19,26 @@ from motorid.capture import ChannelInfo
 from motorid.errors import CaptureDataError, CaptureFormatError, MotorIdError, OutputExistsError
 
 __all__ = [
-    "PathLike",
-    "MAX_TEXT_BYTES",
     "CAREFUL_MAX_BYTES",
-    "MIN_SAMPLES",
     "MAX_ABS_VALUE",
+    "MAX_TEXT_BYTES",
+    "MIN_SAMPLES",
     "SAMPLE_INTERVAL_RANGE_S",
+    "TEXT_SNIFF_BYTES",
+    "PathLike",
+    "binary_kind",
     "check_capture_file",
-    "read_head",
-    "plain_number",
     "check_samples",
+    "check_writable",
+    "column_to_floats",
+    "parse_number",
+    "plain_number",
+    "rail_clipping_warning",
     "read_bytes",
+    "read_head",
     "read_text",
     "split_lines",
-    "binary_kind",
-    "parse_number",
-    "column_to_floats",
     "validate_rows",
-    "check_writable",
-    "rail_clipping_warning",
-    "TEXT_SNIFF_BYTES",
 ]
 
 PathLike = str | os.PathLike
@@ -72,7 +72,7 @@ CAREFUL_MAX_BYTES = 16 * 1024 * 1024
 T = TypeVar("T")
 
 
-class NoFastPath(Exception):
+class NoFastPathError(Exception):
     """The file needs the row-by-row reader (the reason, in words, is the message)."""
 
 
@@ -93,7 +93,7 @@ def read_fast_or_careful(
     """
     try:
         return fast()
-    except NoFastPath as why:
+    except NoFastPathError as why:
         if size > CAREFUL_MAX_BYTES:
             raise CaptureFormatError(
                 f"is {size / 2**20:.0f} MiB and {why}: such files are read up to {CAREFUL_MAX_BYTES >> 20} MiB; "
@@ -295,7 +295,7 @@ def parse_number(cell: object, *, decimal_comma: bool = False) -> float | None:
 
 
 def column_to_floats(
-    cells: Sequence[object],
+    cells: Sequence[object] | np.ndarray,
     rows: Sequence[int] | np.ndarray,
     *,
     file: str,
@@ -333,7 +333,7 @@ def column_to_floats(
             # numpy's C conversion is ~30x faster than a Python loop; it raises on the first
             # bad cell without saying which, so the slow loop below then finds it.
             out = np.array(cells, dtype=float)
-            if not any("_" in c for c in cells):
+            if not any(isinstance(c, str) and "_" in c for c in cells):
                 return out
         except ValueError:
             pass
@@ -617,7 +617,7 @@ class LineOfSample(Sequence):
     def __len__(self) -> int:
         return self._n
 
-    def __getitem__(self, i):  # type: ignore[override]
+    def __getitem__(self, i):
         if isinstance(i, slice):
             raise TypeError("LineOfSample does not slice")
         k = -1

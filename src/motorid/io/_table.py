@@ -17,7 +17,7 @@ from motorid.capture import ROLES, Capture, ChannelInfo
 from motorid.errors import CaptureFormatError, OptionError
 from motorid.io._common import column_to_floats, parse_number, validate_rows
 
-__all__ = ["COLUMN_KEYS", "check_role", "classify_name", "role_from_name", "capture_from_table"]
+__all__ = ["COLUMN_KEYS", "capture_from_table", "check_role", "classify_name", "role_from_name"]
 
 #: The keys a column mapping may use.
 COLUMN_KEYS: tuple[str, ...] = ("time", "input", "position", "velocity", "current", "output")
@@ -161,7 +161,7 @@ def _assign(
     names: Sequence[str], numeric: Sequence[bool], mapping: dict[str, int], role: str | None, file: str
 ) -> _Assignment:
     used = set(mapping.values())
-    cats: dict[str, list[int]] = {c: [] for c in (*_ORDER, "setpoint", None)}
+    cats: dict[str | None, list[int]] = {c: [] for c in (*_ORDER, "setpoint", None)}
     for i, n in enumerate(names):
         if i not in used and numeric[i]:
             cats[classify_name(n)].append(i)
@@ -181,6 +181,7 @@ def _assign(
     role_cols = {r: c for r in ROLES if (c := pick(r)) is not None and c != time}
     generic = pick("output")
     inp = pick("input")
+    hint: str | None
     if role is not None and role in role_cols:
         output, hint = role_cols[role], role
     elif "output" in mapping:
@@ -215,7 +216,7 @@ def _assign(
 
 def capture_from_table(
     names: Sequence[str],
-    cells: Sequence[Sequence[object]],
+    cells: Sequence[Sequence[object] | np.ndarray],
     rows: Sequence[int] | np.ndarray,
     *,
     file: str,
@@ -277,7 +278,7 @@ def capture_from_table(
     output = values(asg.output)
     inp = None if asg.input is None else values(asg.input)
     checked = {names[asg.output]: output}
-    if inp is not None:
+    if asg.input is not None and inp is not None:
         checked[names[asg.input]] = inp
     extra: dict[str, np.ndarray] = {}
     for r, j in asg.role_columns.items():

@@ -28,7 +28,7 @@ from pathlib import Path
 
 from motorid.errors import MotorIdError, OutputWriteError
 
-__all__ = ["OutputWriteError", "AtomicOutputs", "atomic_outputs", "atomic_folder"]
+__all__ = ["AtomicOutputs", "OutputWriteError", "atomic_folder", "atomic_outputs"]
 
 
 # OutputWriteError lives in motorid.errors with every other user-facing error
@@ -53,9 +53,10 @@ def write_error(target: Path | str, exc: OSError) -> OutputWriteError:
 
 
 def refuse_special(target: Path | str) -> None:
-    """Refuse an output path that exists and is not a regular file (a device, a FIFO, a
-    socket): the rename at commit would replace it — as root, ``--json /dev/full --force``
-    turned the device node into a regular file.
+    """Refuse an output path that exists and is not a regular file (a device, a FIFO, a socket).
+
+    The rename at commit would replace it — as root, ``--json /dev/full --force`` turned the device
+    node into a regular file.
 
     Raises
     ------
@@ -100,8 +101,10 @@ class AtomicOutputs:
         self._pending: dict[Path, Path] = {}  # target -> temporary file beside it
 
     def path(self, target: Path | str) -> Path:
-        """A temporary path beside ``target`` to write into (same suffix, so writers that pick
-        a format from the suffix — matplotlib — write the right one).
+        """A temporary path beside ``target`` to write into.
+
+        Same suffix, so writers that pick a format from the suffix — matplotlib — write the right
+        one.
 
         Raises
         ------
@@ -221,7 +224,7 @@ def atomic_folder(folder: Path | str, targets: Iterable[Path | str]) -> Iterator
         raised inside the block (mapped, with everything rolled back).
     """
     folder = Path(folder)
-    targets = [Path(t) for t in targets]
+    paths = [Path(t) for t in targets]
     created = not folder.exists()
     try:
         folder.mkdir(parents=True, exist_ok=True)
@@ -231,7 +234,7 @@ def atomic_folder(folder: Path | str, targets: Iterable[Path | str]) -> Iterator
     moved: list[Path] = []
 
     def rollback() -> None:
-        for t in targets:
+        for t in paths:
             if t.is_dir() and not t.is_symlink():
                 shutil.rmtree(t, ignore_errors=True)
             else:
@@ -246,7 +249,7 @@ def atomic_folder(folder: Path | str, targets: Iterable[Path | str]) -> Iterator
                 folder.rmdir()
 
     try:
-        for t in targets:
+        for t in paths:
             if t.exists() or t.is_symlink():
                 os.replace(t, backup / t.name)
                 moved.append(t)

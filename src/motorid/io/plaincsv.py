@@ -18,7 +18,7 @@ from motorid.capture import Capture
 from motorid.errors import CaptureFormatError, MotorIdError
 from motorid.io._common import (
     LineOfSample,
-    NoFastPath,
+    NoFastPathError,
     PathLike,
     binary_kind,
     check_capture_file,
@@ -139,26 +139,26 @@ def _fast_layout(path: PathLike, file: str) -> tuple[int, str | None, list[str],
     """From the file's first 64 KiB: header line index, delimiter, names, first data cells."""
     head = read_head(path)
     if head.startswith((b"\xff\xfe", b"\xfe\xff")) or binary_kind(head[:8192]) is not None:
-        raise NoFastPath("it is UTF-16 or binary")
+        raise NoFastPathError("it is UTF-16 or binary")
     if b'"' in head:
-        raise NoFastPath("it has quoted fields")
+        raise NoFastPathError("it has quoted fields")
     cut = head.rfind(b"\n")
     text = decode_text(head[: cut + 1] if cut > 0 else head, file=file)
     lines = split_lines(text)
     idx = _content_lines(lines)
     if len(idx) < 2:
-        raise NoFastPath("it has fewer than two lines")
+        raise NoFastPathError("it has fewer than two lines")
     h = idx[0]
     delim = _delimiter(lines[h])
     names = _split(lines[h], delim)
     first = _split(lines[idx[1]], delim)
     if len(names) < 2 or all(parse_number(n) is not None for n in names if n.strip()):
-        raise NoFastPath("it has no header row")
+        raise NoFastPathError("it has no header row")
     if delim in (";", "\t", None) and any(_DECIMAL_COMMA_CELL.match(c) for i in idx[1:21]
                                           for c in _split(lines[i], delim)):
-        raise NoFastPath("it uses a decimal comma")
+        raise NoFastPathError("it uses a decimal comma")
     if _comment_between(lines, h, idx[1]):
-        raise NoFastPath("it has comment lines after the header")
+        raise NoFastPathError("it has comment lines after the header")
     return h, delim, names, first
 
 
@@ -180,7 +180,7 @@ def _read_fast(path: PathLike, file: str, columns: Mapping[str, str] | None, rol
     usecols = None if len(numeric) == len(first) else numeric
     arr = load_columns(path, skiprows=h + 1, delimiter=delim, usecols=usecols)
     n = arr.shape[0]
-    cells: list[object] = []
+    cells: list[Sequence[object] | np.ndarray] = []
     for j in range(width):
         # a text column (a date, a comment) is left out; its first cell tells the table so
         cells.append(arr[:, numeric.index(j)] if j in numeric else [first[j]])

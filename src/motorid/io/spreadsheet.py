@@ -25,7 +25,7 @@ from motorid.errors import CaptureDataError, CaptureFormatError, MotorIdError, O
 from motorid.io._common import PathLike, check_writable, column_to_floats, parse_number, rail_clipping_warning
 from motorid.io._common import read_bytes, validate_rows
 from motorid.io._table import capture_from_table, check_role, classify_name
-from motorid.io.tektronix import META_ROWS, NUMERIC_META, meta_key
+from motorid.io.tektronix import META_ROWS, NUMERIC_META, Meta, meta_key, meta_number, meta_text
 
 __all__ = ["XLSX_FORMAT", "read_xlsx_capture", "write_openchoice_xlsx"]
 
@@ -134,14 +134,14 @@ def _last_row(g: _Grid, c: int, r0: int) -> int:
 class _Block:
     time_s: np.ndarray
     values: np.ndarray
-    meta: dict[str, object]
+    meta: Meta
     header: str | None
     column: str  # letter of the value column
 
 
-def _block_meta(g: _Grid, lo: int, hi: int, r_end: int) -> dict[str, object]:
+def _block_meta(g: _Grid, lo: int, hi: int, r_end: int) -> Meta:
     """Metadata label/value pairs in columns lo..hi-1 (left of a block's time column)."""
-    meta: dict[str, object] = {}
+    meta: Meta = {}
     for r in range(min(r_end, g.shape[0])):
         row = g.cells[r]
         for j in range(lo, hi):
@@ -181,7 +181,7 @@ def _read_block(g: _Grid, c: int, r0: int, lo: int, file: str) -> _Block:
     v = column_to_floats([g.cells[r][c + 1] for r in range(r0, r1 + 1)], rows, file=file,
                          what=f"{where} {_col_letter(c + 1)}")
     meta = _block_meta(g, lo, c, r1 + 1)
-    rl = meta.get("record_length")
+    rl = meta_number(meta, "record_length")
     if rl is not None and int(rl) != t.size:
         if t.size < rl:
             raise CaptureDataError(f"sheet {g.sheet!r} column {_col_letter(c)}: truncated: {t.size} of the "
@@ -202,17 +202,18 @@ def _channel_info(b: _Block, fallback: str) -> ChannelInfo:
     return ChannelInfo(
         name=str(m.get("source") or b.header or fallback),
         units=str(m.get("vertical_units") or "V"),
-        vertical_scale=m.get("vertical_scale"),
-        vertical_offset=m.get("vertical_offset"),
-        probe_atten=m.get("probe_atten"),
-        yzero=m.get("yzero"),
+        vertical_scale=meta_number(m, "vertical_scale"),
+        vertical_offset=meta_number(m, "vertical_offset"),
+        probe_atten=meta_number(m, "probe_atten"),
+        yzero=meta_number(m, "yzero"),
     )
 
 
 def _capture_from_blocks(blocks: list[_Block], g: _Grid, file: str, role: str | None) -> Capture:
     numbers = [_ch_number(b.meta.get("source")) for b in blocks]
-    if None not in numbers and len(set(numbers)) == len(numbers):
-        blocks = [b for _, b in sorted(zip(numbers, blocks), key=lambda nb: nb[0])]
+    known = [n for n in numbers if n is not None]
+    if len(known) == len(numbers) and len(set(known)) == len(known):
+        blocks = [b for _, b in sorted(zip(known, blocks, strict=False), key=lambda nb: nb[0])]
     first = blocks[0]
     for b in blocks[1:]:
         same = b.time_s.size == first.time_s.size
@@ -248,7 +249,9 @@ def _capture_from_blocks(blocks: list[_Block], g: _Grid, file: str, role: str | 
     for i, b in enumerate(blocks):
         if i in (i_in, i_out):
             continue
-        key = cats[i] if cats[i] in ROLES else (b.header or str(b.meta.get("source") or f"column {b.column}"))
+        cat = cats[i]
+        named = b.header or str(b.meta.get("source") or f"column {b.column}")
+        key = cat if cat is not None and cat in ROLES else named
         while key in extra:
             key += "_"
         extra[key] = b.values
@@ -259,12 +262,12 @@ def _capture_from_blocks(blocks: list[_Block], g: _Grid, file: str, role: str | 
         if clip:
             notes.append(clip)
     m = blocks[i_in if i_in is not None else i_out].meta
-    tp = m.get("trigger_point")
-    rl = m.get("record_length")
+    tp = meta_number(m, "trigger_point")
+    rl = meta_number(m, "record_length")
     scope = ScopeInfo(
-        model=m.get("model"), serial=m.get("serial"), firmware=m.get("firmware"),
-        record_length=None if rl is None else int(rl), horizontal_scale_s=m.get("horizontal_scale"),
-        trigger_index=None if tp is None else int(round(tp)),
+        model=meta_text(m, "model"), serial=meta_text(m, "serial"), firmware=meta_text(m, "firmware"),
+        record_length=None if rl is None else int(rl), horizontal_scale_s=meta_number(m, "horizontal_scale"),
+        trigger_index=None if tp is None else round(tp),
     )
     return Capture(
         source=file,
@@ -357,7 +360,7 @@ def _open_workbook(path: Path, file: str):
             return openpyxl.load_workbook(io.BytesIO(data), read_only=True, data_only=True)
     except MotorIdError:
         raise
-    except Exception as exc:  # noqa: BLE001 - openpyxl raises many types on damaged files
+    except Exception as exc:
         raise CaptureFormatError(f"not a capture: unreadable .xlsx workbook ({type(exc).__name__}: "
                                  f"{_one_line(exc)})", file=file) from exc
 
@@ -419,7 +422,7 @@ def read_xlsx_capture(
         for k in candidates:
             try:
                 rows = list(wb.worksheets[k].iter_rows(min_row=1, min_col=1, values_only=True))
-            except Exception as exc:  # noqa: BLE001 - damaged sheet XML surfaces as many types
+            except Exception as exc:
                 raise CaptureFormatError(f"not a capture: unreadable sheet {names[k]!r} ({type(exc).__name__}: "
                                          f"{_one_line(exc)})", file=file) from exc
             g = _grid(rows, names[k])
@@ -476,7 +479,7 @@ def write_openchoice_xlsx(path: PathLike, capture: Capture, *, force: bool = Fal
     n = t.size
     dt = capture.sample_interval_s
     scope = capture.scope
-    trig = scope.trigger_index if scope.trigger_index is not None else int(round(-t[0] / dt))
+    trig = scope.trigger_index if scope.trigger_index is not None else round(-t[0] / dt)
     n_rows = max(n, 18)
     wb = Workbook(write_only=True)
     ws = wb.create_sheet("Capture")
@@ -487,7 +490,7 @@ def write_openchoice_xlsx(path: PathLike, capture: Capture, *, force: bool = Fal
     metas = [_meta_cells(info, scope, n, dt, trig) for _, _, info in blocks]
     for i in range(n_rows):
         row: list[object] = []
-        for (_, values, _), meta in zip(blocks, metas):
+        for (_, values, _), meta in zip(blocks, metas, strict=False):
             label, value = meta.get(i, (None, None))
             row += [label, value, None]
             row += [float(t[i]), float(values[i])] if i < n else [None, None]

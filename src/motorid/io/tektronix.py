@@ -15,9 +15,10 @@ from __future__ import annotations
 import math
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -25,7 +26,7 @@ from motorid.capture import Capture, ChannelInfo, ScopeInfo
 from motorid.errors import CaptureDataError, CaptureFormatError, MotorIdError, OptionError
 from motorid.io._common import (
     LineOfSample,
-    NoFastPath,
+    NoFastPathError,
     PathLike,
     binary_kind,
     check_capture_file,
@@ -45,17 +46,20 @@ from motorid.io._common import (
 )
 
 __all__ = [
-    "TDS_FORMAT",
-    "TdsChannel",
-    "meta_key",
     "META_ROWS",
     "NUMERIC_META",
+    "TDS_FORMAT",
+    "Meta",
+    "TdsChannel",
     "looks_like_tds",
-    "save_all_files",
-    "read_tds_channel",
+    "meta_key",
+    "meta_number",
+    "meta_text",
     "read_tds_capture",
-    "write_tds_channel",
+    "read_tds_channel",
+    "save_all_files",
     "write_tds_capture",
+    "write_tds_channel",
 ]
 
 TDS_FORMAT = "tds2000-csv"
@@ -105,6 +109,49 @@ _N_META_ROWS = 18
 _CH_FILE = re.compile(r"^F(\d{4})CH(\d)\.CSV$", re.IGNORECASE)
 _ALL_FOLDER = re.compile(r"^ALL\d{4}$", re.IGNORECASE)
 _CH_NAME = re.compile(r"CH(\d)", re.IGNORECASE)
+
+
+#: Metadata read off a capture's header, keyed by :func:`meta_key`: a float (or ``None``) under
+#: every key in :data:`NUMERIC_META`, text (or ``None``) under the others.
+Meta = dict[str, float | str | None]
+
+
+def meta_number(meta: Mapping[str, float | str | None], key: str) -> float | None:
+    """A numeric metadata field.
+
+    Parameters
+    ----------
+    meta : Mapping[str, float | str | None]
+        Metadata as the readers build it (:data:`Meta`).
+    key : str
+        A key of :data:`NUMERIC_META`.
+
+    Returns
+    -------
+    float or None
+        The value, ``None`` when absent or empty.
+    """
+    # the readers store parse_number's float (or None) under every NUMERIC_META key
+    return cast("float | None", meta.get(key))
+
+
+def meta_text(meta: Mapping[str, float | str | None], key: str) -> str | None:
+    """A text metadata field (``model``, ``serial``, ``firmware``, ``source``, ...).
+
+    Parameters
+    ----------
+    meta : Mapping[str, float | str | None]
+        Metadata as the readers build it (:data:`Meta`).
+    key : str
+        A key not in :data:`NUMERIC_META`.
+
+    Returns
+    -------
+    str or None
+        The value, ``None`` when absent or empty.
+    """
+    # the readers store text (or None) under every key outside NUMERIC_META
+    return cast("str | None", meta.get(key))
 
 
 def meta_key(label: object) -> str | None:
@@ -202,8 +249,8 @@ def _is_header_row(fields: Sequence[str], decimal_comma: bool) -> bool:
 
 def _read_metadata(
     split: Sequence[Sequence[str]], start: int, file: str, decimal_comma: bool
-) -> dict[str, object]:
-    meta: dict[str, object] = {}
+) -> Meta:
+    meta: Meta = {}
     for k in range(start, min(len(split), start + 3 * _N_META_ROWS)):
         fields = split[k]
         label = fields[0].strip().strip('"')
@@ -224,7 +271,7 @@ def _read_metadata(
     return meta
 
 
-def _channel_name(meta: dict[str, object], path: Path) -> str:
+def _channel_name(meta: Meta, path: Path) -> str:
     source = meta.get("source")
     if isinstance(source, str) and source:
         return source
@@ -232,8 +279,8 @@ def _channel_name(meta: dict[str, object], path: Path) -> str:
     return f"CH{m.group(1)}" if m else path.stem
 
 
-def _record_length(meta: dict[str, object], file: str) -> int | None:
-    rl = meta.get("record_length")
+def _record_length(meta: Meta, file: str) -> int | None:
+    rl = meta_number(meta, "record_length")
     if rl is None:
         return None
     if rl != int(rl) or rl < 2:
@@ -273,7 +320,7 @@ def _parse_tds(text: str, path: Path, file: str) -> TdsChannel:
     return _channel(meta, time_s, values_v, rows, resaved, path, file)
 
 
-def _check_length(meta: dict[str, object], n: int, file: str) -> None:
+def _check_length(meta: Meta, n: int, file: str) -> None:
     rl = _record_length(meta, file)
     if rl is not None and n != rl:
         if n < rl:
@@ -295,19 +342,19 @@ def _read_tds_fast(path: Path, file: str) -> TdsChannel:
     """The common case with numpy's C parser: metadata from the first lines, columns D and E."""
     head = read_head(path)
     if head.startswith((b"\xff\xfe", b"\xfe\xff")) or binary_kind(head[:8192]) is not None or b'"' in head:
-        raise NoFastPath("it is UTF-16, binary or quoted")
+        raise NoFastPathError("it is UTF-16, binary or quoted")
     cut = head.rfind(b"\n")
     lines = split_lines(decode_text(head[: cut + 1] if cut > 0 else head, file=file))[: 4 * _N_META_ROWS]
     if not lines:
-        raise NoFastPath("it is empty")
+        raise NoFastPathError("it is empty")
     delim, decimal_comma = _delimiter(lines)
     if decimal_comma:
-        raise NoFastPath("it uses a decimal comma")
+        raise NoFastPathError("it uses a decimal comma")
     split = [ln.split(delim) for ln in lines]
     start = 1 if _is_header_row(split[0], decimal_comma) else 0
     meta = _read_metadata(split, start, file, decimal_comma)
     if not meta:
-        raise NoFastPath("it has no Tektronix metadata")
+        raise NoFastPathError("it has no Tektronix metadata")
     arr = load_columns(path, skiprows=start, delimiter=delim, usecols=(3, 4))
     n = arr.shape[0]
     _check_length(meta, n, file)
@@ -336,7 +383,7 @@ def _first_bad_line(path: Path, file: str) -> MotorIdError:
     return CaptureFormatError("cannot read columns D and E as numbers", file=file)
 
 
-def _channel(meta: dict[str, object], time_s: np.ndarray, values_v: np.ndarray, rows, resaved: bool,
+def _channel(meta: Meta, time_s: np.ndarray, values_v: np.ndarray, rows, resaved: bool,
              path: Path, file: str) -> TdsChannel:
     n = time_s.size
     rl = _record_length(meta, file)
@@ -346,28 +393,28 @@ def _channel(meta: dict[str, object], time_s: np.ndarray, values_v: np.ndarray, 
     channel = ChannelInfo(
         name=name,
         units=str(meta.get("vertical_units") or "V"),
-        vertical_scale=meta.get("vertical_scale"),
-        vertical_offset=meta.get("vertical_offset"),
-        probe_atten=meta.get("probe_atten"),
-        yzero=meta.get("yzero"),
+        vertical_scale=meta_number(meta, "vertical_scale"),
+        vertical_offset=meta_number(meta, "vertical_offset"),
+        probe_atten=meta_number(meta, "probe_atten"),
+        yzero=meta_number(meta, "yzero"),
     )
-    tp = meta.get("trigger_point")
+    tp = meta_number(meta, "trigger_point")
     scope = ScopeInfo(
-        model=meta.get("model"),
-        serial=meta.get("serial"),
-        firmware=meta.get("firmware"),
+        model=meta_text(meta, "model"),
+        serial=meta_text(meta, "serial"),
+        firmware=meta_text(meta, "firmware"),
         record_length=rl,
-        horizontal_scale_s=meta.get("horizontal_scale"),
-        trigger_index=None if tp is None or abs(tp) > 1e9 else int(round(tp)),
+        horizontal_scale_s=meta_number(meta, "horizontal_scale"),
+        trigger_index=None if tp is None or abs(tp) > 1e9 else round(tp),
     )
     label = f"{path.name} ({name})"
     warnings: list[str] = []
-    si = meta.get("sample_interval")
+    si = meta_number(meta, "sample_interval")
     dt = float(np.median(np.diff(time_s)))
     if si is not None and abs(dt - si) > 0.01 * abs(si):
         warnings.append(f"{label}: Sample Interval {plain_number(si)} s differs from the time column's step "
                         f"{plain_number(dt)} s; the time column is used")
-    hs = meta.get("horizontal_scale")
+    hs = meta_number(meta, "horizontal_scale")
     # The TDS1000/2000 record spans the 10 screen divisions: 10 · s/div ÷ sample interval.
     expected = 10 * hs / si if (rl is None and si and hs) else float(n)
     if math.isfinite(expected) and abs(expected) < 1e9 and round(expected) != n:
@@ -454,13 +501,14 @@ def _order_channels(chans: list[TdsChannel]) -> tuple[list[TdsChannel], list[str
     warnings: list[str] = []
     by_source = [_ch_number(c.channel.name) for c in chans]
     by_name = [None if (m := _CH_NAME.search(Path(c.path).stem)) is None else int(m.group(1)) for c in chans]
-    for c, s, f in zip(chans, by_source, by_name):
+    for c, s, f in zip(chans, by_source, by_name, strict=False):
         if s is not None and f is not None and s != f:
             warnings.append(f"{Path(c.path).name}: Source field says CH{s} but the file name says CH{f}; "
                             "the Source field is used")
     for keys in (by_source, by_name):
-        if None not in keys and len(set(keys)) == len(keys):
-            order = sorted(range(len(chans)), key=lambda i: keys[i])
+        known = [k for k in keys if k is not None]
+        if len(known) == len(keys) and len(set(known)) == len(known):
+            order = sorted(range(len(chans)), key=known.__getitem__)
             return [chans[i] for i in order], warnings
     return list(chans), warnings
 
@@ -617,7 +665,7 @@ def _tds_text(time_s: np.ndarray, values_v: np.ndarray, channel: ChannelInfo, sc
     validate_rows(t, {"value": v}, file=file, rows=np.arange(1, t.size + 1))
     n = t.size
     dt = float(np.median(np.diff(t)))
-    trig = scope.trigger_index if scope.trigger_index is not None else int(round(-t[0] / dt))
+    trig = scope.trigger_index if scope.trigger_index is not None else round(-t[0] / dt)
     td = int(min(18, max(12, math.ceil(-math.log10(dt * 1e-4)))))  # time rounding ≤ 1e-4 sample
     vd = _value_decimals(v, channel.vertical_scale)
     meta = {row: (label, _fmt_meta(key, channel, scope, n, dt, trig)) for row, label, key in META_ROWS}
