@@ -24,13 +24,13 @@ from motorid.conditioning.response import StepResponse
 from motorid.errors import ConditioningError
 
 __all__ = [
-    "check_step_responses",
-    "stalled_response",
-    "clipping",
-    "no_dynamics",
-    "fitting_volts_per_div",
     "SCREEN_HALF_DIVISIONS",
     "VOLTS_PER_DIV",
+    "check_step_responses",
+    "clipping",
+    "fitting_volts_per_div",
+    "no_dynamics",
+    "stalled_response",
 ]
 
 #: The TDS1000/2000 screen spans ±5.12 divisions around its centre (8-bit codes −128…127 at
@@ -88,7 +88,7 @@ def fitting_volts_per_div(scale: float, probe: float | None = None) -> float:
 
 
 def clipping(capture: Capture, resp: StepResponse) -> tuple[str, bool] | None:
-    """Is the response flat at an extreme value (clipped)?
+    """Whether the response is flat at an extreme value (clipped).
 
     Returns
     -------
@@ -112,7 +112,7 @@ def clipping(capture: Capture, resp: StepResponse) -> tuple[str, bool] | None:
             continue
         edge = "top" if sign > 0 else "bottom"
         pct = 100.0 * n_at / post.size
-        if lsb > 0:
+        if lsb > 0 and info.vertical_scale is not None:  # (lsb > 0 only with a known scale)
             yzero = info.yzero or 0.0
             offset = info.vertical_offset or 0.0
             for centre in {yzero - offset, yzero + offset}:
@@ -141,7 +141,7 @@ def clipping(capture: Capture, resp: StepResponse) -> tuple[str, bool] | None:
 
 
 def _steep_entry(tp: np.ndarray, post: np.ndarray, start: int, extreme: float, span: float) -> bool:
-    """Did the trace enter its flat run still moving fast?
+    """Whether the trace entered its flat run still moving fast.
 
     The rise up to the run is cut in tenths of the span; a natural response settles, so its
     last tenth takes many times longer than its fastest tenth, while a clipped one is cut off

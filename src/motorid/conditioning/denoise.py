@@ -96,7 +96,7 @@ def fft_denoise(
     spec = np.fft.rfft(y - line)
     freq = np.fft.rfftfreq(n, dt)
     auto = cutoff_hz is None
-    fc = _auto_cutoff(freq, np.abs(spec) ** 2, floor_factor) if auto else float(cutoff_hz)
+    fc = _auto_cutoff(freq, np.abs(spec) ** 2, floor_factor) if cutoff_hz is None else float(cutoff_hz)
     # raised-cosine roll-off between fc and 1.5 fc: a brick wall would ring (Gibbs)
     gain = np.clip((1.5 * fc - freq) / (0.5 * fc), 0.0, 1.0)
     gain = 0.5 - 0.5 * np.cos(np.pi * gain)

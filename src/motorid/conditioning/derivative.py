@@ -16,11 +16,11 @@ from motorid.errors import OptionError
 
 __all__ = [
     "DERIVATIVE_METHODS",
-    "euler_derivative",
     "central_derivative",
+    "derivative",
+    "euler_derivative",
     "five_point_derivative",
     "savgol_derivative",
-    "derivative",
 ]
 
 #: Names accepted by :func:`derivative`.

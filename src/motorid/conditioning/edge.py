@@ -17,14 +17,14 @@ import numpy as np
 from motorid.errors import ResponseNotStepError, StepNotFoundError
 
 __all__ = [
-    "StepEdge",
+    "MIN_POST_STEP_SAMPLES",
+    "MIN_PRE_STEP_SAMPLES",
     "ResponseNotStepError",
-    "step_edge",
-    "response_onset",
+    "StepEdge",
     "noise_level",
     "quantisation_step",
-    "MIN_PRE_STEP_SAMPLES",
-    "MIN_POST_STEP_SAMPLES",
+    "response_onset",
+    "step_edge",
 ]
 
 #: Samples needed before a step on the input channel (its baseline); a count, not a share of

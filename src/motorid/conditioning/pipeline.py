@@ -21,7 +21,7 @@ from motorid.conditioning.sync import synchronise
 from motorid.conditioning.timescale import ResponseTimes, auto_reduction_ratio, response_times
 from motorid.errors import ConditioningError, OptionError
 
-__all__ = ["ConditioningSettings", "ConditionedExperiment", "condition_experiment"]
+__all__ = ["ConditionedExperiment", "ConditioningSettings", "condition_experiment"]
 
 
 @dataclass(frozen=True, slots=True)

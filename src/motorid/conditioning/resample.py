@@ -16,7 +16,7 @@ from scipy.signal import decimate
 
 from motorid.errors import OptionError
 
-__all__ = ["REDUCTION_METHODS", "Reduced", "sample_reduction", "ratio_for_interval"]
+__all__ = ["REDUCTION_METHODS", "Reduced", "ratio_for_interval", "sample_reduction"]
 
 #: Names accepted by :func:`sample_reduction`.
 REDUCTION_METHODS: tuple[str, ...] = ("subsample", "block_mean", "fir")
@@ -54,7 +54,7 @@ def ratio_for_interval(sample_interval_s: float, target_interval_s: float) -> in
     """
     if not np.isfinite(target_interval_s) or target_interval_s <= 0:
         raise OptionError(f"sample interval must be a positive number of seconds, got {target_interval_s!r}")
-    ratio = int(round(target_interval_s / sample_interval_s))
+    ratio = round(target_interval_s / sample_interval_s)
     if ratio < 1:
         raise OptionError(
             f"sample interval {target_interval_s:g} s is shorter than the recording's "

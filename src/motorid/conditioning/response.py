@@ -11,7 +11,7 @@ from motorid.conditioning.edge import StepEdge, response_onset, step_edge
 from motorid.conditioning.unwrap import unwrap_position
 from motorid.errors import ConditioningError, OptionError, StepNotFoundError
 
-__all__ = ["StepResponse", "step_response", "STEP_VOLTS_TOLERANCE"]
+__all__ = ["STEP_VOLTS_TOLERANCE", "StepResponse", "step_response"]
 
 #: Largest relative difference between a given ``step_volts`` and the step recorded on CH1.
 STEP_VOLTS_TOLERANCE = 0.05

@@ -23,7 +23,7 @@ from motorid.conditioning.edge import response_onset, step_edge
 from motorid.conditioning.unwrap import unwrap_position
 from motorid.errors import MotorIdError
 
-__all__ = ["RoleGuess", "guess_role", "classify_response", "role_conflict"]
+__all__ = ["RoleGuess", "classify_response", "guess_role", "role_conflict"]
 
 #: A response whose final level is below this fraction of its peak is an armature current.
 CURRENT_FINAL_OF_PEAK = 1.0 / 1.5

@@ -1,7 +1,8 @@
-"""The time scales of a step response, read off the data: every default of the pipeline
-that is a duration (sample reduction, record trimming, the dead time's starting value) comes
-from here rather than from the paper's bench (issue 11, item 1: the paper's 0.1 s left three
-samples of a 15 ms motor).
+"""The time scales of a step response, read off the data.
+
+Every default of the pipeline that is a duration (sample reduction, record trimming, the dead time's
+starting value) comes from here rather than from the paper's bench (issue 11, item 1: the paper's
+0.1 s left three samples of a 15 ms motor).
 
 Read-offs, not fits: the 63 % time and the apparent dead time of the smoothed response are
 robust on any record that shows a step response, and the fits that follow refine them.
@@ -16,7 +17,7 @@ import scipy.ndimage
 
 from motorid.conditioning.edge import noise_level, quantisation_step
 
-__all__ = ["ResponseTimes", "response_times", "auto_reduction_ratio", "SAMPLES_PER_TIME_CONSTANT"]
+__all__ = ["SAMPLES_PER_TIME_CONSTANT", "ResponseTimes", "auto_reduction_ratio", "response_times"]
 
 #: Reduced samples per 63 % time chosen by ``--sample-interval auto``: the paper's 0.1 s on
 #: its 0.43 s motor is 4.3; a little finer keeps the five-point derivative's truncation error
@@ -80,10 +81,7 @@ def response_times(time_s: np.ndarray, y: np.ndarray, *, pre: np.ndarray | None 
         return ResponseTimes(float("nan"), float("nan"), float("nan"), float("nan"))
     final = float(np.mean(v[-max(2, n // 10):]))
     quantum = quantisation_step(v, below=0.25 * abs(final)) if final else 0.0
-    if pre is not None and np.asarray(pre).size >= 5:
-        sd = float(np.std(pre))
-    else:
-        sd = noise_level(v)
+    sd = float(np.std(pre)) if pre is not None and np.asarray(pre).size >= 5 else noise_level(v)
     noise = max(sd, quantum / np.sqrt(12.0), 1e-12)
     if final == 0.0 or abs(final) < 4.0 * noise:
         return ResponseTimes(float("nan"), float("nan"), final, noise)
@@ -128,7 +126,7 @@ def auto_reduction_ratio(sample_interval_s: float, record_s: float, t63_s: float
         target = t63_s / SAMPLES_PER_TIME_CONSTANT
         why = f"63 % time {t63_s:.4g} s / {SAMPLES_PER_TIME_CONSTANT:g}"
     target = min(target, record_s / MIN_REDUCED_SAMPLES)
-    ratio = max(1, int(round(target / sample_interval_s)))
+    ratio = max(1, round(target / sample_interval_s))
     chosen = ratio * sample_interval_s
     text = (f"sample interval {chosen:.4g} s chosen from the data ({why}, at least "
             f"{MIN_REDUCED_SAMPLES} samples after the step; reduction by {ratio}); the paper's "

@@ -21,7 +21,7 @@ from scipy.interpolate import BSpline
 from motorid.conditioning.edge import noise_level, quantisation_step
 from motorid.errors import ConditioningError
 
-__all__ = ["UnwrapResult", "unwrap_position", "count_wraps"]
+__all__ = ["UnwrapResult", "count_wraps", "unwrap_position"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -185,10 +185,7 @@ def unwrap_position(
     glitches = [g for a, b in events for g in range(a + 1, b)]
     if span_v is None:
         wrapping = np.abs(steps_arr) > jump_fraction * rng
-        if not np.any(wrapping):
-            span0 = None
-        else:
-            span0 = float(np.median(np.abs(steps_arr[wrapping])))
+        span0 = None if not np.any(wrapping) else float(np.median(np.abs(steps_arr[wrapping])))
     else:
         span0 = float(span_v)
     counts = np.zeros(len(events), dtype=int)
@@ -196,11 +193,11 @@ def unwrap_position(
         ratio = -steps_arr / span0
         counts = np.rint(ratio).astype(int)
         frac = np.abs(ratio - counts)
-        for (a, b), fr in zip(events, frac):
+        for (_a, b), fr in zip(events, frac, strict=False):
             if fr > 0.25:
                 warnings.append(f"ambiguous jump at sample {b} ({fr:.2f} of a span off a whole turn)")
     w = np.zeros(n)
-    for (a, b), c in zip(events, counts):
+    for (_a, b), c in zip(events, counts, strict=False):
         w[b:] += c
     glitch_idx = np.array(sorted(set(glitches)), dtype=int)
     good = np.ones(n, dtype=bool)
@@ -216,7 +213,7 @@ def unwrap_position(
         out[glitch_idx] = np.interp(t[glitch_idx], t[good], out[good])
     if len(glitch_idx) > max_glitch * max(1, len(events)):
         warnings.append(f"{len(glitch_idx)} glitch samples interpolated")
-    jump_idx = np.array([b for (a, b), c in zip(events, counts) if c != 0], dtype=int)
+    jump_idx = np.array([b for (a, b), c in zip(events, counts, strict=False) if c != 0], dtype=int)
     return UnwrapResult(out, wraps, span, jump_idx, glitch_idx, tuple(warnings), w.astype(int) if wraps else None)
 
 
