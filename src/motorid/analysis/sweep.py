@@ -20,7 +20,7 @@ from motorid.conditioning.pipeline import condition_experiment
 from motorid.errors import ConditioningError, MotorIdError
 from motorid.identify.pipeline import IdentifySettings, identify_conditioned, with_conditioning
 
-__all__ = ["PAPER_LENGTHS_S", "PAPER_INTERVALS_S", "SweepResult", "data_grid", "sensitivity_table"]
+__all__ = ["PAPER_INTERVALS_S", "PAPER_LENGTHS_S", "SweepResult", "data_grid", "sensitivity_table"]
 
 #: Record lengths of the paper's Tables 1–3.
 PAPER_LENGTHS_S: tuple[float, ...] = (1.9, 2.4, 2.9)
@@ -115,7 +115,7 @@ def sensitivity_table(
     *,
     lengths_s: Sequence[float] = PAPER_LENGTHS_S,
     intervals_s: Sequence[float] = PAPER_INTERVALS_S,
-    settings: IdentifySettings = IdentifySettings(method="pinv"),
+    settings: IdentifySettings | None = None,
     step_volts: float | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> SweepResult:
@@ -127,8 +127,9 @@ def sensitivity_table(
         Captures keyed by role.
     lengths_s, intervals_s : sequence of float
         Table axes (defaults: the paper's).
-    settings : IdentifySettings
+    settings : IdentifySettings, optional
         Method and the rest; ``record_length_s`` and ``sample_interval_s`` are overridden.
+        Default: ``IdentifySettings(method="pinv")``.
     step_volts : float, optional
         For captures without an input channel.
     progress : callable, optional
@@ -148,6 +149,8 @@ def sensitivity_table(
     ----------
     Masoud 2019, Tables 1–3.
     """
+    if settings is None:
+        settings = IdentifySettings(method="pinv")
     lengths = tuple(float(x) for x in lengths_s)
     intervals = tuple(float(x) for x in intervals_s)
     shape = (len(intervals), len(lengths))

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import control
 import numpy as np
@@ -33,7 +33,7 @@ from motorid.errors import CaptureDataError, OptionError, StepNotFoundError
 from motorid.identify.metrics import fit_percent, nrmse
 from motorid.model import CHANNELS, MotorModel
 
-__all__ = ["ValidationResult", "validate_capture", "model_delay_s"]
+__all__ = ["ValidationResult", "model_delay_s", "validate_capture"]
 
 #: Fewest scored samples a validation needs.
 MIN_SCORED = 10
@@ -121,7 +121,7 @@ class ValidationResult:
             "nrmse_reference": self.nrmse_reference,
             "input": self.input_kind,
             "step_time_s": self.step_time_s,
-            "initial_state": {k: num(v) for k, v in zip(self.state_names, self.initial_state)},
+            "initial_state": {k: num(v) for k, v in zip(self.state_names, self.initial_state, strict=False)},
             "offset_v": num(self.offset_v),
             "delay_s": self.delay_s,
             "wraps": self.wraps,
@@ -154,7 +154,7 @@ def _channel_system(model: MotorModel, channel: str) -> tuple[control.StateSpace
     b = np.vstack([model.B, model.D[iv:iv + 1]])
     c = np.zeros((1, n + 1))
     c[0, n] = 1.0
-    return control.ss(a, b, c, np.zeros((1, 1))), model.states + ("position (integral)",)
+    return control.ss(a, b, c, np.zeros((1, 1))), (*model.states, "position (integral)")
 
 
 def _is_step(capture: Capture) -> bool:
@@ -259,7 +259,7 @@ def validate_capture(
         u, y = np.asarray(sr.input_v, float), np.asarray(sr.output_v, float)
         step_time = float(sr.edge.time_s)
         # a current returns towards 0 after the step: its change is its span, not its end
-        reference = "span" if channel == "current" else "final"
+        reference: Literal["final", "span"] = "span" if channel == "current" else "final"
         kind = "built step" if capture.input_v is None else "step"
         how = {"given": "given (--t0)", "onset": "the response's onset", "change-point": "CH1's edge"}
         notes.append(f"step input: {kind} of {sr.step_volts:.4g} V at {step_time + 0.0:.6g} s "

@@ -24,18 +24,18 @@ from motorid.identify.result import IdentificationError
 
 __all__ = [
     "ClassicResult",
-    "classic_first_order",
+    "IdentificationError",
     "MarkovParameters",
     "MarkovResult",
     "MarkovSettings",
+    "PinvResult",
+    "PinvSettings",
+    "classic_first_order",
     "companion_realisation",
     "detect_order",
     "hankel_matrix",
     "hankel_singular_values",
     "markov_identify",
     "markov_parameters",
-    "PinvResult",
-    "PinvSettings",
     "pinv_identify",
-    "IdentificationError",
 ]

@@ -15,7 +15,7 @@ import numpy as np
 from motorid.errors import OptionError
 from motorid.identify.result import IdentificationError
 
-__all__ = ["ClassicResult", "classic_first_order", "first_crossing", "SETTLE_WARN"]
+__all__ = ["SETTLE_WARN", "ClassicResult", "classic_first_order", "first_crossing"]
 
 #: Change over the last 20 % of the record, relative to the final value, above which the
 #: record is reported as not settled.
@@ -60,15 +60,18 @@ class ClassicResult:
         from motorid.model import MotorModel
 
         return MotorModel(
-            A=[[-self.p]], B=[[self.k]], C=[[1.0]], D=[[0.0]], states=("velocity",),
+            A=np.array([[-self.p]]), B=np.array([[self.k]]), C=np.array([[1.0]]), D=np.array([[0.0]]),
+            states=("velocity",),
             outputs=("velocity",), step_volts=self.step_volts, method="classic",
             settings={"final_fraction": 0.1, "rise_fraction": _RISE}, warnings=self.warnings,
         )
 
 
 def first_crossing(time_s: np.ndarray, y: np.ndarray, level: float) -> tuple[float, int]:
-    """First time ``y`` reaches ``level`` (rising for a positive level, falling for a negative
-    one), linearly interpolated between the samples either side.
+    """First time ``y`` reaches ``level``, linearly interpolated.
+
+    Rising for a positive level, falling for a negative one; interpolated between the samples either
+    side.
 
     Returns
     -------

@@ -46,18 +46,18 @@ from motorid.errors import OptionError
 from motorid.identify.result import IdentificationError
 
 __all__ = [
-    "LaguerreSettings",
     "LaguerreCoefficients",
     "LaguerreResult",
-    "laguerre_network",
-    "laguerre_regressors",
+    "LaguerreSettings",
     "laguerre_coefficients",
     "laguerre_coefficients_of",
+    "laguerre_dc_gain",
     "laguerre_hankel_singular_values",
+    "laguerre_identify",
+    "laguerre_network",
     "laguerre_noise_floor",
     "laguerre_realisation",
-    "laguerre_dc_gain",
-    "laguerre_identify",
+    "laguerre_regressors",
 ]
 
 #: Largest number of Laguerre terms tried automatically.
@@ -328,7 +328,7 @@ def laguerre_regressors(
 
     f, g = zoh(h)
     if input_v is None:
-        f0, g0 = zoh(float(te[start]))  # the first sample lies a fraction of a step after the edge
+        _f0, g0 = zoh(float(te[start]))  # the first sample lies a fraction of a step after the edge
         x = g0 * step_volts
         out[start] = x
         gv = g * step_volts
@@ -547,7 +547,8 @@ def laguerre_realisation(g: Any, pole: float, order: int) -> tuple[np.ndarray, n
     a_d, b_t, c_t = (np.asarray(x, dtype=float) for x in (sysd.A, sysd.B, sysd.C))
     eye = np.eye(order)
     if np.linalg.cond(eye - a_d) > 1e12:
-        raise IdentificationError(f"the order-{order} Laguerre realisation has a pole at infinity; choose a lower order")
+        raise IdentificationError(
+            f"the order-{order} Laguerre realisation has a pole at infinity; choose a lower order")
     inv = np.linalg.inv(eye - a_d)
     a_c = -pole * inv @ (eye + a_d)
     return a_c, b_t.reshape(-1, 1), math.sqrt(2.0 * pole) * c_t.reshape(1, -1) @ inv
@@ -648,10 +649,7 @@ def laguerre_identify(
         # N ≲ a·T/2: the k-th Laguerre function lives until about (2k + 1)/a; later ones are not
         # pinned down by the record and trade off against each other
         cap = int(min(MAX_TERMS, max(2, math.floor(a * record / 2))))
-        if settings.n_terms is not None:
-            n_list = [settings.n_terms]
-        else:
-            n_list = list(range(min(2 * want, cap), cap + 1))
+        n_list = [settings.n_terms] if settings.n_terms is not None else list(range(min(2 * want, cap), cap + 1))
         for delay in delays:
             try:
                 phi = laguerre_regressors(t, a, max(n_list), input_v=u, step_volts=step_volts,
@@ -713,9 +711,10 @@ def laguerre_identify(
         warnings.append(f"the order-{m} model's DC gain {model_dc:.4g} differs from the Laguerre coefficients' "
                         f"{dc:.4g} ± {dc_std:.2g}: the order may be too low")
     n_sig = ", ".join(f"{x / sv[0]:.3g}" for x in sv[: min(sv.size, 5)])
+    pole_grid = "/".join(f"{f:g}" for f in POLE_FACTORS) + " × 1/τ" if settings.pole is None else "fixed"
     choice = (f"Laguerre basis a = {coeff.pole:.4g} 1/s, N = {coeff.values.size} terms (least BIC of the coefficient "
               f"fit, N ≤ a·T/2), dead time {1e3 * coeff.delay_s:.3g} ms, order {m}: least BIC of the realised model "
-              f"among {len(candidates)} (a = {'/'.join(f'{f:g}' for f in POLE_FACTORS) + ' × 1/τ' if settings.pole is None else 'fixed'}"
+              f"among {len(candidates)} (a = {pole_grid}"
               f", τ = {tau:.4g} s from the measured 63 % time; orders up to the Hankel count); "
               f"Hankel σ/σ₁ {n_sig}: {above} above the noise floor {floor / sv[0]:.2g}")
     if coeff.inflation > 1.5:
@@ -745,7 +744,8 @@ def _hankel_order_evidence(g: np.ndarray, cov: np.ndarray, settings: LaguerreSet
     """Singular values of the K×K Hankel matrix (K = max_order + 2 at most) and its noise floor.
 
     A fixed, small Hankel keeps the floor from growing with the number of terms (the noise
-    matrix's norm grows like its size; the system's singular values do not)."""
+    matrix's norm grows like its size; the system's singular values do not).
+    """
     k = min((g.size + 1) // 2, settings.max_order + 2)
     used = 2 * k - 1
     sv = laguerre_hankel_singular_values(g[:used])
@@ -755,8 +755,10 @@ def _hankel_order_evidence(g: np.ndarray, cov: np.ndarray, settings: LaguerreSet
 
 def _refit_input_gains(a_c: np.ndarray, c_c: np.ndarray, t: np.ndarray, y: np.ndarray, u: np.ndarray | None,
                        step_volts: float, delay: float, integrate: bool) -> tuple[np.ndarray, float]:
-    """``B`` by least squares on the record with the realised poles and ``C`` kept: the output
-    is linear in ``B``, so the realisation's poles decide and the data give the gains."""
+    """``B`` by least squares on the record with the realised poles and ``C`` kept.
+
+    The output is linear in ``B``, so the realisation's poles decide and the data give the gains.
+    """
     m = a_c.shape[0]
     a_s, b_s = a_c, np.eye(m)
     if integrate:

@@ -39,16 +39,16 @@ from motorid.errors import OptionError
 from motorid.identify.result import IdentificationError, equilibrated_condition
 
 __all__ = [
-    "MarkovSettings",
     "MarkovParameters",
     "MarkovResult",
-    "markov_parameters",
-    "hankel_matrix",
-    "hankel_singular_values",
-    "detect_order",
-    "hankel_noise_floor",
+    "MarkovSettings",
     "companion_realisation",
+    "detect_order",
+    "hankel_matrix",
+    "hankel_noise_floor",
+    "hankel_singular_values",
     "markov_identify",
+    "markov_parameters",
 ]
 
 #: Condition number (of the column-equilibrated Taylor regressor) above which the fit warns.
@@ -179,7 +179,7 @@ class MarkovResult:
         n = self.order
         states = ("velocity",) if (n == 1 and self.settings.form == "velocity") else tuple(
             f"x{i + 1}" for i in range(n))
-        common = dict(
+        common: dict[str, Any] = dict(
             step_volts=self.step_volts,
             method="markov",
             settings={**asdict(self.settings), "order_detected": self.order,
@@ -188,7 +188,7 @@ class MarkovResult:
             warnings=self.warnings,
         )
         if self.settings.form == "velocity":
-            return MotorModel(A=self.A, B=self.B, C=self.C, D=[[0.0]], states=states,
+            return MotorModel(A=self.A, B=self.B, C=self.C, D=np.array([[0.0]]), states=states,
                               outputs=("velocity",), **common)
         c_vel = self.C @ self.A
         d_vel = self.C @ self.B

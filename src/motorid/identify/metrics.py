@@ -33,7 +33,7 @@ import numpy as np
 
 from motorid.errors import OptionError
 
-__all__ = ["REFERENCES", "response_change", "nrmse", "fit_percent"]
+__all__ = ["REFERENCES", "fit_percent", "nrmse", "response_change"]
 
 #: Names of the NRMSE normalisations (see the module docstring).
 REFERENCES = ("final", "span")

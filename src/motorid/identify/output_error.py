@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 import scipy.linalg
 import scipy.optimize
 import scipy.signal
@@ -27,13 +28,13 @@ import scipy.signal
 from motorid.identify.result import IdentificationError
 
 __all__ = [
-    "OeSettings",
     "OeResult",
-    "output_error_fit",
-    "step_response_closed_form",
-    "position_closed_form",
+    "OeSettings",
     "ar_noise_model",
+    "output_error_fit",
+    "position_closed_form",
     "position_scale_fit",
+    "step_response_closed_form",
 ]
 
 
@@ -138,8 +139,10 @@ class OeResult:
 
 
 def _separate(taus: np.ndarray) -> np.ndarray:
-    """Nudge equal time constants apart: partial fractions need distinct poles (the
-    response is continuous in τ, so a 1e-6 relative split changes it by ~1e-6)."""
+    """Nudge equal time constants apart: partial fractions need distinct poles.
+
+    The response is continuous in τ, so a 1e-6 relative split changes it by ~1e-6.
+    """
     t = np.array(taus, dtype=float)
     if t.size < 2:
         return t
@@ -163,7 +166,9 @@ def _residues(num: np.ndarray, taus: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return p, res, float(np.polyval(num, 0.0))
 
 
-def step_response_closed_form(time_s: np.ndarray, num: Sequence[float], taus: Sequence[float], step_volts: float) -> np.ndarray:
+def step_response_closed_form(
+    time_s: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float
+) -> np.ndarray:
     """Step response of ``N(s)/Π(1 + τ_i s)`` (strictly proper or biproper, distinct τ).
 
     ``y(t) = step·[N(0) + Σ_i R_i e^{p_i t}]`` with ``R_i`` the residues of ``N(s)/(s D(s))``.
@@ -179,16 +184,22 @@ def step_response_closed_form(time_s: np.ndarray, num: Sequence[float], taus: Se
     return np.where(t >= 0, step_volts * y, 0.0)
 
 
-def _slope_closed_form(time_s: np.ndarray, num: Sequence[float], taus: Sequence[float], step_volts: float) -> np.ndarray:
-    """Time derivative of :func:`step_response_closed_form` for ``t > 0`` (the impulse
-    response times the step; a jump at ``t = 0`` is not included)."""
+def _slope_closed_form(
+    time_s: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float
+) -> np.ndarray:
+    """Time derivative of :func:`step_response_closed_form` for ``t > 0``.
+
+    The impulse response times the step; a jump at ``t = 0`` is not included.
+    """
     t = np.asarray(time_s, dtype=float)
     p, r, _ = _residues(np.atleast_1d(np.asarray(num, dtype=float)), np.asarray(taus, dtype=float))
     tt = np.clip(t, 0.0, None)
     return np.where(t > 0, step_volts * (np.exp(np.outer(tt, p)) @ (r * p)), 0.0)
 
 
-def position_closed_form(time_s: np.ndarray, num: Sequence[float], taus: Sequence[float], step_volts: float) -> np.ndarray:
+def position_closed_form(
+    time_s: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float
+) -> np.ndarray:
     """Integral from 0 of :func:`step_response_closed_form`: ``N(0)t + Σ R_i (e^{p_i t} − 1)/p_i``."""
     t = np.asarray(time_s, dtype=float)
     num = np.atleast_1d(np.asarray(num, dtype=float))
@@ -199,8 +210,10 @@ def position_closed_form(time_s: np.ndarray, num: Sequence[float], taus: Sequenc
 
 
 def _block_mean(x: np.ndarray, ratio: int, *, from_end: bool = False) -> np.ndarray:
-    """Means of consecutive blocks of ``ratio`` samples (a partial block is dropped: at the
-    start of ``x`` when ``from_end``)."""
+    """Means of consecutive blocks of ``ratio`` samples.
+
+    A partial block is dropped: at the start of ``x`` when ``from_end``.
+    """
     if ratio == 1:
         return x
     m = x.size // ratio
@@ -448,14 +461,14 @@ def output_error_fit(
     while len(taus0) < n:
         taus0.append((taus0[-1] if taus0 else 0.3) / 8.0)
     tz0 = list(init_zeros)[:m] + [0.5 * taus0[min(1, n - 1)]] * (m - len(list(init_zeros)[:m]))
-    th0 = [init_dc_gain] + list(np.log(np.maximum(taus0, 1e-6))) + list(tz0)
+    th0_list = [init_dc_gain, *list(np.log(np.maximum(taus0, 1e-06))), *list(tz0)]
     if settings.delay:
-        th0.append(max(float(init_delay_s), 0.0))
+        th0_list.append(max(float(init_delay_s), 0.0))
     if "c" in layout.idx:
         # c by least squares given the initial velocity model
         base = position_closed_form(tc["position"], _vel_num(init_dc_gain, np.array(tz0)), taus0, step_volts)
         c0 = float(base @ raw["position"][: base.size] / max(base @ base, 1e-300))
-        th0.append(c0 if np.isfinite(c0) and c0 != 0 else 1.0)
+        th0_list.append(c0 if np.isfinite(c0) and c0 != 0 else 1.0)
     if "current" in names:
         # current numerator: linear least squares on the responses of s^j/D(s)
         nc = layout.n_current
@@ -463,22 +476,24 @@ def output_error_fit(
                 for j in range(nc)]
         a = np.column_stack(cols)
         coef, *_ = np.linalg.lstsq(a, raw["current"][: a.shape[0]], rcond=None)
-        th0 += list(coef)
+        th0_list += list(coef)
     pre_data = {c: _block_mean(np.asarray(pre[c], dtype=float), ratio[c], from_end=True)
                 for c in names if pre is not None and c in pre and len(pre[c]) >= ratio[c]}
-    th0 += [float(np.mean(pre_data[c])) if c in pre_data else 0.0 for c in names]
-    th0 += [0.0] * len(layout.shifted)
+    th0_list += [float(np.mean(pre_data[c])) if c in pre_data else 0.0 for c in names]
+    th0_list += [0.0] * len(layout.shifted)
     if wraps is not None:
-        th0.append(0.0)
-    th0 = np.asarray(th0, dtype=float)
+        th0_list.append(0.0)
+    th0 = np.asarray(th0_list, dtype=float)
     w = {c: 1.0 / max(float(sigma.get(c, 1.0)), 1e-12) for c in names}
     w_pre = {c: 1.0 / max(float((pre_sigma or sigma).get(c, 1.0)), 1e-12) for c in names}
     filt = {c: np.asarray(whiten[c], dtype=float) for c in names if whiten is not None and c in whiten
             and len(whiten[c]) > 1}
 
     def white(c: str, e: np.ndarray) -> np.ndarray:
-        """The channel's FIR whitening from rest, along axis 0 (residuals or Jacobian
-        columns); a vector through np.convolve, which lfilter wraps in apply_along_axis."""
+        """The channel's FIR whitening from rest, along axis 0 (residuals or Jacobian columns).
+
+        A vector goes through np.convolve, which lfilter wraps in apply_along_axis.
+        """
         if c not in filt:
             return e
         if e.ndim == 1:
@@ -503,10 +518,13 @@ def output_error_fit(
     fd_params = [layout.idx[f"log_tau_{i}"] for i in range(n)] + [layout.idx[f"Tz_{j}"] for j in range(m)]
 
     def jac(th: np.ndarray) -> np.ndarray:
-        """Jacobian of ``resid``: analytic in the gain, scale, current numerator, offsets,
-        shifts, delay and span error (the responses are linear in them, or shifted in
-        time); forward differences of the closed form for the time constants and zeros
-        only — a third of the model evaluations of a finite-difference Jacobian."""
+        """Jacobian of ``resid``.
+
+        Analytic in the gain, scale, current numerator, offsets, shifts, delay and span error (the
+        responses are linear in them, or shifted in time); forward differences of the closed form
+        for the time constants and zeros only — a third of the model evaluations of a
+        finite-difference Jacobian.
+        """
         q = layout.unpack(th)
         u = step_volts
         te = {c: tc[c] - q["delay"] - q["shift"].get(c, 0.0) for c in names}
@@ -580,8 +598,8 @@ def output_error_fit(
     rss = float(r @ r)
     dof = max(n_total - n_par, 1)
     s2 = rss / dof
-    jac = sol.jac
-    jtj = jac.T @ jac
+    jac_m = sol.jac
+    jtj = jac_m.T @ jac_m
     cond = np.linalg.cond(jtj) if np.all(np.isfinite(jtj)) else np.inf
     if not np.isfinite(cond) or cond > 1e14:
         warnings.append(f"parameters poorly determined (Fisher information condition number {cond:.2g}): "
@@ -601,7 +619,7 @@ def output_error_fit(
     var = np.einsum("ij,jk,ik->i", grads, cov, grads)
     # the step level is measured, not known: its error scales the fitted gain
     var[keys.index("dc_gain")] += (d0["dc_gain"] * step_std / step_volts) ** 2
-    std = {k: float(np.sqrt(max(v, 0.0))) for k, v in zip(keys, var)}
+    std = {k: float(np.sqrt(max(v, 0.0))) for k, v in zip(keys, var, strict=False)}
     ci = {k: (d0[k] - 1.96 * std[k], d0[k] + 1.96 * std[k]) for k in keys}
     q = layout.unpack(th)
     num = _vel_num(q["K"], q["tz"])

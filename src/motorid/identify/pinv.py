@@ -17,7 +17,7 @@ import numpy as np
 from motorid.errors import OptionError
 from motorid.identify.result import IdentificationError, equilibrated_condition
 
-__all__ = ["PinvSettings", "PinvResult", "pinv_identify", "COND_WARN", "PINV_STRUCTURES"]
+__all__ = ["COND_WARN", "PINV_STRUCTURES", "PinvResult", "PinvSettings", "pinv_identify"]
 
 #: Values of ``PinvSettings.structure`` (the command line's ``--structure``).
 PINV_STRUCTURES: tuple[str, ...] = ("free", "known")

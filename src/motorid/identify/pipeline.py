@@ -27,7 +27,7 @@ from motorid.identify.sanity import SanityReport, sanity_checks
 from motorid.identify.metrics import fit_percent, nrmse
 from motorid.model import MotorModel, step_nrmse
 
-__all__ = ["METHODS", "IdentifySettings", "Identification", "identify_experiment", "identify_conditioned"]
+__all__ = ["METHODS", "Identification", "IdentifySettings", "identify_conditioned", "identify_experiment"]
 
 #: Methods of ``--method``.  ``auto``: the paper's methods → output-error refinement →
 #: order selection → uncertainty; ``paper-auto``: the best of the paper's methods alone.
@@ -135,7 +135,7 @@ class Identification:
     candidates: dict[str, MotorModel]
     failures: dict[str, str]
     reason: str
-    sanity: SanityReport = SanityReport()
+    sanity: SanityReport = field(default_factory=SanityReport)
 
 
 def _velocity(cond: ConditionedExperiment, full: bool) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -247,9 +247,12 @@ SANITY_SAMPLES = 20000
 
 def _dynamic_part(cond: ConditionedExperiment, max_samples: int, time_s: np.ndarray, *arrays: np.ndarray,
                   length_s: float | None = None) -> tuple[np.ndarray, ...]:
-    """The part of a full-rate record the dynamics need — as long as the output-error fit's
-    (:func:`motorid.identify.stages.fit_record_length`), or ``length_s`` — evenly thinned to at most
-    ``max_samples`` samples; ``arrays`` share ``time_s``'s grid."""
+    """The part of a full-rate record the dynamics need, evenly thinned.
+
+    As long as the output-error fit's (:func:`motorid.identify.stages.fit_record_length`), or
+    ``length_s``, evenly thinned to at most ``max_samples`` samples; ``arrays`` share ``time_s``'s
+    grid.
+    """
     from motorid.identify.stages import fit_record_length
 
     length = fit_record_length(cond) if length_s is None else length_s
@@ -259,9 +262,12 @@ def _dynamic_part(cond: ConditionedExperiment, max_samples: int, time_s: np.ndar
 
 
 def _markov_laguerre(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
-    """Generalised Markov parameters on a Laguerre basis (issue 14): a, N and the dead time
-    from the measured response time, by BIC; the order from the Hankel singular values above
-    the coefficients' noise floor; the recorded input channel drives the regressors."""
+    """Generalised Markov parameters on a Laguerre basis (issue 14).
+
+    a, N and the dead time from the measured response time, by BIC; the order from the Hankel
+    singular values above the coefficients' noise floor; the recorded input channel drives the
+    regressors.
+    """
     from motorid.identify.laguerre import LaguerreSettings, laguerre_identify
 
     t = cond.full_time_s
@@ -345,9 +351,12 @@ _RUNNERS: dict[str, Callable[[ConditionedExperiment, IdentifySettings], MotorMod
 
 
 def _with_fit(model: MotorModel, cond: ConditionedExperiment) -> MotorModel:
-    """The model with its fit on the full-rate record: NRMSE (CONTRACT.md: RMS error over the
-    measured steady-state change) of velocity and position, and MATLAB compare's fit % of every
-    channel it predicts, all from one step response with the model's dead time applied."""
+    """The model with its fit on the full-rate record.
+
+    NRMSE (CONTRACT.md: RMS error over the measured steady-state change) of velocity and position,
+    and MATLAB compare's fit % of every channel it predicts, all from one step response with the
+    model's dead time applied.
+    """
     t, v, _ = _velocity(cond, full=True)
     if "record_length_s" not in model.settings:
         # first_order() cancels only pole-zero pairs slower than the record (model/simplify.py)
@@ -368,7 +377,9 @@ def _with_fit(model: MotorModel, cond: ConditionedExperiment) -> MotorModel:
     return model.replace(fit=fit)
 
 
-def _paper_stage(cond: ConditionedExperiment, settings: IdentifySettings, names: list[str]) -> tuple[dict[str, MotorModel], dict[str, str]]:
+def _paper_stage(
+    cond: ConditionedExperiment, settings: IdentifySettings, names: list[str]
+) -> tuple[dict[str, MotorModel], dict[str, str]]:
     candidates: dict[str, MotorModel] = {}
     failures: dict[str, str] = {}
     for name in names:
@@ -381,7 +392,8 @@ def _paper_stage(cond: ConditionedExperiment, settings: IdentifySettings, names:
             continue
         candidates[name] = _with_fit(m, cond)
     if not candidates:
-        raise IdentificationError("no method could identify a model: " + "; ".join(f"{k}: {v}" for k, v in failures.items()))
+        raise IdentificationError(
+            "no method could identify a model: " + "; ".join(f"{k}: {v}" for k, v in failures.items()))
     return candidates, failures
 
 
@@ -403,8 +415,9 @@ def _unwhitened(cond: ConditionedExperiment, sel: Any) -> dict[str, float] | Non
     u = sel.result.std
     return {"dc_gain": fo.dc_gain, "time_constant": fo.time_constant_s + m.delay_s,
             "dc_gain_std": float(np.hypot(u.get("dc_gain", 0.0), res.std.get("dc_gain", 0.0))),
-            "time_constant_std": float(np.hypot(np.hypot(u.get("time_constant", 0.0), u.get("delay", 0.0)),
-                                                np.hypot(res.std.get("time_constant", 0.0), res.std.get("delay", 0.0))))}
+            "time_constant_std": float(np.hypot(
+                np.hypot(u.get("time_constant", 0.0), u.get("delay", 0.0)),
+                np.hypot(res.std.get("time_constant", 0.0), res.std.get("delay", 0.0))))}
 
 
 def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: MotorModel, init_name: str,
@@ -418,7 +431,8 @@ def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: Motor
     unwhitened = _unwhitened(cond, sel)
     stages.append({"stage": "output-error", "initialised_from": init_name, "structures": sel.table,
                    "chosen": {"poles": sel.structure[0], "zeros": sel.structure[1], "delay": sel.delay},
-                   "runner_up": None if sel.runner_up is None else {"poles": sel.runner_up[0], "zeros": sel.runner_up[1]},
+                   "runner_up": (None if sel.runner_up is None
+                                 else {"poles": sel.runner_up[0], "zeros": sel.runner_up[1]}),
                    "evidence": sel.evidence, **_summary("oe", model)})
     # cross-check with the time-scaled Hankel singular values of the Markov method
     markov = next((st for st in stages if st.get("method") == "markov"), None)
@@ -437,7 +451,9 @@ def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: Motor
 
 
 @single_blas_thread
-def identify_conditioned(cond: ConditionedExperiment, settings: IdentifySettings = IdentifySettings()) -> Identification:
+def identify_conditioned(
+    cond: ConditionedExperiment, settings: IdentifySettings = IdentifySettings()
+) -> Identification:
     """Identify a model from conditioned data (see :func:`identify_experiment`)."""
     if settings.method not in METHODS:
         raise OptionError(f"unknown method {settings.method!r}; use one of {', '.join(METHODS)}")
@@ -489,7 +505,8 @@ def identify_conditioned(cond: ConditionedExperiment, settings: IdentifySettings
             candidates["srivc"] = model
             stages.append({"stage": "srivc", **_summary("srivc", model)})
             st = tried[0][2]
-            reason = f"SRIVC initialised from {best}; {st[0]} pole(s), {st[1]} zero(s) by BIC among {len(tried)} stable fits"
+            reason = (f"SRIVC initialised from {best}; {st[0]} pole(s), {st[1]} zero(s) by BIC "
+                      f"among {len(tried)} stable fits")
         elif settings.method in ("oe", "auto"):
             model, reason, unwhitened = _refine(cond, settings, model, best, stages)
             candidates["oe"] = model

@@ -31,7 +31,7 @@ import scipy.optimize
 
 from motorid.identify.classic import first_crossing
 
-__all__ = ["SanityCheck", "SanityReport", "first_order_baseline", "sanity_checks", "TOLERANCES"]
+__all__ = ["TOLERANCES", "SanityCheck", "SanityReport", "first_order_baseline", "sanity_checks"]
 
 #: Tolerances of the gate, each with its reason.
 TOLERANCES: Mapping[str, float] = {
@@ -123,7 +123,8 @@ def first_order_baseline(time_s: np.ndarray, y: np.ndarray, step_volts: float) -
     p0 = [final / step_volts if step_volts else 1.0, max(tau0, 1e-6), 0.0]
     try:
         with np.errstate(over="ignore", invalid="ignore"):
-            p, _ = scipy.optimize.curve_fit(f, t, v, p0=p0, bounds=([-np.inf, 1e-7, 0.0], [np.inf, 10 * span, 0.5 * span]),
+            p, _ = scipy.optimize.curve_fit(f, t, v, p0=p0,
+                                            bounds=([-np.inf, 1e-7, 0.0], [np.inf, 10 * span, 0.5 * span]),
                                             maxfev=2000)
     except (RuntimeError, ValueError):
         p = np.asarray(p0, dtype=float)
@@ -262,7 +263,8 @@ def sanity_checks(
         ok = bool(var <= tol["input_rms_rel"])
         checks.append(SanityCheck(
             "the input is a step", ok,
-            f"the input recorded in {source} varies by {100 * var:.2g}% (RMS) of the {step_volts:.4g} V step after its edge"
+            f"the input recorded in {source} varies by {100 * var:.2g}% (RMS) of the {step_volts:.4g} V step "
+            "after its edge"
             + ("" if ok else ": it is not a step (a closed-loop record, or a drive that sags), and every method here "
                "models the response to a step — this is the model of a step that did not happen; identify from an "
                "open-loop step, and score a model on this record with motorid validate")))

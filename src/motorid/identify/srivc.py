@@ -18,7 +18,7 @@ import scipy.signal
 
 from motorid.identify.result import IdentificationError
 
-__all__ = ["SrivcSettings", "SrivcResult", "srivc_fit"]
+__all__ = ["SrivcResult", "SrivcSettings", "srivc_fit"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -126,8 +126,9 @@ def srivc_fit(time_s: np.ndarray, u: np.ndarray, y: np.ndarray, settings: SrivcS
     warnings: list[str] = []
     num = np.zeros(m + 1)
     p_mat = np.eye(n + m + 1)
-    it = 0
-    for it in range(1, settings.max_iter + 1):
+    iterations = 0
+    for _ in range(settings.max_iter):
+        iterations += 1
         if np.any(np.real(np.roots(den)) >= 0):
             # the prefilter must be stable: reflect unstable roots (standard SRIVC practice)
             r = np.roots(den)
@@ -168,4 +169,4 @@ def srivc_fit(time_s: np.ndarray, u: np.ndarray, y: np.ndarray, settings: SrivcS
     tau = float(np.real(np.sum(-1.0 / poles) - (np.sum(-1.0 / zeros) if zeros.size else 0.0)))
     if np.any(np.real(poles) >= 0):
         warnings.append("SRIVC model is unstable")
-    return SrivcResult(num, den, dc, tau, poles, zeros, it, converged, cov, tuple(warnings))
+    return SrivcResult(num, den, dc, tau, poles, zeros, iterations, converged, cov, tuple(warnings))

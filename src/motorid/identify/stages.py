@@ -32,15 +32,15 @@ from motorid.model import MotorModel
 
 __all__ = [
     "STRUCTURES",
-    "channel_sigma",
     "NoiseModel",
-    "noise_model",
-    "refine_noise",
-    "step_level_std",
-    "oe_stage",
-    "srivc_stage",
     "OrderSelection",
+    "channel_sigma",
+    "noise_model",
+    "oe_stage",
+    "refine_noise",
     "select_order",
+    "srivc_stage",
+    "step_level_std",
     "uncertainty_json",
 ]
 
@@ -102,8 +102,11 @@ SRIVC_SAMPLES = 1000
 
 
 def _srivc_data(cond: ConditionedExperiment, max_samples: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """The synchronised record sub-sampled to at most ``max_samples``: SRIVC simulates its
-    filters from rest at ``t = 0``, so the grid stays anchored there (no block centres)."""
+    """The synchronised record sub-sampled to at most ``max_samples``.
+
+    SRIVC simulates its filters from rest at ``t = 0``, so the grid stays anchored there (no block
+    centres).
+    """
     t = cond.full_time_s
     ratio = max(1, int(np.ceil(t.size / max_samples)))
     return t[::ratio], {k: v[::ratio] for k, v in cond.full_outputs.items()}
@@ -116,11 +119,13 @@ def _shift_bound(cond: ConditionedExperiment) -> float:
 
 @dataclass(frozen=True, slots=True)
 class _ChannelData:
-    """What the output-error fit sees of each capture: its own grid from its step (every
-    sample it recorded after the step, not only the part common to all captures), its
-    pre-step samples, and the block length that keeps the fitted record at most
-    :data:`MAX_FIT_SAMPLES` long; for an unwrapped position, the turns added to each
-    sample (samples interpolated over wrap glitches are left out)."""
+    """What the output-error fit sees of each capture.
+
+    Its own grid from its step (every sample it recorded after the step, not only the part common to
+    all captures), its pre-step samples, and the block length that keeps the fitted record at most
+    :data:`MAX_FIT_SAMPLES` long; for an unwrapped position, the turns added to each sample (samples
+    interpolated over wrap glitches are left out).
+    """
 
     time_s: dict[str, np.ndarray]
     outputs: dict[str, np.ndarray]
@@ -210,12 +215,13 @@ def _oe_to_model(
         cmat = np.hstack([np.zeros((cmat.shape[0], 1)), cmat])
         cmat = np.vstack([np.eye(1, n + 1), cmat])
         dmat = np.vstack([[[0.0]], dmat])
-        states = ("position",) + states
-        outputs = ["position"] + outputs
+        states = ("position", *states)
+        outputs = ["position", *outputs]
     return MotorModel(
         A=big_a, B=big_b, C=cmat, D=dmat, states=states, outputs=tuple(outputs),
         step_volts=cond.step_volts, method="oe",
-        settings={"n_poles": structure[0], "n_zeros": structure[1], "delay": res.delay_s is not None and res.delay_s > 0},
+        settings={"n_poles": structure[0], "n_zeros": structure[1],
+                  "delay": res.delay_s is not None and res.delay_s > 0},
         sample_interval_s=float(cond.full_time_s[1] - cond.full_time_s[0]),
         warnings=tuple(res.warnings),
         uncertainty=uncertainty_json(res),
@@ -282,8 +288,10 @@ class NoiseModel:
 
 
 def _code_step(r: Any) -> float:
-    """Smallest code step of a capture (its 8-bit quantum), away from wraps and glitches
-    (an unwrapped or interpolated sample is no longer on the code grid)."""
+    """Smallest code step of a capture (its 8-bit quantum), away from wraps and glitches.
+
+    An unwrapped or interpolated sample is no longer on the code grid.
+    """
     ok = np.ones(r.output_v.size - 1, dtype=bool)
     if r.wrap_count is not None:
         ok &= np.diff(r.wrap_count) == 0
@@ -344,8 +352,10 @@ def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
 
 
 def refine_noise(noise: NoiseModel, res: OeResult) -> NoiseModel:
-    """The noise model re-estimated from the residuals of a fit (channels it did not fit
-    keep theirs)."""
+    """The noise model re-estimated from the residuals of a fit.
+
+    Channels it did not fit keep theirs.
+    """
     sigma, white = dict(noise.sigma), dict(noise.whiten)
     for role, e in res.residuals.items():
         white[role], sd = ar_noise_model(e)
@@ -415,7 +425,8 @@ def srivc_stage(
     res = srivc_fit(t, u, outs["velocity"], SrivcSettings(n_poles=structure[0], n_zeros=structure[1]), init_den=den0)
     from motorid.model import model_from_velocity_tf
 
-    warnings = tuple(res.warnings) + (() if res.converged else (f"SRIVC did not converge in {res.iterations} iterations",))
+    not_converged = () if res.converged else (f"SRIVC did not converge in {res.iterations} iterations",)
+    warnings = tuple(res.warnings) + not_converged
     return model_from_velocity_tf(
         res.num, res.den, with_position=False, step_volts=cond.step_volts, method="srivc",
         settings={"n_poles": structure[0], "n_zeros": structure[1], "iterations": res.iterations},
@@ -593,7 +604,7 @@ def select_order(
         {"poles": s[0], "zeros": s[1], "delay": d, "bic": b, "aic": r.aic,
          "weighted_rms": float(np.sqrt(max(r.cost, 0.0) * 2 / max(r.n_samples, 1))), "bic_weight": float(wt),
          **({"delay_s": r.delay_s} if d else {})}
-        for (b, s, d, r, _), wt in zip(fits, weights)
+        for (b, s, d, r, _), wt in zip(fits, weights, strict=False)
     ]
     best = fits[0]
     # the noise model again, from the chosen structure's own residuals (the preliminary
@@ -606,7 +617,7 @@ def select_order(
     except IdentificationError:
         pass
     others = [(b, m) for b, _, _, _, m in fits[1:]]
-    model = best[4].replace(uncertainty=structure_uncertainty(best[4], [(best[0], best[4])] + others))
+    model = best[4].replace(uncertainty=structure_uncertainty(best[4], [(best[0], best[4]), *others]))
     runner = fits[1] if len(fits) > 1 else None
     if runner is None:
         evidence = f"only {_describe(best[1], best[2])} could be fitted"
