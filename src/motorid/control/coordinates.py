@@ -25,8 +25,8 @@ import scipy.linalg
 from motorid.model import MotorModel
 
 __all__ = [
-    "INDEPENDENCE_MIN",
     "CONDITION_MAX",
+    "INDEPENDENCE_MIN",
     "SENSOR_UNITS",
     "MeasurableRealisation",
     "measurable_realisation",
@@ -124,7 +124,9 @@ def _candidates(model: MotorModel) -> list[tuple[str, np.ndarray]]:
     return rows
 
 
-def _select_rows(model: MotorModel, scale: np.ndarray, skip: tuple[str, ...] = ()) -> tuple[list[str], list[np.ndarray]]:
+def _select_rows(
+    model: MotorModel, scale: np.ndarray, skip: tuple[str, ...] = ()
+) -> tuple[list[str], list[np.ndarray]]:
     n = model.A.shape[0]
     names: list[str] = []
     kept: list[np.ndarray] = []

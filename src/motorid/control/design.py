@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -35,7 +35,7 @@ from motorid.control.routh import affine_char_poly, routh_conditions
 from motorid.errors import OptionError
 from motorid.model import MotorModel
 
-__all__ = ["SCHEMA", "LARGE_GAIN", "DesignSettings", "Design", "design_controller", "design_model", "output_row"]
+__all__ = ["LARGE_GAIN", "SCHEMA", "Design", "DesignSettings", "design_controller", "design_model", "output_row"]
 
 SCHEMA = "motorid.design/1"
 #: A state-feedback gain above this (volts of input per volt of a sensor) gets a warning: it
@@ -194,12 +194,14 @@ class Design:
 
     def sensor_gains(self) -> list[tuple[str, float, str]]:
         """``(state, gain, unit)`` per measured quantity, e.g. ``("velocity", 8.5, "per V of the tacho")``."""
-        return [(name, float(k), sensor_unit(name)) for name, k in zip(self.states, self.K)]
+        return [(name, float(k), sensor_unit(name)) for name, k in zip(self.states, self.K, strict=False)]
 
     def to_json(self) -> dict[str, Any]:
-        """The CONTRACT.md "Design JSON" dict (schema ``motorid.design/1``), plus ``output``,
-        ``output_feedback_poles``, ``gains`` (per sensor) and, for a design in measurable
-        coordinates, ``model_states``, ``transform``, ``K_model`` and ``L_model``."""
+        """The CONTRACT.md "Design JSON" dict (schema ``motorid.design/1``) plus extras.
+
+        The extras: ``output``, ``output_feedback_poles``, ``gains`` (per sensor) and, for a design
+        in measurable coordinates, ``model_states``, ``transform``, ``K_model`` and ``L_model``.
+        """
         extra: dict[str, Any] = {
             "gains": [{"state": n, "gain": g, "unit": u} for n, g, u in self.sensor_gains()],
         }
@@ -229,7 +231,7 @@ class Design:
         return json.dumps(self.to_json(), indent=2)
 
     @classmethod
-    def from_json(cls, data: Any, *, file: str | None = None) -> "Design":
+    def from_json(cls, data: Any, *, file: str | None = None) -> Design:
         """Rebuild a design from :meth:`to_json` output, checking every entry's type and shape.
 
         Raises
@@ -245,7 +247,7 @@ class Design:
             raise OptionError(f"not a motorid design: bad or missing entry ({exc!s})", file=file) from None
 
     @classmethod
-    def _from_json(cls, data: Any) -> "Design":
+    def _from_json(cls, data: Any) -> Design:
         if not isinstance(data, dict) or data.get("schema") != SCHEMA:
             got = data.get("schema") if isinstance(data, dict) else type(data).__name__
             raise OptionError(f"not a motorid design: schema is {got!r}, expected {SCHEMA!r}")
@@ -260,10 +262,8 @@ class Design:
                 raise bad(key, "must be a non-empty list of distinct state names")
             return tuple(v)
 
-        def vector(key: str, n: int | None, optional: bool = False) -> np.ndarray | None:
+        def vector(key: str, n: int | None) -> np.ndarray:
             v = data.get(key)
-            if v is None and optional:
-                return None
             if not isinstance(v, list) or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
                 raise bad(key, "must be a list of numbers")
             arr = np.array(v, dtype=float)
@@ -313,8 +313,11 @@ class Design:
             if not isinstance(t, list) or len(t) != n or len(model_states) != n:
                 raise bad("transform", f"must be a {n}×{n} matrix (states × model_states)")
             transform = np.vstack([_matrix_row(row, "transform", n) for row in t])
-        return cls(states, out, k, number("kr"), number("ki"), vector("L", n, optional=True),
-                   poles("closed_loop_poles") if data.get("closed_loop_poles") is not None else np.zeros(0, complex),
+        kr, ki = number("kr"), number("ki")
+        l_vec = None if data.get("L") is None else vector("L", n)
+        cl_poles = poles("closed_loop_poles")
+        return cls(states, out, k, kr, ki, l_vec,
+                   cl_poles if cl_poles is not None else np.zeros(0, complex),
                    poles("observer_poles"), poles("output_feedback_poles"), strings("routh"), strings("warnings"),
                    model_states, transform)
 
@@ -352,7 +355,7 @@ def _gain_names(n: int) -> tuple[str, ...]:
     return tuple(f"k{i + 1}" for i in range(n))
 
 
-def design_model(model: MotorModel, design: "Design") -> MotorModel:
+def design_model(model: MotorModel, design: Design) -> MotorModel:
     """``model`` in the coordinates ``design`` was made in (its ``states``).
 
     Parameters
@@ -506,11 +509,14 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
             k1, _ = k1_for_damping(a, b, k2, float(s.damping))
             k = np.array([[k1, k2]])
         else:
-            poles, w = poles_from_damping(float(s.damping), float(s.wn), n_pair)
+            wn = cast(float, s.wn)  # DesignSettings: --damping without --k2 comes with --wn
+            poles, w = poles_from_damping(float(s.damping), float(wn), n_pair)
             check_pole_range(poles, a, option="--wn")
             warnings += w
     else:
-        poles, w = poles_from_specs(float(s.settling_time_s), float(s.overshoot_pct), n_pair)
+        # DesignSettings: neither --poles nor --damping means --settling-time with --overshoot
+        ts, os_pct = cast(float, s.settling_time_s), cast(float, s.overshoot_pct)
+        poles, w = poles_from_specs(float(ts), float(os_pct), n_pair)
         check_pole_range(poles, a, option="--settling-time")
         warnings += w
 
@@ -529,8 +535,8 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
             k, ki = integral_gains(a, b, c, np.concatenate([state_poles, ip]))
         elif s.ki is not None:
             ki = float(check_gains([s.ki], "--ki")[0])
-            if k is None:
-                k = place_gains(a, b, poles)
+            if k is None:  # no --k2: the branches above placed poles
+                k = place_gains(a, b, cast(np.ndarray, poles))
         else:
             raise OptionError("--integral needs --ki, --integral-pole, or n + 1 values in --poles")
         gains = np.concatenate([k.ravel(), [ki]])
@@ -546,8 +552,8 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
         if poles is not None and poles.size == n + 1:
             warnings += _check_placed(cl, poles)
     else:
-        if k is None:
-            k = place_gains(a, b, poles)
+        if k is None:  # no --k2: the branches above placed poles
+            k = place_gains(a, b, cast(np.ndarray, poles))
         poly = affine_char_poly(a, b, names)
         routh = routh_conditions(poly)
         cl = np.linalg.eigvals(a - b @ k)

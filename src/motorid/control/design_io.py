@@ -1,5 +1,7 @@
-"""Reading a design JSON (``motorid.design/1``) back: as the typed :class:`Design` for
-``simulate`` and as a plain dict for the report."""
+"""Reading a design JSON (``motorid.design/1``) back.
+
+As the typed :class:`Design` for ``simulate`` and as a plain dict for the report.
+"""
 
 from __future__ import annotations
 

@@ -18,19 +18,19 @@ import scipy.linalg
 from motorid.errors import ControlDesignError, OptionError
 
 __all__ = [
+    "POLE_RATIO_MAX",
+    "UNCONTROLLABLE_TOL",
     "ControlDesignError",
-    "parse_poles",
-    "check_poles",
-    "check_gains",
     "check_controllable",
+    "check_gains",
     "check_pole_range",
+    "check_poles",
+    "k1_for_damping",
+    "parse_poles",
     "pbh_margins",
     "place_gains",
-    "UNCONTROLLABLE_TOL",
-    "POLE_RATIO_MAX",
     "poles_from_damping",
     "poles_from_specs",
-    "k1_for_damping",
     "reference_gain",
 ]
 
@@ -239,6 +239,7 @@ def poles_from_damping(zeta: float, wn: float, n: int) -> tuple[np.ndarray, list
         raise OptionError(f"--damping must be > 0, got {zeta!r}")
     if not (math.isfinite(wn) and wn > 0):
         raise OptionError(f"--wn must be > 0, got {wn!r}")
+    pair: list[complex]
     if zeta >= 1.0:
         r = wn * math.sqrt(zeta * zeta - 1.0)
         pair = [-zeta * wn + r, -zeta * wn - r]

@@ -51,7 +51,7 @@ def integral_poly(a: np.ndarray, b: np.ndarray, c: np.ndarray, names: tuple[str,
     (eq. 42).
     """
     aa, ba = augment_integral(a, b, c)
-    return affine_char_poly(aa, ba, tuple(names) + ("ki",))
+    return affine_char_poly(aa, ba, (*tuple(names), "ki"))
 
 
 def routh_violations(poly: AffinePoly, gains: np.ndarray) -> list[str]:
@@ -73,7 +73,7 @@ def routh_violations(poly: AffinePoly, gains: np.ndarray) -> list[str]:
     a = coeffs[1:]
     if m == 3:
         checks = [a[0] > 0, a[2] > 0, a[0] * a[1] > a[2]]
-        bad = [c for c, ok in zip(conds, checks) if not ok]
+        bad = [c for c, ok in zip(conds, checks, strict=False) if not ok]
     elif m <= 2:
-        bad = [c for c, ok in zip(conds, a > 0) if not ok]
+        bad = [c for c, ok in zip(conds, a > 0, strict=False) if not ok]
     return bad or ["the Routh array has a sign change (closed loop unstable)"]

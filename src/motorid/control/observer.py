@@ -41,7 +41,7 @@ def observer_gain(a: np.ndarray, c: np.ndarray, poles: np.ndarray, output: str =
     return place_gains(a.T, c.T, poles).T
 
 
-def output_feedback_matrix(a: np.ndarray, b: np.ndarray, c: np.ndarray, k: np.ndarray, l: np.ndarray,
+def output_feedback_matrix(a: np.ndarray, b: np.ndarray, c: np.ndarray, k: np.ndarray, l_col: np.ndarray,
                            ki: float | None = None) -> np.ndarray:
     """System matrix of plant + observer + feedback from the estimate, states ``[x, x̂(, z)]``.
 
@@ -50,7 +50,7 @@ def output_feedback_matrix(a: np.ndarray, b: np.ndarray, c: np.ndarray, k: np.nd
     """
     n = a.shape[0]
     top = np.hstack([a, -b @ k])
-    bot = np.hstack([l @ c, a - b @ k - l @ c])
+    bot = np.hstack([l_col @ c, a - b @ k - l_col @ c])
     m = np.vstack([top, bot])
     if ki is None:
         return m

@@ -15,7 +15,7 @@ import numpy as np
 from motorid.errors import OptionError
 from motorid.model import MotorModel
 
-__all__ = ["MotorParams", "params_from_step_test", "model_from_params", "parse_ratio"]
+__all__ = ["MotorParams", "model_from_params", "params_from_step_test", "parse_ratio"]
 
 
 @dataclass(frozen=True, slots=True)

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["AffinePoly", "affine_char_poly", "routh_array", "routh_stable", "routh_conditions"]
+__all__ = ["AffinePoly", "affine_char_poly", "routh_array", "routh_conditions", "routh_stable"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -105,7 +105,7 @@ def _linear(poly: AffinePoly, j: int, scale: float) -> str:
     """``a_j/scale`` written as ``1 + 0.9·k2``."""
     terms: list[str] = []
     c = poly.const[j] / scale
-    for name, m in zip(poly.names, poly.coef[j] / scale):
+    for name, m in zip(poly.names, poly.coef[j] / scale, strict=False):
         if m == 0.0:
             continue
         if abs(m - 1.0) < 1e-12:
@@ -115,7 +115,7 @@ def _linear(poly: AffinePoly, j: int, scale: float) -> str:
         else:
             terms.append(f"{_fmt(m)}·{name}")
     if c != 0.0 or not terms:
-        terms = [_fmt(c)] + terms
+        terms = [_fmt(c), *terms]
     text = " + ".join(terms)
     return text.replace("+ -", "- ")
 

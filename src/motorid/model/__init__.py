@@ -13,12 +13,12 @@ from motorid.model.serialize import SCHEMA
 from motorid.model.simplify import CANCEL_TOL_REL, EXACT_CANCEL_TOL, FirstOrder
 
 __all__ = [
-    "SCHEMA",
-    "CHANNELS",
     "CANCEL_TOL_REL",
+    "CHANNELS",
     "EXACT_CANCEL_TOL",
-    "ModelFormatError",
+    "SCHEMA",
     "FirstOrder",
+    "ModelFormatError",
     "MotorModel",
     "model_from_velocity_tf",
     "step_nrmse",

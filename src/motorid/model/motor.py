@@ -131,7 +131,7 @@ def model_from_velocity_tf(
         b_col = np.array([[b]])
         c_row = np.array([[1.0]])
         d_val = np.array([[d]])
-        vstates = ("velocity",) if d == 0.0 else ("x1",)
+        vstates: tuple[str, ...] = ("velocity",) if d == 0.0 else ("x1",)
     else:
         sys = control.tf2ss(control.tf(num, den))
         a, b_col, c_row, d_val = (np.asarray(m, dtype=float) for m in (sys.A, sys.B, sys.C, sys.D))

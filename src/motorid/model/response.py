@@ -1,5 +1,6 @@
-"""Responses of a :class:`~motorid.model.motor.MotorModel`: the exact step response on any
-grid and the NRMSE of a model against a measured step.
+"""Responses of a :class:`~motorid.model.motor.MotorModel`.
+
+The exact step response on any grid and the NRMSE of a model against a measured step.
 """
 
 from __future__ import annotations

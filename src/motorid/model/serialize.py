@@ -119,6 +119,8 @@ def model_from_dict(cls: type[MotorModel], data: Mapping[str, Any]) -> MotorMode
         if key not in ss:
             raise ModelFormatError(f"missing key 'state_space.{key}'")
     rows = ss.get("outputs")
+    c: Any  # raw JSON rows: MotorModel checks and converts them
+    d: Any
     if rows:
         outputs = tuple(rows)
         c = [rows[o]["C"] for o in outputs]
@@ -206,6 +208,8 @@ def load_model(path: Path) -> MotorModel:
     from motorid.model.motor import MotorModel
 
     data = read_json(path, "model")
+    if not isinstance(data, Mapping):  # what from_json would say, for the type checker
+        raise ModelFormatError("not a motorid model: expected a JSON object", file=str(path))
     try:
         return MotorModel.from_json(data, file=str(path))
     except (RecursionError, OverflowError, ZeroDivisionError, FloatingPointError) as exc:

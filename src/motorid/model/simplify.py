@@ -1,5 +1,7 @@
-"""Simplifying a motor model: pole-zero cancellation, balanced reduction, the dominant first
-order, and the transfer-function normalisation they share.
+"""Simplifying a motor model.
+
+Pole-zero cancellation, balanced reduction, the dominant first order, and the transfer-function
+normalisation they share.
 
 Hand-written where python-control needs slycot (``balred``/``minreal`` on state space);
 the maths of each helper is stated in its docstring.
@@ -142,7 +144,7 @@ def _cancel_pairs(
                                          for k, w in enumerate(zeros)])))
             drop_p.append(int(np.argmin([abs(w - p.conjugate()) if k != ip else np.inf
                                          for k, w in enumerate(poles)])))
-        pairs += [(zeros[a], poles[b]) for a, b in zip(drop_z, drop_p)]
+        pairs += [(zeros[a], poles[b]) for a, b in zip(drop_z, drop_p, strict=False)]
         zeros = [w for k, w in enumerate(zeros) if k not in drop_z]
         poles = [w for k, w in enumerate(poles) if k not in drop_p]
         n_cancelled += len(drop_z)

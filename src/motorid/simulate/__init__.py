@@ -26,8 +26,24 @@ from motorid.simulate.modes import (
 )
 
 __all__ = [
-    "REFERENCE_KINDS", "ReferenceSignal", "ResponseMetrics", "SimulationResult", "SimulationSettings",
-    "plot_simulation", "reference_values", "response_metrics", "simulate_closed_loop",
-    "MODES", "ModeCriteria", "ModeMap", "ServoPlant", "classify_grid", "mode_map", "modes_json",
-    "parse_range", "plot_mode_maps", "servo_plants", "simulate_servo_grid",
+    "MODES",
+    "REFERENCE_KINDS",
+    "ModeCriteria",
+    "ModeMap",
+    "ReferenceSignal",
+    "ResponseMetrics",
+    "ServoPlant",
+    "SimulationResult",
+    "SimulationSettings",
+    "classify_grid",
+    "mode_map",
+    "modes_json",
+    "parse_range",
+    "plot_mode_maps",
+    "plot_simulation",
+    "reference_values",
+    "response_metrics",
+    "servo_plants",
+    "simulate_closed_loop",
+    "simulate_servo_grid",
 ]

@@ -32,13 +32,13 @@ if TYPE_CHECKING:
 __all__ = [
     "REFERENCE_KINDS",
     "ReferenceSignal",
-    "SimulationSettings",
     "ResponseMetrics",
     "SimulationResult",
+    "SimulationSettings",
+    "plot_simulation",
     "reference_values",
     "response_metrics",
     "simulate_closed_loop",
-    "plot_simulation",
     "simulation_figure",
 ]
 
@@ -213,7 +213,7 @@ class SimulationResult:
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(list(cols))
-        for row in zip(*cols.values()):
+        for row in zip(*cols.values(), strict=False):
             w.writerow([f"{v:.9g}" for v in row])
         return buf.getvalue()
 
@@ -230,9 +230,10 @@ class SimulationResult:
         }
 
     def to_json_text(self) -> str:
+        """The :meth:`to_json` dict as indented JSON text."""
         return json.dumps(self.to_json(), indent=1)
 
-    def plot(self, title: str = "") -> "Figure":
+    def plot(self, title: str = "") -> Figure:
         """Output and reference, control input, and states against time.
 
         Parameters
@@ -380,7 +381,7 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
     kr = 0.0 if design.kr is None else float(design.kr)
     use_obs = design.L is not None
     l_col = None if design.L is None else design.L.reshape(n, 1)
-    steps = int(round(s.duration_s / s.dt_s))
+    steps = round(s.duration_s / s.dt_s)
     t = np.arange(steps + 1) * s.dt_s
     r = reference_values(s.reference, t)
     d = np.where(t >= s.disturbance_start_s, -s.disturbance_v, 0.0)
@@ -393,11 +394,11 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
     phi, gam = _zoh(a, b, s.dt_s)
     # the identified dead time is part of the plant (not of the state-space matrices): the
     # linear plant receives u delayed by whole control steps
-    lag = int(round(model.delay_s / s.dt_s)) if s.plant != "trainer" else 0
+    lag = round(model.delay_s / s.dt_s) if s.plant != "trainer" else 0
     if lag:
         warnings.append(f"the model's dead time of {1e3 * model.delay_s:.3g} ms is applied to the plant input "
                         f"({lag} step(s) of {s.dt_s:g} s)")
-    if use_obs:
+    if l_col is not None:  # (use_obs)
         phi_o, gam_o = _zoh(a - l_col @ c, np.hstack([b, l_col]), s.dt_s)
     trainer = None
     if s.plant == "trainer":
@@ -425,7 +426,7 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
             u_req = float(-(k @ fb)[0]) + (-ki * z if ki is not None else kr * r[i])
             u = min(max(u_req, -sat), sat) if math.isfinite(u_req) else u_req
             us[i], uraw[i] = u, u_req
-            if use_obs:
+            if xhs is not None:  # (use_obs)
                 xhs[i] = xh
             if zs is not None:
                 zs[i] = z
@@ -442,7 +443,8 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
                 xh = phi_o @ xh + gam_o @ np.array([u, y])
     if not np.all(np.isfinite(ys)):
         warnings.append("the response diverged (non-finite values): the closed loop is unstable")
-    elif np.max(np.abs(ys)) > 1e3 * max(float(np.max(np.abs(r))), 1.0) + 1e3 * float(np.max(np.abs(xs[0]), initial=0.0)):
+    elif (np.max(np.abs(ys))
+          > 1e3 * max(float(np.max(np.abs(r))), 1.0) + 1e3 * float(np.max(np.abs(xs[0]), initial=0.0))):
         warnings.append("the response diverged (it grew a thousandfold beyond the reference): the closed loop is "
                         "unstable")
     if s.saturation_v is not None and np.any(np.abs(uraw) > sat):
@@ -452,7 +454,7 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
                             tuple(warnings))
 
 
-def simulation_figure(result: SimulationResult, title: str = "") -> "Figure":
+def simulation_figure(result: SimulationResult, title: str = "") -> Figure:
     """Draw output and reference, control input, and true vs estimated states.
 
     The figure is a :class:`matplotlib.figure.Figure` made without pyplot: no backend is
