@@ -48,7 +48,8 @@ def make_report(
                                       step_volts=step, **axes)
         except MotorIdError:
             table = None  # the section says the table could not be computed
-    return build_report(ReportInputs(ident, captures, validation or {}, table, _design_view(ident, design), truth, title))
+    return build_report(ReportInputs(ident, captures, validation or {}, table, _design_view(ident, design), truth,
+                                     title))
 
 
 def _design_view(ident: Identification, design: Mapping[str, Any] | None) -> dict[str, Any] | None:

@@ -1,5 +1,6 @@
-"""The report's figures, each a function of data returning PNG bytes (matplotlib figures made
-without pyplot, so the caller's backend is never switched).
+"""The report's figures, each a function of data returning PNG bytes.
+
+Matplotlib figures are made without pyplot, so the caller's backend is never switched.
 
 The figure numbers of Masoud 2019 that each one corresponds to are given in the docstrings.
 """
@@ -19,24 +20,26 @@ from motorid.conditioning.pipeline import ConditionedExperiment
 from motorid.model import MotorModel
 
 __all__ = [
-    "png",
-    "raw_captures",
+    "closed_loop",
     "conditioned_signals",
     "current_denoising",
-    "pole_zero",
-    "step_fit",
     "hankel_values",
+    "png",
+    "pole_zero",
+    "raw_captures",
+    "step_fit",
     "sweep_maps",
     "validation_overlay",
-    "closed_loop",
 ]
 
 DPI = 80
 
 
 def _subplots(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float], **kwargs):
-    """``pyplot.subplots`` without pyplot: a :class:`~matplotlib.figure.Figure` of its own (no
-    global figure manager, no backend switch — a notebook's backend is left alone)."""
+    """``pyplot.subplots`` without pyplot: a :class:`~matplotlib.figure.Figure` of its own.
+
+    No global figure manager, no backend switch — a notebook's backend is left alone.
+    """
     fig = Figure(figsize=figsize)
     return fig, fig.subplots(nrows, ncols, **kwargs)
 
@@ -52,7 +55,7 @@ def raw_captures(captures: Mapping[str, Capture]) -> bytes:
     """The captures as recorded, CH1 and CH2 on each file's own time axis (paper Fig. 25)."""
     n = len(captures)
     fig, axes = _subplots(n, 1, figsize=(8, 2.2 * n), squeeze=False)
-    for ax, (role, cap) in zip(axes[:, 0], captures.items()):
+    for ax, (role, cap) in zip(axes[:, 0], captures.items(), strict=False):
         if cap.input_v is not None:
             ax.plot(cap.time_s, cap.input_v, lw=0.8, label="CH1 input")
         ax.plot(cap.time_s, cap.output_v, lw=0.8, label=f"CH2 {role}")
@@ -70,7 +73,7 @@ def conditioned_signals(cond: ConditionedExperiment, derivative_method: str = "f
     roles = list(cond.full_outputs)
     extra = 1 if "position" in roles else 0
     fig, axes = _subplots(len(roles) + extra, 1, figsize=(8, 2.2 * (len(roles) + extra)), squeeze=False)
-    for ax, role in zip(axes[:, 0], roles):
+    for ax, role in zip(axes[:, 0], roles, strict=False):
         ax.plot(cond.full_time_s, cond.full_outputs[role], lw=0.8, label=f"{role}, synchronised")
         ax.plot(cond.time_s, cond.outputs[role], "o", ms=3, label=f"reduced ×{cond.ratio}")
         ax.set_ylabel("V")

@@ -23,7 +23,7 @@ from motorid.identify.pipeline import Identification
 from motorid.model.notation import poly_text
 from motorid.report import figures
 
-__all__ = ["ReportInputs", "build_report", "SECTIONS"]
+__all__ = ["SECTIONS", "ReportInputs", "build_report"]
 
 #: Section ids, in page order (the headless-browser test checks they all render).
 SECTIONS: tuple[str, ...] = (
@@ -103,7 +103,7 @@ def _safe(sid: str, title: str, make: Callable[[], str]) -> str:
     """A section that cannot be drawn says why instead of breaking the page."""
     try:
         return _section(sid, title, make())
-    except Exception as exc:  # noqa: BLE001 - a report shows what it can
+    except Exception as exc:
         return _section(sid, title, f'<p class="warn">not available: {html.escape(str(exc))}</p>')
 
 
@@ -128,15 +128,17 @@ def build_report(inp: ReportInputs) -> str:
 
     def summary() -> str:
         u = model.uncertainty
-        rows = [["method", model.method], ["order (states)", model.order], ["step", f"{cond.step_volts:.4g} V"],
-                ["dc gain", f"{fo.dc_gain:.5g} V/V"], ["τ", f"{fo.time_constant_s:.5g} s"],
-                ["k/(s+p)", f"{fo.k:.5g}/(s + {fo.p:.5g})"]]
+        rows: list[list[Any]] = [
+            ["method", model.method], ["order (states)", model.order], ["step", f"{cond.step_volts:.4g} V"],
+            ["dc gain", f"{fo.dc_gain:.5g} V/V"], ["τ", f"{fo.time_constant_s:.5g} s"],
+            ["k/(s+p)", f"{fo.k:.5g}/(s + {fo.p:.5g})"]]
         if u:
             for key, label in (("dc_gain", "dc gain 95%"), ("time_constant", "τ 95%")):
                 lo, hi = u[key]["ci95"]
                 rows.append([label, f"[{lo:.5g}, {hi:.5g}]"])
         if model.delay_s > 0:
-            rows.append(["dead time", f"{1e3 * model.delay_s:.4g} ms (τ + dead time {fo.time_constant_s + model.delay_s:.5g} s)"])
+            rows.append(["dead time", f"{1e3 * model.delay_s:.4g} ms "
+                                      f"(τ + dead time {fo.time_constant_s + model.delay_s:.5g} s)"])
         for key, val in model.fit.items():
             shown = f"{val:.2f} %" if key.endswith("_fit_percent") else f"{100 * val:.2f} %"
             rows.append([f"fit {key}", shown])
@@ -147,14 +149,16 @@ def build_report(inp: ReportInputs) -> str:
         if inp.truth:
             tf = inp.truth.get("transfer_functions", {}).get("first_order", {})
             if tf:
-                rows.append(["trainer truth (linearised)", f"dc gain {tf['dc_gain']:.5g}, τ {tf['time_constant']:.5g} s"])
+                rows.append(["trainer truth (linearised)",
+                             f"dc gain {tf['dc_gain']:.5g}, τ {tf['time_constant']:.5g} s"])
         body = _table(["", "value"], rows)
         body += f"<p>{html.escape(ident.reason)}</p>"
         for note in model.extras.get("conditioning", []) or []:
             body += f"<p class=muted>{html.escape(str(note))}</p>"
         if model.warnings:
             body += "<ul>" + "".join(f'<li class="warn">{html.escape(w)}</li>' for w in model.warnings) + "</ul>"
-        body += "<p class=muted>Files: " + ", ".join(f"{html.escape(r)}: {html.escape(s)}" for r, s in cond.sources.items()) + "</p>"
+        files = ", ".join(f"{html.escape(r)}: {html.escape(s)}" for r, s in cond.sources.items())
+        body += "<p class=muted>Files: " + files + "</p>"
         return body
 
     parts.append(_safe("summary", "Summary", summary))
@@ -164,7 +168,8 @@ def build_report(inp: ReportInputs) -> str:
     parts.append(_safe("conditioning", "Conditioned signals: synchronised, unwrapped, reduced, differentiated",
                        lambda: _img(figures.conditioned_signals(cond), "conditioned signals")
                        + f"<p class=muted>step edge per capture; reduction ratio {cond.ratio} "
-                         f"({cond.settings.reduction}); sample interval after reduction {cond.sample_interval_s:.4g} s</p>"))
+                         f"({cond.settings.reduction}); sample interval after reduction "
+                         f"{cond.sample_interval_s:.4g} s</p>"))
     parts.append(_safe("current", "Armature current: recorded and FFT-denoised",
                        lambda: _img(figures.current_denoising(cond), "current") if "current" in cond.full_outputs
                        else "<p>no current capture given</p>"))
@@ -173,12 +178,14 @@ def build_report(inp: ReportInputs) -> str:
         body = _matrix("A", model.A) + _matrix("B", model.B) + _matrix("C", model.C) + _matrix("D", model.D)
         body += f"<p class=muted>states: {', '.join(model.states)}; outputs: {', '.join(model.outputs)}</p>"
         for name in ("velocity", "position", "current"):
-            tf = getattr(model, f"{name}_tf")()
+            tf = getattr(model, f"{name}_tf")
             if tf is None:
                 continue
             num, den = np.ravel(tf.num[0][0]), np.ravel(tf.den[0][0])
-            body += f"<p><code>H_{name}(s) = ({html.escape(poly_text(num))}) / ({html.escape(poly_text(den))})</code></p>"
-        body += f"<p>first order: <code>k/(s+p) = {fo.k:.5g}/(s + {fo.p:.5g})</code>, dc gain {fo.dc_gain:.5g}, τ = {fo.time_constant_s:.5g} s</p>"
+            body += (f"<p><code>H_{name}(s) = ({html.escape(poly_text(num))}) / "
+                     f"({html.escape(poly_text(den))})</code></p>")
+        body += (f"<p>first order: <code>k/(s+p) = {fo.k:.5g}/(s + {fo.p:.5g})</code>, dc gain {fo.dc_gain:.5g}, "
+                 f"τ = {fo.time_constant_s:.5g} s</p>")
         u = model.uncertainty
         if u:
             rows = [[k, u[k]["value"], u[k]["std"], f"[{u[k]['ci95'][0]:.5g}, {u[k]['ci95'][1]:.5g}]"]
@@ -218,7 +225,7 @@ def build_report(inp: ReportInputs) -> str:
             floor = ex["hankel_noise_floor"]
             rows = [[i + 1, x, "above" if x > floor else "below"] for i, x in enumerate(sv)]
             coef = [[k, g, sd] for k, (g, sd) in enumerate(zip(ex["laguerre_coefficients"],
-                                                               ex["laguerre_coefficients_std"]))]
+                                                               ex["laguerre_coefficients_std"], strict=False))]
             return (f"<p>Generalised Markov parameters on a Laguerre basis: pole a = {ex['laguerre_pole']:.4g} 1/s, "
                     f"N = {ex['laguerre_terms']} terms; DC gain from the coefficients √(2/a)·Σ(−1)ᵏg_k = "
                     f"{ex['laguerre_dc_gain']:.5g} ± {ex['laguerre_dc_gain_std']:.2g}.</p>"
@@ -248,7 +255,8 @@ def build_report(inp: ReportInputs) -> str:
         sw = inp.sweep
         if sw is None:
             return "<p>no sensitivity table computed</p>"
-        rows = [[f"{1000 * dt:g} ms"] + [f"k = {sw.k[i, j]:.4f}, τ = {sw.tau_s[i, j]:.4f}" for j in range(len(sw.lengths_s))]
+        rows = [[f"{1000 * dt:g} ms"]
+                + [f"k = {sw.k[i, j]:.4f}, τ = {sw.tau_s[i, j]:.4f}" for j in range(len(sw.lengths_s))]
                 for i, dt in enumerate(sw.intervals_s)]
         sp = sw.spread()
         return (_table(["ΔT"] + [f"{x:g} s" for x in sw.lengths_s], rows)
@@ -294,19 +302,21 @@ def build_report(inp: ReportInputs) -> str:
             body += "<p>Routh–Hurwitz: " + "; ".join(html.escape(str(x)) for x in d["routh"]) + "</p>"
         sim = d.get("simulation")
         if sim:
-            body += _img(figures.closed_loop(np.asarray(sim["time"]), {k: np.asarray(v) for k, v in sim["series"].items()},
-                                             "closed-loop step response"), "closed loop")
+            series = {k: np.asarray(v) for k, v in sim["series"].items()}
+            body += _img(figures.closed_loop(np.asarray(sim["time"]), series, "closed-loop step response"),
+                         "closed loop")
             if sim.get("metrics"):
                 body += _table(["metric", "value"], [[k, v] for k, v in sim["metrics"].items()])
         if d.get("note"):
             body += f"<p class=muted>{html.escape(str(d['note']))}</p>"
         if d.get("modes_png"):
-            body += "<p>Modes of the saturated position/velocity loop (paper Fig. 4, 11–13), 2nd- and 3rd-order model:</p>"
+            body += ("<p>Modes of the saturated position/velocity loop (paper Fig. 4, 11–13), "
+                     "2nd- and 3rd-order model:</p>")
             body += _img(d["modes_png"], "mode map")
         return body
 
     parts.append(_safe("design", "Controller", design_section))
-    stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    stamp = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
     from motorid import __version__
 
     return (

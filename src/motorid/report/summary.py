@@ -37,14 +37,15 @@ def _complex_text(re_: float, im_: float) -> str:
 
 
 def _header(model: Any, title: str) -> list[SummaryLine]:
-    lines = [((title, "bold"), (f": method {model.method}, order {model.order}, states {list(model.states)}, "
-                                 f"step {model.step_volts:.4g} V", ""))]
+    lines: list[SummaryLine] = [
+        ((title, "bold"), (f": method {model.method}, order {model.order}, states {list(model.states)}, "
+                           f"step {model.step_volts:.4g} V", ""))]
     lines.append(_plain(f"A = {np.array2string(model.A, precision=5, suppress_small=False)}"))
     lines.append(_plain(f"B = {np.array2string(model.B.ravel(), precision=5, suppress_small=False)}ᵀ"))
     for name in ("velocity", "position", "current"):
         try:
-            tf = getattr(model, f"{name}_tf")()
-        except Exception:  # noqa: BLE001 - a channel the model does not have
+            tf = getattr(model, f"{name}_tf")
+        except Exception:
             tf = None
         if tf is None:
             continue

@@ -1,5 +1,8 @@
-"""The virtual trainer as the plant of a closed-loop run (:mod:`motorid.simulate.closed_loop`
-takes any :class:`~motorid.simulate.closed_loop.ClosedLoopPlant`; this is the trainer's)."""
+"""The virtual trainer as the plant of a closed-loop run.
+
+:mod:`motorid.simulate.closed_loop` takes any
+:class:`~motorid.simulate.closed_loop.ClosedLoopPlant`; this is the trainer's.
+"""
 
 from __future__ import annotations
 
@@ -54,7 +57,7 @@ class TrainerLoop:
         self.dt = s.dt_s
         self.names = model.states
         self.pos_per_rad = self.cfg.pot_span_v / (2 * math.pi) * self.cfg.gear_ratio
-        x0d = dict(zip(model.states, x0))
+        x0d = dict(zip(model.states, x0, strict=False))
         self.offset = float(x0d.get("position", 0.0))
         w0 = float(x0d.get("velocity", 0.0)) / self.cfg.tacho_v_per_rad_s
         self.state = (0.0, w0, 0.0)

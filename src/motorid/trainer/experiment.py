@@ -23,7 +23,7 @@ from motorid.trainer.sensors import current_v, position_v, tacho_v
 from motorid.trainer.signals import TEST_SIGNALS, step_signal, test_signal
 from motorid.trainer.truth import Truth, truth_of
 
-__all__ = ["CaptureTruth", "TrainerExperiment", "run_experiment", "VOLTS_PER_DIV"]
+__all__ = ["VOLTS_PER_DIV", "CaptureTruth", "TrainerExperiment", "run_experiment"]
 
 #: CH2 vertical scale per measured channel (CH1, the input, is at 2 V/div).
 VOLTS_PER_DIV: Mapping[str, float] = MappingProxyType({"position": 5.0, "velocity": 2.0, "current": 2.0})
@@ -158,7 +158,8 @@ def run_experiment(
     rng = np.random.default_rng(seed)
     # one child generator per acquisition, always for all six, so that a capture does not
     # change when another one is left out
-    children = dict(zip((*VOLTS_PER_DIV, *TEST_SIGNALS), rng.spawn(len(VOLTS_PER_DIV) + len(TEST_SIGNALS))))
+    keys = (*VOLTS_PER_DIV, *TEST_SIGNALS)
+    children = dict(zip(keys, rng.spawn(len(keys)), strict=False))
     captures: dict[str, Capture] = {}
     truth: dict[str, CaptureTruth] = {}
     for role in roles:

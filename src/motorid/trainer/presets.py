@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 
 from motorid.errors import OptionError
 
-__all__ = ["TrainerConfig", "PRESET_NAMES", "preset"]
+__all__ = ["PRESET_NAMES", "TrainerConfig", "preset"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -117,7 +117,7 @@ class TrainerConfig:
         if self.substeps < 1 or self.tacho_segments < 1:
             raise OptionError("trainer config: substeps and tacho_segments must be >= 1")
 
-    def ideal(self) -> "TrainerConfig":
+    def ideal(self) -> TrainerConfig:
         """The linear plant: no dead-zone, friction nonlinearity, rails, ripple or noise."""
         return replace(
             self, amp_dead_zone_v=0.0, amp_rail_v=1e9, coulomb_nm=0.0, static_nm=0.0,
@@ -125,7 +125,7 @@ class TrainerConfig:
             noise_v=0.0,
         )
 
-    def quiet(self) -> "TrainerConfig":
+    def quiet(self) -> TrainerConfig:
         """The nonlinear plant without random noise, ripple or glitches."""
         return replace(self, tacho_ripple=0.0, pot_glitch_max=0, pwm_noise_v=0.0, pwm_spike_v=0.0,
                        noise_v=0.0)

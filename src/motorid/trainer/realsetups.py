@@ -46,8 +46,8 @@ from motorid.trainer.truth import truth_of
 
 __all__ = [
     "REAL_SETUPS",
-    "RealSetupTruth",
     "RealSetupRecording",
+    "RealSetupTruth",
     "real_setup_config",
     "write_real_setup",
 ]
@@ -145,8 +145,10 @@ class RealSetupRecording:
     sample_interval_s: float
 
     def read_captures(self) -> dict[str, Capture]:
-        """The captures a user names in :attr:`cli_args` (``--velocity X --current Y``), read
-        back with :func:`motorid.io.read_capture`, keyed by role."""
+        """The captures a user names in :attr:`cli_args` (``--velocity X --current Y``).
+
+        Read back with :func:`motorid.io.read_capture`, keyed by role.
+        """
         from motorid.io import read_capture
 
         args = list(self.cli_args)
@@ -246,11 +248,11 @@ def _simulate_step(
     """
     dt = float(time_s[1] - time_s[0])
     h = dt / oversample
-    n_lead = int(round(lead_in_s / h))
+    n_lead = round(lead_in_s / h)
     k = np.arange(-n_lead, time_s.size * oversample)
     t_fine = time_s[0] + k * h
     step_fine = step_index * oversample - phase_steps  # fine index of the input change
-    delay_fine = int(round(dead_time_s / h))
+    delay_fine = round(dead_time_s / h)
     u = np.where(k >= step_fine + delay_fine, to_v, from_v)
     full = simulate_plant(config, t_fine, u, substeps=1)
     idx = n_lead + np.arange(time_s.size) * oversample
@@ -306,8 +308,8 @@ def _write_fast_tbs1000(folder: Path, cfg: TrainerConfig, rng: np.random.Generat
 
 def _write_csv(path: Path, header: str, columns: list[np.ndarray], formats: list[str]) -> None:
     lines = [header]
-    for row in zip(*columns):
-        lines.append(",".join(format(v, f) if f else repr(float(v)) for v, f in zip(row, formats)))
+    for row in zip(*columns, strict=False):
+        lines.append(",".join(format(v, f) if f else repr(float(v)) for v, f in zip(row, formats, strict=False)))
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text("\n".join(lines) + "\n", encoding="ascii")

@@ -13,7 +13,7 @@ import numpy as np
 from motorid.capture import Capture, ChannelInfo, ScopeInfo
 from motorid.errors import OptionError
 
-__all__ = ["ScopeSettings", "RECORD_LENGTH", "draw_trigger_index", "record_time", "acquire", "quantise"]
+__all__ = ["RECORD_LENGTH", "ScopeSettings", "acquire", "draw_trigger_index", "quantise", "record_time"]
 
 #: Points per record of the TDS1000/2000 series.
 RECORD_LENGTH = 2500

@@ -9,7 +9,7 @@ import numpy as np
 from motorid.trainer.plant import PlantResponse
 from motorid.trainer.presets import TrainerConfig
 
-__all__ = ["tacho_v", "position_v", "current_v", "true_position_v", "encoder_velocity"]
+__all__ = ["current_v", "encoder_velocity", "position_v", "tacho_v", "true_position_v"]
 
 
 def tacho_v(config: TrainerConfig, plant: PlantResponse, rng: np.random.Generator) -> np.ndarray:
@@ -181,7 +181,7 @@ def encoder_velocity(
     updates = np.arange(phase % every, n, every)
     updates = updates[updates >= every]
     values = (counts[updates] - counts[updates - every]) * quantum
-    for j, (k, v) in enumerate(zip(updates, values)):
+    for j, (k, v) in enumerate(zip(updates, values, strict=False)):
         stop = updates[j + 1] if j + 1 < updates.size else n
         out[k:stop] = v
     return out
