@@ -66,10 +66,22 @@ from motorid.capture import Capture, ChannelInfo, ScopeInfo
 from motorid.errors import MotorIdError
 
 __all__ = [
-    "read_experiment", "identify", "design", "simulate", "write_report",
-    "Experiment", "IdentificationResult", "ParameterEstimate", "Provenance",
-    "MotorModel", "Design", "SimulationResult",
-    "Capture", "ChannelInfo", "ScopeInfo", "MotorIdError",
+    "Capture",
+    "ChannelInfo",
+    "Design",
+    "Experiment",
+    "IdentificationResult",
+    "MotorIdError",
+    "MotorModel",
+    "ParameterEstimate",
+    "Provenance",
+    "ScopeInfo",
+    "SimulationResult",
+    "design",
+    "identify",
+    "read_experiment",
+    "simulate",
+    "write_report",
 ]
 __version__ = "0.1.0"
 
@@ -89,8 +101,10 @@ _LAZY: dict[str, str] = {
 
 
 class _FrontDoorFunction:
-    """``mi.identify`` / ``mi.simulate``: the front-door function, which shares its name with a
-    stage subpackage (:mod:`motorid.identify`, :mod:`motorid.simulate`).
+    """``mi.identify`` / ``mi.simulate``: the front-door function named like a stage subpackage.
+
+    The function shares its name with a stage subpackage (:mod:`motorid.identify`,
+    :mod:`motorid.simulate`).
 
     Calling it calls :func:`motorid.frontdoor.identify` (resp. ``simulate``); any attribute
     it does not have is the subpackage's, so ``motorid.identify.pinv`` and
@@ -126,8 +140,11 @@ simulate = _FrontDoorFunction(
 
 
 class _Package(types.ModuleType):
-    """The package module: importing the ``identify``/``simulate`` subpackages (which sets
-    them as attributes of their parent) must not replace the front-door functions."""
+    """The package module, which keeps the front-door functions.
+
+    Importing the ``identify``/``simulate`` subpackages (which sets them as attributes of their
+    parent) must not replace the front-door functions.
+    """
 
     def __setattr__(self, name: str, value: Any) -> None:
         if name in ("identify", "simulate") and isinstance(value, types.ModuleType):

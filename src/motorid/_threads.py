@@ -15,7 +15,7 @@ import functools
 from collections.abc import Callable
 from typing import ParamSpec, TypeVar
 
-__all__ = ["single_blas_thread", "blas_threads"]
+__all__ = ["blas_threads", "single_blas_thread"]
 
 P = ParamSpec("P")
 R = TypeVar("R")

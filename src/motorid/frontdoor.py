@@ -152,8 +152,8 @@ def read_experiment(
     from motorid.conditioning.role import role_conflict
     from motorid.io import read_capture
 
-    given = {"position": position, "velocity": velocity, "current": current}
-    given = {role: spec for role, spec in given.items() if spec is not None}
+    named = {"position": position, "velocity": velocity, "current": current}
+    given = {role: spec for role, spec in named.items() if spec is not None}
     if "velocity" not in given and "position" not in given:
         raise OptionError("read_experiment needs velocity= or position= (a capture file or ALLnnnn folder)")
     if step_volts is not None and not (isinstance(step_volts, (int, float)) and math.isfinite(step_volts)
@@ -293,7 +293,7 @@ class IdentificationResult:
 
 
 def _estimate(item: Mapping[str, Any]) -> ParameterEstimate:
-    value = item.get("value")
+    value: Any = item.get("value")  # JSON: a number, or [re, im] for a complex root
     if isinstance(value, (list, tuple)):
         re_, im_ = (float(x) for x in value)
         value = complex(re_, im_) if im_ != 0 else re_
@@ -329,8 +329,8 @@ def _params(model: MotorModel) -> dict[str, ParameterEstimate]:
             for i, item in enumerate(items):
                 params[f"{name}_{i + 1}"] = _estimate(item)
         else:
-            for i, value in enumerate(_roots_by_size(roots)):
-                params[f"{name}_{i + 1}"] = ParameterEstimate(value)
+            for i, root in enumerate(_roots_by_size(roots)):
+                params[f"{name}_{i + 1}"] = ParameterEstimate(root)
     return params
 
 

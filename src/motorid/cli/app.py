@@ -10,8 +10,9 @@ import json
 import math
 import sys
 import traceback
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 from rich.console import Console
@@ -41,7 +42,7 @@ def _root(
     _state["debug"] = debug
 
 
-def _parse_columns(spec: Optional[str]) -> Optional[dict[str, str]]:
+def _parse_columns(spec: str | None) -> dict[str, str] | None:
     if not spec:
         return None
     mapping: dict[str, str] = {}
@@ -70,12 +71,12 @@ MIN_RECORD_SAMPLES = 20
 MIN_REDUCED_SAMPLES = 6
 
 
-def _choice(option: str, value: Optional[str], allowed) -> None:
+def _choice(option: str, value: str | None, allowed) -> None:
     if value is not None and value not in allowed:
         raise OptionError(f"{option} {value!r}: unknown {option.lstrip('-')}; use one of {', '.join(allowed)}")
 
 
-def _number(option: str, value, *, above: Optional[float] = None, at_least: Optional[float] = None,
+def _number(option: str, value, *, above: float | None = None, at_least: float | None = None,
             nonzero: bool = False, unit: str = "") -> None:
     if value is None:
         return
@@ -91,21 +92,21 @@ def _number(option: str, value, *, above: Optional[float] = None, at_least: Opti
 
 def _check_options(
     *,
-    method: Optional[str] = None,
-    order: Optional[str] = None,
-    reduction: Optional[str] = None,
-    derivative: Optional[str] = None,
-    structure: Optional[str] = None,
-    sync: Optional[str] = None,
-    preset: Optional[str] = None,
-    ratio: Optional[int] = None,
-    sample_interval: Optional[float] = None,
-    record_length: Optional[float] = None,
-    step_volts: Optional[float] = None,
-    t0: Optional[float] = None,
-    markov_params: Optional[int] = None,
-    markov_window: Optional[float] = None,
-    markov_basis: Optional[str] = None,
+    method: str | None = None,
+    order: str | None = None,
+    reduction: str | None = None,
+    derivative: str | None = None,
+    structure: str | None = None,
+    sync: str | None = None,
+    preset: str | None = None,
+    ratio: int | None = None,
+    sample_interval: float | None = None,
+    record_length: float | None = None,
+    step_volts: float | None = None,
+    t0: float | None = None,
+    markov_params: int | None = None,
+    markov_window: float | None = None,
+    markov_basis: str | None = None,
 ) -> None:
     """Check every option a command got against the library's own allowed values.
 
@@ -157,9 +158,11 @@ def _check_options(
         _choice("--markov-basis", markov_basis, MARKOV_BASES)
 
 
-def _check_against_captures(caps: dict, *, record_length: Optional[float]) -> None:
-    """Checks of options that need the captures (read, not yet conditioned); a ``--step-volts``
-    contradicting a CH1 step is refused by the conditioning itself (``step_response``).
+def _check_against_captures(caps: dict, *, record_length: float | None) -> None:
+    """Checks of options that need the captures (read, not yet conditioned).
+
+    A ``--step-volts`` contradicting a CH1 step is refused by the conditioning itself
+    (``step_response``).
 
     Raises
     ------
@@ -184,10 +187,13 @@ def _strict_exit(result, strict: bool) -> None:
 
 @app.command()
 def inspect(
-    captures: Annotated[list[str], typer.Argument(help="Capture files or ALLnnnn folders; a CH1/CH2 pair as CH1.CSV+CH2.CSV.")],
+    captures: Annotated[list[str], typer.Argument(
+        help="Capture files or ALLnnnn folders; a CH1/CH2 pair as CH1.CSV+CH2.CSV.")],
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list (CONTRACT.md).")] = False,
-    columns: Annotated[Optional[str], typer.Option(help="Plain CSV column map, e.g. time=t,input=u,velocity=rpm.")] = None,
-    step_volts: Annotated[Optional[float], typer.Option("--step-volts", help="Step level for captures without an input channel.")] = None,
+    columns: Annotated[str | None, typer.Option(help="Plain CSV column map, e.g. time=t,input=u,velocity=rpm.")] = None,
+    step_volts: Annotated[float | None, typer.Option(
+        "--step-volts",
+        help="Step level for captures without an input channel.")] = None,
 ) -> None:
     """Describe captures: format, sample interval, step time and level, role, encoder wraps."""
     from motorid.conditioning.inspect import describe_capture
@@ -226,7 +232,9 @@ def inspect(
 
 @app.command()
 def demo(
-    out: Annotated[Path, typer.Option("--out", help="Folder to write the example experiment into.")] = Path("motorid-demo"),
+    out: Annotated[Path, typer.Option(
+        "--out",
+        help="Folder to write the example experiment into.")] = Path("motorid-demo"),
     preset: Annotated[str, typer.Option(help="Virtual trainer preset.")] = "paper",
     seed: Annotated[int, typer.Option(help="Random seed of the simulated noise and triggers.")] = 0,
     step_volts: Annotated[float, typer.Option("--step-volts", help="Step level (switch S1).")] = 5.92,
@@ -262,7 +270,8 @@ def demo(
         mark = " ← chosen" if name == ident.model.method else ""
         t2.add_row(f"{name}{mark}", str(len(m.poles())), f"{fo.dc_gain:.4f}", f"{fo.time_constant_s:.4f}",
                    f"{100 * m.fit['velocity_nrmse']:.2f}%")
-    t2.add_row("truth (linearised)", str(len(truth.velocity.poles())), f"{truth.dc_gain:.4f}", f"{truth.time_constant_s:.4f}", "—")
+    t2.add_row("truth (linearised)", str(len(truth.velocity.poles())), f"{truth.dc_gain:.4f}",
+               f"{truth.time_constant_s:.4f}", "—")
     eff = truth.dc_gain * (1 - truth.equivalent_input_offset_v / result.experiment.step_volts)
     t2.add_row("truth as a step shows it", "", f"{eff:.4f}", "", "dead-zone + friction offset")
     con.print(t2)
@@ -273,9 +282,9 @@ def demo(
     con.print(f"inspect them: motorid inspect {out}/ALL0000 {out}/ALL0001 {out}/ALL0002")
 
 
-def _one_per_role(position, velocity, current) -> dict[str, Optional[str]]:
+def _one_per_role(position, velocity, current) -> dict[str, str | None]:
     """The single capture of each role; a role given twice is refused (one step level only)."""
-    given: dict[str, Optional[str]] = {}
+    given: dict[str, str | None] = {}
     for role, specs in (("position", position), ("velocity", velocity), ("current", current)):
         specs = [specs] if isinstance(specs, str) else list(specs or [])
         if len(specs) > 1:
@@ -287,7 +296,7 @@ def _one_per_role(position, velocity, current) -> dict[str, Optional[str]]:
     return given
 
 
-def _read_roles(position, velocity, current, columns: Optional[str], *, force_role: bool = False) -> dict:
+def _read_roles(position, velocity, current, columns: str | None, *, force_role: bool = False) -> dict:
     """Read the capture of each role; refuse one that looks like another role (``--force-role``)."""
     from motorid.conditioning.role import role_conflict
     from motorid.io import read_capture
@@ -337,33 +346,62 @@ def _print_model(con: Console, model, title: str) -> None:
 
 @app.command()
 def identify(
-    position: Annotated[Optional[list[str]], typer.Option(help="Position (potentiometer/encoder) capture.")] = None,
-    velocity: Annotated[Optional[list[str]], typer.Option(help="Velocity (tachogenerator) capture.")] = None,
-    current: Annotated[Optional[list[str]], typer.Option(help="Armature-current capture.")] = None,
-    method: Annotated[str, typer.Option(help="auto (paper methods → output-error refinement → order selection → uncertainty), pinv, markov, classic, oe, srivc or paper-auto.")] = "auto",
-    order: Annotated[str, typer.Option(help="auto, 1, 2 or 3: for pinv the number of states ([θ̇], [θ, θ̇], [θ, θ̇, Ia]); for markov, oe and srivc the poles of the velocity TF.")] = "auto",
-    ratio: Annotated[Optional[int], typer.Option(help="Sample reduction ratio (overrides --sample-interval).")] = None,
-    sample_interval: Annotated[Optional[float], typer.Option("--sample-interval", help="Sample interval after reduction, s (default: chosen from the measured response; the paper's: 0.1).")] = None,
-    record_length: Annotated[Optional[float], typer.Option("--record-length", help="Seconds kept after the step (default: all).")] = None,
+    position: Annotated[list[str] | None, typer.Option(help="Position (potentiometer/encoder) capture.")] = None,
+    velocity: Annotated[list[str] | None, typer.Option(help="Velocity (tachogenerator) capture.")] = None,
+    current: Annotated[list[str] | None, typer.Option(help="Armature-current capture.")] = None,
+    method: Annotated[str, typer.Option(
+        help="auto (paper methods → output-error refinement → order selection → uncertainty), pinv, "
+             "markov, classic, oe, srivc or paper-auto.")] = "auto",
+    order: Annotated[str, typer.Option(
+        help="auto, 1, 2 or 3: for pinv the number of states ([θ̇], [θ, θ̇], [θ, θ̇, Ia]); for markov, "
+             "oe and srivc the poles of the velocity TF.")] = "auto",
+    ratio: Annotated[int | None, typer.Option(help="Sample reduction ratio (overrides --sample-interval).")] = None,
+    sample_interval: Annotated[float | None, typer.Option(
+        "--sample-interval",
+        help="Sample interval after reduction, s (default: chosen from the measured response; the paper's:"
+             " 0.1).")] = None,
+    record_length: Annotated[float | None, typer.Option(
+        "--record-length",
+        help="Seconds kept after the step (default: all).")] = None,
     reduction: Annotated[str, typer.Option(help="subsample (paper), block_mean or fir.")] = "subsample",
     derivative: Annotated[str, typer.Option(help="euler, central, five_point (paper) or savgol.")] = "five_point",
     structure: Annotated[str, typer.Option(help="pinv: free, or known (θ row of A known).")] = "free",
-    markov_params: Annotated[Optional[int], typer.Option("--markov-params", help="Markov parameters Lm (paper: 11; default: chosen by fit).")] = None,
-    markov_window: Annotated[Optional[float], typer.Option("--markov-window", help="Markov window Tε in s (default: chosen by fit).")] = None,
-    markov_basis: Annotated[str, typer.Option("--markov-basis", help="markov: laguerre (generalised Markov parameters on a Laguerre basis, default) or taylor (the paper's procedure exactly).")] = "laguerre",
+    markov_params: Annotated[int | None, typer.Option(
+        "--markov-params",
+        help="Markov parameters Lm (paper: 11; default: chosen by fit).")] = None,
+    markov_window: Annotated[float | None, typer.Option(
+        "--markov-window",
+        help="Markov window Tε in s (default: chosen by fit).")] = None,
+    markov_basis: Annotated[str, typer.Option(
+        "--markov-basis",
+        help="markov: laguerre (generalised Markov parameters on a Laguerre basis, default) or "
+             "taylor (the paper's procedure exactly).")] = "laguerre",
     sync: Annotated[str, typer.Option(help="Synchronisation: interp or index (the paper's).")] = "interp",
-    delay: Annotated[Optional[bool], typer.Option("--delay/--no-delay", help="oe/auto: fit a dead time in every structure (--delay) or in none (--no-delay); default: tried when the data stay flat for a while after the step, BIC decides.")] = None,
-    step_volts: Annotated[Optional[float], typer.Option("--step-volts", help="Step level for captures without an input channel.")] = None,
-    t0: Annotated[Optional[float], typer.Option("--t0", help="Step instant on the files' time axis.")] = None,
-    columns: Annotated[Optional[str], typer.Option(help="Plain CSV column map, e.g. time=t,input=u,velocity=rpm.")] = None,
-    json_out: Annotated[Optional[Path], typer.Option("--json", help="Write the model JSON (CONTRACT.md) here.")] = None,
-    matlab_out: Annotated[Optional[Path], typer.Option("--matlab", help="Write a MATLAB/Octave script defining A, B, C, D.")] = None,
-    report_out: Annotated[Optional[Path], typer.Option("--report", help="Write the HTML report here.")] = None,
-    validate: Annotated[Optional[list[str]], typer.Option("--validate", help="Capture of another input (sine, triangle, square…) to validate on; repeat or comma-separate.")] = None,
-    design: Annotated[Optional[Path], typer.Option("--design", help="A design JSON to show in the report.")] = None,
+    delay: Annotated[bool | None, typer.Option(
+        "--delay/--no-delay",
+        help="oe/auto: fit a dead time in every structure (--delay) or in none (--no-delay); default: "
+             "tried when the data stay flat for a while after the step, BIC decides.")] = None,
+    step_volts: Annotated[float | None, typer.Option(
+        "--step-volts",
+        help="Step level for captures without an input channel.")] = None,
+    t0: Annotated[float | None, typer.Option("--t0", help="Step instant on the files' time axis.")] = None,
+    columns: Annotated[str | None, typer.Option(help="Plain CSV column map, e.g. time=t,input=u,velocity=rpm.")] = None,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write the model JSON (CONTRACT.md) here.")] = None,
+    matlab_out: Annotated[Path | None, typer.Option(
+        "--matlab",
+        help="Write a MATLAB/Octave script defining A, B, C, D.")] = None,
+    report_out: Annotated[Path | None, typer.Option("--report", help="Write the HTML report here.")] = None,
+    validate: Annotated[list[str] | None, typer.Option(
+        "--validate",
+        help="Capture of another input (sine, triangle, square…) to validate on; repeat or comma-separate.")] = None,
+    design: Annotated[Path | None, typer.Option("--design", help="A design JSON to show in the report.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing output files.")] = False,
-    strict: Annotated[bool, typer.Option("--strict", help="Exit 3 (after writing the outputs) when the model fails the sanity checks.")] = False,
-    force_role: Annotated[bool, typer.Option("--force-role", help="Keep a capture's role flag even when it looks like another role.")] = False,
+    strict: Annotated[bool, typer.Option(
+        "--strict",
+        help="Exit 3 (after writing the outputs) when the model fails the sanity checks.")] = False,
+    force_role: Annotated[bool, typer.Option(
+        "--force-role",
+        help="Keep a capture's role flag even when it looks like another role.")] = False,
 ) -> None:
     """Identify the motor model from step captures (paper sections III-VI)."""
     from motorid.identify.pipeline import IdentifySettings, identify_experiment
@@ -414,7 +452,7 @@ def identify(
     _strict_exit(result, strict)
 
 
-def _validation_captures(specs: Optional[list[str]], columns: Optional[str]) -> dict:
+def _validation_captures(specs: list[str] | None, columns: str | None) -> dict:
     from motorid.io import read_capture
 
     colmap = _parse_columns(columns)
@@ -422,19 +460,30 @@ def _validation_captures(specs: Optional[list[str]], columns: Optional[str]) -> 
     # keyed by file name; two captures of the same name in different folders keep their paths
     short = [Path(n).name for n in names]
     return {(k if short.count(k) == 1 else n): read_capture(_capture_paths(n), columns=colmap)
-            for k, n in zip(short, names)}
+            for k, n in zip(short, names, strict=False)}
 
 
 @app.command()
 def validate(
     model_json: Annotated[Path, typer.Argument(help="A model JSON written by motorid identify --json.")],
-    captures: Annotated[list[str], typer.Argument(help="Captures with the input on CH1 (any input, not only steps), or step responses without CH1 (give --step-volts).")],
-    channel: Annotated[str, typer.Option(help="The model output CH2 measured: velocity, position or current.")] = "velocity",
-    max_nrmse: Annotated[Optional[float], typer.Option("--max-nrmse", help="Exit 3 if any capture's NRMSE exceeds this (e.g. 0.05).")] = None,
-    step_volts: Annotated[Optional[float], typer.Option("--step-volts", help="Step level for captures without an input channel.")] = None,
-    t0: Annotated[Optional[float], typer.Option("--t0", help="Step instant on the files' time axis (default: CH1's edge, or the response's onset).")] = None,
-    warmup: Annotated[float, typer.Option("--warmup", help="Seconds at the start simulated but not scored (default 0: the initial state is estimated).")] = 0.0,
-    columns: Annotated[Optional[str], typer.Option(help="Plain CSV column map.")] = None,
+    captures: Annotated[list[str], typer.Argument(
+        help="Captures with the input on CH1 (any input, not only steps), or step responses without CH1 (give "
+             "--step-volts).")],
+    channel: Annotated[str, typer.Option(
+        help="The model output CH2 measured: velocity, position or current.")] = "velocity",
+    max_nrmse: Annotated[float | None, typer.Option(
+        "--max-nrmse",
+        help="Exit 3 if any capture's NRMSE exceeds this (e.g. 0.05).")] = None,
+    step_volts: Annotated[float | None, typer.Option(
+        "--step-volts",
+        help="Step level for captures without an input channel.")] = None,
+    t0: Annotated[float | None, typer.Option(
+        "--t0",
+        help="Step instant on the files' time axis (default: CH1's edge, or the response's onset).")] = None,
+    warmup: Annotated[float, typer.Option(
+        "--warmup",
+        help="Seconds at the start simulated but not scored (default 0: the initial state is estimated).")] = 0.0,
+    columns: Annotated[str | None, typer.Option(help="Plain CSV column map.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Drive a model with recorded inputs and report NRMSE / fit % per capture (paper §VI-B).
@@ -497,18 +546,29 @@ def validate(
 @app.command()
 def report(
     out: Annotated[Path, typer.Option("--out", help="The HTML file to write.")],
-    position: Annotated[Optional[list[str]], typer.Option(help="Position capture.")] = None,
-    velocity: Annotated[Optional[list[str]], typer.Option(help="Velocity capture.")] = None,
-    current: Annotated[Optional[list[str]], typer.Option(help="Armature-current capture.")] = None,
+    position: Annotated[list[str] | None, typer.Option(help="Position capture.")] = None,
+    velocity: Annotated[list[str] | None, typer.Option(help="Velocity capture.")] = None,
+    current: Annotated[list[str] | None, typer.Option(help="Armature-current capture.")] = None,
     method: Annotated[str, typer.Option(help="Identification method (see identify).")] = "auto",
-    sample_interval: Annotated[Optional[float], typer.Option("--sample-interval", help="Sample interval after reduction, s (default: chosen from the measured response; the paper's: 0.1).")] = None,
-    validate: Annotated[Optional[list[str]], typer.Option("--validate", help="Validation captures; repeat or comma-separate.")] = None,
-    design: Annotated[Optional[Path], typer.Option("--design", help="A design JSON to include.")] = None,
-    step_volts: Annotated[Optional[float], typer.Option("--step-volts", help="Step level for captures without an input channel.")] = None,
-    columns: Annotated[Optional[str], typer.Option(help="Plain CSV column map.")] = None,
+    sample_interval: Annotated[float | None, typer.Option(
+        "--sample-interval",
+        help="Sample interval after reduction, s (default: chosen from the measured response; the paper's:"
+             " 0.1).")] = None,
+    validate: Annotated[list[str] | None, typer.Option(
+        "--validate",
+        help="Validation captures; repeat or comma-separate.")] = None,
+    design: Annotated[Path | None, typer.Option("--design", help="A design JSON to include.")] = None,
+    step_volts: Annotated[float | None, typer.Option(
+        "--step-volts",
+        help="Step level for captures without an input channel.")] = None,
+    columns: Annotated[str | None, typer.Option(help="Plain CSV column map.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing report.")] = False,
-    strict: Annotated[bool, typer.Option("--strict", help="Exit 3 (after writing the report) when the model fails the sanity checks.")] = False,
-    force_role: Annotated[bool, typer.Option("--force-role", help="Keep a capture's role flag even when it looks like another role.")] = False,
+    strict: Annotated[bool, typer.Option(
+        "--strict",
+        help="Exit 3 (after writing the report) when the model fails the sanity checks.")] = False,
+    force_role: Annotated[bool, typer.Option(
+        "--force-role",
+        help="Keep a capture's role flag even when it looks like another role.")] = False,
 ) -> None:
     """Identify and write one self-contained HTML report of the experiment."""
     from motorid.identify.pipeline import IdentifySettings, identify_experiment
@@ -518,7 +578,8 @@ def report(
     _check_options(method=method, sample_interval=sample_interval, step_volts=step_volts)
     check_writable({"--out": out}, force=force, create_parents=False)
     _one_per_role(position, velocity, current)
-    settings = IdentifySettings(method=method, conditioning=_conditioning(None, sample_interval, None, "subsample", "interp"))
+    settings = IdentifySettings(method=method,
+                                conditioning=_conditioning(None, sample_interval, None, "subsample", "interp"))
     caps = _read_roles(position, velocity, current, columns, force_role=force_role)
     _check_against_captures(caps, record_length=None)
     checks = _validation_captures(validate, columns)
@@ -542,19 +603,25 @@ def _floats(spec: str, option: str) -> list[float]:
 
 @app.command()
 def sweep(
-    position: Annotated[Optional[list[str]], typer.Option(help="Position capture.")] = None,
-    velocity: Annotated[Optional[list[str]], typer.Option(help="Velocity capture.")] = None,
-    current: Annotated[Optional[list[str]], typer.Option(help="Armature-current capture.")] = None,
-    lengths: Annotated[str, typer.Option(help="Record lengths in s, 'auto' (65–100 % of the record) or 'paper' (1.9,2.4,2.9).")] = "auto",
-    intervals: Annotated[str, typer.Option(help="Sample intervals in s, 'auto' (0.4–1.2 × the automatic interval) or 'paper' (0.04..0.12).")] = "auto",
+    position: Annotated[list[str] | None, typer.Option(help="Position capture.")] = None,
+    velocity: Annotated[list[str] | None, typer.Option(help="Velocity capture.")] = None,
+    current: Annotated[list[str] | None, typer.Option(help="Armature-current capture.")] = None,
+    lengths: Annotated[str, typer.Option(
+        help="Record lengths in s, 'auto' (65–100 % of the record) or 'paper' (1.9,2.4,2.9).")] = "auto",
+    intervals: Annotated[str, typer.Option(
+        help="Sample intervals in s, 'auto' (0.4–1.2 × the automatic interval) or 'paper' (0.04..0.12).")] = "auto",
     method: Annotated[str, typer.Option(help="Identification method (paper: pinv).")] = "pinv",
     order: Annotated[str, typer.Option(help="auto, 1, 2 or 3.")] = "auto",
     reduction: Annotated[str, typer.Option(help="subsample (paper), block_mean or fir.")] = "subsample",
-    step_volts: Annotated[Optional[float], typer.Option("--step-volts", help="Step level for captures without an input channel.")] = None,
-    columns: Annotated[Optional[str], typer.Option(help="Plain CSV column map.")] = None,
-    json_out: Annotated[Optional[Path], typer.Option("--json", help="Write the table as JSON here.")] = None,
+    step_volts: Annotated[float | None, typer.Option(
+        "--step-volts",
+        help="Step level for captures without an input channel.")] = None,
+    columns: Annotated[str | None, typer.Option(help="Plain CSV column map.")] = None,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write the table as JSON here.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing JSON file.")] = False,
-    force_role: Annotated[bool, typer.Option("--force-role", help="Keep a capture's role flag even when it looks like another role.")] = False,
+    force_role: Annotated[bool, typer.Option(
+        "--force-role",
+        help="Keep a capture's role flag even when it looks like another role.")] = False,
 ) -> None:
     """The paper's Tables 1-3: k and τ over record length × sample interval."""
     from rich.progress import Progress
@@ -567,12 +634,12 @@ def sweep(
     check_writable({"--json": json_out}, force=force, create_parents=False)
     from motorid.analysis.sweep import PAPER_INTERVALS_S, PAPER_LENGTHS_S, data_grid
 
-    def axis(spec: str, option: str, paper: tuple[float, ...]) -> Optional[list[float]]:
+    def axis(spec: str, option: str, paper: tuple[float, ...]) -> list[float] | None:
         word = spec.strip().lower()
         return None if word == "auto" else list(paper) if word == "paper" else _floats(spec, option)
 
-    lens = axis(lengths, "--lengths", PAPER_LENGTHS_S)
-    ints = axis(intervals, "--intervals", PAPER_INTERVALS_S)
+    lens_given = axis(lengths, "--lengths", PAPER_LENGTHS_S)
+    ints_given = axis(intervals, "--intervals", PAPER_INTERVALS_S)
     _one_per_role(position, velocity, current)
     settings = IdentifySettings(
         method=method, order=order if order == "auto" else int(order),
@@ -580,10 +647,14 @@ def sweep(
     )
     caps = _read_roles(position, velocity, current, columns, force_role=force_role)
     grid_note = None
-    if lens is None or ints is None:
+    lens: Sequence[float]
+    ints: Sequence[float]
+    if lens_given is None or ints_given is None:
         auto_lens, auto_ints, grid_note = data_grid(caps, step_volts=step_volts)
-        lens = auto_lens if lens is None else lens
-        ints = auto_ints if ints is None else ints
+        lens = auto_lens if lens_given is None else lens_given
+        ints = auto_ints if ints_given is None else ints_given
+    else:
+        lens, ints = lens_given, ints_given
     _check_against_captures(caps, record_length=min(lens))
     con = _console()
     # no bar when stderr is not a terminal: a transient bar still leaves a blank line there,
@@ -651,14 +722,16 @@ def main() -> None:
         raise SystemExit(130) from None
     except SystemExit:
         raise
-    except Exception as exc:  # noqa: BLE001 - every other exception is a bug: exit 1
+    except Exception as exc:
         # typer vendors its own click (typer._click): recognise its usage errors by shape
-        if hasattr(exc, "show") and isinstance(getattr(exc, "exit_code", None), int):
+        code = getattr(exc, "exit_code", None)
+        if hasattr(exc, "show") and isinstance(code, int):
             if type(exc).__name__ != "NoArgsIsHelpError":
                 exc.show()
-            raise SystemExit(exc.exit_code) from None
+            raise SystemExit(code) from None
         if _state["debug"] or "--debug" in sys.argv:
             traceback.print_exc()
         else:
-            print(f"motorid: internal error: {type(exc).__name__}: {exc} (run with --debug for the traceback)", file=sys.stderr)
+            print(f"motorid: internal error: {type(exc).__name__}: {exc} (run with --debug for the traceback)",
+                  file=sys.stderr)
         raise SystemExit(1) from None

@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import time
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated, cast
 
 import numpy as np
 import typer
@@ -20,14 +20,22 @@ from motorid.control.design_io import load_design as _load_design
 from motorid.io import atomic_outputs, check_writable
 from motorid.model.serialize import load_model
 
-__all__ = ["model_app", "model_from_params_cmd", "model_from_step_test_cmd", "design", "simulate", "modes",
-           "register", "load_model"]
+__all__ = [
+    "design",
+    "load_model",
+    "model_app",
+    "model_from_params_cmd",
+    "model_from_step_test_cmd",
+    "modes",
+    "register",
+    "simulate",
+]
 
 model_app = typer.Typer(no_args_is_help=True, help="Build a motor model without identification.")
 
 
 
-def _check_outputs(outputs: list[tuple[Optional[Path], str, Optional[str]]], force: bool) -> None:
+def _check_outputs(outputs: list[tuple[Path | None, str, str | None]], force: bool) -> None:
     """Refuse, before any work, output paths that cannot be written as given.
 
     Each entry is ``(path, option, suffix)``: the path must not be a folder, its folder must
@@ -47,7 +55,7 @@ def _check_outputs(outputs: list[tuple[Optional[Path], str, Optional[str]]], for
     check_writable([p for p, _, _ in outputs], force=force)
 
 
-def _check_numbers(values: dict[str, Optional[float]], positive: tuple[str, ...] = ()) -> None:
+def _check_numbers(values: dict[str, float | None], positive: tuple[str, ...] = ()) -> None:
     """Refuse, naming the option, a non-finite number (or one ≤ 0 among ``positive``)."""
     for option, v in values.items():
         if v is None:
@@ -70,7 +78,7 @@ def _plot_to(outs, target: Path, plot, *args, **kwargs) -> None:
         raise write_error(target, exc) from None
 
 
-def _floats(text: Optional[str], option: str) -> Optional[tuple[float, ...]]:
+def _floats(text: str | None, option: str) -> tuple[float, ...] | None:
     if text is None:
         return None
     try:
@@ -88,7 +96,7 @@ def _fmt_pole(p: complex) -> str:
     return f"{p.real:.4g}{p.imag:+.4g}j"
 
 
-def _print_model(model, out: Optional[Path]) -> None:
+def _print_model(model, out: Path | None) -> None:
     typer.echo(f"A = {np.array2string(model.A, precision=5)}")
     typer.echo(f"B = {np.array2string(model.B.ravel(), precision=5)}")
     typer.echo("states: " + ", ".join(model.states) + " (position volts, tacho volts)")
@@ -103,7 +111,7 @@ def model_from_params_cmd(
     gear: Annotated[str, typer.Option("--gear", help="Reducer ratio kμ, e.g. 1/36.")],
     k0: Annotated[float, typer.Option("--k0", help="Position gain k0, V/(rpm·s) (report: 0.25).")],
     tm: Annotated[float, typer.Option("--Tm", help="Mechanical time constant Tm, s (report: 0.55).")],
-    json_out: Annotated[Optional[Path], typer.Option("--json", help="Write the model JSON here.")] = None,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write the model JSON here.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
 ) -> None:
     """The lab report's state equations (eqs. 24-29) from physical parameters."""
@@ -125,7 +133,7 @@ def model_from_step_test_cmd(
     delta_theta: Annotated[float, typer.Option("--delta-theta", help="Sawtooth height, V (report: 15).")],
     delta_t: Annotated[float, typer.Option("--delta-t", help="Sawtooth period, s (report: 0.867).")],
     gear: Annotated[str, typer.Option("--gear", help="Reducer ratio kμ, e.g. 1/36.")],
-    json_out: Annotated[Optional[Path], typer.Option("--json", help="Write the model JSON here.")] = None,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write the model JSON here.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
 ) -> None:
     """The lab report's model from its step-test measurements (eqs. 1-19)."""
@@ -144,18 +152,21 @@ def model_from_step_test_cmd(
 
 def design(
     model_file: Annotated[Path, typer.Argument(help="Model JSON (motorid identify --json or model from-params).")],
-    poles: Annotated[Optional[str], typer.Option("--poles", help="Closed-loop poles, e.g. -3+2j,-3-2j.")] = None,
-    damping: Annotated[Optional[float], typer.Option("--damping", help="Damping ζ (with --k2 or --wn).")] = None,
-    k2: Annotated[Optional[float], typer.Option("--k2", help="Velocity gain k2; k1 follows from ζ (report eqs. 32-36).")] = None,
-    wn: Annotated[Optional[float], typer.Option("--wn", help="Natural frequency ωn, rad/s.")] = None,
-    settling_time: Annotated[Optional[float], typer.Option("--settling-time", help="2 % settling time, s.")] = None,
-    overshoot: Annotated[Optional[float], typer.Option("--overshoot", help="Percent overshoot.")] = None,
+    poles: Annotated[str | None, typer.Option("--poles", help="Closed-loop poles, e.g. -3+2j,-3-2j.")] = None,
+    damping: Annotated[float | None, typer.Option("--damping", help="Damping ζ (with --k2 or --wn).")] = None,
+    k2: Annotated[float | None,
+                  typer.Option("--k2", help="Velocity gain k2; k1 follows from ζ (report eqs. 32-36).")] = None,
+    wn: Annotated[float | None, typer.Option("--wn", help="Natural frequency ωn, rad/s.")] = None,
+    settling_time: Annotated[float | None, typer.Option("--settling-time", help="2 % settling time, s.")] = None,
+    overshoot: Annotated[float | None, typer.Option("--overshoot", help="Percent overshoot.")] = None,
     integral: Annotated[bool, typer.Option("--integral", help="Integral action ż = y − r (report §3).")] = False,
-    ki: Annotated[Optional[float], typer.Option("--ki", help="Given integral gain (Routh-checked).")] = None,
-    integral_pole: Annotated[Optional[float], typer.Option("--integral-pole", help="Extra real pole placed with the integrator.")] = None,
-    observer_poles: Annotated[Optional[str], typer.Option("--observer-poles", help="Observer poles, e.g. -50,-40.")] = None,
-    output: Annotated[Optional[str], typer.Option("--output", help="Measured channel y (default position).")] = None,
-    json_out: Annotated[Optional[Path], typer.Option("--json", help="Write the Design JSON here.")] = None,
+    ki: Annotated[float | None, typer.Option("--ki", help="Given integral gain (Routh-checked).")] = None,
+    integral_pole: Annotated[float | None, typer.Option(
+        "--integral-pole", help="Extra real pole placed with the integrator.")] = None,
+    observer_poles: Annotated[str | None,
+                              typer.Option("--observer-poles", help="Observer poles, e.g. -50,-40.")] = None,
+    output: Annotated[str | None, typer.Option("--output", help="Measured channel y (default position).")] = None,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write the Design JSON here.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
 ) -> None:
     """State feedback, integral action and observer design (Tsiolakis 2022, §2-4)."""
@@ -185,12 +196,15 @@ def design(
         typer.echo(f"kr = {d.kr:.6g}")
     if d.ki is not None:
         typer.echo(f"ki = {d.ki:.6g}")
-    typer.echo("closed-loop poles: " + ", ".join(_fmt_pole(p) for p in sorted(d.closed_loop_poles, key=lambda p: (p.real, p.imag))))
+    cl_poles = sorted(d.closed_loop_poles, key=lambda p: (p.real, p.imag))
+    typer.echo("closed-loop poles: " + ", ".join(_fmt_pole(p) for p in cl_poles))
     if d.L is not None:
+        # design_controller sets L, observer_poles and output_feedback_poles together
         typer.echo("L = [" + ", ".join(f"{v:.6g}" for v in d.L) + "]")
-        typer.echo("observer poles: " + ", ".join(_fmt_pole(p) for p in d.observer_poles))
+        typer.echo("observer poles: " + ", ".join(_fmt_pole(p) for p in cast(np.ndarray, d.observer_poles)))
+        ofb_poles = sorted(cast(np.ndarray, d.output_feedback_poles), key=lambda p: (p.real, p.imag))
         typer.echo("plant + observer + feedback poles (separation): "
-                   + ", ".join(_fmt_pole(p) for p in sorted(d.output_feedback_poles, key=lambda p: (p.real, p.imag))))
+                   + ", ".join(_fmt_pole(p) for p in ofb_poles))
     typer.echo("Routh-Hurwitz: " + "; ".join(d.routh))
     for w in d.warnings:
         typer.echo(f"warning: {w}")
@@ -210,18 +224,18 @@ def simulate(
     frequency: Annotated[float, typer.Option(help="Wave frequency, Hz (report: ω = π/2 → 0.25).")] = 0.25,
     start: Annotated[float, typer.Option(help="Reference start time, s.")] = 0.0,
     duration: Annotated[float, typer.Option(help="Record length, s.")] = 5.0,
-    dt: Annotated[Optional[float], typer.Option(help="Control interval, s (default 1 ms linear, 2 ms trainer).")] = None,
-    saturation: Annotated[Optional[float], typer.Option(help="Actuator rails ±V.")] = None,
+    dt: Annotated[float | None, typer.Option(help="Control interval, s (default 1 ms linear, 2 ms trainer).")] = None,
+    saturation: Annotated[float | None, typer.Option(help="Actuator rails ±V.")] = None,
     disturbance: Annotated[float, typer.Option(help="Load (magnetic brake) as input-equivalent volts.")] = 0.0,
     disturbance_start: Annotated[float, typer.Option("--disturbance-start", help="Load applied from, s.")] = 0.0,
-    x0: Annotated[Optional[str], typer.Option("--x0", help="Initial state, e.g. 2,0 (report: θ0 = 2 V).")] = None,
+    x0: Annotated[str | None, typer.Option("--x0", help="Initial state, e.g. 2,0 (report: θ0 = 2 V).")] = None,
     z0: Annotated[float, typer.Option("--z0", help="Initial integrator state (report Fig. 8: -2).")] = 0.0,
-    xhat0: Annotated[Optional[str], typer.Option("--xhat0", help="Initial observer estimate.")] = None,
+    xhat0: Annotated[str | None, typer.Option("--xhat0", help="Initial observer estimate.")] = None,
     plant: Annotated[str, typer.Option(help="linear (the model) or trainer (virtual trainer, nonlinear).")] = "linear",
     preset: Annotated[str, typer.Option(help="Trainer preset for --plant trainer.")] = "lab-report",
-    csv_out: Annotated[Optional[Path], typer.Option("--csv", help="Write the time series as CSV.")] = None,
-    json_out: Annotated[Optional[Path], typer.Option("--json", help="Write metrics and series as JSON.")] = None,
-    png: Annotated[Optional[Path], typer.Option("--png", help="Write a plot.")] = None,
+    csv_out: Annotated[Path | None, typer.Option("--csv", help="Write the time series as CSV.")] = None,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write metrics and series as JSON.")] = None,
+    png: Annotated[Path | None, typer.Option("--png", help="Write a plot.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Closed-loop simulation of a design: metrics, time series and a plot."""
@@ -280,14 +294,24 @@ def modes(
     kv: Annotated[str, typer.Option("--kv", help="Kv grid START:STOP:COUNT, e.g. 0:10:200.")],
     step: Annotated[float, typer.Option(help="Reference step, V.")] = 1.0,
     saturation: Annotated[float, typer.Option(help="Actuator rails ±V.")] = 10.0,
-    duration: Annotated[Optional[float], typer.Option(help="Record length, s (default 20 τm).")] = None,
-    extra_pole: Annotated[Optional[float], typer.Option("--extra-pole", help="Lag pole for the 3rd-order model of a 1st-order-velocity model, rad/s (default 10/τm).")] = None,
-    json_out: Annotated[Optional[Path], typer.Option("--json", help="Write the Modes JSON here.")] = None,
-    png: Annotated[Optional[Path], typer.Option("--png", help="Write the side-by-side map here.")] = None,
+    duration: Annotated[float | None, typer.Option(help="Record length, s (default 20 τm).")] = None,
+    extra_pole: Annotated[float | None, typer.Option(
+        "--extra-pole",
+        help="Lag pole for the 3rd-order model of a 1st-order-velocity model, rad/s (default 10/τm).")] = None,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write the Modes JSON here.")] = None,
+    png: Annotated[Path | None, typer.Option("--png", help="Write the side-by-side map here.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Map the six modes of the saturated position/velocity loop (Masoud 2019, Figs. 4, 11-13)."""
-    from motorid.simulate.modes import MODES, ModeCriteria, mode_map, modes_json, parse_range, plot_mode_maps, servo_plants
+    from motorid.simulate.modes import (
+        MODES,
+        ModeCriteria,
+        mode_map,
+        modes_json,
+        parse_range,
+        plot_mode_maps,
+        servo_plants,
+    )
 
     _check_outputs([(json_out, "--json", None), (png, "--png", ".png")], force)
     _check_numbers({"--step": step, "--saturation": saturation, "--duration": duration, "--extra-pole": extra_pole},

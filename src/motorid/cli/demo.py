@@ -1,5 +1,6 @@
-"""``motorid demo``: record an example experiment on the virtual trainer, write it as scope
-files, and read it back as a user's captures would be read.
+"""``motorid demo``: record an example experiment on the virtual trainer.
+
+The experiment is written as scope files and read back as a user's captures would be read.
 
 The example is the paper's procedure (Masoud 2019, section V): three separate acquisitions of
 the same step — position (``ALL0000``), velocity (``ALL0001``), armature current
@@ -22,7 +23,7 @@ from motorid.conditioning.inspect import CaptureSummary, describe_capture
 from motorid.errors import OutputExistsError
 from motorid.io import atomic_folder, check_writable, read_capture, write_tds_capture
 
-__all__ = ["DemoRow", "DemoResult", "CAPTURE_ORDER", "run_demo"]
+__all__ = ["CAPTURE_ORDER", "DemoResult", "DemoRow", "run_demo"]
 
 #: Folder index of each capture of the example experiment.
 CAPTURE_ORDER: tuple[str, ...] = ("position", "velocity", "current", "sine", "triangle", "square")
@@ -52,7 +53,8 @@ class DemoResult:
 
 
 def _targets(out: Path) -> list[Path]:
-    return [out / f"ALL{i:04d}" for i in range(len(CAPTURE_ORDER))] + [out / "truth.json", out / "model.json", out / "report.html"]
+    captures = [out / f"ALL{i:04d}" for i in range(len(CAPTURE_ORDER))]
+    return [*captures, out / "truth.json", out / "model.json", out / "report.html"]
 
 
 @single_blas_thread
