@@ -56,11 +56,13 @@ def main() -> None:
             ("--help", ["--help"]),
             ("inspect (3 captures)", ["inspect", str(demo / "ALL0000"), str(demo / "ALL0001"), str(demo / "ALL0002")]),
             ("identify auto (demo, 3 captures)", ["identify", "--position", str(demo / "ALL0000"),
-                                                  "--velocity", str(demo / "ALL0001"), "--current", str(demo / "ALL0002")]),
+                                                  "--velocity", str(demo / "ALL0001"),
+                                                  "--current", str(demo / "ALL0002")]),
         ]
         if REAL.exists():
             cases.append(("identify auto (HSLU real log)", ["identify", "--velocity", str(REAL)]))
-        print(f"{'command':36s} {'wall (s)':>9s} {'CPU (s)':>8s} {'wall 1-thr':>11s} {'CPU 1-thr':>10s} {'CPU ratio':>9s} exit")
+        print(f"{'command':36s} {'wall (s)':>9s} {'CPU (s)':>8s} {'wall 1-thr':>11s} {'CPU 1-thr':>10s} "
+              f"{'CPU ratio':>9s} exit")
         for label, cmd in cases:
             rows = {}
             for name, env in (("default", default_env), ("one", one_env)):

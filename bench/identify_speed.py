@@ -73,7 +73,7 @@ def main() -> None:
     rows = []
     for method in ("pinv", "markov", "classic", "auto"):
         s = IdentifySettings(method=method)
-        med, res = timed(lambda: identify_experiment(caps, s), args.repeat)
+        med, res = timed(lambda s=s: identify_experiment(caps, s), args.repeat)
         fo = res.model.first_order()
         rows.append((method, med, res.model.order, fo.dc_gain, fo.time_constant_s))
     cond = condition_experiment(caps, IdentifySettings().conditioning)

@@ -53,7 +53,8 @@ def main() -> None:
             rss = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
             fo = json.loads(out.read_text())["first_order"] if proc.returncode == 0 else {}
             print(f"{rows:>10} {log.stat().st_size / 1e6:7.1f} {wall:9.2f} {max(rss, before) / 1024:14.0f} "
-                  f"{proc.returncode:>5} {fo.get('dc_gain', float('nan')):8.4f} {fo.get('time_constant', float('nan')):8.4f}")
+                  f"{proc.returncode:>5} {fo.get('dc_gain', float('nan')):8.4f} "
+                  f"{fo.get('time_constant', float('nan')):8.4f}")
 
 
 if __name__ == "__main__":

@@ -63,7 +63,8 @@ def make_plain(path: Path, rows: int) -> None:
             u = np.where(i >= rows // 10, 5.92, 0.0)
             y = np.where(i >= rows // 10, 1.5 * (1 - np.exp(-(i - rows // 10) * 1e-4 / 0.4)), 0.0)
             y = y + rng.normal(0, 0.002, i.size)
-            fh.write("".join(f"{a:.4f},{b:.2f},{c:.6f}\n" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist())))
+            rows = zip(t.tolist(), u.tolist(), y.tolist(), strict=False)
+            fh.write("".join(f"{a:.4f},{b:.2f},{c:.6f}\n" for a, b, c in rows))
 
 
 def make_tds(folder: Path, n: int) -> Path:

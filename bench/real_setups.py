@@ -144,7 +144,10 @@ def main(argv: list[str] | None = None) -> int:
         ok = [r for r in sub if r[2] == 0]
         edc = [abs(r[3]) for r in ok]
         eres = [abs(r[4]) for r in ok]
-        fmt = (lambda v: f"{statistics.median(v):.2f} / {max(v):.2f}" if v else "—")
+
+        def fmt(v: list[float]) -> str:
+            return f"{statistics.median(v):.2f} / {max(v):.2f}" if v else "—"
+
         cis = [r[5] for r in ok if r[5] != "—"]
         ci = f"{sum(c == 'yes' for c in cis)}/{len(cis)}" if cis else "—"
         print(f"| {name} | {len(sub)} | {len(ok)} | {fmt(edc)} | {fmt(eres)} | {ci} |"
