@@ -107,3 +107,18 @@ class IdentificationError(MotorIdError, ValueError):
     Raised, for example, when too few samples remain for the requested order or when the
     step response never rises; the message says what would fix it.
     """
+
+
+# --- issue 17 ---
+class InstrumentError(MotorIdError, OSError):
+    """The oscilloscope cannot be reached: no VISA backend, no instrument, no permission to
+    open it, or it stopped answering.
+    """
+
+
+class AcquisitionTimeoutError(InstrumentError, TimeoutError):
+    """The oscilloscope did not finish an acquisition (it never triggered) or did not answer in time."""
+
+
+class ChannelOffError(MotorIdError, ValueError):
+    """A channel asked for (``--channels``) is switched off on the oscilloscope."""
