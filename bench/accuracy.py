@@ -1,7 +1,9 @@
 """Monte-Carlo accuracy of every estimator against the trainer's truth and the Cramér–Rao bound.
 
 Run: ``python3 bench/accuracy.py [--runs 200] [--presets first-order,second-order,third-order]
-[--cases white,realistic] [--jobs 2]``.
+[--cases white,realistic] [--jobs 2] [--scheduler tcp://host:8786]``: the runs go through
+``motorid batch``'s engine (:func:`motorid.batch.parallel_map`: joblib ``loky`` processes with one
+BLAS thread each, or the workers of a Dask scheduler).
 
 Presets: the trainer's ``first-order``, ``second-order``, ``third-order``; ``electrical-7ms``
 (issue 11, item 12: a 7 ms electrical pole near the 4 ms sampling); and the real set-ups of
@@ -35,7 +37,6 @@ import argparse
 import statistics
 import time
 import warnings
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 
 import control
@@ -327,6 +328,7 @@ def main() -> None:
     ap.add_argument("--methods", default=",".join(METHODS))
     ap.add_argument("--sigma", type=float, default=0.02, help="white-case noise, V rms")
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--scheduler", default=None, help="Dask scheduler address: run on its workers instead")
     args = ap.parse_args()
     methods = tuple(m for m in args.methods.split(",") if m)
     if "peer:n4sid" in methods:
@@ -342,10 +344,14 @@ def main() -> None:
     from rich.console import Console
     from rich.progress import track
 
-    with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-        results = list(track(pool.map(one_run, jobs, chunksize=4), total=len(jobs),
-                             description="Monte-Carlo runs", console=Console(stderr=True)))
-    print(f"{len(jobs)} runs in {time.perf_counter() - t_start:.0f} s ({args.jobs} processes)")
+    from motorid.batch import parallel_map
+
+    runs = parallel_map(one_run, [(str(i), job) for i, job in enumerate(jobs)], jobs=args.jobs,
+                        scheduler=args.scheduler, ordered=True, batch_size="auto")
+    results = [r for _, r in track(runs, total=len(jobs), description="Monte-Carlo runs",
+                                   console=Console(stderr=True))]
+    where = f"Dask scheduler {args.scheduler}" if args.scheduler else f"{args.jobs} processes"
+    print(f"{len(jobs)} runs in {time.perf_counter() - t_start:.0f} s ({where})")
     for p in args.presets.split(","):
         for c in cases[p]:
             rows = [r for r in results if r[0] == p and r[1] == c]
