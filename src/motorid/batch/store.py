@@ -24,7 +24,20 @@ RESULT_SCHEMA = "motorid.batch-result/1"
 
 
 def experiment_dir(out: Path, name: str) -> Path:
-    """The folder of one experiment's outputs: ``out`` / its name (a relative path)."""
+    """The folder of one experiment's outputs.
+
+    Parameters
+    ----------
+    out : Path
+        The batch folder.
+    name : str
+        The experiment's name (a ``/``-separated relative path).
+
+    Returns
+    -------
+    Path
+        ``out`` / the name's parts.
+    """
     return out.joinpath(*name.split("/"))
 
 
