@@ -137,3 +137,30 @@ def test_two_captures_of_one_role_are_refused(class_root):
     caps = {("ALL0001",): vel, ("copy",): vel}
     with pytest.raises(OptionError, match=r"2 captures look like velocity \(ALL0001, copy\)"):
         assign_roles(spec, caps)
+
+
+def test_settings_check_options_and_fingerprint_what_changes_a_result():
+    from motorid.batch import BatchSettings
+
+    base = BatchSettings().fingerprint()
+    assert BatchSettings(identify={"method": "auto"}).fingerprint() == base  # the default, spelt out
+    assert BatchSettings(identify={"method": "oe"}).fingerprint() != base
+    assert BatchSettings(report=False).fingerprint() != base
+    with pytest.raises(OptionError, match="unknown identify option"):
+        BatchSettings(identify={"mehtod": "oe"})
+    with pytest.raises(OptionError, match="order"):
+        BatchSettings(identify={"order": 7})
+
+
+def test_specs_settings_and_outcomes_survive_pickling(class_root):
+    """Tasks and results cross process boundaries (loky, Dask) as pickles."""
+    import pickle
+
+    from motorid.batch import BatchSettings, ExperimentOutcome
+
+    root, _ = class_root
+    spec = next(s for s in discover_experiments([root]) if s.name == "s02")
+    settings = BatchSettings(identify={"method": "oe"}, columns={"time": "t"}, design={"damping": 0.7, "wn": 5.0})
+    outcome = ExperimentOutcome("s02", "ok", row={"dc_gain": 0.9, "warnings": []}, roles={"velocity": "ALL0001"})
+    for obj in (spec, settings, outcome):
+        assert pickle.loads(pickle.dumps(obj)) == obj
