@@ -45,7 +45,14 @@ class SweepResult:
     failures: dict[str, str]
 
     def spread(self) -> dict[str, float]:
-        """Half-range of k, τ and DC gain relative to their median (the paper's ±15%)."""
+        """Half-range of k, τ and DC gain relative to their median (the paper's ±15%).
+
+        Returns
+        -------
+        dict of str to float
+            ``k``, ``tau`` and ``dc_gain``: half-range / |median| over the computed cells (NaN when
+            none).
+        """
         out = {}
         for name, arr in (("k", self.k), ("tau", self.tau_s), ("dc_gain", self.dc_gain)):
             a = arr[np.isfinite(arr)]
@@ -53,7 +60,13 @@ class SweepResult:
         return out
 
     def to_json(self) -> dict[str, Any]:
-        """JSON object: axes, cells and spread."""
+        """JSON object: axes, cells and spread.
+
+        Returns
+        -------
+        dict
+            JSON-able; failed cells as ``None``.
+        """
         cells = []
         for i, dt in enumerate(self.intervals_s):
             for j, length in enumerate(self.lengths_s):
@@ -85,6 +98,13 @@ def data_grid(captures: Mapping[str, Capture], *, step_volts: float | None = Non
     a 16 ms motor recorded for 0.35 s no cell of it can be computed.  The same grid in the
     data's own time scales: lengths of 65, 82 and 100 % of the record after the step, intervals
     of 0.4–1.2 × the automatic one (the measured 63 % time / 5), never below the recording's.
+
+    Parameters
+    ----------
+    captures : Mapping[str, Capture]
+        Captures keyed by role.
+    step_volts : float, optional
+        For captures without an input channel.
 
     Returns
     -------

@@ -107,7 +107,13 @@ class ValidationResult:
     warnings: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
-        """The scalar results as a JSON-able dict (non-finite numbers as ``None``)."""
+        """The scalar results as a JSON-able dict (non-finite numbers as ``None``).
+
+        Returns
+        -------
+        dict
+            JSON-able scalars and notes.
+        """
 
         def num(x: float) -> float | None:
             return float(x) if math.isfinite(x) else None
@@ -131,7 +137,18 @@ class ValidationResult:
 
 
 def model_delay_s(model: MotorModel) -> float:
-    """The dead time a model was fitted with (``extras["delay_s"]``), 0 without one."""
+    """The dead time a model was fitted with (``extras["delay_s"]``), 0 without one.
+
+    Parameters
+    ----------
+    model : MotorModel
+        An identified model.
+
+    Returns
+    -------
+    float
+        The dead time in s (0.0 without one).
+    """
     d = model.extras.get("delay_s")
     try:
         d = float(d) if d is not None else 0.0

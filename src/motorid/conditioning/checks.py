@@ -58,6 +58,18 @@ def stalled_response(resp: StepResponse, quantum: float = 0.0) -> str | None:
     percentile distance from the pre-step level must exceed twice the pre-step 99th
     percentile (plus 1.5 quantisation steps).  A constant trace, noise only, or a signal that
     does the same before and after the step (a sine saved as a step) does not.
+
+    Parameters
+    ----------
+    resp : StepResponse
+        The synchronised step response (time 0 at the step).
+    quantum : float
+        The recording's quantisation step in volts (0 when unknown).
+
+    Returns
+    -------
+    str or None
+        The reason, or ``None`` when the output moves.
     """
     y = np.asarray(resp.output_v, dtype=float)
     t = np.asarray(resp.time_s, dtype=float)
@@ -78,7 +90,20 @@ def stalled_response(resp: StepResponse, quantum: float = 0.0) -> str | None:
 
 
 def fitting_volts_per_div(scale: float, probe: float | None = None) -> float:
-    """The next scope setting above ``scale`` that shows half as much again of the trace."""
+    """The next scope setting above ``scale`` that shows half as much again of the trace.
+
+    Parameters
+    ----------
+    scale : float
+        The volts/div the trace was recorded at (at the probe).
+    probe : float, optional
+        Probe attenuation; the settings are multiplied by it.
+
+    Returns
+    -------
+    float
+        The volts/div to record at.
+    """
     factor = probe if probe is not None and np.isfinite(probe) and probe > 0 else 1.0
     need = 1.5 * scale
     for s in VOLTS_PER_DIV:
@@ -89,6 +114,13 @@ def fitting_volts_per_div(scale: float, probe: float | None = None) -> float:
 
 def clipping(capture: Capture, resp: StepResponse) -> tuple[str, bool] | None:
     """Whether the response is flat at an extreme value (clipped).
+
+    Parameters
+    ----------
+    capture : Capture
+        The capture as read (raw output samples and channel metadata).
+    resp : StepResponse
+        The synchronised step response (time 0 at the step).
 
     Returns
     -------
@@ -175,6 +207,18 @@ def no_dynamics(resp: StepResponse, quantum: float = 0.0) -> str | None:
 
     Such a trace has no dynamics to identify at this sample rate (the time base is far too
     slow for the motor) or is not a motor response at all (the step itself saved as CH2).
+
+    Parameters
+    ----------
+    resp : StepResponse
+        The synchronised step response (time 0 at the step).
+    quantum : float
+        The recording's quantisation step in volts (0 when unknown).
+
+    Returns
+    -------
+    str or None
+        Why the trace has no dynamics, or ``None`` when it has.
     """
     if resp.role not in ("velocity", "position"):
         return None  # the armature current may legitimately jump within a sample

@@ -30,6 +30,18 @@ DERIVATIVE_METHODS: tuple[str, ...] = ("euler", "central", "five_point", "savgol
 def euler_derivative(y: np.ndarray, dt: float) -> np.ndarray:
     """Backward Euler difference ``(y[i] − y[i−1]) / dt``; ``NaN`` at index 0.
 
+    Parameters
+    ----------
+    y : ndarray
+        Evenly sampled signal.
+    dt : float
+        Sample interval in s.
+
+    Returns
+    -------
+    ndarray
+        The derivative, same length as ``y``.
+
     References
     ----------
     Masoud 2019, eq. 15.
@@ -42,6 +54,18 @@ def euler_derivative(y: np.ndarray, dt: float) -> np.ndarray:
 
 def central_derivative(y: np.ndarray, dt: float) -> np.ndarray:
     """Central difference ``(y[i+1] − y[i−1]) / (2 dt)``; ``NaN`` at both ends.
+
+    Parameters
+    ----------
+    y : ndarray
+        Evenly sampled signal.
+    dt : float
+        Sample interval in s.
+
+    Returns
+    -------
+    ndarray
+        The derivative, same length as ``y``.
 
     References
     ----------
@@ -59,6 +83,18 @@ def five_point_derivative(y: np.ndarray, dt: float) -> np.ndarray:
     Exact for polynomials up to degree 4; ``NaN`` at the first and last two samples (the
     paper drops them).
 
+    Parameters
+    ----------
+    y : ndarray
+        Evenly sampled signal.
+    dt : float
+        Sample interval in s.
+
+    Returns
+    -------
+    ndarray
+        The derivative, same length as ``y``.
+
     References
     ----------
     Masoud 2019, eq. 17.
@@ -73,6 +109,22 @@ def savgol_derivative(y: np.ndarray, dt: float, *, window: int = 7, polyorder: i
     """Savitzky–Golay first derivative (local cubic fit over ``window`` samples).
 
     Defined on every sample (polynomial fit at the ends), so nothing is dropped.
+
+    Parameters
+    ----------
+    y : ndarray
+        Evenly sampled signal.
+    dt : float
+        Sample interval in s.
+    window : int
+        Odd window length in samples (default 7).
+    polyorder : int
+        Order of the local polynomial (default 3).
+
+    Returns
+    -------
+    ndarray
+        The derivative, same length as ``y``.
     """
     y = np.asarray(y, dtype=float)
     window = min(window, y.size if y.size % 2 else y.size - 1)

@@ -58,7 +58,13 @@ class CaptureSummary:
     warnings: tuple[str, ...]
 
     def to_json(self) -> dict[str, Any]:
-        """The CONTRACT.md ``inspect --json`` object (extra keys are additions)."""
+        """The CONTRACT.md ``inspect --json`` object (extra keys are additions).
+
+        Returns
+        -------
+        dict
+            JSON-able.
+        """
         step = None
         if self.step is not None:
             step = {

@@ -47,6 +47,18 @@ class Reduced:
 def ratio_for_interval(sample_interval_s: float, target_interval_s: float) -> int:
     """The integer ratio that brings ``sample_interval_s`` nearest to ``target_interval_s``.
 
+    Parameters
+    ----------
+    sample_interval_s : float
+        The recorded sample interval in s.
+    target_interval_s : float
+        The sample interval wanted after reduction, in s.
+
+    Returns
+    -------
+    int
+        The reduction ratio (at least 1).
+
     Raises
     ------
     OptionError

@@ -218,5 +218,18 @@ def unwrap_position(
 
 
 def count_wraps(y: np.ndarray, **kwargs: object) -> int:
-    """Number of wraps in a position record (see :func:`unwrap_position`)."""
+    """Number of wraps in a position record (see :func:`unwrap_position`).
+
+    Parameters
+    ----------
+    y : ndarray
+        Position samples in volts.
+    **kwargs
+        Passed on to :func:`unwrap_position`.
+
+    Returns
+    -------
+    int
+        The number of wraps removed.
+    """
     return unwrap_position(y, **kwargs).wraps  # type: ignore[arg-type]

@@ -57,7 +57,18 @@ SENSOR_UNITS: dict[str, str] = {
 
 
 def sensor_unit(state: str) -> str:
-    """How a gain on ``state`` is read (``per V of the tacho``); generic for other names."""
+    """How a gain on ``state`` is read (``per V of the tacho``); generic for other names.
+
+    Parameters
+    ----------
+    state : str
+        A state name (``position``, ``velocity``, ``current``, ...).
+
+    Returns
+    -------
+    str
+        The unit phrase, e.g. ``per V of the tacho``.
+    """
     if state in SENSOR_UNITS:
         return SENSOR_UNITS[state]
     if state.startswith("velocity_d"):
@@ -154,6 +165,20 @@ def realise_in(model: MotorModel, transform: np.ndarray, states: tuple[str, ...]
 
     Output rows that are exactly one of the new states (a measured channel chosen as a
     coordinate) are set to that unit row, so round-off does not leak into ``C``.
+
+    Parameters
+    ----------
+    model : MotorModel
+        The model to re-express.
+    transform : ndarray, shape (n, n)
+        ``T`` in ``z = T x``.
+    states : tuple of str
+        Names of the new states ``z``.
+
+    Returns
+    -------
+    MotorModel
+        The same input/output behaviour on the states ``z``.
 
     Raises
     ------

@@ -193,7 +193,13 @@ class Design:
         return np.linalg.solve(self.transform, self.L)
 
     def sensor_gains(self) -> list[tuple[str, float, str]]:
-        """``(state, gain, unit)`` per measured quantity, e.g. ``("velocity", 8.5, "per V of the tacho")``."""
+        """``(state, gain, unit)`` per measured quantity, e.g. ``("velocity", 8.5, "per V of the tacho")``.
+
+        Returns
+        -------
+        list of (str, float, str)
+            One ``(state, gain, unit)`` per state of ``K``.
+        """
         return [(name, float(k), sensor_unit(name)) for name, k in zip(self.states, self.K, strict=False)]
 
     def to_json(self) -> dict[str, Any]:
@@ -201,6 +207,11 @@ class Design:
 
         The extras: ``output``, ``output_feedback_poles``, ``gains`` (per sensor) and, for a design
         in measurable coordinates, ``model_states``, ``transform``, ``K_model`` and ``L_model``.
+
+        Returns
+        -------
+        dict
+            JSON-able; complex poles as ``[re, im]`` pairs.
         """
         extra: dict[str, Any] = {
             "gains": [{"state": n, "gain": g, "unit": u} for n, g, u in self.sensor_gains()],
@@ -227,7 +238,13 @@ class Design:
         }
 
     def to_json_text(self) -> str:
-        """:meth:`to_json` as indented text."""
+        """:meth:`to_json` as indented text.
+
+        Returns
+        -------
+        str
+            The JSON text.
+        """
         return json.dumps(self.to_json(), indent=2)
 
     @classmethod
@@ -335,6 +352,18 @@ def _matrix_row(row: Any, key: str, n: int) -> np.ndarray:
 
 def output_row(model: MotorModel, output: str | None) -> tuple[str, np.ndarray]:
     """The measured channel's name and ``C`` row (position by default, else velocity).
+
+    Parameters
+    ----------
+    model : MotorModel
+        The model the controller is designed for.
+    output : str or None
+        The measured channel; ``None``: position if the model has it, else velocity.
+
+    Returns
+    -------
+    (str, ndarray)
+        The channel's name and its ``C`` row, shape (1, n).
 
     Raises
     ------

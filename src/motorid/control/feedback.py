@@ -41,6 +41,18 @@ __all__ = [
 def parse_poles(text: str, option: str = "--poles") -> np.ndarray:
     """Parse ``"-3+2j,-3-2j"`` (or ``-5,-6``) into a complex array.
 
+    Parameters
+    ----------
+    text : str
+        Comma-separated real or complex numbers.
+    option : str
+        The option the text came from, named in the error (default ``--poles``).
+
+    Returns
+    -------
+    ndarray
+        The poles, complex dtype.
+
     Raises
     ------
     OptionError
@@ -102,7 +114,20 @@ def check_poles(poles: Sequence[complex] | np.ndarray, n: int, what: str = "clos
 
 
 def check_gains(values: Sequence[float] | np.ndarray, option: str) -> np.ndarray:
-    """Return gains as a float array, or raise OptionError for NaN/inf."""
+    """Return gains as a float array, or raise OptionError for NaN/inf.
+
+    Parameters
+    ----------
+    values : sequence of float or ndarray
+        The gains as given.
+    option : str
+        The option they came from, named in the error.
+
+    Returns
+    -------
+    ndarray
+        The gains as floats.
+    """
     try:
         g = np.asarray(values, dtype=float).ravel()
     except (TypeError, ValueError):
@@ -134,6 +159,13 @@ def pbh_margins(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     smallest singular value of ``[λI − A, B]`` relative to ``‖A‖`` is taken (0 for a mode the
     input cannot reach).
 
+    Parameters
+    ----------
+    a : ndarray, shape (n, n)
+        State matrix ``A``.
+    b : ndarray, shape (n, 1)
+        Input column ``B``.
+
     Returns
     -------
     (ndarray, ndarray)
@@ -163,6 +195,15 @@ def check_controllable(a: np.ndarray, b: np.ndarray, what: str = "model") -> Non
     :data:`UNCONTROLLABLE_TOL` (the rank of the raw ``[B AB …]`` depends on the units of the
     states and wrongly refused identified models whose states differ in scale by 10⁴).
 
+    Parameters
+    ----------
+    a : ndarray, shape (n, n)
+        State matrix ``A``.
+    b : ndarray, shape (n, 1)
+        Input column ``B``.
+    what : str
+        What the pair is, named in the error (default ``model``).
+
     References
     ----------
     Tsiolakis 2022, eq. 30 (rank of the controllability matrix; PBH is the equivalent test).
@@ -181,6 +222,17 @@ def check_controllable(a: np.ndarray, b: np.ndarray, what: str = "model") -> Non
 
 def check_pole_range(poles: np.ndarray, a: np.ndarray, what: str = "closed-loop", option: str = "--poles") -> None:
     """Refuse poles more than :data:`POLE_RATIO_MAX` × the model's fastest pole from the origin.
+
+    Parameters
+    ----------
+    poles : ndarray
+        The poles asked for.
+    a : ndarray, shape (n, n)
+        State matrix ``A``.
+    what : str
+        Which poles they are, named in the error (default ``closed-loop``).
+    option : str
+        The option they came from (default ``--poles``).
 
     Raises
     ------
@@ -203,6 +255,20 @@ def place_gains(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
     repeated (critical damping), which ``place`` cannot assign with one input.  Both run on the
     balanced realisation (``scipy.linalg.matrix_balance``) so states of very different scales
     (position volts next to acceleration volts per second) do not spoil the placement.
+
+    Parameters
+    ----------
+    a : ndarray, shape (n, n)
+        State matrix ``A``.
+    b : ndarray, shape (n, 1)
+        Input column ``B``.
+    poles : ndarray
+        The ``n`` closed-loop poles (complex ones in conjugate pairs).
+
+    Returns
+    -------
+    ndarray, shape (1, n)
+        The gain row ``K``.
 
     Raises
     ------
@@ -229,6 +295,15 @@ def place_gains(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
 
 def poles_from_damping(zeta: float, wn: float, n: int) -> tuple[np.ndarray, list[str]]:
     """Dominant pair of ``s² + 2ζωn s + ωn²`` plus, for ``n > 2``, fast real poles.
+
+    Parameters
+    ----------
+    zeta : float
+        Damping ratio ζ (> 0).
+    wn : float
+        Natural frequency ωn in rad/s (> 0).
+    n : int
+        Number of poles to return.
 
     Returns
     -------
@@ -258,6 +333,20 @@ def poles_from_specs(settling_time_s: float, overshoot_pct: float, n: int) -> tu
     """Dominant pair from a 2 % settling time and a percent overshoot.
 
     ``ζ = −ln(OS)/√(π² + ln² OS)`` (``ζ = 1`` for no overshoot) and ``ωn = 4/(ζ Ts)``.
+
+    Parameters
+    ----------
+    settling_time_s : float
+        2 % settling time Ts in s (> 0).
+    overshoot_pct : float
+        Percent overshoot OS, in [0, 100).
+    n : int
+        Number of poles to return.
+
+    Returns
+    -------
+    (ndarray, list of str)
+        The poles and warnings, as :func:`poles_from_damping`.
     """
     if not (math.isfinite(settling_time_s) and settling_time_s > 0):
         raise OptionError(f"--settling-time must be > 0 s, got {settling_time_s!r}")
@@ -278,6 +367,17 @@ def k1_for_damping(a: np.ndarray, b: np.ndarray, k2: float, zeta: float) -> tupl
     ``k2`` fixed, ``P1² = 4ζ² P2`` (eq. 36 for ζ = 1) is solved for ``k1`` (a linear equation
     for the report's model, where ``P1`` does not depend on ``k1``, eqs. 33–34; a quadratic in
     general, whose stabilising root is taken).
+
+    Parameters
+    ----------
+    a : ndarray, shape (n, n)
+        State matrix ``A``.
+    b : ndarray, shape (n, 1)
+        Input column ``B``.
+    k2 : float
+        The given velocity gain.
+    zeta : float
+        The damping ratio ζ asked for.
 
     Returns
     -------
@@ -325,6 +425,22 @@ def k1_for_damping(a: np.ndarray, b: np.ndarray, k2: float, zeta: float) -> tupl
 
 def reference_gain(a: np.ndarray, b: np.ndarray, c: np.ndarray, k: np.ndarray) -> float:
     """``kr = −1 / (C (A − B K)⁻¹ B)`` for zero steady-state error to a step.
+
+    Parameters
+    ----------
+    a : ndarray, shape (n, n)
+        State matrix ``A``.
+    b : ndarray, shape (n, 1)
+        Input column ``B``.
+    c : ndarray, shape (1, n)
+        Output row ``C`` of the measured channel.
+    k : ndarray, shape (1, n)
+        The state-feedback gain row.
+
+    Returns
+    -------
+    float
+        The reference gain ``kr``.
 
     Raises
     ------

@@ -17,6 +17,20 @@ __all__ = ["augment_integral", "integral_gains", "integral_poly", "routh_violati
 def augment_integral(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Plant plus integrator ``ż = C x − r``: ``Aa = [[A, 0], [C, 0]]``, ``Ba = [B; 0]``.
 
+    Parameters
+    ----------
+    a : ndarray, shape (n, n)
+        State matrix ``A``.
+    b : ndarray, shape (n, 1)
+        Input column ``B``.
+    c : ndarray, shape (1, n)
+        Output row ``C`` of the measured channel.
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        ``Aa`` (n + 1, n + 1) and ``Ba`` (n + 1, 1).
+
     References
     ----------
     Tsiolakis 2022, eq. 41 (with ``ż = y − r``; printed as ``u̇``).
@@ -31,6 +45,22 @@ def augment_integral(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> tuple[np.nd
 
 def integral_gains(a: np.ndarray, b: np.ndarray, c: np.ndarray, poles: np.ndarray) -> tuple[np.ndarray, float]:
     """``K`` and ``ki`` placing the ``n + 1`` poles of the augmented loop.
+
+    Parameters
+    ----------
+    a : ndarray, shape (n, n)
+        State matrix ``A``.
+    b : ndarray, shape (n, 1)
+        Input column ``B``.
+    c : ndarray, shape (1, n)
+        Output row ``C`` of the measured channel.
+    poles : ndarray
+        The ``n + 1`` poles of the augmented loop.
+
+    Returns
+    -------
+    (ndarray, float)
+        ``K`` (shape (1, n)) and ``ki``.
 
     Raises
     ------
@@ -49,6 +79,22 @@ def integral_poly(a: np.ndarray, b: np.ndarray, c: np.ndarray, names: tuple[str,
 
     For the report's model: ``s³ + (1 + kT km k2)/Tm s² + kμ k0 km k1/Tm s + kμ k0 km ki/Tm``
     (eq. 42).
+
+    Parameters
+    ----------
+    a : ndarray, shape (n, n)
+        State matrix ``A``.
+    b : ndarray, shape (n, 1)
+        Input column ``B``.
+    c : ndarray, shape (1, n)
+        Output row ``C`` of the measured channel.
+    names : tuple of str
+        Names of the gains ``K`` (``k1``, ``k2``, ...), used in the conditions' text.
+
+    Returns
+    -------
+    AffinePoly
+        The closed-loop characteristic polynomial, affine in ``(K, ki)``.
     """
     aa, ba = augment_integral(a, b, c)
     return affine_char_poly(aa, ba, (*tuple(names), "ki"))
@@ -56,6 +102,18 @@ def integral_poly(a: np.ndarray, b: np.ndarray, c: np.ndarray, names: tuple[str,
 
 def routh_violations(poly: AffinePoly, gains: np.ndarray) -> list[str]:
     """The Routh conditions (as text) that the given gains violate; empty when Hurwitz.
+
+    Parameters
+    ----------
+    poly : AffinePoly
+        The characteristic polynomial, affine in the gains.
+    gains : ndarray
+        The gains ``[k1, …, kn, ki]``.
+
+    Returns
+    -------
+    list of str
+        The violated conditions.
 
     References
     ----------

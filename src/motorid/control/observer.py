@@ -15,6 +15,15 @@ def check_observable(a: np.ndarray, c: np.ndarray, output: str = "output") -> No
     The PBH test on the dual pair with the tolerance of
     :func:`~motorid.control.feedback.check_controllable` (scale-free).
 
+    Parameters
+    ----------
+    a : ndarray, shape (n, n)
+        State matrix ``A``.
+    c : ndarray, shape (1, n)
+        Output row ``C`` of the measured channel.
+    output : str
+        The channel's name, used in the error (default ``output``).
+
     References
     ----------
     Tsiolakis 2022, eq. 48.
@@ -32,6 +41,22 @@ def check_observable(a: np.ndarray, c: np.ndarray, output: str = "output") -> No
 def observer_gain(a: np.ndarray, c: np.ndarray, poles: np.ndarray, output: str = "output") -> np.ndarray:
     """Observer gain column ``L`` with ``eig(A − L C) = poles`` (placement on the dual ``(Aᵀ, Cᵀ)``).
 
+    Parameters
+    ----------
+    a : ndarray, shape (n, n)
+        State matrix ``A``.
+    c : ndarray, shape (1, n)
+        Output row ``C`` of the measured channel.
+    poles : ndarray
+        The ``n`` observer poles.
+    output : str
+        The channel's name, used in errors (default ``output``).
+
+    Returns
+    -------
+    ndarray, shape (n, 1)
+        The observer gain ``L``.
+
     References
     ----------
     Tsiolakis 2022, eqs. 49–57 (the report's ``W⁻¹ W̃ (p − a)`` formula is Ackermann's; the
@@ -47,6 +72,26 @@ def output_feedback_matrix(a: np.ndarray, b: np.ndarray, c: np.ndarray, k: np.nd
 
     ``u = −K x̂ (− ki z)``; its eigenvalues are ``eig(A − BK) ∪ eig(A − LC)`` (separation
     principle) — with integral action, the augmented loop's poles ∪ the observer's.
+
+    Parameters
+    ----------
+    a : ndarray, shape (n, n)
+        State matrix ``A``.
+    b : ndarray, shape (n, 1)
+        Input column ``B``.
+    c : ndarray, shape (1, n)
+        Output row ``C`` of the measured channel.
+    k : ndarray, shape (1, n)
+        State-feedback gain row ``K``.
+    l_col : ndarray, shape (n, 1)
+        Observer gain column ``L``.
+    ki : float, optional
+        Integral gain; ``None`` without integral action.
+
+    Returns
+    -------
+    ndarray
+        Shape (2n, 2n), or (2n + 1, 2n + 1) with integral action.
     """
     n = a.shape[0]
     top = np.hstack([a, -b @ k])

@@ -53,6 +53,18 @@ class MotorParams:
 def parse_ratio(text: str, option: str = "--gear") -> float:
     """Parse ``"1/36"``, ``"0.0278"`` or ``"36:1"``-free plain numbers as a float.
 
+    Parameters
+    ----------
+    text : str
+        The ratio as typed.
+    option : str
+        The option it came from, named in the error (default ``--gear``).
+
+    Returns
+    -------
+    float
+        The ratio.
+
     Raises
     ------
     OptionError

@@ -34,7 +34,18 @@ class AffinePoly:
     names: tuple[str, ...]
 
     def at(self, gains: np.ndarray) -> np.ndarray:
-        """Coefficients ``[1, a_1, …, a_m]`` for the given gains."""
+        """Coefficients ``[1, a_1, …, a_m]`` for the given gains.
+
+        Parameters
+        ----------
+        gains : ndarray
+            One value per gain, in the order of the polynomial's gain names.
+
+        Returns
+        -------
+        ndarray
+            The coefficients, highest power first.
+        """
         return np.concatenate([[1.0], self.const + self.coef @ np.asarray(gains, dtype=float)])
 
 
@@ -72,6 +83,16 @@ def routh_array(coeffs: np.ndarray) -> np.ndarray:
 
     Written out (a few lines) because neither numpy/scipy nor python-control has it; a zero
     pivot is replaced by a tiny ε as in the textbook rule, which is enough to count sign changes.
+
+    Parameters
+    ----------
+    coeffs : ndarray
+        Polynomial coefficients, highest power first.
+
+    Returns
+    -------
+    ndarray
+        The first column, one entry per power.
     """
     c = np.asarray(coeffs, dtype=float)
     n = c.size
@@ -90,7 +111,18 @@ def routh_array(coeffs: np.ndarray) -> np.ndarray:
 
 
 def routh_stable(coeffs: np.ndarray) -> bool:
-    """True when the polynomial is Hurwitz: all Routh first-column entries > 0 (leading > 0)."""
+    """True when the polynomial is Hurwitz: all Routh first-column entries > 0 (leading > 0).
+
+    Parameters
+    ----------
+    coeffs : ndarray
+        Polynomial coefficients, highest power first.
+
+    Returns
+    -------
+    bool
+        Whether every root has a negative real part.
+    """
     col = routh_array(coeffs)
     if col[0] < 0:
         col = -col
@@ -148,6 +180,16 @@ def routh_conditions(poly: AffinePoly) -> list[str]:
     (order 2); ``a_1 > 0, a_3 > 0, a_1·a_2 > a_3`` (order 3, report eqs. 43–47, where
     ``a_2 > 0`` follows).  Higher orders return the coefficient positivity conditions only,
     with a note that the full Routh array must be checked numerically.
+
+    Parameters
+    ----------
+    poly : AffinePoly
+        The characteristic polynomial, affine in the gains.
+
+    Returns
+    -------
+    list of str
+        The conditions, one per entry.
 
     References
     ----------

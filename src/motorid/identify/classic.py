@@ -56,7 +56,13 @@ class ClassicResult:
         return 1.0 / self.time_constant_s
 
     def to_model(self) -> Any:
-        """The result as a :class:`motorid.model.MotorModel` with the state ``velocity``."""
+        """The result as a :class:`motorid.model.MotorModel` with the state ``velocity``.
+
+        Returns
+        -------
+        MotorModel
+            A first-order model ``k/(s+p)``.
+        """
         from motorid.model import MotorModel
 
         return MotorModel(
@@ -72,6 +78,15 @@ def first_crossing(time_s: np.ndarray, y: np.ndarray, level: float) -> tuple[flo
 
     Rising for a positive level, falling for a negative one; interpolated between the samples either
     side.
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Sample times in s.
+    y : ndarray
+        The response.
+    level : float
+        The level to reach.
 
     Returns
     -------

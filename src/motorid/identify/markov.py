@@ -173,6 +173,11 @@ class MarkovResult:
 
         For ``form='paper'`` the realised output is the position (integral of the velocity
         channel); the velocity row is its derivative, ``C·A`` with ``D = C·B``.
+
+        Returns
+        -------
+        MotorModel
+            The realised model.
         """
         from motorid.model import MotorModel  # model imports nothing from identify
 

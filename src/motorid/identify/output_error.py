@@ -173,6 +173,22 @@ def step_response_closed_form(
 
     ``y(t) = step·[N(0) + Σ_i R_i e^{p_i t}]`` with ``R_i`` the residues of ``N(s)/(s D(s))``.
     Zero for ``t < 0``.
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Times in s (the step at 0).
+    num : array_like
+        Numerator ``N(s)``, highest power first.
+    taus : array_like
+        Time constants τ_i of the denominator, distinct.
+    step_volts : float
+        Step level in volts.
+
+    Returns
+    -------
+    ndarray
+        The response at ``time_s``.
     """
     t = np.asarray(time_s, dtype=float)
     num = np.atleast_1d(np.asarray(num, dtype=float))
@@ -200,7 +216,24 @@ def _slope_closed_form(
 def position_closed_form(
     time_s: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float
 ) -> np.ndarray:
-    """Integral from 0 of :func:`step_response_closed_form`: ``N(0)t + Σ R_i (e^{p_i t} − 1)/p_i``."""
+    """Integral from 0 of :func:`step_response_closed_form`: ``N(0)t + Σ R_i (e^{p_i t} − 1)/p_i``.
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Times in s (the step at 0).
+    num : array_like
+        Numerator ``N(s)``, highest power first.
+    taus : array_like
+        Time constants τ_i of the denominator, distinct.
+    step_volts : float
+        Step level in volts.
+
+    Returns
+    -------
+    ndarray
+        The position (integral of the response), zero for ``t < 0``.
+    """
     t = np.asarray(time_s, dtype=float)
     num = np.atleast_1d(np.asarray(num, dtype=float))
     p, r, n0 = _residues(num, np.asarray(taus, dtype=float))

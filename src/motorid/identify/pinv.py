@@ -114,6 +114,18 @@ class PinvResult:
 
         ``C = I`` (rows named after the states), ``D = 0``: the paper's ``C = [0 1 0]`` is
         the velocity row (eq. 38) and ``C = [1 0 0]`` the position row (eq. 40).
+
+        Parameters
+        ----------
+        step_volts : float, optional
+            Step level recorded in the model.
+        sample_interval_s : float, optional
+            Sample interval the fit used, recorded in the model.
+
+        Returns
+        -------
+        MotorModel
+            The model.
         """
         from motorid.model import MotorModel
 

@@ -454,7 +454,20 @@ def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: Motor
 def identify_conditioned(
     cond: ConditionedExperiment, settings: IdentifySettings = IdentifySettings()
 ) -> Identification:
-    """Identify a model from conditioned data (see :func:`identify_experiment`)."""
+    """Identify a model from conditioned data (see :func:`identify_experiment`).
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+    settings : IdentifySettings
+        Method and options (the conditioning part is already applied).
+
+    Returns
+    -------
+    Identification
+        The chosen model, the candidates and why.
+    """
     if settings.method not in METHODS:
         raise OptionError(f"unknown method {settings.method!r}; use one of {', '.join(METHODS)}")
     if settings.order not in ("auto", 1, 2, 3):

@@ -87,7 +87,13 @@ class SanityReport:
         return tuple(c.detail for c in self.checks if not c.passed)
 
     def to_json(self) -> dict[str, object]:
-        """``{"passed": bool, "checks": [{"name", "passed", "detail"}, ...]}``."""
+        """``{"passed": bool, "checks": [{"name", "passed", "detail"}, ...]}``.
+
+        Returns
+        -------
+        dict
+            JSON-able.
+        """
         return {"passed": self.passed,
                 "checks": [{"name": c.name, "passed": c.passed, "detail": c.detail} for c in self.checks]}
 

@@ -65,6 +65,20 @@ def channel_sigma(cond: ConditionedExperiment, role: str, block: int = 1) -> flo
     interpolated over wrap glitches are left out.  An 8-bit scope can show it as a constant
     code; the quantisation noise ``LSB/√12`` (from the smallest step between codes) is then
     the floor.  With ``block > 1``: of means of ``block`` samples, as the fit sees them.
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+    role : str
+        The channel (``velocity``, ``position`` or ``current``).
+    block : int
+        Block length of the means the fit sees (default 1).
+
+    Returns
+    -------
+    float
+        The standard deviation in volts.
     """
     r = cond.responses[role]
     good = r.time_s < 0
@@ -82,6 +96,16 @@ def step_level_std(cond: ConditionedExperiment) -> float:
     before it (noise ``σ_u``, at least ``LSB/√12``): variance ``σ_u²(1/n_before + 1/n_after)``;
     the level is the mean over the captures.  A step given by the user (no input channel)
     counts as exact.
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+
+    Returns
+    -------
+    float
+        The standard error in volts (0.0 for a step given by the user).
     """
     var = []
     for r in cond.responses.values():
@@ -232,7 +256,18 @@ def _oe_to_model(
 
 
 def uncertainty_json(res: OeResult) -> dict[str, Any]:
-    """The ``uncertainty`` object of the model JSON from an output-error result."""
+    """The ``uncertainty`` object of the model JSON from an output-error result.
+
+    Parameters
+    ----------
+    res : OeResult
+        An output-error result.
+
+    Returns
+    -------
+    dict
+        Estimates, standard errors and 95 % intervals.
+    """
     def item(key: str, value: Any) -> dict[str, Any]:
         lo, hi = res.ci95.get(key, (float("nan"), float("nan")))
         return {"value": value, "std": res.std.get(key, float("nan")), "ci95": [lo, hi]}
@@ -280,7 +315,13 @@ class NoiseModel:
         return {k: len(v) - 1 for k, v in self.whiten.items()}
 
     def to_json(self) -> dict[str, Any]:
-        """Per channel: innovation std, AR order, pre-step std and how it is used."""
+        """Per channel: innovation std, AR order, pre-step std and how it is used.
+
+        Returns
+        -------
+        dict
+            JSON-able, keyed by channel.
+        """
         return {role: {"sigma": self.sigma[role], "ar_order": self.ar_order.get(role, 0),
                        "pre_step_sigma": self.pre_sigma.get(role),
                        "use": "scale only" if role in self.scale_only else "dynamics"}
@@ -316,6 +357,18 @@ def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
     autoregressive model (order by BIC), whose polynomial whitens the residuals of every
     later fit and whose innovation variance weights them — generalised least squares, so
     that ripple neither biases the weights nor makes the intervals too narrow.
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+    init : MotorModel
+        The model the fit starts from (a paper method's).
+
+    Returns
+    -------
+    NoiseModel
+        Per-channel noise levels and whitening filters.
     """
     data = _channel_data(cond)
     pre_sigma = {role: channel_sigma(cond, role, data.block[role]) for role in data.outputs}
@@ -355,6 +408,18 @@ def refine_noise(noise: NoiseModel, res: OeResult) -> NoiseModel:
     """The noise model re-estimated from the residuals of a fit.
 
     Channels it did not fit keep theirs.
+
+    Parameters
+    ----------
+    noise : NoiseModel
+        The current noise model.
+    res : OeResult
+        An output-error fit whose residuals are used.
+
+    Returns
+    -------
+    NoiseModel
+        The updated noise model.
     """
     sigma, white = dict(noise.sigma), dict(noise.whiten)
     for role, e in res.residuals.items():
@@ -376,6 +441,12 @@ def oe_stage(
 
     Parameters
     ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+    init : MotorModel
+        The model the fit starts from (a paper method's).
+    structure : tuple of int
+        ``(poles, zeros)`` of the velocity transfer function.
     delay : bool
         Fit a dead time too, starting from ``init.delay_s`` when it has one, else from the
         apparent dead time read off the data (``cond.dead_time_s``).
@@ -415,6 +486,22 @@ def srivc_stage(
 
     ``max_samples`` bounds the record SRIVC filters (every iteration runs ``lsim`` on it);
     ``auto`` uses 500 for its second opinion.
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+    init : MotorModel
+        The model the fit starts from (a paper method's).
+    structure : tuple of int
+        ``(poles, zeros)`` of the velocity transfer function.
+    max_samples : int
+        Largest number of samples SRIVC filters (default 1000).
+
+    Returns
+    -------
+    MotorModel
+        The SRIVC model.
     """
     t, outs = _srivc_data(cond, max_samples)
     if "velocity" not in outs:
@@ -542,10 +629,21 @@ def select_order(
 
     Parameters
     ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+    init : MotorModel
+        The model the fit starts from (a paper method's).
+    orders : tuple of int
+        Numbers of poles to try (default 1, 2, 3).
     delay : bool or None
         ``True``: every structure with a fitted dead time; ``False``: none; ``None``: both
         when the data show an apparent dead time of at least :data:`DEAD_TIME_SAMPLES`
         samples (or :data:`DEAD_TIME_FRACTION` of the 63 % time), BIC deciding.
+
+    Returns
+    -------
+    OrderSelection
+        The chosen structure, its model and the table of every fit.
 
     Raises
     ------

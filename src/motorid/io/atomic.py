@@ -106,6 +106,16 @@ class AtomicOutputs:
         Same suffix, so writers that pick a format from the suffix — matplotlib — write the right
         one.
 
+        Parameters
+        ----------
+        target : Path or str
+            The final output path.
+
+        Returns
+        -------
+        Path
+            The temporary path; it becomes ``target`` at commit.
+
         Raises
         ------
         OutputWriteError
@@ -126,6 +136,15 @@ class AtomicOutputs:
 
     def write_text(self, target: Path | str, text: str, encoding: str = "utf-8") -> None:
         """Write ``text`` to a temporary file that becomes ``target`` at commit.
+
+        Parameters
+        ----------
+        target : Path or str
+            The final output path.
+        text : str
+            The text to write.
+        encoding : str
+            Text encoding (default UTF-8).
 
         Raises
         ------
@@ -211,6 +230,13 @@ def atomic_folder(folder: Path | str, targets: Iterable[Path | str]) -> Iterator
     same file system); on success they are deleted, on failure whatever the block created
     among the targets is removed and the old ones are put back.  A ``folder`` created here
     is removed again on failure when it is left empty.
+
+    Parameters
+    ----------
+    folder : Path or str
+        The folder to fill (created when missing).
+    targets : iterable of Path or str
+        The files or sub-folders the block writes into ``folder``.
 
     Yields
     ------

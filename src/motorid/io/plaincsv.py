@@ -63,6 +63,11 @@ def _content_lines(lines: Sequence[str]) -> list[int]:
 def sniff_table(lines: Sequence[str]) -> tuple[str | None, bool] | None:
     """Whether text lines are a headed numeric table; its delimiter and decimal-comma flag.
 
+    Parameters
+    ----------
+    lines : sequence of str
+        The first lines of the file.
+
     Returns
     -------
     tuple or None

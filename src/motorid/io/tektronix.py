@@ -158,6 +158,16 @@ def meta_key(label: object) -> str | None:
     """The metadata field a Tektronix label names (``"Sample Interval"`` → ``sample_interval``).
 
     Returns ``None`` for anything else.
+
+    Parameters
+    ----------
+    label : object
+        A cell of column A (anything; only text can name a field).
+
+    Returns
+    -------
+    str or None
+        The field's key, e.g. ``sample_interval``.
     """
     if not isinstance(label, str):
         return None
@@ -228,7 +238,18 @@ def _delimiter(lines: Sequence[str]) -> tuple[str, bool]:
 
 
 def looks_like_tds(lines: Sequence[str]) -> bool:
-    """Whether text lines are a Tektronix CSV: two metadata labels in column A of the first rows."""
+    """Whether text lines are a Tektronix CSV: two metadata labels in column A of the first rows.
+
+    Parameters
+    ----------
+    lines : sequence of str
+        The first lines of the file.
+
+    Returns
+    -------
+    bool
+        Whether the lines look like a Tektronix CSV.
+    """
     if not lines:
         return False
     delim, _ = _delimiter(lines)
@@ -460,7 +481,21 @@ def read_tds_channel(path: PathLike) -> TdsChannel:
 
 
 def save_all_files(folder: Path, *, _descend: bool = True) -> list[Path]:
-    """The ``FnnnnCHx.CSV`` files of a Save-All folder (or of its single ``ALLnnnn`` subfolder)."""
+    """The ``FnnnnCHx.CSV`` files of a Save-All folder (or of its single ``ALLnnnn`` subfolder).
+
+    Parameters
+    ----------
+    folder : Path
+        A Save-All folder, or a folder holding exactly one ``ALLnnnn`` folder.
+    _descend : bool
+        Internal: whether a single ``ALLnnnn`` subfolder may be entered (the call on it passes
+        ``False``).
+
+    Returns
+    -------
+    list of Path
+        The channel files, in CH order.
+    """
     if not os.access(folder, os.R_OK | os.X_OK):
         raise CaptureFormatError("cannot list the folder (permission denied); check its permissions",
                                  file=str(folder))

@@ -10,7 +10,18 @@ __all__ = ["poly_text"]
 
 
 def poly_text(coeffs: Any) -> str:
-    """A polynomial in s, highest power first: ``2.175s - 0.0079``, ``s^2 + 2.31s + 0.024``."""
+    """A polynomial in s, highest power first: ``2.175s - 0.0079``, ``s^2 + 2.31s + 0.024``.
+
+    Parameters
+    ----------
+    coeffs : array_like
+        Coefficients, highest power first.
+
+    Returns
+    -------
+    str
+        The polynomial as text.
+    """
     c = [float(x) for x in np.atleast_1d(coeffs)]
     n = len(c) - 1
     parts = []

@@ -32,6 +32,28 @@ def make_report(
     40–120 ms, so a student sees the drift the paper reports next to the model — or, when the
     record is shorter than the paper's lengths (a fast motor), the same grid in the data's own
     time scales (:func:`motorid.analysis.sweep.data_grid`).
+
+    Parameters
+    ----------
+    ident : Identification
+        The identification (:func:`motorid.identify.pipeline.identify_experiment`).
+    captures : Mapping[str, Capture]
+        The captures it was identified from, keyed by role.
+    validation : Mapping[str, Capture], optional
+        Captures of other inputs to validate the model on, by name.
+    design : Mapping[str, Any], optional
+        A design JSON dict to show with its closed-loop response and mode maps.
+    truth : Mapping[str, Any], optional
+        The virtual trainer's ``truth.json``, shown next to the estimate.
+    sweep : bool
+        Compute the sensitivity table (default True).
+    title : str
+        The page title.
+
+    Returns
+    -------
+    str
+        A complete, self-contained HTML document.
     """
     table = None
     if sweep:

@@ -45,14 +45,36 @@ def _subplots(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float], *
 
 
 def png(fig: Figure) -> bytes:
-    """Render a figure to PNG bytes (the figure is not kept by any manager)."""
+    """Render a figure to PNG bytes (the figure is not kept by any manager).
+
+    Parameters
+    ----------
+    fig : Figure
+        A matplotlib figure.
+
+    Returns
+    -------
+    bytes
+        The PNG image.
+    """
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=DPI, bbox_inches="tight")
     return buf.getvalue()
 
 
 def raw_captures(captures: Mapping[str, Capture]) -> bytes:
-    """The captures as recorded, CH1 and CH2 on each file's own time axis (paper Fig. 25)."""
+    """The captures as recorded, CH1 and CH2 on each file's own time axis (paper Fig. 25).
+
+    Parameters
+    ----------
+    captures : Mapping[str, Capture]
+        Captures keyed by role.
+
+    Returns
+    -------
+    bytes
+        The PNG image.
+    """
     n = len(captures)
     fig, axes = _subplots(n, 1, figsize=(8, 2.2 * n), squeeze=False)
     for ax, (role, cap) in zip(axes[:, 0], captures.items(), strict=False):
@@ -69,7 +91,20 @@ def raw_captures(captures: Mapping[str, Capture]) -> bytes:
 
 
 def conditioned_signals(cond: ConditionedExperiment, derivative_method: str = "five_point") -> bytes:
-    """Synchronised, unwrapped, reduced step responses and the numerical derivative (Figs. 16–17, 26)."""
+    """Synchronised, unwrapped, reduced step responses and the numerical derivative (Figs. 16–17, 26).
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+    derivative_method : str
+        The numerical derivative shown (default ``five_point``).
+
+    Returns
+    -------
+    bytes
+        The PNG image.
+    """
     roles = list(cond.full_outputs)
     extra = 1 if "position" in roles else 0
     fig, axes = _subplots(len(roles) + extra, 1, figsize=(8, 2.2 * (len(roles) + extra)), squeeze=False)
@@ -95,7 +130,18 @@ def conditioned_signals(cond: ConditionedExperiment, derivative_method: str = "f
 
 
 def current_denoising(cond: ConditionedExperiment) -> bytes:
-    """Armature current as recorded and FFT-denoised (paper Figs. 18, 31–32)."""
+    """Armature current as recorded and FFT-denoised (paper Figs. 18, 31–32).
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+
+    Returns
+    -------
+    bytes
+        The PNG image.
+    """
     t = cond.full_time_s
     raw = cond.full_outputs["current"]
     den = fft_denoise(raw, float(t[1] - t[0]))
@@ -110,7 +156,18 @@ def current_denoising(cond: ConditionedExperiment) -> bytes:
 
 
 def pole_zero(model: MotorModel) -> bytes:
-    """Poles (×) and zeros (○) of the velocity TF, with their 95% intervals when known."""
+    """Poles (×) and zeros (○) of the velocity TF, with their 95% intervals when known.
+
+    Parameters
+    ----------
+    model : MotorModel
+        The model.
+
+    Returns
+    -------
+    bytes
+        The PNG image.
+    """
     fig, ax = _subplots(figsize=(5, 3.4))
     poles, zeros = model.poles(), model.zeros()
     ax.plot(np.real(poles), np.imag(poles), "x", ms=9, mew=2, label="poles")
@@ -134,7 +191,20 @@ def pole_zero(model: MotorModel) -> bytes:
 
 
 def step_fit(model: MotorModel, cond: ConditionedExperiment) -> bytes:
-    """Measured vs model step responses with residuals (paper Figs. 27–28, 33–35)."""
+    """Measured vs model step responses with residuals (paper Figs. 27–28, 33–35).
+
+    Parameters
+    ----------
+    model : MotorModel
+        The identified model.
+    cond : ConditionedExperiment
+        The conditioned captures.
+
+    Returns
+    -------
+    bytes
+        The PNG image.
+    """
     t = cond.full_time_s
     roles = [r for r in ("velocity", "position", "current") if r in cond.full_outputs and r in model.outputs]
     if not roles and "velocity" in cond.full_outputs:
@@ -160,7 +230,22 @@ def step_fit(model: MotorModel, cond: ConditionedExperiment) -> bytes:
 
 
 def hankel_values(scaled: Sequence[float], raw: Sequence[float], floor: float | None) -> bytes:
-    """Normalised Hankel singular values, time-scaled and raw (order evidence, paper §IV)."""
+    """Normalised Hankel singular values, time-scaled and raw (order evidence, paper §IV).
+
+    Parameters
+    ----------
+    scaled : sequence of float
+        Time-scaled Hankel singular values.
+    raw : sequence of float
+        Raw Hankel singular values.
+    floor : float or None
+        The noise floor, drawn as a line when given.
+
+    Returns
+    -------
+    bytes
+        The PNG image.
+    """
     fig, ax = _subplots(figsize=(5, 3))
     k = np.arange(1, len(scaled) + 1)
     ax.semilogy(k, np.maximum(scaled, 1e-16), "o-", label="time-scaled")
@@ -175,7 +260,24 @@ def hankel_values(scaled: Sequence[float], raw: Sequence[float], floor: float | 
 
 
 def sweep_maps(lengths: Sequence[float], intervals: Sequence[float], k: np.ndarray, tau: np.ndarray) -> bytes:
-    """Heat maps of k and τ over record length × sample interval (paper Tables 1–3)."""
+    """Heat maps of k and τ over record length × sample interval (paper Tables 1–3).
+
+    Parameters
+    ----------
+    lengths : sequence of float
+        Record lengths in s (columns).
+    intervals : sequence of float
+        Sample intervals in s (rows).
+    k : ndarray
+        ``k`` per cell, shape (intervals, lengths).
+    tau : ndarray
+        τ per cell, same shape.
+
+    Returns
+    -------
+    bytes
+        The PNG image.
+    """
     fig, axes = _subplots(1, 2, figsize=(8, 3))
     for ax, data, name in ((axes[0], k, "k"), (axes[1], tau, "τ (s)")):
         im = ax.imshow(data, aspect="auto", origin="upper", cmap="viridis")
@@ -194,7 +296,26 @@ def sweep_maps(lengths: Sequence[float], intervals: Sequence[float], k: np.ndarr
 
 def validation_overlay(time_s: np.ndarray, input_v: np.ndarray, measured: np.ndarray, simulated: np.ndarray,
                        title: str) -> bytes:
-    """Model driven by a recorded test signal vs the measured response (paper Figs. 36–38)."""
+    """Model driven by a recorded test signal vs the measured response (paper Figs. 36–38).
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Times in s.
+    input_v : ndarray
+        The recorded input in volts.
+    measured : ndarray
+        The measured output in volts.
+    simulated : ndarray
+        The model's output in volts.
+    title : str
+        The figure title.
+
+    Returns
+    -------
+    bytes
+        The PNG image.
+    """
     fig, ax = _subplots(figsize=(8, 2.6))
     ax.plot(time_s, input_v, lw=0.6, alpha=0.5, label="input (CH1)")
     ax.plot(time_s, measured, lw=0.7, label="measured")
@@ -208,7 +329,22 @@ def validation_overlay(time_s: np.ndarray, input_v: np.ndarray, measured: np.nda
 
 
 def closed_loop(time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str) -> bytes:
-    """Closed-loop response: output, reference, control effort (and estimated states)."""
+    """Closed-loop response: output, reference, control effort (and estimated states).
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Times in s.
+    series : Mapping[str, ndarray]
+        The simulation's columns by name (``reference``, ``output``, ``u``, states, ...).
+    title : str
+        The figure title.
+
+    Returns
+    -------
+    bytes
+        The PNG image.
+    """
     fig, axes = _subplots(2, 1, figsize=(8, 4), sharex=True)
     for name, y in series.items():
         ax = axes[1] if name.startswith("u") or "control" in name else axes[0]

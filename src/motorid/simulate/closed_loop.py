@@ -102,6 +102,10 @@ class SimulationSettings:
         ``linear`` (the model) or ``trainer``.
     trainer_preset : str
         Trainer preset for ``plant='trainer'`` (its noise-free ``quiet()`` variant is used).
+    dead_zone_compensation : bool
+        Add the model's dead-zone to the controller's command (inverse dead-zone
+        feed-forward, :meth:`StaticNonlinearity.compensate`); needs a model with a static
+        nonlinearity (issue 15).
     """
 
     duration_s: float = 5.0
@@ -115,6 +119,7 @@ class SimulationSettings:
     xhat0: tuple[float, ...] | None = None
     plant: str = "linear"
     trainer_preset: str = "lab-report"
+    dead_zone_compensation: bool = False
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.duration_s) and self.duration_s > 0):
@@ -195,7 +200,13 @@ class SimulationResult:
     warnings: tuple[str, ...] = ()
 
     def columns(self) -> dict[str, np.ndarray]:
-        """Named columns (``time``, ``reference``, ``output``, ``u``, ``u_raw``, states, ``*_hat``, ``z``)."""
+        """Named columns (``time``, ``reference``, ``output``, ``u``, ``u_raw``, states, ``*_hat``, ``z``).
+
+        Returns
+        -------
+        dict of str to ndarray
+            The columns, all of the same length.
+        """
         cols = {"time": self.time_s, "reference": self.reference_v, "output": self.output_v,
                 "u": self.control_v, "u_raw": self.control_raw_v}
         for i, name in enumerate(self.state_names):
@@ -208,7 +219,13 @@ class SimulationResult:
         return cols
 
     def to_csv_text(self) -> str:
-        """The time series as CSV with a header row."""
+        """The time series as CSV with a header row.
+
+        Returns
+        -------
+        str
+            The CSV text.
+        """
         cols = self.columns()
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")
@@ -218,7 +235,13 @@ class SimulationResult:
         return buf.getvalue()
 
     def to_json(self) -> dict[str, Any]:
-        """Metrics, warnings and the time series as a JSON dict (NaN written as null)."""
+        """Metrics, warnings and the time series as a JSON dict (NaN written as null).
+
+        Returns
+        -------
+        dict
+            JSON-able (schema ``motorid.simulation/1``).
+        """
         clean = lambda v: None if not math.isfinite(v) else float(v)  # noqa: E731
         m = self.metrics
         return {
@@ -230,7 +253,13 @@ class SimulationResult:
         }
 
     def to_json_text(self) -> str:
-        """The :meth:`to_json` dict as indented JSON text."""
+        """The :meth:`to_json` dict as indented JSON text.
+
+        Returns
+        -------
+        str
+            The JSON text.
+        """
         return json.dumps(self.to_json(), indent=1)
 
     def plot(self, title: str = "") -> Figure:
@@ -250,7 +279,20 @@ class SimulationResult:
 
 
 def reference_values(ref: ReferenceSignal, time_s: np.ndarray) -> np.ndarray:
-    """``r(t)`` at the sample times."""
+    """``r(t)`` at the sample times.
+
+    Parameters
+    ----------
+    ref : ReferenceSignal
+        The reference signal.
+    time_s : ndarray
+        Sample times in s.
+
+    Returns
+    -------
+    ndarray
+        The reference in volts.
+    """
     t = np.asarray(time_s, dtype=float)
     if ref.kind == "step":
         return np.where(t >= ref.start_s, ref.level_v, ref.initial_v)
@@ -266,6 +308,24 @@ def response_metrics(time_s: np.ndarray, output_v: np.ndarray, reference_v: np.n
 
     For a step the change is measured from the output at the step (``y0``) to the final
     reference ``r_f``; the settling band is ±2 % of ``|r_f − y0|``.
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Sample times in s.
+    output_v : ndarray
+        The controlled output in volts.
+    reference_v : ndarray
+        The reference in volts.
+    control_v : ndarray
+        The control input in volts.
+    step : bool
+        Whether the reference is a step (step metrics) or another signal (tracking metrics).
+
+    Returns
+    -------
+    ResponseMetrics
+        The metrics.
     """
     t, y, r = (np.asarray(v, dtype=float) for v in (time_s, output_v, reference_v))
     n = t.size
@@ -400,6 +460,13 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
                         f"({lag} step(s) of {s.dt_s:g} s)")
     if l_col is not None:  # (use_obs)
         phi_o, gam_o = _zoh(a - l_col @ c, np.hstack([b, l_col]), s.dt_s)
+    nl = model.static_nonlinearity
+    if s.dead_zone_compensation and nl is None:
+        raise OptionError("dead-zone compensation needs a model with a static nonlinearity (identify several "
+                          "step levels: --velocity once per level)")
+    if nl is not None and nl.dead_zone_v > 0:
+        warnings.append(f"the model's dead-zone of {nl.dead_zone_v:.3g} V acts on the plant input"
+                        + (" and is compensated by feed-forward" if s.dead_zone_compensation else ""))
     trainer = None
     if s.plant == "trainer":
         if plant is None:
@@ -424,6 +491,8 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
             xs[i], ys[i] = meas, y
             fb = xh if use_obs else meas
             u_req = float(-(k @ fb)[0]) + (-ki * z if ki is not None else kr * r[i])
+            if s.dead_zone_compensation and nl is not None and math.isfinite(u_req):
+                u_req = float(nl.compensate(u_req))
             u = min(max(u_req, -sat), sat) if math.isfinite(u_req) else u_req
             us[i], uraw[i] = u, u_req
             if xhs is not None:  # (use_obs)
@@ -436,11 +505,14 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
                 trainer.advance(u, t[i])
             else:
                 u_plant = u if not lag else (us[i - lag] if i >= lag else 0.0)
+                if nl is not None:  # the dead-zone and rails in front of the linear part
+                    u_plant = float(nl.effective_input(u_plant))
                 x = phi @ x + gam[:, 0] * (u_plant + d[i])
             if zs is not None:
                 z += s.dt_s * (y - r[i])  # exact: y − r is held over the interval
             if use_obs:
-                xh = phi_o @ xh + gam_o @ np.array([u, y])
+                u_obs = u if nl is None else float(nl.effective_input(u))
+                xh = phi_o @ xh + gam_o @ np.array([u_obs, y])
     if not np.all(np.isfinite(ys)):
         warnings.append("the response diverged (non-finite values): the closed loop is unstable")
     elif (np.max(np.abs(ys))

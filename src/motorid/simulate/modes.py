@@ -127,7 +127,13 @@ class ServoPlant:
         return self.A.shape[0]
 
     def time_constant_s(self) -> float:
-        """Mechanical time constant (``tau_s``, else the slowest non-zero open-loop pole's)."""
+        """Mechanical time constant (``tau_s``, else the slowest non-zero open-loop pole's).
+
+        Returns
+        -------
+        float
+            The time constant in s.
+        """
         if self.tau_s is not None:
             return float(self.tau_s)
         p = np.linalg.eigvals(self.A)
@@ -137,6 +143,18 @@ class ServoPlant:
 
 def parse_range(text: str, option: str) -> np.ndarray:
     """Parse ``A:B:N`` into ``numpy.linspace(A, B, N)``.
+
+    Parameters
+    ----------
+    text : str
+        ``A:B:N``.
+    option : str
+        The option it came from, named in the error.
+
+    Returns
+    -------
+    ndarray
+        ``N`` values from ``A`` to ``B``.
 
     Raises
     ------
@@ -265,6 +283,21 @@ def simulate_servo_grid(plant: ServoPlant, kp: np.ndarray, kv: np.ndarray, crite
     step over a limit cycle), at least 400 steps per record.  ``record=True`` also keeps θ at
     every step (``stats.theta``, shape (steps + 1, N); for tests and small grids).
 
+    Parameters
+    ----------
+    plant : ServoPlant
+        The servo model.
+    kp : ndarray
+        Position gains, one per system.
+    kv : ndarray
+        Velocity gains, one per system.
+    criteria : ModeCriteria
+        Step level, saturation and record length.
+    poles : ndarray, optional
+        Linearised closed-loop poles per system (computed when not given).
+    record : bool
+        Keep θ at every step (default False).
+
     Returns
     -------
     (stats, dt_s, steps)
@@ -344,7 +377,22 @@ def _zeta_eq(poles: np.ndarray) -> np.ndarray:
 
 
 def classify_grid(stats: _GridStats, poles: np.ndarray, criteria: ModeCriteria) -> np.ndarray:
-    """Labels (indices into :data:`MODES`) for each grid point from its window statistics."""
+    """Labels (indices into :data:`MODES`) for each grid point from its window statistics.
+
+    Parameters
+    ----------
+    stats : _GridStats
+        Window statistics of every grid point (:func:`simulate_servo_grid`).
+    poles : ndarray
+        Linearised closed-loop poles, one row per grid point.
+    criteria : ModeCriteria
+        The classification thresholds.
+
+    Returns
+    -------
+    ndarray of int
+        One label per grid point.
+    """
     c = criteria
     r = abs(c.step_v)
     band = c.settle_band * r
@@ -390,11 +438,23 @@ class ModeMap:
     steps: int
 
     def modes(self) -> list[list[str]]:
-        """Rows of mode names (row = one Kv value)."""
+        """Rows of mode names (row = one Kv value).
+
+        Returns
+        -------
+        list of list of str
+            One row per Kv value, one name per Kp value.
+        """
         return [[MODES[i] for i in row] for row in self.labels]
 
     def counts(self) -> dict[str, int]:
-        """How many grid points show each mode."""
+        """How many grid points show each mode.
+
+        Returns
+        -------
+        dict of str to int
+            Count per mode name.
+        """
         return {m: int(np.sum(self.labels == i)) for i, m in enumerate(MODES)}
 
 
@@ -434,6 +494,18 @@ def modes_json(maps: tuple[ModeMap, ...], criteria: ModeCriteria) -> dict[str, A
 
     ``kp``, ``kv``, ``modes`` (of the first map: the 2nd-order one), ``criteria``, plus ``maps``
     with every plant's modes and counts.
+
+    Parameters
+    ----------
+    maps : tuple of ModeMap
+        The maps (the first is the 2nd-order model's).
+    criteria : ModeCriteria
+        The thresholds used.
+
+    Returns
+    -------
+    dict
+        JSON-able.
     """
     crit = asdict(criteria)
     crit["definitions"] = __doc__.split("Classification criteria")[1].split("References")[0].strip()
@@ -450,7 +522,15 @@ def modes_json(maps: tuple[ModeMap, ...], criteria: ModeCriteria) -> dict[str, A
 
 
 def plot_mode_maps(maps: tuple[ModeMap, ...], path: str | Path) -> None:
-    """Write the maps side by side as a PNG (one colour per mode)."""
+    """Write the maps side by side as a PNG (one colour per mode).
+
+    Parameters
+    ----------
+    maps : tuple of ModeMap
+        The maps to draw.
+    path : str or Path
+        The PNG file to write.
+    """
     from matplotlib.colors import ListedColormap
     from matplotlib.figure import Figure
     from matplotlib.patches import Patch

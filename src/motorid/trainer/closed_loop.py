@@ -64,18 +64,43 @@ class TrainerLoop:
         return warnings
 
     def measured(self) -> np.ndarray:
-        """The measured states (position, velocity; others 0), in the model's state order."""
+        """The measured states (position, velocity; others 0), in the model's state order.
+
+        Returns
+        -------
+        ndarray
+            One value per model state.
+        """
         _, w, ang = self.state
         vals = {"position": self.offset + self.pos_per_rad * ang, "velocity": self.cfg.tacho_v_per_rad_s * w}
         return np.array([vals.get(name, 0.0) for name in self.names])
 
     def output(self, name: str) -> float:
-        """The measured channel ``name`` (volts)."""
+        """The measured channel ``name`` (volts).
+
+        Parameters
+        ----------
+        name : str
+            ``position`` or ``velocity``.
+
+        Returns
+        -------
+        float
+            The channel's reading in volts.
+        """
         _, w, ang = self.state
         return self.offset + self.pos_per_rad * ang if name == "position" else self.cfg.tacho_v_per_rad_s * w
 
     def advance(self, u: float, t: float) -> None:
-        """Hold ``u`` for one control interval from ``t`` (the brake acts after its instant)."""
+        """Hold ``u`` for one control interval from ``t`` (the brake acts after its instant).
+
+        Parameters
+        ----------
+        u : float
+            The control input in volts.
+        t : float
+            The interval's start time in s.
+        """
         cfg = self.cfg if t < self.dist_start or self.brake_nm == 0 else replace(self.cfg, brake_nm=self.brake_nm)
         resp = simulate_plant(cfg, np.array([0.0, self.dt]), np.array([u, u]), initial=self.state)
         self.state = (float(resp.current_a[1]), float(resp.motor_speed_rad_s[1]), float(resp.motor_angle_rad[1]))

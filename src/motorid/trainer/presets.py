@@ -118,7 +118,13 @@ class TrainerConfig:
             raise OptionError("trainer config: substeps and tacho_segments must be >= 1")
 
     def ideal(self) -> TrainerConfig:
-        """The linear plant: no dead-zone, friction nonlinearity, rails, ripple or noise."""
+        """The linear plant: no dead-zone, friction nonlinearity, rails, ripple or noise.
+
+        Returns
+        -------
+        TrainerConfig
+            A copy with the nonlinearities and noise removed.
+        """
         return replace(
             self, amp_dead_zone_v=0.0, amp_rail_v=1e9, coulomb_nm=0.0, static_nm=0.0,
             brake_nm=0.0, tacho_ripple=0.0, pot_glitch_max=0, pwm_noise_v=0.0, pwm_spike_v=0.0,
@@ -126,7 +132,13 @@ class TrainerConfig:
         )
 
     def quiet(self) -> TrainerConfig:
-        """The nonlinear plant without random noise, ripple or glitches."""
+        """The nonlinear plant without random noise, ripple or glitches.
+
+        Returns
+        -------
+        TrainerConfig
+            A copy without the random parts.
+        """
         return replace(self, tacho_ripple=0.0, pot_glitch_max=0, pwm_noise_v=0.0, pwm_spike_v=0.0,
                        noise_v=0.0)
 
@@ -215,6 +227,11 @@ def preset(name: str) -> TrainerConfig:
         ``first-order`` (electrical pole negligible, no amplifier zero), ``second-order``
         (visible electrical pole, no amplifier zero), ``third-order`` (= ``paper``:
         electrical pole and amplifier lead/lag).
+
+    Returns
+    -------
+    TrainerConfig
+        The configuration.
 
     Raises
     ------

@@ -148,6 +148,11 @@ class RealSetupRecording:
         """The captures a user names in :attr:`cli_args` (``--velocity X --current Y``).
 
         Read back with :func:`motorid.io.read_capture`, keyed by role.
+
+        Returns
+        -------
+        dict of str to Capture
+            The captures by role.
         """
         from motorid.io import read_capture
 

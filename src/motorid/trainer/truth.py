@@ -61,7 +61,13 @@ class Truth:
         return FirstOrder(self.dc_gain, self.time_constant_s)
 
     def to_json(self) -> dict[str, Any]:
-        """Numerators/denominators (highest power first, ``den[0] = 1``) and first order."""
+        """Numerators/denominators (highest power first, ``den[0] = 1``) and first order.
+
+        Returns
+        -------
+        dict
+            JSON-able.
+        """
         def poly(tf: control.TransferFunction) -> dict[str, list[float]]:
             num = np.atleast_1d(np.squeeze(tf.num[0][0])).astype(float)
             den = np.atleast_1d(np.squeeze(tf.den[0][0])).astype(float)
