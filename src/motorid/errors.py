@@ -24,6 +24,7 @@ __all__ = [
     "ControlDesignError",
     "ModelFormatError",
     "IdentificationError",
+    "UploadError",
 ]
 
 
@@ -106,6 +107,17 @@ class IdentificationError(MotorIdError, ValueError):
 
     Raised, for example, when too few samples remain for the requested order or when the
     step response never rises; the message says what would fix it.
+    """
+
+
+# --- issue 18 ---
+
+
+class UploadError(MotorIdError, ValueError):
+    """An upload the local web app refuses.
+
+    Too large, too many files, a malformed form, an unsafe or broken ``.zip``, or a file of no
+    supported kind.
     """
 
 

@@ -1,9 +1,84 @@
-"""Placeholder: the `serve` command(s) are being built (owned by one helper)."""
+"""``motorid serve``: the local web page of the lab (:mod:`motorid.web`) under uvicorn."""
 
 from __future__ import annotations
 
+import ipaddress
+import socket
+import sys
+from typing import Annotated
+
 import typer
+
+from motorid.errors import OptionError
+
+__all__ = ["is_loopback", "register", "serve"]
+
+
+def is_loopback(host: str) -> bool:
+    """Whether ``host`` only accepts connections from this computer.
+
+    Parameters
+    ----------
+    host : str
+        An address or ``localhost``.
+
+    Returns
+    -------
+    bool
+        True for ``localhost`` and the loopback addresses (127.0.0.0/8, ::1).
+    """
+    if host.strip().lower() == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
+
+
+def _check_port(host: str, port: int) -> None:
+    if not 0 < port < 65536:
+        raise OptionError(f"--port {port}: give a port number 1..65535")
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as sock:
+        try:
+            sock.bind((host.strip("[]"), port))
+        except OSError as exc:
+            raise OptionError(f"--host {host} --port {port}: cannot listen there ({exc.strerror}); "
+                              "choose another --port, or stop the program using it") from None
+
+
+def serve(
+    host: Annotated[str, typer.Option(help="Address to listen on (default: this computer only).")] = "127.0.0.1",
+    port: Annotated[int, typer.Option(help="Port to listen on.")] = 8765,
+    max_upload_mb: Annotated[float, typer.Option("--max-upload-mb", help="Largest upload, MB.")] = 50.0,
+    open_browser: Annotated[bool, typer.Option("--open/--no-open", help="Open the page in a browser.")] = False,
+) -> None:
+    """Start the local web page: drop captures, identify, tune the controller with sliders."""
+    try:
+        import uvicorn
+
+        from motorid.web import WebSettings, create_app
+    except ImportError as exc:
+        raise OptionError(f"motorid serve needs the web extra ({exc.name} is missing): "
+                          "pip install 'motorid[web]'") from None
+    settings = WebSettings(max_upload_mb=max_upload_mb)
+    _check_port(host, port)
+    if not is_loopback(host):
+        print(f"motorid: warning: listening on {host}: anyone who can reach this computer on port {port} can "
+              "use the page and upload files (there is no password); use --host 127.0.0.1 to keep it local",
+              file=sys.stderr)
+    shown = "localhost" if host in ("0.0.0.0", "::") else host  # a name the browser can open
+    url = f"http://{shown if ':' not in shown else '[' + shown + ']'}:{port}/"
+    typer.echo(f"motorid serve: {url}  (Ctrl+C stops it; uploads are deleted when it stops)")
+    if open_browser:
+        import threading
+        import webbrowser
+
+        # the browser asks once; give uvicorn a moment to bind first
+        threading.Timer(1.0, webbrowser.open, [url]).start()
+    uvicorn.run(create_app(settings), host=host.strip("[]"), port=port, log_level="warning")
 
 
 def register(app: typer.Typer) -> None:
-    """Add this module's commands to the main app (none yet)."""
+    """Add ``serve`` to the main app."""
+    app.command()(serve)

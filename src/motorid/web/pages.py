@@ -1,0 +1,231 @@
+"""The page: drop zone → inspect table → identify → model → design sliders → downloads.
+
+Each step is an htmx request answered with an HTML fragment (templates/); the tab's state
+lives in its :class:`~motorid.web.tabs.Tab`.
+"""
+
+from __future__ import annotations
+
+import shutil
+from typing import Any
+
+from fastapi import APIRouter, Request
+from fastapi.responses import FileResponse, HTMLResponse, Response
+from starlette.concurrency import run_in_threadpool
+
+from motorid.errors import MotorIdError, OptionError
+from motorid.web.tabs import PAGE_ROLES, Tab
+from motorid.web.uploads import as_uploaded, group_captures, receive_form
+
+__all__ = ["router"]
+
+router = APIRouter()
+
+#: Form fields of the identify form besides the ``role_<cid>`` selects.
+_IDENTIFY_FIELDS = ("method", "order", "step_volts", "t0", "delay")
+#: Files the download buttons serve: name → (media type, what it is).
+DOWNLOADS: dict[str, str] = {
+    "model.json": "application/json",
+    "model.m": "text/plain",
+    "design.json": "application/json",
+    "report.html": "text/html",
+}
+
+
+def _render(request: Request, name: str, status_code: int = 200, headers: dict[str, str] | None = None,
+            **context: Any) -> HTMLResponse:
+    templates = request.app.state.templates
+    return templates.TemplateResponse(request, name, context, status_code=status_code, headers=headers)
+
+
+def _tab(request: Request, tab_id: str) -> Tab:
+    tab: Tab = request.app.state.tabs.get(tab_id)
+    return tab
+
+
+@router.get("/", response_class=HTMLResponse)
+async def index(request: Request) -> HTMLResponse:
+    """The page, with a new tab (its own temporary folder)."""
+    from motorid import __version__
+    from motorid.identify.pipeline import METHODS
+
+    tab = request.app.state.tabs.open()
+    s = request.app.state.settings
+    return _render(request, "index.html", tab=tab, methods=METHODS, version=__version__,
+                   max_upload_mb=s.max_upload_mb, max_files=s.max_files)
+
+
+@router.post("/tab/{tab_id}/upload", response_class=HTMLResponse)
+async def upload(request: Request, tab_id: str) -> HTMLResponse:
+    """Store dropped files (zips unpacked), group them into captures and inspect each."""
+    from motorid.web.views import default_roles, inspect_capture
+
+    tab = _tab(request, tab_id)
+    s = request.app.state.settings
+    with tab.lock:
+        tab.uploads += 1
+        folder = tab.folder / f"upload-{tab.uploads}"
+    form = await receive_form({k.lower(): v for k, v in request.headers.items()}, request.stream(), folder,
+                              s.upload_limits())
+    caps, ignored = group_captures(form.files)
+    start = len(tab.captures)
+    entries = [await run_in_threadpool(inspect_capture, f"c{start + i}", c, folder) for i, c in enumerate(caps)]
+    with tab.lock:
+        tab.captures.extend(entries)
+        tab.ignored.extend(ignored)
+        roles = default_roles(tab.captures)
+        tab.roles = {cid: tab.roles.get(cid, role) for cid, role in roles.items()}
+    return _captures(request, tab)
+
+
+def _captures(request: Request, tab: Tab) -> HTMLResponse:
+    from motorid.identify.pipeline import METHODS
+
+    return _render(request, "_captures.html", tab=tab, roles=PAGE_ROLES, methods=METHODS)
+
+
+@router.post("/tab/{tab_id}/clear", response_class=HTMLResponse)
+async def clear(request: Request, tab_id: str) -> HTMLResponse:
+    """Forget every uploaded capture (their files are deleted) and the model."""
+    tab = _tab(request, tab_id)
+    with tab.lock:
+        for sub in tab.folder.iterdir():
+            shutil.rmtree(sub, ignore_errors=True) if sub.is_dir() else sub.unlink(missing_ok=True)
+        tab.captures.clear()
+        tab.ignored.clear()
+        tab.roles.clear()
+        tab.fit = tab.design = None
+        tab.mode_maps.clear()
+    return _captures(request, tab)
+
+
+@router.post("/tab/{tab_id}/identify", response_class=HTMLResponse)
+async def identify(request: Request, tab_id: str) -> HTMLResponse:
+    """Identify from the captures with the roles of the table and the form's options."""
+    from motorid.web.options import identify_options
+    from motorid.web.views import model_view, slider_ranges
+
+    tab = _tab(request, tab_id)
+    form = await request.form(max_files=0, max_fields=200)
+    fields: dict[str, tuple[str, ...]] = {}
+    for key, value in form.multi_items():
+        if isinstance(value, str):
+            fields[key] = (*fields.get(key, ()), value)
+    by_id = {e.cid: e for e in tab.captures}
+    roles: dict[str, str] = {}
+    for key, values in fields.items():
+        if key.startswith("role_") and key[5:] in by_id:
+            if values[-1] not in PAGE_ROLES:
+                raise OptionError(f"role {values[-1]!r}: use one of {', '.join(PAGE_ROLES)}")
+            roles[key[5:]] = values[-1]
+    opts = {k: v for k, v in fields.items() if k in _IDENTIFY_FIELDS}
+    read_kw, ident_kw = identify_options(opts)
+    chosen: dict[str, Any] = {}
+    for cid, role in roles.items():
+        if role in ("position", "velocity", "current"):
+            if role in chosen:
+                raise OptionError(f"two captures have the role {role} ({chosen[role].files.label}, "
+                                  f"{by_id[cid].files.label}): give one of them another role")
+            chosen[role] = by_id[cid]
+    if "velocity" not in chosen and "position" not in chosen:
+        raise OptionError("no capture has the role velocity or position: choose the roles in the table")
+    with tab.lock:
+        tab.roles.update(roles)
+    fit = await run_in_threadpool(_identify, tab, chosen, read_kw, ident_kw)
+    with tab.lock:
+        tab.fit, tab.design = fit, None
+        tab.mode_maps.clear()
+    return _render(request, "_model.html", tab=tab, view=await run_in_threadpool(model_view, fit),
+                   ranges=slider_ranges(fit.model))
+
+
+def _identify(tab: Tab, chosen: dict[str, Any], read_kw: dict[str, Any], ident_kw: dict[str, Any]) -> Any:
+    import motorid as mi
+
+    paths = {role: entry.files.reader_argument() for role, entry in chosen.items()}
+    try:
+        return mi.identify(mi.read_experiment(**paths, **read_kw), **ident_kw)
+    except MotorIdError as exc:
+        raise as_uploaded(exc, tab.folder) from None
+
+
+@router.post("/tab/{tab_id}/design", response_class=HTMLResponse)
+async def design(request: Request, tab_id: str) -> HTMLResponse:
+    """One move of the design sliders: design, closed loop, figure, mode-map marker."""
+    from motorid.web.views import DesignForm
+
+    tab = _tab(request, tab_id)
+    if tab.fit is None:
+        raise OptionError("identify a model first (the design panel works on the identified model)")
+    form = await request.form(max_files=0, max_fields=50)
+    dform = DesignForm.from_fields({k: v for k, v in form.items() if isinstance(v, str)})
+    view, maps = await run_in_threadpool(_design, tab, dform)
+    return _render(request, "_design_result.html", tab=tab, view=view, maps=maps, form=dform,
+                   headers={"Server-Timing": f"update;dur={view.elapsed_ms:.1f}, cpu;dur={view.cpu_ms:.1f}"})
+
+
+def _design(tab: Tab, dform: Any) -> tuple[Any, Any]:
+    from motorid.web.modemap import build_mode_maps
+    from motorid.web.views import design_update, map_limits, slider_ranges
+
+    assert tab.fit is not None
+    model = tab.fit.model
+    sat = dform.saturation_v or 10.0
+    key = (sat, dform.level_v)
+    with tab.lock:
+        maps = tab.mode_maps.get(key)
+        if maps is None and dform.level_v != 0:
+            try:
+                kp_max, kv_max = map_limits(model, slider_ranges(model))
+                maps = build_mode_maps(model, tab.folder, step_v=abs(dform.level_v), saturation_v=sat,
+                                       kp_max=kp_max, kv_max=kv_max)
+            except MotorIdError as exc:
+                maps = str(exc)  # the panel says why there is no map
+            tab.mode_maps[key] = maps
+    view = design_update(model, dform, maps if not isinstance(maps, str) else None)
+    with tab.lock:
+        tab.design = view.design
+    return view, maps
+
+
+@router.get("/tab/{tab_id}/download/{name}")
+async def download(request: Request, tab_id: str, name: str) -> Response:
+    """The model JSON, MATLAB/Octave script, design JSON or HTML report of the tab."""
+    tab = _tab(request, tab_id)
+    if name not in DOWNLOADS:
+        raise OptionError(f"no download {name!r}: use one of {', '.join(DOWNLOADS)}")
+    if tab.fit is None:
+        raise OptionError("identify a model first: the downloads are the model, its design and the report")
+    path = tab.folder / f"motorid-{name}"
+    if name == "model.json":
+        path.write_text(tab.fit.model.to_json_text() + "\n", encoding="utf-8")
+    elif name == "model.m":
+        path.write_text(tab.fit.model.to_matlab(), encoding="utf-8")
+    elif name == "design.json":
+        if tab.design is None:
+            raise OptionError("design a controller first (move a slider in the design panel)")
+        path.write_text(tab.design.to_json_text() + "\n", encoding="utf-8")
+    else:
+        await run_in_threadpool(_report, tab, path)
+    return FileResponse(path, media_type=DOWNLOADS[name], filename=path.name)
+
+
+def _report(tab: Tab, path: Any) -> None:
+    import motorid as mi
+    from motorid.io import read_capture
+
+    assert tab.fit is not None
+    # the validation captures as read (a CH1/CH2 pair of any layout), scored in the report
+    checks = [read_capture(e.files.reader_argument()) for e in tab.captures
+              if tab.roles.get(e.cid) == "validation" and e.summary is not None]
+    try:
+        mi.write_report(path, tab.fit, design=tab.design, validation=checks)
+    except MotorIdError as exc:
+        raise as_uploaded(exc, tab.folder) from None
+
+
+@router.post("/tab/{tab_id}/close")
+async def close(request: Request, tab_id: str) -> Response:
+    """The page is going away (``pagehide`` beacon): delete the tab's folder."""
+    request.app.state.tabs.close(tab_id)
+    return Response(status_code=204)

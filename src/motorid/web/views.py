@@ -1,0 +1,377 @@
+"""What the page shows, computed from the library's results.
+
+The inspect table, the model panel (its figures are the report's,
+:mod:`motorid.report.figures`) and one design update (design → closed loop → figure →
+mode-map marker).
+"""
+
+from __future__ import annotations
+
+import base64
+import math
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from motorid.errors import MotorIdError, OptionError
+from motorid.web.tabs import CaptureEntry
+from motorid.web.uploads import as_uploaded
+
+if TYPE_CHECKING:
+    from motorid.control.design import Design
+    from motorid.frontdoor import IdentificationResult
+    from motorid.model import MotorModel
+    from motorid.simulate.closed_loop import SimulationResult
+    from motorid.web.modemap import Marker, ModeMapView
+    from motorid.web.uploads import CaptureFiles
+
+__all__ = [
+    "DesignForm",
+    "DesignView",
+    "SliderRanges",
+    "default_roles",
+    "design_update",
+    "inspect_capture",
+    "map_limits",
+    "model_view",
+    "png_data_uri",
+    "slider_ranges",
+]
+
+
+def png_data_uri(data: bytes, kind: str = "png") -> str:
+    """``data:`` URI of an image (``kind``: ``png`` or ``svg+xml``)."""
+    return f"data:image/{kind};base64,{base64.b64encode(data).decode('ascii')}"
+
+
+def inspect_capture(cid: str, files: CaptureFiles, folder: Path) -> CaptureEntry:
+    """Read one uploaded capture and guess its role as ``motorid inspect`` does.
+
+    Parameters
+    ----------
+    cid : str
+        Its id on the page.
+    files : CaptureFiles
+        Its stored files.
+    folder : Path
+        The upload's folder (cut from error messages).
+
+    Returns
+    -------
+    CaptureEntry
+        With the summary, or the one-line reason it cannot be read (role ``ignore``).
+    """
+    from motorid.conditioning.inspect import describe_capture
+    from motorid.io import read_capture
+
+    try:
+        summary = describe_capture(read_capture(files.reader_argument()))
+    except MotorIdError as exc:
+        return CaptureEntry(cid, files, None, str(as_uploaded(exc, folder)), "ignore")
+    role = summary.role if summary.role in ("position", "velocity", "current") and summary.step else "validation"
+    return CaptureEntry(cid, files, summary, None, role)
+
+
+def default_roles(entries: list[CaptureEntry]) -> dict[str, str]:
+    """Each capture's role for the table: its guess, a role already taken becoming ``validation``.
+
+    Parameters
+    ----------
+    entries : list of CaptureEntry
+        In upload order.
+
+    Returns
+    -------
+    dict
+        ``cid`` → role.
+    """
+    taken: set[str] = set()
+    roles = {}
+    for e in entries:
+        role = e.guessed_role
+        if role in ("position", "velocity", "current"):
+            if role in taken:
+                role = "validation"
+            taken.add(role)
+        roles[e.cid] = role
+    return roles
+
+
+# ------------------------------------------------------------------------------------- model
+
+
+def _fmt(x: Any) -> str:
+    if isinstance(x, complex):
+        return f"{x.real:.5g}{x.imag:+.4g}j"
+    if isinstance(x, float):
+        return "—" if not math.isfinite(x) else f"{x:.5g}"
+    return str(x)
+
+
+def model_view(fit: IdentificationResult) -> dict[str, Any]:
+    """Everything the model panel shows, as strings and image URIs.
+
+    Parameters
+    ----------
+    fit : IdentificationResult
+        From :func:`motorid.identify`.
+
+    Returns
+    -------
+    dict
+        ``params`` rows (name, value, stderr, 95 % interval), ``fit`` rows, ``warnings``,
+        ``reason``, ``summary`` text, ``stages`` rows, ``figures`` (title → data URI),
+        ``laguerre`` (rows or None), ``sanity``.
+    """
+    from motorid.report import figures
+
+    model = fit.model
+    ident = fit.identification
+    params = []
+    for name, est in fit.params.items():
+        ci = "—" if est.ci95 is None else f"[{est.ci95[0]:.5g}, {est.ci95[1]:.5g}]"
+        params.append((name, _fmt(est.value), _fmt(est.stderr), ci))
+    fit_rows = [(k, f"{v:.2f} %" if k.endswith("_fit_percent") else f"{100 * v:.2f} %") for k, v in fit.fit.items()]
+    figs: dict[str, str] = {}
+    errors: list[str] = []
+
+    def add(title: str, make: Any) -> None:
+        try:
+            figs[title] = png_data_uri(make())
+        except Exception as exc:  # a figure that cannot be drawn says why, as in the report
+            errors.append(f"{title}: not available ({exc})")
+
+    add("Measured vs model step response, with residuals", lambda: figures.step_fit(model, ident.conditioned))
+    add("Poles and zeros", lambda: figures.pole_zero(model))
+    laguerre = None
+    mk = ident.candidates.get("markov")
+    if mk is not None and "hankel_singular_values_scaled" in mk.extras:
+        ex = mk.extras
+        add("Order evidence: Hankel singular values",
+            lambda: figures.hankel_values(ex["hankel_singular_values_scaled"], ex["hankel_singular_values_raw"],
+                                          ex.get("hankel_noise_floor")))
+        if ex.get("markov_basis") == "laguerre":
+            laguerre = {
+                "pole": f"{ex['laguerre_pole']:.4g}",
+                "terms": ex["laguerre_terms"],
+                "rows": [(k, f"{g:.5g}", f"{sd:.3g}") for k, (g, sd) in
+                         enumerate(zip(ex["laguerre_coefficients"], ex["laguerre_coefficients_std"], strict=False))],
+                "note": str(ex.get("markov_choice", "")),
+            }
+    stages = [(st.get("stage", ""), st.get("method", ""), st.get("order", ""), _fmt(st.get("dc_gain", "")),
+               _fmt(st.get("time_constant", "")),
+               "" if st.get("velocity_nrmse") is None else f"{100 * st['velocity_nrmse']:.2f} %",
+               st.get("evidence", st.get("failed", ""))) for st in fit.stages]
+    return {
+        "method": model.method,
+        "order": model.order,
+        "states": ", ".join(model.states),
+        "params": params,
+        "fit": fit_rows,
+        "warnings": list(fit.warnings) + errors,
+        "reason": fit.reason,
+        "summary": fit.summary(),
+        "stages": stages,
+        "figures": figs,
+        "laguerre": laguerre,
+        "sanity": "all passed" if fit.sanity.passed else "FAILED (see the warnings)",
+    }
+
+
+# ------------------------------------------------------------------------------------ design
+
+
+@dataclass(frozen=True, slots=True)
+class SliderRanges:
+    """The design sliders' ranges for one model (ωn scaled by its time constant τ)."""
+
+    damping: tuple[float, float, float, float]
+    wn: tuple[float, float, float, float]
+    duration_s: float
+
+
+def slider_ranges(model: MotorModel) -> SliderRanges:
+    """ζ from 0.2 to 2 (0.7 to start); ωn from 0.5/τ to 8/τ (2/τ to start).
+
+    Parameters
+    ----------
+    model : MotorModel
+        The identified model.
+
+    Returns
+    -------
+    SliderRanges
+        ``(min, max, step, start)`` per slider and a record length of 8/(ζωn) at the start.
+    """
+    tau = model.first_order().time_constant_s
+    tau = tau if math.isfinite(tau) and tau > 0 else 1.0
+    lo, hi = 0.5 / tau, 8.0 / tau
+    start = 2.0 / tau
+    step = float(f"{(hi - lo) / 300:.2g}")
+    dur = float(f"{max(8.0 / (0.7 * start), 0.5):.2g}")
+    return SliderRanges((0.2, 2.0, 0.01, 0.7), (float(f"{lo:.3g}"), float(f"{hi:.3g}"), step, float(f"{start:.3g}")),
+                        dur)
+
+
+@dataclass(frozen=True, slots=True)
+class DesignForm:
+    """The design panel's inputs.
+
+    Attributes
+    ----------
+    damping, wn : float
+        ζ and ωn [rad/s].
+    integral : bool
+        Integral action.
+    observer_poles : str
+        Comma-separated observer poles (empty: no observer).
+    saturation_v : float or None
+        Actuator rails ±V of the simulation and the mode map (None: none; the map then uses 10 V).
+    level_v : float
+        Reference step [V].
+    duration_s : float
+        Record length [s].
+    """
+
+    damping: float
+    wn: float
+    integral: bool = False
+    observer_poles: str = ""
+    saturation_v: float | None = 10.0
+    level_v: float = 5.0
+    duration_s: float = 3.0
+
+    @classmethod
+    def from_fields(cls, fields: Mapping[str, str]) -> DesignForm:
+        """Read the form fields.
+
+        ``damping``, ``wn``, ``integral``, ``observer_poles``, ``saturation``, ``level``,
+        ``duration``.
+
+        Raises
+        ------
+        OptionError
+            A field that is not a number (the message names it).
+        """
+        def number(name: str, default: float | None, *, positive: bool = False) -> float | None:
+            text = (fields.get(name) or "").strip()
+            if not text:
+                return default
+            try:
+                value = float(text)
+            except ValueError:
+                raise OptionError(f"{name}={text!r}: give a number") from None
+            if not math.isfinite(value) or (positive and value <= 0):
+                raise OptionError(f"{name}={text!r}: give a finite number{' > 0' if positive else ''}")
+            return value
+
+        damping = number("damping", 0.7, positive=True)
+        wn = number("wn", 1.0, positive=True)
+        level = number("level", 5.0)
+        duration = number("duration", 3.0, positive=True)
+        assert damping is not None and wn is not None and level is not None and duration is not None
+        if duration > 120:
+            raise OptionError(f"duration={duration:g}: at most 120 s on this page")
+        return cls(damping, wn, fields.get("integral", "") in ("on", "true", "1"),
+                   (fields.get("observer_poles") or "").strip(), number("saturation", None, positive=True),
+                   level, duration)
+
+
+@dataclass(frozen=True, slots=True)
+class DesignView:
+    """One update of the design panel.
+
+    Attributes
+    ----------
+    design : Design
+    simulation : SimulationResult
+    plot : str
+        The closed-loop figure (the report's :func:`motorid.report.figures.closed_loop`), data URI.
+    markers : list of Marker
+        The design on each mode map.
+    point : tuple of (float, float, str)
+        Kp, Kv and what they are.
+    elapsed_ms : float
+        Wall time of the update on the server (design + simulation + figure + marker) [ms].
+    cpu_ms : float
+        CPU time the update's thread spent [ms]: the work itself, whatever else the machine runs.
+    """
+
+    design: Design
+    simulation: SimulationResult
+    plot: str
+    markers: list[Marker]
+    point: tuple[float, float, str]
+    elapsed_ms: float
+    cpu_ms: float
+
+
+def design_update(model: MotorModel, form: DesignForm, maps: ModeMapView | None) -> DesignView:
+    """Design, simulate, draw and mark one slider position.
+
+    Parameters
+    ----------
+    model : MotorModel
+        The identified model.
+    form : DesignForm
+        The panel's inputs.
+    maps : ModeMapView or None
+        The drawn mode maps (None: no marker).
+
+    Returns
+    -------
+    DesignView
+
+    Raises
+    ------
+    OptionError, ControlDesignError
+        A design that cannot be made (bad observer poles, …).
+    """
+    import motorid as mi
+    from motorid.control.feedback import parse_poles
+    from motorid.report import figures
+    from motorid.web.modemap import design_point, mark
+
+    t0, c0 = time.perf_counter(), time.thread_time()
+    observer = None
+    if form.observer_poles:
+        observer = [complex(p) for p in parse_poles(form.observer_poles, "observer poles")]
+    des = mi.design(model, damping=form.damping, wn=form.wn, integral=form.integral, observer_poles=observer)
+    sim = mi.simulate(model, des, duration_s=form.duration_s, level_v=form.level_v, saturation=form.saturation_v)
+    cols = sim.columns()
+    series = {"reference": cols["reference"], f"output ({sim.output})": cols["output"], "u (control)": cols["u"]}
+    sat = f", rails ±{form.saturation_v:g} V" if form.saturation_v else ""
+    plot = png_data_uri(figures.closed_loop(cols["time"], series,
+                                            f"closed loop: ζ = {form.damping:g}, ωn = {form.wn:g} rad/s{sat}"))
+    kp, kv, what = design_point(model, des, form.damping, form.wn)
+    markers = mark(maps, kp, kv) if maps is not None else []
+    return DesignView(des, sim, plot, markers, (kp, kv, what), 1e3 * (time.perf_counter() - t0),
+                      1e3 * (time.thread_time() - c0))
+
+
+def map_limits(model: MotorModel, ranges: SliderRanges) -> tuple[float, float]:
+    """Upper ends of the mode map's gain axes: 1.1 × the (Kp, Kv) of the sliders' far corner.
+
+    Parameters
+    ----------
+    model : MotorModel
+        The identified model.
+    ranges : SliderRanges
+        The sliders.
+
+    Returns
+    -------
+    (float, float)
+        ``kp_max``, ``kv_max`` (positive).
+    """
+    from motorid.control.feedback import place_gains, poles_from_damping
+    from motorid.simulate.modes import servo_plants
+
+    second = servo_plants(model)[0]
+    poles, _ = poles_from_damping(ranges.damping[1], ranges.wn[1], 2)
+    k = place_gains(second.A, second.B, poles).ravel()
+    kp = abs(float(k[0])) if math.isfinite(k[0]) and k[0] != 0 else 1.0
+    kv = abs(float(k[1])) if math.isfinite(k[1]) and k[1] != 0 else 1.0
+    return 1.1 * kp, 1.1 * kv

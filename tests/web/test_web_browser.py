@@ -1,0 +1,133 @@
+"""Issue 18: the page in a real headless Chromium (Playwright driving Debian's /usr/bin/chromium):
+upload the demo captures, wait for the model, move a slider, see the plot change, download
+the report.  Screenshots are kept in tests/artefacts/web/."""
+
+from __future__ import annotations
+
+import shutil
+import socket
+import threading
+import time
+from pathlib import Path
+
+import pytest
+from webhelpers import ARTEFACTS
+
+from motorid.report import SECTIONS
+
+CHROMIUM = Path("/usr/bin/chromium")
+
+
+@pytest.fixture(scope="module")
+def chromium() -> str:
+    exe = str(CHROMIUM) if CHROMIUM.exists() else shutil.which("chromium")
+    if exe is None:
+        pytest.skip("no Chromium: install Debian's package 'chromium' (.ci/run does); Playwright's own browser "
+                    "download is not used")
+    pytest.importorskip("playwright.sync_api", reason="playwright (Python) is not installed: pip install -e '.[test]'")
+    return exe
+
+
+@pytest.fixture
+def live_server(tmp_path):
+    """The app under uvicorn in a thread on a free port; stopped (and its folder gone) afterwards."""
+    import uvicorn
+
+    from motorid.web import WebSettings, create_app
+
+    root = tmp_path / "root"
+    root.mkdir()
+    app = create_app(WebSettings(temp_root=root))
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning"))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    deadline = time.monotonic() + 30
+    while not server.started:  # a condition polled, with a deadline
+        assert thread.is_alive() and time.monotonic() < deadline, "uvicorn did not start"
+        time.sleep(0.02)
+    yield f"http://127.0.0.1:{port}", app, root
+    server.should_exit = True
+    thread.join(timeout=30)
+    assert list(root.iterdir()) == []  # the server's temporary folder went with it
+
+
+def test_lab_page_in_headless_chromium(chromium, live_server, demo_files):
+    from playwright.sync_api import sync_playwright
+
+    url, app, _ = live_server
+    ARTEFACTS.mkdir(parents=True, exist_ok=True)
+    console: list[str] = []
+    foreign: list[str] = []
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
+        context = browser.new_context(viewport={"width": 1280, "height": 900}, accept_downloads=True)
+        page = context.new_page()
+        page.on("console", lambda m: console.append(m.text) if m.type == "error" else None)
+        page.on("request", lambda r: foreign.append(r.url) if not r.url.startswith((url, "data:")) else None)
+        page.goto(url + "/")
+        assert len(app.state.tabs) == 1
+
+        # 1. drop the demo's twelve files (the file input behind the drop zone)
+        page.set_input_files("#files", [str(f) for f in demo_files])
+        page.wait_for_selector("#inspect-table tr#row-c5", timeout=60_000)
+        roles = [page.input_value(f"select[name=role_c{i}]") for i in range(6)]
+        assert roles == ["position", "velocity", "current", "validation", "validation", "validation"]
+        page.screenshot(path=str(ARTEFACTS / "1-captures.png"), full_page=True)
+
+        # 2. identify; the indicator shows while it runs; wait for the model and the first design
+        page.click("#identify-button")
+        page.wait_for_selector("#model-panel", timeout=120_000)
+        page.wait_for_selector("#closed-loop-plot", timeout=60_000)
+        assert page.locator("#params tr").count() >= 3
+        page.screenshot(path=str(ARTEFACTS / "2-model.png"), full_page=True)
+
+        # 3. move the ωn slider with the keyboard, as a user would; the plot and the marker follow
+        before = page.get_attribute("#closed-loop-plot", "src")
+        marker_before = page.get_attribute("#mode-map circle.marker", "cx")
+        kp_before = float(page.get_attribute("#design-view", "data-kp"))
+        page.focus("#wn")
+        t0 = page.evaluate("performance.now()")
+        for _ in range(25):
+            page.keyboard.press("ArrowRight")
+        page.wait_for_function("src => document.querySelector('#closed-loop-plot').getAttribute('src') !== src",
+                               arg=before, timeout=30_000)
+        # the page settles on the slider's last position (requests are queued, the last one kept)
+        page.wait_for_function("() => Number(document.querySelector('#design-view').dataset.wn) === "
+                               "Number(document.querySelector('#wn').value)", timeout=30_000)
+        elapsed_ms = page.evaluate("performance.now()") - t0
+        assert page.get_attribute("#closed-loop-plot", "src") != before
+        assert float(page.get_attribute("#design-view", "data-kp")) > kp_before  # faster poles: larger gain
+        assert page.get_attribute("#mode-map circle.marker", "cx") != marker_before
+        wn_shown = float(page.text_content("#wn + output"))
+        assert wn_shown == pytest.approx(float(page.input_value("#wn")))
+        (ARTEFACTS / "slider_roundtrip_ms.txt").write_text(f"{elapsed_ms:.0f} ms from the first of 25 key presses until the page shows the last position\n")
+        page.screenshot(path=str(ARTEFACTS / "3-design.png"), full_page=True)
+        page.set_viewport_size({"width": 1280, "height": 1560})
+        page.evaluate("document.querySelector('#design-form').scrollIntoView()")
+        page.screenshot(path=str(ARTEFACTS / "4-controller.png"))  # the view docs/web.md shows
+
+        # 4. download the report (with the design) and the design JSON
+        with page.expect_download(timeout=120_000) as dl:
+            page.click("#dl-report")
+        report = Path(dl.value.path()).read_text(encoding="utf-8")
+        assert dl.value.suggested_filename == "motorid-report.html"
+        for sid in SECTIONS:
+            assert f'<section id="{sid}">' in report, sid
+        assert "no controller design given" not in report
+        with page.expect_download() as dl:
+            page.click("#dl-design")
+        assert '"schema": "motorid.design/1"' in Path(dl.value.path()).read_text(encoding="utf-8")
+
+        # 5. closing the tab deletes its folder (the pagehide beacon)
+        page.close(run_before_unload=True)
+        deadline = time.monotonic() + 10
+        while len(app.state.tabs) and time.monotonic() < deadline:  # the beacon is asynchronous
+            time.sleep(0.05)
+        assert len(app.state.tabs) == 0
+        context.close()
+        browser.close()
+    assert console == [], console[:5]
+    assert foreign == []

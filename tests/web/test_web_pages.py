@@ -1,0 +1,179 @@
+"""Issue 18: the page's endpoints with fastapi.testclient — upload → inspect → identify →
+design → downloads — checked against the front door run on the same files."""
+
+from __future__ import annotations
+
+import io
+import json
+import re
+import statistics
+import zipfile
+
+import numpy as np
+import pytest
+from webhelpers import ARTEFACTS, multipart, open_tab
+
+import motorid as mi
+from motorid.cli.demo import CAPTURE_ORDER
+from motorid.report import SECTIONS
+
+ROLES = {"c0": "position", "c1": "velocity", "c2": "current", "c3": "validation", "c4": "validation",
+         "c5": "validation"}
+
+
+def _roles_in(html: str) -> dict[str, str]:
+    return dict(re.findall(r'name="role_(c\d+)".*?<option value="(\w+)" selected', html, re.S))
+
+
+def test_page_ships_every_asset_and_opens_a_tab_folder(client, web_root):
+    page = client.get("/")
+    assert page.status_code == 200
+    tab = re.search(r'data-tab="([0-9a-f]{32})"', page.text).group(1)
+    # no internet needed: every script and style is served by the app itself
+    assert not re.search(r'(src|href)\s*=\s*"(https?:)?//', page.text)
+    for asset in re.findall(r'(?:src|href)="(/static/[^"]+)"', page.text):
+        assert client.get(asset).status_code == 200, asset
+    assert "htmx" in client.get("/static/htmx.min.js").text[:200]
+    folders = [p.name for p in next(web_root.iterdir()).iterdir()]
+    assert folders == [f"tab-{tab}"]
+
+
+def test_upload_pairs_channel_files_and_guesses_roles(client, demo_files):
+    tab = open_tab(client)
+    res = client.post(f"/tab/{tab}/upload", files=multipart("files", demo_files))
+    assert res.status_code == 200, res.text
+    # six captures, each a CH1 + CH2 pair, in the demo's order; roles as the trainer recorded them
+    labels = re.findall(r"<code>(F\d{4}CH1\.CSV \+ F\d{4}CH2\.CSV)</code>", res.text)
+    assert labels == [f"F{i:04d}CH1.CSV + F{i:04d}CH2.CSV" for i in range(6)]
+    truth = {f"c{i}": (name if name in ("position", "velocity", "current") else "validation")
+             for i, name in enumerate(CAPTURE_ORDER)}
+    assert _roles_in(res.text) == truth
+
+
+def test_upload_zip_of_scope_folders(client, demo_files, tmp_path):
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as zf:
+        for p in demo_files[:6]:  # ALL0000..ALL0002
+            zf.write(p, f"lab/{p.parent.name}/{p.name}")
+    tab = open_tab(client)
+    res = client.post(f"/tab/{tab}/upload", files=[("files", ("lab.zip", buf.getvalue(), "application/zip"))])
+    assert res.status_code == 200, res.text
+    labels = re.findall(r"<code>([^<]+)</code>", res.text.split('id="inspect-table"')[1])[:3]
+    # members keep their scope folder, under a folder named after the zip
+    assert labels == [f"lab/ALL{i:04d}/F{i:04d}CH1.CSV + F{i:04d}CH2.CSV" for i in range(3)]
+    assert _roles_in(res.text) == {"c0": "position", "c1": "velocity", "c2": "current"}
+
+
+@pytest.fixture(scope="module")
+def demo_fit(demo_run):
+    """The front door on the same files: the independent computation the page is checked against."""
+    d = demo_run.folder
+    exp = mi.read_experiment(position=d / "ALL0000", velocity=d / "ALL0001", current=d / "ALL0002")
+    return mi.identify(exp)
+
+
+def _identified_tab(client, demo_files) -> str:
+    tab = open_tab(client)
+    assert client.post(f"/tab/{tab}/upload", files=multipart("files", demo_files)).status_code == 200
+    form = {f"role_{k}": v for k, v in ROLES.items()} | {"method": "auto", "order": "auto", "delay": "auto"}
+    res = client.post(f"/tab/{tab}/identify", data=form)
+    assert res.status_code == 200, res.text
+    return tab
+
+
+def test_identify_design_and_downloads_match_the_front_door(client, demo_files, demo_fit):
+    tab = _identified_tab(client, demo_files)
+    model = client.get(f"/tab/{tab}/download/model.json")
+    assert model.status_code == 200
+    assert 'filename="motorid-model.json"' in model.headers["content-disposition"]
+    got, want = model.json(), demo_fit.to_json()
+    assert got["method"] == want["method"] and got["states"] == want["states"]
+    for key in ("dc_gain", "time_constant"):  # same files, same options: the same numbers
+        assert got["first_order"][key] == pytest.approx(want["first_order"][key], rel=1e-9)
+    script = client.get(f"/tab/{tab}/download/model.m").text
+    assert script == demo_fit.model.to_matlab()
+
+    res = client.post(f"/tab/{tab}/design", data={"damping": "0.8", "wn": "6", "saturation": "10", "level": "5",
+                                                  "duration": "3"})
+    assert res.status_code == 200, res.text
+    assert re.match(r"update;dur=\d", res.headers["server-timing"])
+    design = client.get(f"/tab/{tab}/download/design.json").json()
+    ref = mi.design(demo_fit.model, damping=0.8, wn=6.0).to_json()
+    np.testing.assert_allclose(design["K"], ref["K"], rtol=1e-9)
+    sim = mi.simulate(demo_fit.model, mi.design(demo_fit.model, damping=0.8, wn=6.0), duration_s=3.0,
+                      level_v=5.0, saturation=10.0)
+    shown = re.search(r"overshoot</td><td>([^ ]+) %", res.text).group(1)
+    assert float(shown) == pytest.approx(sim.metrics.overshoot_pct, rel=1e-2, abs=1e-3)
+    # the mode map: the library's SVG plus one marker per map, its mode read off the map
+    assert res.text.count('<circle class="marker') == 2
+    assert re.search(r"on the 2nd order map", res.text)
+
+    report = client.get(f"/tab/{tab}/download/report.html")
+    assert report.status_code == 200
+    for sid in SECTIONS:
+        assert f'<section id="{sid}">' in report.text, sid
+    assert "no controller design given" not in report.text  # the design went into the report
+    assert "no validation captures given" not in report.text  # the sine/triangle/square went in
+
+
+def test_slider_moves_change_the_design_and_stay_within_the_time_budget(client, demo_files):
+    tab = _identified_tab(client, demo_files)
+    base = {"damping": "0.7", "saturation": "10", "level": "5", "duration": "3"}
+    first = client.post(f"/tab/{tab}/design", data=base | {"wn": "4"})  # draws the mode map once
+    assert first.status_code == 200
+    wall, cpu, plots, kps = [], [], set(), []
+    for wn in np.linspace(3.0, 12.0, 12):
+        res = client.post(f"/tab/{tab}/design", data=base | {"wn": f"{wn:.3f}"})
+        assert res.status_code == 200
+        timing = dict(re.findall(r"(\w+);dur=([\d.]+)", res.headers["server-timing"]))
+        wall.append(float(timing["update"]))
+        cpu.append(float(timing["cpu"]))
+        plots.add(re.search(r'id="closed-loop-plot" alt="[^"]*" src="([^"]+)"', res.text).group(1))
+        kps.append(float(re.search(r'data-kp="([^"]+)"', res.text).group(1)))
+    assert len(plots) == 12  # every slider position draws its own response
+    # Kp of the map's loop grows as ωn² (s² + 2ζωn s + ωn² on the 2nd-order plant)
+    sent = np.array([float(f"{wn:.3f}") for wn in np.linspace(3.0, 12.0, 12)])
+    np.testing.assert_allclose(np.array(kps) / sent**2, kps[0] / sent[0] ** 2, rtol=1e-5)  # data-kp: 6 digits
+    ARTEFACTS.mkdir(parents=True, exist_ok=True)
+    (ARTEFACTS / "update_times_ms.json").write_text(json.dumps(
+        {"cpu_median": statistics.median(cpu), "wall_median": statistics.median(wall), "cpu": cpu, "wall": wall},
+        indent=1))
+    # the budget: 200 ms per update.  Held on the CPU time of the update's thread (design,
+    # closed loop, the report's figure, the marker), which is the wall time on an idle core and
+    # does not flake on a runner shared with other jobs; wall times are in the artefact.
+    assert statistics.median(cpu) <= 200, cpu
+
+
+def test_tab_close_deletes_its_folder_and_session(client, demo_files, web_root):
+    tab = _identified_tab(client, demo_files)
+    folder = next(web_root.iterdir()) / f"tab-{tab}"
+    assert any(folder.rglob("*.CSV"))
+    assert client.post(f"/tab/{tab}/close").status_code == 204
+    assert not folder.exists()
+    res = client.post(f"/tab/{tab}/design", data={"damping": "0.7", "wn": "5"})
+    assert res.status_code == 422
+    assert res.text.count("\n") == 0 and "reload the page" in res.text
+
+
+def test_server_stop_deletes_every_upload(make_client, demo_files, web_root):
+    c = make_client()
+    tab = open_tab(c)
+    c.post(f"/tab/{tab}/upload", files=multipart("files", demo_files[:2]))
+    assert any(web_root.rglob("*.CSV"))
+    c.__exit__(None, None, None)
+    assert list(web_root.iterdir()) == []
+
+
+def test_page_errors_are_the_cli_line_in_the_error_box(client, demo_files):
+    tab = open_tab(client)
+    res = client.get(f"/tab/{tab}/download/model.json")
+    assert res.status_code == 422
+    assert res.headers["hx-retarget"] == "#errors"
+    assert re.fullmatch(r'<p class="error">motorid: error: identify a model first[^\n<]*</p>', res.text)
+    client.post(f"/tab/{tab}/upload", files=multipart("files", demo_files))
+    # two captures given the same role: refused before any work, naming both
+    form = {f"role_{k}": v for k, v in ROLES.items()} | {"role_c1": "position"}
+    res = client.post(f"/tab/{tab}/identify", data=form)
+    assert res.status_code == 422 and "two captures have the role position" in res.text
+    res = client.post(f"/tab/{tab}/identify", data={f"role_{k}": v for k, v in ROLES.items()} | {"order": "7"})
+    assert res.status_code == 422 and "order" in res.text

@@ -1,0 +1,62 @@
+"""Issue 18: ``motorid serve`` — loopback by default, a warning otherwise, options checked."""
+
+from __future__ import annotations
+
+import socket
+
+import pytest
+
+from motorid.cli.serve import is_loopback
+
+
+@pytest.mark.parametrize(("host", "local"), [
+    ("127.0.0.1", True), ("127.8.9.1", True), ("localhost", True), ("::1", True), ("[::1]", True),
+    ("0.0.0.0", False), ("192.168.1.20", False), ("::", False), ("lab-pc.example.org", False),
+])
+def test_is_loopback(host, local):
+    assert is_loopback(host) is local
+
+
+@pytest.fixture
+def fake_uvicorn(monkeypatch):
+    """Record what ``serve`` would run instead of running it."""
+    import uvicorn
+
+    calls = []
+    monkeypatch.setattr(uvicorn, "run", lambda app, **kw: calls.append((app, kw)))
+    return calls
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_serve_defaults_to_this_computer_only(run_cli, fake_uvicorn):
+    port = _free_port()
+    res = run_cli("serve", "--port", str(port), "--max-upload-mb", "7")
+    assert res.code == 0, res.err
+    app, kw = fake_uvicorn[0]
+    assert kw["host"] == "127.0.0.1" and kw["port"] == port
+    assert app.state.settings.max_upload_mb == 7
+    assert "warning" not in res.err
+    assert f"http://127.0.0.1:{port}/" in res.out
+
+
+def test_serve_warns_when_listening_beyond_loopback(run_cli, fake_uvicorn):
+    res = run_cli("serve", "--host", "0.0.0.0", "--port", str(_free_port()))
+    assert res.code == 0, res.err
+    assert fake_uvicorn[0][1]["host"] == "0.0.0.0"
+    assert res.err.startswith("motorid: warning: listening on 0.0.0.0") and res.err.count("\n") == 1
+
+
+def test_serve_refuses_bad_options_in_one_line(run_cli, fake_uvicorn):
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        res = run_cli("serve", "--port", str(busy.getsockname()[1]))
+    assert res.code == 2 and res.err.startswith("motorid: error: --host 127.0.0.1 --port") and res.err.count("\n") == 1
+    res = run_cli("serve", "--max-upload-mb", "0")
+    assert res.code == 2 and "--max-upload-mb" in res.err
+    assert fake_uvicorn == []
