@@ -116,6 +116,7 @@ def _zip(members: dict[str, bytes], links: dict[str, str] | None = None) -> byte
 @pytest.mark.parametrize(("case", "needle"), [
     ("not-a-capture", "not a capture"),
     ("no-files", "no capture in the fields velocity or position"),
+    ("not-a-capture-file", "field velocity: truth.json is not a capture file"),
     ("stray-field", "files in field 'voltage'"),
     ("two-captures", "field velocity holds 2 captures"),
     ("unknown-option", "unknown field 'colour'"),
@@ -132,6 +133,8 @@ def test_api_identify_refuses_bad_uploads(client, demo_run, web_root, sealed_tmp
         kw = {"files": [("velocity", ("scope.csv", b"\x00\x01 this is no capture\n" * 50, "text/csv"))]}
     elif case == "no-files":
         kw = {"data": {"method": "auto"}, "files": [("current", ("x.csv", (d / "ALL0002/F0002CH2.CSV").read_bytes()))]}
+    elif case == "not-a-capture-file":
+        kw = {"files": [("velocity", ("truth.json", (d / "truth.json").read_bytes(), "application/json"))]}
     elif case == "stray-field":
         kw = {"files": [*good, ("voltage", ("F0009CH1.CSV", b"1,2\n"))]}
     elif case == "two-captures":

@@ -113,6 +113,16 @@ class TabStore:
     def get(self, tab_id: str) -> Tab:
         """The open tab ``tab_id``.
 
+        Parameters
+        ----------
+        tab_id : str
+            The id the page holds.
+
+        Returns
+        -------
+        Tab
+            Marked as just seen.
+
         Raises
         ------
         OptionError
@@ -128,6 +138,11 @@ class TabStore:
 
     def close(self, tab_id: str) -> bool:
         """Close a tab and delete its folder.
+
+        Parameters
+        ----------
+        tab_id : str
+            The id the page holds.
 
         Returns
         -------

@@ -129,7 +129,13 @@ class CaptureFiles:
     field: str = "files"
 
     def reader_argument(self) -> str | list[str]:
-        """The argument :func:`motorid.io.read_capture` takes: one path, or the channel files."""
+        """The argument :func:`motorid.io.read_capture` takes.
+
+        Returns
+        -------
+        str or list of str
+            One path, or the channel files in order.
+        """
         return str(self.paths[0]) if len(self.paths) == 1 else [str(p) for p in self.paths]
 
 

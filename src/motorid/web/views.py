@@ -42,7 +42,20 @@ __all__ = [
 
 
 def png_data_uri(data: bytes, kind: str = "png") -> str:
-    """``data:`` URI of an image (``kind``: ``png`` or ``svg+xml``)."""
+    """``data:`` URI of an image.
+
+    Parameters
+    ----------
+    data : bytes
+        The image file's bytes.
+    kind : str
+        ``png`` or ``svg+xml``.
+
+    Returns
+    -------
+    str
+        ``data:image/<kind>;base64,…``.
+    """
     return f"data:image/{kind};base64,{base64.b64encode(data).decode('ascii')}"
 
 
