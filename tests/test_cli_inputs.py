@@ -173,14 +173,25 @@ def test_check_writable_library_behaviour(tmp_path):
 
 # --- one capture per role -------------------------------------------------------------------
 
-@pytest.mark.parametrize("command", ["identify", "report", "sweep"])
+@pytest.mark.parametrize("command", ["report", "sweep"])
 def test_a_role_given_twice_is_refused(caps, run_cli, tmp_path, command):
     out = ("--out", tmp_path / "r.html") if command == "report" else ()
     res = run_cli(command, *out, "--velocity", caps / "ALL0001", "--velocity", caps / "ALL0001", "--current",
                   caps / "ALL0002")
     line = _refused(res, "--velocity", "2 times", "several step levels")
-    assert "not supported yet" in line
+    assert "several step levels are identified from velocity captures" in line
     assert _files(tmp_path) == set()
+
+
+def test_identify_with_one_level_given_twice_says_two_moving_levels_are_needed(caps, run_cli, tmp_path):
+    # issue 15: --velocity twice is the several-levels path; one level twice cannot show a dead-zone
+    res = run_cli("identify", "--velocity", caps / "ALL0001", "--velocity", caps / "ALL0001",
+                  "--json", tmp_path / "m.json")
+    assert res.code == 2, res.out
+    assert res.err.count("\n") == 1 and "at least two step levels that move the motor" in res.err
+    assert _files(tmp_path) == set()
+    res = run_cli("identify", "--position", caps / "ALL0000", "--position", caps / "ALL0000")
+    assert res.code == 2 and "--position given 2 times" in res.err
 
 
 # --- the role check -------------------------------------------------------------------------

@@ -40,7 +40,8 @@ def test_the_saturated_level_is_flagged_and_left_out():
     fit = _fit(exp)
     status = {round(p.step_volts): p.status for p in fit.points}
     assert status[10] == "saturated" and status[8] == "moving"
-    assert fit.saturation_input_v == pytest.approx(10.0, abs=0.01)
+    # the input at which the law reaches the saturated output: the trainer's rails
+    assert fit.saturation_input_v == pytest.approx(exp.truth.saturation_input_v, abs=0.15)
     assert any("saturation" in w for w in fit.warnings)
     # the line is fitted without it, so the gain is still the linear one
     assert fit.gain == pytest.approx(exp.truth.gain, rel=0.01)

@@ -288,8 +288,8 @@ def _one_per_role(position, velocity, current) -> dict[str, str | None]:
     for role, specs in (("position", position), ("velocity", velocity), ("current", current)):
         specs = [specs] if isinstance(specs, str) else list(specs or [])
         if len(specs) > 1:
-            raise OptionError(f"--{role} given {len(specs)} times ({', '.join(specs)}): several step levels "
-                              f"of one motor are not supported yet; give one --{role} capture")
+            raise OptionError(f"--{role} given {len(specs)} times ({', '.join(specs)}): several step levels are "
+                              f"identified from velocity captures (--velocity once per level); give one --{role}")
         given[role] = specs[0] if specs else None
     if not (given["velocity"] or given["position"]):
         raise OptionError("give at least --velocity CAP or --position CAP")
@@ -381,11 +381,20 @@ def identify(
         "--delay/--no-delay",
         help="oe/auto: fit a dead time in every structure (--delay) or in none (--no-delay); default: "
              "tried when the data stay flat for a while after the step, BIC decides.")] = None,
-    step_volts: Annotated[float | None, typer.Option(
+    step_volts: Annotated[str | None, typer.Option(
         "--step-volts",
-        help="Step level for captures without an input channel.")] = None,
+        help="Step level for captures without an input channel; with several levels, one per capture "
+             "(V1,V2,...).")] = None,
     t0: Annotated[float | None, typer.Option("--t0", help="Step instant on the files' time axis.")] = None,
     columns: Annotated[str | None, typer.Option(help="Plain CSV column map, e.g. time=t,input=u,velocity=rpm.")] = None,
+    experiment: Annotated[list[str] | None, typer.Option(
+        "--experiment",
+        help="A step experiment at one level (a capture folder, or a folder of ALLnnnn captures: its velocity "
+             "one is used); repeat per level.")] = None,
+    dead_zone: Annotated[bool, typer.Option(
+        "--dead-zone",
+        help="Identify the dead-zone, gain and rails from several step levels (implied by several --velocity "
+             "or --experiment).")] = False,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the model JSON (CONTRACT.md) here.")] = None,
     matlab_out: Annotated[Path | None, typer.Option(
         "--matlab",
@@ -403,12 +412,30 @@ def identify(
         "--force-role",
         help="Keep a capture's role flag even when it looks like another role.")] = False,
 ) -> None:
-    """Identify the motor model from step captures (paper sections III-VI)."""
+    """Identify the motor model from step captures (paper sections III-VI).
+
+    Several step levels (``--velocity`` repeated, ``--experiment`` or ``--dead-zone``) give a
+    Hammerstein model: dead-zone, gain and rails in front of shared dynamics (issue 15).
+    """
+    from motorid.cli.levels import parse_levels
     from motorid.identify.pipeline import IdentifySettings, identify_experiment
 
+    levels = parse_levels(step_volts)
+    velocities = [velocity] if isinstance(velocity, str) else list(velocity or [])
+    if dead_zone or experiment or len(velocities) > 1:
+        check_writable({"--json": json_out, "--matlab": matlab_out, "--report": report_out}, force=force,
+                       create_parents=False)
+        _identify_levels(velocities, experiment or [], levels, columns, json_out=json_out, matlab_out=matlab_out,
+                         report_out=report_out,
+                         ignored=[f"--{r}" for r, v in (("position", position), ("current", current)) if v])
+        return
+    if levels is not None and len(levels) > 1:
+        raise OptionError(f"--step-volts gives {len(levels)} levels for one step experiment; several levels go "
+                          "with --velocity once per level (or --experiment)")
+    step_volts_v = None if levels is None else levels[0]
     _check_options(method=method, order=order, reduction=reduction, derivative=derivative, structure=structure,
                    sync=sync, ratio=ratio, sample_interval=sample_interval, record_length=record_length,
-                   step_volts=step_volts, t0=t0, markov_params=markov_params, markov_window=markov_window,
+                   step_volts=step_volts_v, t0=t0, markov_params=markov_params, markov_window=markov_window,
                    markov_basis=markov_basis)
     check_writable({"--json": json_out, "--matlab": matlab_out, "--report": report_out}, force=force,
                    create_parents=False)
@@ -433,7 +460,7 @@ def identify(
         from motorid.control.design_io import read_design_json as read_design
 
         doc = read_design(design) if design is not None else None
-    result = identify_experiment(caps, settings, step_volts=step_volts, t0_s=t0)
+    result = identify_experiment(caps, settings, step_volts=step_volts_v, t0_s=t0)
     con = _console()
     _print_model(con, result.model, "identified model")
     con.print(f"choice: {result.reason}")
@@ -450,6 +477,34 @@ def identify(
         if path is not None:
             con.print(f"{label}: {path}")
     _strict_exit(result, strict)
+
+
+def _identify_levels(velocities: list[str], experiments: list[str], levels: list[float] | None,
+                     columns: str | None, *, json_out: Path | None, matlab_out: Path | None,
+                     report_out: Path | None, ignored: list[str]) -> None:
+    """The several-step-levels path of ``identify`` (issue 15)."""
+    from motorid.cli.levels import experiment_capture, identify_levels_cmd
+    from motorid.io import read_capture
+
+    colmap = _parse_columns(columns)
+    caps = [read_capture(_capture_paths(v), columns=colmap, role="velocity") for v in velocities]
+    caps += [experiment_capture(d) for d in experiments]
+    con = _console()
+    result = identify_levels_cmd(con, caps, levels, ignored=ignored)
+    model = result.model  # type: ignore[attr-defined]
+    _print_model(con, model, "linear part of the Hammerstein model (input: u with the dead-zone removed)")
+    with atomic_outputs() as outs:
+        if json_out is not None:
+            outs.write_text(json_out, model.to_json_text())
+        if matlab_out is not None:
+            outs.write_text(matlab_out, model.to_matlab())
+        if report_out is not None:
+            from motorid.report.levels import build_levels_report
+
+            outs.write_text(report_out, build_levels_report(result))  # type: ignore[arg-type]
+    for label, path in (("model JSON", json_out), ("MATLAB/Octave script", matlab_out), ("report", report_out)):
+        if path is not None:
+            con.print(f"{label}: {path}")
 
 
 def _validation_captures(specs: list[str] | None, columns: str | None) -> dict:

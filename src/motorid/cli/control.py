@@ -206,6 +206,14 @@ def design(
         typer.echo("plant + observer + feedback poles (separation): "
                    + ", ".join(_fmt_pole(p) for p in ofb_poles))
     typer.echo("Routh-Hurwitz: " + "; ".join(d.routh))
+    if d.dead_zone_v is not None:
+        info = d.dead_zone_info()
+        bound = info["steady_state_error_bound_v"]
+        typer.echo(f"dead-zone: u0 = {d.dead_zone_v:.4g} V in the model"
+                   + ("" if bound is None else
+                      f"; without compensation a position step may stop anywhere within ±{bound:.4g} V "
+                      "(u0 / k_position)")
+                   + "; simulate --compensate-dead-zone adds u0·sign(u) to the command (inverse dead-zone)")
     for w in d.warnings:
         typer.echo(f"warning: {w}")
     if json_out is not None:
@@ -233,6 +241,10 @@ def simulate(
     xhat0: Annotated[str | None, typer.Option("--xhat0", help="Initial observer estimate.")] = None,
     plant: Annotated[str, typer.Option(help="linear (the model) or trainer (virtual trainer, nonlinear).")] = "linear",
     preset: Annotated[str, typer.Option(help="Trainer preset for --plant trainer.")] = "lab-report",
+    compensate_dead_zone: Annotated[bool, typer.Option(
+        "--compensate-dead-zone",
+        help="Add the model's dead-zone to the command (inverse dead-zone feed-forward; a model identified "
+             "from several step levels).")] = False,
     csv_out: Annotated[Path | None, typer.Option("--csv", help="Write the time series as CSV.")] = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write metrics and series as JSON.")] = None,
     png: Annotated[Path | None, typer.Option("--png", help="Write a plot.")] = None,
@@ -258,6 +270,7 @@ def simulate(
                                   frequency_hz=frequency, start_s=start),
         saturation_v=saturation, disturbance_v=disturbance, disturbance_start_s=disturbance_start,
         x0=_floats(x0, "--x0"), z0=z0, xhat0=_floats(xhat0, "--xhat0"), plant=plant, trainer_preset=preset,
+        dead_zone_compensation=compensate_dead_zone,
     )
     model = load_model(model_file)
     d = _load_design(design_file)

@@ -297,8 +297,8 @@ def acquire(
         table.add_row(w.name, channel_file(saved, index, w.channel).name, f"{w.volts_per_div:g}", str(v.size),
                       f"{w.preamble.xincr:.6g}", f"{v.min():.4g}", f"{v.max():.4g}")
     con.print(table)
-    for w in acq.warnings:
-        con.print(f"[yellow]warning:[/yellow] {w}")
+    for note in acq.warnings:
+        con.print(f"[yellow]warning:[/yellow] {note}")
     con.print(f"saved: {saved}")
     if not identify:
         return
@@ -310,7 +310,7 @@ def acquire(
     identify_command(position=[specs["position"]] if "position" in specs else None,
                      velocity=[specs["velocity"]] if "velocity" in specs else None,
                      current=[specs["current"]] if "current" in specs else None,
-                     step_volts=step_volts, json_out=json_out, force=force)
+                     step_volts=None if step_volts is None else repr(step_volts), json_out=json_out, force=force)
 
 
 def register(app: typer.Typer) -> None:

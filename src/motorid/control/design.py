@@ -164,6 +164,9 @@ class Design:
         coordinates (:mod:`.coordinates`); None when ``states`` are the model's.
     transform : ndarray, shape (n, n), or None
         ``T`` of ``states = T · model_states``; ``K @ T`` is the gain row on the model's states.
+    dead_zone_v : float or None
+        The model's dead-zone (a Hammerstein model from several step levels), offered for
+        compensation by inverse dead-zone feed-forward (``u + u₀·sign(u)``, issue 15).
     """
 
     states: tuple[str, ...]
@@ -179,6 +182,7 @@ class Design:
     warnings: tuple[str, ...] = field(default=())
     model_states: tuple[str, ...] | None = None
     transform: np.ndarray | None = None
+    dead_zone_v: float | None = None
 
     @property
     def K_model(self) -> np.ndarray:
@@ -235,7 +239,29 @@ class Design:
             "output_feedback_poles": _pairs(self.output_feedback_poles),
             "routh": list(self.routh),
             "warnings": list(self.warnings),
-        }
+        } | ({} if self.dead_zone_v is None else {"dead_zone": self.dead_zone_info()})
+
+    def dead_zone_info(self) -> dict[str, Any]:
+        """The dead-zone and the steady-state error it leaves, with and without compensation.
+
+        A position loop without integral action stops wherever the command ``|K x|`` falls
+        inside the dead-zone, so a position step can end anywhere within
+        ``±u₀ / |k_position|`` of the reference; the inverse dead-zone feed-forward adds
+        ``u₀·sign(u)`` to the command and removes that band (up to the model's error in u₀).
+
+        Returns
+        -------
+        dict
+            ``value`` (u₀, V), ``steady_state_error_bound_v`` (None without a position gain or
+            with integral action) and ``compensation`` (what to add to the command).
+        """
+        u0 = float(self.dead_zone_v or 0.0)
+        bound = None
+        if "position" in self.states and self.ki is None:
+            kp = abs(float(self.K[self.states.index("position")]))
+            bound = u0 / kp if kp > 0 else None
+        return {"value": u0, "steady_state_error_bound_v": bound,
+                "compensation": "inverse dead-zone feed-forward: u + u0·sign(u) (simulate --compensate-dead-zone)"}
 
     def to_json_text(self) -> str:
         """:meth:`to_json` as indented text.
@@ -336,7 +362,27 @@ class Design:
         return cls(states, out, k, kr, ki, l_vec,
                    cl_poles if cl_poles is not None else np.zeros(0, complex),
                    poles("observer_poles"), poles("output_feedback_poles"), strings("routh"), strings("warnings"),
-                   model_states, transform)
+                   model_states, transform, number_of(data.get("dead_zone")))
+
+
+def number_of(entry: Any) -> float | None:
+    """The ``value`` of a design JSON's ``dead_zone`` entry, or None when absent or malformed.
+
+    Parameters
+    ----------
+    entry : Any
+        The decoded ``dead_zone`` object.
+
+    Returns
+    -------
+    float or None
+    """
+    if not isinstance(entry, dict):
+        return None
+    v = entry.get("value")
+    if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(float(v)) and v >= 0:
+        return float(v)
+    return None
 
 
 def _matrix_row(row: Any, key: str, n: int) -> np.ndarray:
@@ -619,5 +665,7 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
         l_col = l_col.ravel()
     warnings += _dead_time_warnings(model.delay_s, a, b, c, k, ki)
     changed = mr.changed
+    nl = model.static_nonlinearity
     return Design(tuple(work.states), out_name, k_row, kr, ki, l_col, cl, obs, ofb, tuple(routh),
-                  tuple(warnings), mr.source_states if changed else None, mr.transform if changed else None)
+                  tuple(warnings), mr.source_states if changed else None, mr.transform if changed else None,
+                  None if nl is None else nl.dead_zone_v)

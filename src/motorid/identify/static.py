@@ -122,7 +122,8 @@ class LevelPoint:
                 "status": self.status, "source": self.source}
 
 
-def steady_state(time_s: np.ndarray, output_v: np.ndarray, t63_s: float, noise: float) -> tuple[float, float, bool]:
+def steady_state(time_s: np.ndarray, output_v: np.ndarray, t63_s: float, noise: float,
+                 quantum: float = 0.0) -> tuple[float, float, bool]:
     """Steady output change of one step response, robust to ripple.
 
     Parameters
@@ -134,13 +135,18 @@ def steady_state(time_s: np.ndarray, output_v: np.ndarray, t63_s: float, noise: 
     t63_s : float
         The response's 63 % time.
     noise : float
-        Output noise level (for the standard error floor: one quantisation level's worth).
+        Output noise level.
+    quantum : float
+        The scope's code step (volts per code); 0 for unquantised data.
 
     Returns
     -------
     tuple of (float, float, bool)
         Mean of the settled part, its standard error (from ``STEADY_BLOCKS`` block means, so
-        periodic ripple shorter than a block averages out) and whether the record lasted
+        periodic ripple shorter than a block averages out; at least ``quantum/√12``, the
+        error of a mean over codes the noise does not dither, which averaging does not remove:
+        on the trainer, levels read at different volts/div were off the line by up to 9 block
+        standard errors without it) and whether the record lasted
         ``SETTLED_TIME_CONSTANTS`` 63 % times (else the last quarter is used, and the value
         is flagged as possibly unsettled).
     """
@@ -157,9 +163,8 @@ def steady_state(time_s: np.ndarray, output_v: np.ndarray, t63_s: float, noise: 
         tail = y[-max(STEADY_BLOCKS * 2, y.size // 4):]
     blocks = np.array([b.mean() for b in np.array_split(tail, STEADY_BLOCKS)])
     stderr = float(np.std(blocks, ddof=1) / math.sqrt(STEADY_BLOCKS))
-    # a perfectly flat quantised tail has zero spread: its mean is known to about one code / √n
-    floor = noise / math.sqrt(tail.size)
-    return float(tail.mean()), max(stderr, floor), settled
+    floor = max(noise / math.sqrt(tail.size), quantum / math.sqrt(12.0))
+    return float(tail.mean()), math.hypot(stderr, floor), settled
 
 
 @dataclass(frozen=True, slots=True)
@@ -178,7 +183,8 @@ class StaticCharacteristic:
     negative : StaticCharacteristic or None
         The same fit on negative steps (``dead_zone_v`` is then ``u₀⁻``, positive).
     saturation_input_v, saturation_output_v : float or None
-        Where the rails were seen: the lowest saturated level and its output.
+        Where the rails were seen: the output of the saturated levels and the input at which
+        the law reaches it (``u₀ + y_sat/K``; at most the lowest saturated level).
     birge_ratio : float
         ``sqrt(χ²/dof)`` of the fit (> 1: the points scatter more than their errors).
     points : tuple of LevelPoint
@@ -298,8 +304,9 @@ def _fit_side(points: list[LevelPoint], sign: float) -> tuple[StaticCharacterist
                         f"{SETTLED_TIME_CONSTANTS:g} time constants): their steady state is the last quarter's mean")
     sat_in = sat_out = None
     if saturated:
-        sat_in = min(abs(p.step_volts) for p in saturated)
+        # the rails cap the output: the input where the law reaches the saturated output
         sat_out = float(np.mean([abs(p.steady_state) for p in saturated]))
+        sat_in = min(max(u0, 0.0) + sat_out / k, min(abs(p.step_volts) for p in saturated))
         names = sorted({round(p.step_volts, 2) for p in saturated}, key=abs)
         warnings.append(f"level(s) {', '.join(f'{u:g} V' for u in names)} fall short of the line "
                         f"(output ≈ {sat_out:.3g} V): saturation (amplifier rails) — excluded from the fit")

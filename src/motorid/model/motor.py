@@ -28,6 +28,7 @@ import control
 import numpy as np
 
 from motorid.errors import ModelFormatError, OptionError
+from motorid.model.nonlinearity import StaticNonlinearity
 from motorid.model.serialize import SCHEMA, model_from_dict, model_to_dict, model_to_matlab
 from motorid.model.simplify import (
     CANCEL_TOL_REL,
@@ -189,6 +190,10 @@ class MotorModel:
         Dead time between the input and every output, seconds (0: none).  Not part of the
         state-space matrices (a delay has no finite realisation): responses and fits apply
         it, and the JSON carries it as the top-level ``delay_s`` (CONTRACT.md).
+    static_nonlinearity : StaticNonlinearity or None
+        A dead-zone (and rails) in front of the linear part (a Hammerstein model identified
+        from several step levels): the linear model's input is ``f(u)``, not ``u``.  The JSON
+        carries it as the top-level ``static_nonlinearity`` (issue 15).
 
     Raises
     ------
@@ -212,6 +217,7 @@ class MotorModel:
     uncertainty: Mapping[str, Any] = field(default_factory=dict)
     stages: tuple[Mapping[str, Any], ...] = ()
     delay_s: float = 0.0
+    static_nonlinearity: StaticNonlinearity | None = None
 
     def __post_init__(self) -> None:
         a = _as_matrix("A", self.A, (None, None))
@@ -252,6 +258,8 @@ class MotorModel:
         if not (math.isfinite(delay) and delay >= 0.0):
             raise ModelFormatError(f"delay_s must be a finite number ≥ 0, got {self.delay_s!r}")
         object.__setattr__(self, "delay_s", delay)
+        if self.static_nonlinearity is not None and not isinstance(self.static_nonlinearity, StaticNonlinearity):
+            raise ModelFormatError("static_nonlinearity must be a StaticNonlinearity")
 
     # ------------------------------------------------------------------ basics
     @property
@@ -260,11 +268,28 @@ class MotorModel:
         return int(self.A.shape[0])
 
     def replace(self, **changes: Any) -> MotorModel:
-        """Return a copy with some fields changed (``dataclasses.replace``)."""
+        """Return a copy with some fields changed (``dataclasses.replace``).
+
+        Parameters
+        ----------
+        **changes
+            Fields to change, by name.
+
+        Returns
+        -------
+        MotorModel
+            The copy (checked like a new model).
+        """
         return dataclasses.replace(self, **changes)
 
     def ss(self) -> control.StateSpace:
-        """The model as a python-control ``StateSpace`` (one output per channel)."""
+        """The model as a python-control ``StateSpace`` (one output per channel).
+
+        Returns
+        -------
+        control.StateSpace
+            Outputs in the order of :attr:`outputs`.
+        """
         return control.ss(self.A, self.B, self.C, self.D, inputs=["u"],
                           outputs=list(self.outputs), states=list(self.states))
 
@@ -301,15 +326,33 @@ class MotorModel:
         return control.tf(*self._row_tf("current"))
 
     def poles(self) -> np.ndarray:
-        """Poles of the velocity transfer function (complex array)."""
+        """Poles of the velocity transfer function (complex array).
+
+        Returns
+        -------
+        ndarray
+            The poles.
+        """
         return _roots(self._row_tf("velocity")[1])
 
     def zeros(self) -> np.ndarray:
-        """Zeros of the velocity transfer function (complex array)."""
+        """Zeros of the velocity transfer function (complex array).
+
+        Returns
+        -------
+        ndarray
+            The zeros (empty when there are none).
+        """
         return _roots(self._row_tf("velocity")[0])
 
     def dc_gain(self) -> float:
-        """Steady-state velocity per input volt (``inf`` for an integrating velocity TF)."""
+        """Steady-state velocity per input volt (``inf`` for an integrating velocity TF).
+
+        Returns
+        -------
+        float
+            The DC gain in (velocity volts)/(input volt).
+        """
         return _dc(*self._row_tf("velocity"))
 
     def first_order(self, cancel_tol_rel: float = CANCEL_TOL_REL) -> FirstOrder:
@@ -450,6 +493,8 @@ class MotorModel:
             fit={},
             warnings=(*self.warnings, note),
             extras={**self.extras, "derived_from_order": self.order},
+            delay_s=self.delay_s,
+            static_nonlinearity=self.static_nonlinearity,
         )
 
     # ------------------------------------------------------------- responses
@@ -476,7 +521,24 @@ class MotorModel:
 
     def fit_nrmse(self, time_s: Any, measured: Any, channel: str = "velocity",
                   step_volts: float | None = None) -> float:
-        """NRMSE of this model's step response against a measured one (see :func:`step_nrmse`)."""
+        """NRMSE of this model's step response against a measured one (see :func:`step_nrmse`).
+
+        Parameters
+        ----------
+        time_s : array_like
+            Times of the measured samples in s (the step at 0).
+        measured : array_like
+            The measured channel in volts.
+        channel : str
+            The output channel compared (default ``velocity``).
+        step_volts : float, optional
+            Step level; defaults to the model's.
+
+        Returns
+        -------
+        float
+            The NRMSE (RMS error over the measured steady-state change).
+        """
         from motorid.model.response import step_nrmse
 
         return step_nrmse(self, time_s, measured, channel=channel, step_volts=step_volts)
@@ -495,7 +557,13 @@ class MotorModel:
         return model_to_dict(self)
 
     def to_json_text(self) -> str:
-        """:meth:`to_json` as indented JSON text (non-finite numbers written as null)."""
+        """:meth:`to_json` as indented JSON text (non-finite numbers written as null).
+
+        Returns
+        -------
+        str
+            The JSON text.
+        """
         return json.dumps(self.to_json(), indent=2)
 
     @classmethod

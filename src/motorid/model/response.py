@@ -21,10 +21,14 @@ def step_response(model: MotorModel, time_s: Any, step_volts: float | None = Non
 
     Exact for a step on any grid: the matrix exponential of ``[[A, B], [0, 0]]`` once
     per sample interval on a uniform grid (then a recursion), at each time otherwise;
-    samples before 0 (before ``delay_s`` for a model with a dead time) are zero.
+    samples before 0 (before ``delay_s`` for a model with a dead time) are zero.  A model
+    with a static nonlinearity (Hammerstein) responds to the step its dead-zone and rails
+    let through, ``f(step)``.
 
     Parameters
     ----------
+    model : MotorModel
+        The model.
     time_s : array_like
         Times in seconds (any grid).
     step_volts : float, optional
@@ -43,6 +47,8 @@ def step_response(model: MotorModel, time_s: Any, step_volts: float | None = Non
     step = model.step_volts if step_volts is None else float(step_volts)
     if step is None:
         raise OptionError("step_response needs step_volts (the model has none)")
+    if model.static_nonlinearity is not None:
+        step = float(model.static_nonlinearity.effective_input(step))
     t = np.asarray(time_s, dtype=float).ravel() - model.delay_s
     n = model.order
     m = np.zeros((n + 1, n + 1))

@@ -17,6 +17,7 @@ from pathlib import Path
 
 from motorid.errors import ModelFormatError
 from motorid.io.jsonfile import read_json
+from motorid.model.nonlinearity import StaticNonlinearity
 from motorid.model.simplify import _roots, _tf_coeffs
 
 if TYPE_CHECKING:
@@ -57,6 +58,16 @@ def model_to_dict(model: MotorModel) -> dict[str, Any]:
     ``state_space.C``/``D`` are the velocity row (the paper's ``C = [0 1 0]``); every
     output row is kept in ``state_space.outputs``.  Extra keys: ``outputs``,
     ``current_tf``, ``first_order.k``/``p``, ``settings``, ``extras``.
+
+    Parameters
+    ----------
+    model : MotorModel
+        The model.
+
+    Returns
+    -------
+    dict
+        JSON-able.
     """
     cv, dv = model._row("velocity")
     vnum, vden = model._row_tf("velocity")
@@ -99,11 +110,24 @@ def model_to_dict(model: MotorModel) -> dict[str, Any]:
         data["stages"] = [dict(st) for st in model.stages]
     if model.delay_s > 0:
         data["delay_s"] = model.delay_s
+    if model.static_nonlinearity is not None:
+        data["static_nonlinearity"] = model.static_nonlinearity.to_json()
     return _jsonable(data)
 
 
 def model_from_dict(cls: type[MotorModel], data: Mapping[str, Any]) -> MotorModel:
-    """Build ``cls`` from the fields of a decoded model JSON object (schema and shapes checked)."""
+    """Build ``cls`` from the fields of a decoded model JSON object (schema and shapes checked).
+
+    Parameters
+    ----------
+    data : Mapping[str, Any]
+        The decoded JSON object.
+
+    Returns
+    -------
+    MotorModel
+        An instance of ``cls``.
+    """
     if not isinstance(data, Mapping):
         raise ModelFormatError("expected a JSON object")
     schema = data.get("schema")
@@ -142,6 +166,8 @@ def model_from_dict(cls: type[MotorModel], data: Mapping[str, Any]) -> MotorMode
         uncertainty=data.get("uncertainty") or {},
         stages=tuple(data.get("stages") or ()),
         delay_s=data.get("delay_s") or 0.0,
+        static_nonlinearity=(None if data.get("static_nonlinearity") is None
+                             else StaticNonlinearity.from_json(data["static_nonlinearity"])),
     )
 
 
@@ -150,6 +176,18 @@ def model_to_matlab(model: MotorModel, name: str = "motor") -> str:
 
     ``C``/``D`` are the velocity row (the paper's convention, eq. 8); every output row
     is also given as ``C_<channel>``/``D_<channel>``.
+
+    Parameters
+    ----------
+    model : MotorModel
+        The model.
+    name : str
+        Prefix of the script's comments (default ``motor``).
+
+    Returns
+    -------
+    str
+        The script.
     """
 
     def mat(m: np.ndarray) -> str:

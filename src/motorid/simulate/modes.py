@@ -111,7 +111,9 @@ class ServoPlant:
     """A position model for the Fig. 4 loop: ``ẋ = A x + B u``, ``θ = cp x``, ``v = cv x``.
 
     ``tau_s`` is the mechanical time constant that sets the default record length (the model's
-    first-order approximation; None: the slowest non-zero open-loop pole).
+    first-order approximation; None: the slowest non-zero open-loop pole).  ``dead_zone_v``
+    (``dead_zone_negative_v``) is the model's dead-zone in front of the plant (a Hammerstein
+    model, issue 15): the loop drives the plant with ``u − u₀·sign(u)`` outside it, 0 inside.
     """
 
     name: str
@@ -120,6 +122,8 @@ class ServoPlant:
     cp: np.ndarray
     cv: np.ndarray
     tau_s: float | None = None
+    dead_zone_v: float = 0.0
+    dead_zone_negative_v: float | None = None
 
     @property
     def order(self) -> int:
@@ -235,9 +239,11 @@ def servo_plants(model: MotorModel, extra_pole: float | None = None) -> tuple[Se
     scale = float(np.real(1j * w0 * (cp @ g) / (cv @ g)))
     a2 = np.array([[0.0, scale], [0.0, -1.0 / tau]])
     b2 = np.array([[0.0], [dc / tau]])
-    second = ServoPlant("2nd order", a2, b2, np.array([1.0, 0.0]), np.array([0.0, 1.0]), tau)
+    nl = model.static_nonlinearity
+    dz = {} if nl is None else {"dead_zone_v": nl.dead_zone_v, "dead_zone_negative_v": nl.negative_dead_zone_v}
+    second = ServoPlant("2nd order", a2, b2, np.array([1.0, 0.0]), np.array([0.0, 1.0]), tau, **dz)
     if vorder >= 2:
-        third = ServoPlant(f"{a.shape[0]}-state model", a, b, cp, cv, tau)
+        third = ServoPlant(f"{a.shape[0]}-state model", a, b, cp, cv, tau, **dz)
         return second, third
     p = 10.0 / tau if extra_pole is None else float(extra_pole)
     if not (math.isfinite(p) and p > 0):
@@ -249,7 +255,8 @@ def servo_plants(model: MotorModel, extra_pole: float | None = None) -> tuple[Se
     a3[n, n] = -p
     b3 = np.zeros((n + 1, 1))
     b3[n, 0] = p
-    third = ServoPlant(f"3rd order (lag at {p:.3g} rad/s)", a3, b3, np.append(cp, 0.0), np.append(cv, 0.0), tau)
+    third = ServoPlant(f"3rd order (lag at {p:.3g} rad/s)", a3, b3, np.append(cp, 0.0), np.append(cv, 0.0), tau,
+                       **dz)
     return second, third
 
 
@@ -317,9 +324,14 @@ def simulate_servo_grid(plant: ServoPlant, kp: np.ndarray, kv: np.ndarray, crite
     cp, cv = plant.cp, plant.cv
     x = np.zeros((plant.order, kp.size))
 
+    dz_pos = float(plant.dead_zone_v)
+    dz_neg = dz_pos if plant.dead_zone_negative_v is None else float(plant.dead_zone_negative_v)
+
     def f(xx: np.ndarray) -> np.ndarray:
         u = kp * (r - cp @ xx) - kv * (cv @ xx)
         np.clip(u, -sat, sat, out=u)
+        if dz_pos or dz_neg:  # the dead-zone after the rails: what the amplifier passes on
+            u = np.where(u > dz_pos, u - dz_pos, np.where(u < -dz_neg, u + dz_neg, 0.0))
         return a @ xx + bcol * u
 
     q = steps // 4

@@ -15,7 +15,7 @@ from motorid.control.design import Design
 from motorid.model import MotorModel
 from motorid.simulate.closed_loop import SimulationResult, SimulationSettings, simulate_closed_loop
 from motorid.trainer.plant import simulate_plant
-from motorid.trainer.presets import preset
+from motorid.trainer.presets import TrainerConfig, preset
 
 __all__ = ["TrainerLoop", "simulate_on_trainer"]
 
@@ -26,7 +26,16 @@ class TrainerLoop:
     Each call restarts the plant from the previous (current, speed, angle); the amplifier's
     lead/lag state is not carried over (``simulate_plant`` has no argument for it), so presets
     with a lead/lag get a warning.
+
+    Parameters
+    ----------
+    config : TrainerConfig, optional
+        The trainer to run (its noise-free ``quiet()`` variant); default: the settings'
+        ``trainer_preset``.
     """
+
+    def __init__(self, config: TrainerConfig | None = None) -> None:
+        self._config = config
 
     def start(self, model: MotorModel, s: SimulationSettings, x0: np.ndarray) -> list[str]:
         """Start from the model-state vector ``x0`` (see :class:`ClosedLoopPlant`).
@@ -46,7 +55,7 @@ class TrainerLoop:
             Warnings about the run.
         """
         warnings: list[str] = []
-        self.cfg = preset(s.trainer_preset).quiet()
+        self.cfg = (preset(s.trainer_preset) if self._config is None else self._config).quiet()
         if s.saturation_v is None:
             self.cfg = self.cfg  # the trainer's own rails still act
         if self.cfg.amp_lag_s > 0:
@@ -106,7 +115,8 @@ class TrainerLoop:
         self.state = (float(resp.current_a[1]), float(resp.motor_speed_rad_s[1]), float(resp.motor_angle_rad[1]))
 
 
-def simulate_on_trainer(model: MotorModel, design: Design, settings: SimulationSettings) -> SimulationResult:
+def simulate_on_trainer(model: MotorModel, design: Design, settings: SimulationSettings, *,
+                        config: TrainerConfig | None = None) -> SimulationResult:
     """Run the design in closed loop on the trainer's nonlinear plant (``settings.plant='trainer'``).
 
     Parameters
@@ -117,9 +127,11 @@ def simulate_on_trainer(model: MotorModel, design: Design, settings: SimulationS
         The controller.
     settings : SimulationSettings
         Its ``trainer_preset`` names the plant (noise-free ``quiet()`` variant).
+    config : TrainerConfig, optional
+        A trainer configuration instead of the preset (e.g. a multi-level experiment's).
 
     Returns
     -------
     SimulationResult
     """
-    return simulate_closed_loop(model, design, replace(settings, plant="trainer"), plant=TrainerLoop())
+    return simulate_closed_loop(model, design, replace(settings, plant="trainer"), plant=TrainerLoop(config))

@@ -136,5 +136,5 @@ def simulated_tds2012(
     scope = capture.scope
     idn = f"TEKTRONIX,{scope.model},{scope.serial},CF:91.1CT {scope.firmware}"
     spec = write_sim_device(Path(folder) / "tds2012-sim.yaml", capture_channels(capture, displayed=displayed),
-                            horizontal_scale_s=float(scope.horizontal_scale_s), idn=idn, triggers=triggers)
+                            horizontal_scale_s=float(scope.horizontal_scale_s or (capture.time_s[-1] - capture.time_s[0]) / 10), idn=idn, triggers=triggers)
     return SimulatedScope(spec, sim_resource(spec), capture, role)

@@ -55,7 +55,8 @@ def decode_binary_curve(block: bytes, *, n_points: int | None = None) -> np.ndar
 
     try:
         # pyvisa parses the '#<digits><length>' header; RIBinary is signed, most significant byte first
-        codes = from_ieee_block(bytes(block), datatype="b", is_big_endian=True, container=np.array)
+        codes = from_ieee_block(bytes(block), datatype="b", is_big_endian=True,
+                                container=np.array)  # type: ignore[arg-type]  # pyvisa types container too narrowly
     except ValueError:
         start = bytes(block[:12])
         raise InstrumentError(f"CURVe? did not send a whole binary block (it begins {start!r}); acquire again, "

@@ -174,4 +174,5 @@ def query_preamble(query: Callable[[str], str]) -> Preamble:
                               "scope (or use --single) and acquire again")
     if n != int(n) or n < 0:
         raise InstrumentError(f"the preamble gives NR_Pt {n:g}, not a point count: acquire again")
-    return Preamble(**{**values, "n_points": int(n)})
+    fields = {k: v for k, v in values.items() if k != "n_points"}
+    return Preamble(**fields, n_points=int(n))

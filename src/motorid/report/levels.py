@@ -1,0 +1,156 @@
+"""The page of a multi-level identification (issue 15).
+
+The static characteristic with its interval band, the per-level responses normalised and
+overlaid, and the Hammerstein model.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import html
+
+import matplotlib
+import numpy as np
+
+from motorid.identify.hammerstein import MultiLevelResult
+from motorid.model.notation import poly_text
+from motorid.report import figures
+from motorid.report.html import _CSS, _img, _section, _table
+
+__all__ = ["build_levels_report", "normalised_responses_png", "static_characteristic_png"]
+
+#: Colours of the level statuses in the static-characteristic plot.
+STATUS_STYLE = {"moving": ("o", "C0"), "still": ("s", "0.5"), "saturated": ("^", "C3")}
+
+
+def static_characteristic_png(result: MultiLevelResult) -> bytes:
+    """Steady output against step level: the points by status, the fitted law and its 95 % band.
+
+    Parameters
+    ----------
+    result : MultiLevelResult
+
+    Returns
+    -------
+    bytes
+        PNG image.
+    """
+    st = result.static
+    fig, ax = figures._subplots(figsize=(9, 5))
+    u = np.array([p.step_volts for p in st.points])
+    span = np.linspace(min(0.0, u.min()) * 1.05, max(0.0, u.max()) * 1.05, 300)
+    law = st.predict(span)
+    ax.plot(span, law, "k-", lw=1.2, label=f"K·(u − u₀): K = {st.gain:.4g}, u₀ = {st.dead_zone_v:.3g} V")
+    # the band: the law at the ends of the gain and dead-zone intervals (the extremes of the box)
+    lo_dz, hi_dz = st.dead_zone_ci95
+    lo_k, hi_k = st.gain_ci95
+    if np.isfinite(lo_dz) and np.isfinite(hi_dz):
+        corners = [k * np.clip(span - d, 0.0, None) for k in (lo_k, hi_k) for d in (max(lo_dz, 0.0), hi_dz)]
+        pos = span >= 0
+        ax.fill_between(span[pos], np.min(corners, axis=0)[pos], np.max(corners, axis=0)[pos], color="0.8",
+                        label="95 % interval")
+    for status, (marker, colour) in STATUS_STYLE.items():
+        pts = [p for p in st.points if p.status == status]
+        if pts:
+            ax.errorbar([p.step_volts for p in pts], [p.steady_state for p in pts],
+                        yerr=[1.96 * p.stderr for p in pts], fmt=marker, color=colour, label=f"{status} level")
+    ax.axvline(st.dead_zone_v, color="0.4", ls=":", lw=1)
+    ax.set_xlabel("step level u (V)", fontsize=12)
+    ax.set_ylabel("steady output y_ss (V)", fontsize=12)
+    ax.legend(fontsize=11)
+    ax.grid(alpha=0.3)
+    return figures.png(fig)
+
+
+def normalised_responses_png(result: MultiLevelResult) -> bytes:
+    """Every moving level's response divided by its steady state, overlaid (shared dynamics?).
+
+    Parameters
+    ----------
+    result : MultiLevelResult
+
+    Returns
+    -------
+    bytes
+        PNG image.
+    """
+    fig, ax = figures._subplots(figsize=(9, 5))
+    levels = sorted({round(p.step_volts, 2) for p, _ in result.responses})
+    cmap = matplotlib.colormaps["viridis"]
+    for point, resp in result.responses:
+        if point.status == "still" or point.steady_state == 0:
+            continue
+        i = levels.index(round(point.step_volts, 2))
+        colour = cmap(i / max(len(levels) - 1, 1))
+        ls = "--" if point.status == "saturated" else "-"
+        ax.plot(resp.time_s, resp.output_v / point.steady_state, ls, color=colour, lw=1,
+                label=f"{point.step_volts:.3g} V ({point.status})")
+    handles, labels = ax.get_legend_handles_labels()
+    seen: dict[str, object] = {}
+    for h, lab in zip(handles, labels, strict=True):
+        seen.setdefault(lab, h)
+    ax.legend(list(seen.values()), list(seen), fontsize=10)
+    ax.axhline(1 - np.exp(-1), color="0.5", lw=0.8, ls=":")
+    ax.set_xlabel("time from the step (s)", fontsize=12)
+    ax.set_ylabel("y / y_ss", fontsize=12)
+    ax.grid(alpha=0.3)
+    return figures.png(fig)
+
+
+def build_levels_report(result: MultiLevelResult, title: str = "motorid report: several step levels") -> str:
+    """The self-contained HTML page of a multi-level identification.
+
+    Parameters
+    ----------
+    result : MultiLevelResult
+    title : str
+        Page title.
+
+    Returns
+    -------
+    str
+        A complete HTML document.
+    """
+    from motorid import __version__
+
+    st = result.static
+    model = result.model
+    fo = model.first_order()
+    rows = [["dead-zone u₀ (input-referred)", f"{st.dead_zone_v:.4g} V",
+             f"[{st.dead_zone_ci95[0]:.4g}, {st.dead_zone_ci95[1]:.4g}] V"],
+            ["static gain K", f"{st.gain:.4g} V/V", f"[{st.gain_ci95[0]:.4g}, {st.gain_ci95[1]:.4g}] V/V"]]
+    if st.negative is not None:
+        rows.append(["dead-zone for negative steps", f"{st.negative.dead_zone_v:.4g} V",
+                     f"[{st.negative.dead_zone_ci95[0]:.4g}, {st.negative.dead_zone_ci95[1]:.4g}] V"])
+    if st.saturation_input_v is not None:
+        rows.append(["saturation seen from", f"{st.saturation_input_v:.4g} V",
+                     f"output ≈ {st.saturation_output_v:.4g} V"])
+    rows.append(["time constant (joint fit)", f"{fo.time_constant_s:.4g} s", ""])
+    parts = [
+        _section("static", "Static characteristic", _table(["quantity", "value", "95 % interval"], rows)
+                 + _img(static_characteristic_png(result), "static characteristic")
+                 + "<p>Each point is one step: its level and the mean of its settled part (error bars: 95 %). "
+                 "Grey squares never left their noise band (inside the dead-zone); red triangles fall short of "
+                 "the line (the rails) and are left out of the fit.</p>"),
+        _section("levels", "Per-level responses, normalised",
+                 _img(normalised_responses_png(result), "normalised responses")
+                 + f"<p>{html.escape(result.dynamics_note)}</p>"
+                 + _table(["level", "τ (first order)", "std. error", "captures"],
+                          [[f"{d.step_volts:.3g} V", f"{d.time_constant_s:.4g} s", f"{d.stderr:.2g} s", d.count]
+                           for d in result.dynamics])),
+        _section("model", "Hammerstein model: y = K·G(s)·f(u)",
+                 "<pre>velocity TF (per volt of f(u)) = "
+                 f"{html.escape(poly_text(model.velocity_tf.num[0][0]))} / "
+                 f"({html.escape(poly_text(model.velocity_tf.den[0][0]))})</pre>"
+                 + f"<p>f(u) = u − {st.dead_zone_v:.4g} V above the dead-zone, 0 inside it"
+                 + ("" if st.saturation_input_v is None else
+                    f", clipped at {st.saturation_input_v - st.dead_zone_v:.4g} V") + ".</p>"),
+    ]
+    if result.warnings:
+        parts.append(_section("warnings", "Warnings", "".join(
+            f'<p class="warn">{html.escape(w)}</p>' for w in result.warnings)))
+    stamp = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
+    return ("<!DOCTYPE html><html lang=en><head><meta charset=utf-8>"
+            f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>"
+            f"<h1>{html.escape(title)}</h1><p class=muted>motorid {__version__}, {stamp}</p>"
+            + "".join(parts) + "</body></html>")
