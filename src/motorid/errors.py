@@ -12,18 +12,21 @@ names (``motorid.model.ModelFormatError``, ``motorid.identify.result.Identificat
 from __future__ import annotations
 
 __all__ = [
-    "MotorIdError",
-    "CaptureFormatError",
+    "AcquisitionTimeoutError",
     "CaptureDataError",
-    "StepNotFoundError",
+    "CaptureFormatError",
+    "ChannelOffError",
     "ConditioningError",
+    "ControlDesignError",
+    "IdentificationError",
+    "InstrumentError",
+    "ModelFormatError",
+    "MotorIdError",
+    "OptionError",
     "OutputExistsError",
     "OutputWriteError",
-    "OptionError",
     "ResponseNotStepError",
-    "ControlDesignError",
-    "ModelFormatError",
-    "IdentificationError",
+    "StepNotFoundError",
     "UploadError",
 ]
 
@@ -54,8 +57,19 @@ class MotorIdError(Exception):
             where += ": "
         return f"{where}{self.message}"
 
-    def with_file(self, file: str) -> "MotorIdError":
-        """Return a copy of this error that names ``file`` (if it names none yet)."""
+    def with_file(self, file: str) -> MotorIdError:
+        """Return a copy of this error that names ``file`` (if it names none yet).
+
+        Parameters
+        ----------
+        file : str
+            The file to name.
+
+        Returns
+        -------
+        MotorIdError
+            This error when it already names a file, else a copy naming ``file``.
+        """
         if self.file is not None:
             return self
         return type(self)(self.message, file=file, row=self.row)
@@ -86,8 +100,10 @@ class OutputExistsError(MotorIdError, FileExistsError):
 
 
 class OutputWriteError(MotorIdError, OSError):
-    """An output file could not be written (disk full, permissions, read-only file system, a
-    path that is a device)."""
+    """An output file could not be written.
+
+    Disk full, permissions, read-only file system, a path that is a device.
+    """
 
 
 class OptionError(MotorIdError, ValueError):
@@ -123,8 +139,9 @@ class UploadError(MotorIdError, ValueError):
 
 # --- issue 17 ---
 class InstrumentError(MotorIdError, OSError):
-    """The oscilloscope cannot be reached: no VISA backend, no instrument, no permission to
-    open it, or it stopped answering.
+    """The oscilloscope cannot be reached.
+
+    No VISA backend, no instrument, no permission to open it, or it stopped answering.
     """
 
 
