@@ -109,6 +109,17 @@ def test_lab_page_in_headless_chromium(chromium, live_server, demo_files):
         page.evaluate("document.querySelector('#design-form').scrollIntoView()")
         page.screenshot(path=str(ARTEFACTS / "4-controller.png"))  # the view docs/web.md shows
 
+        # integral action and an observer (the placeholder's example poles, one per state):
+        # text fields update on change, not on every key
+        page.check("input[name=integral]")
+        page.wait_for_selector("#gains td:text-is('ki')", timeout=30_000)
+        example = page.get_attribute("input[name=observer_poles]", "placeholder").split("e.g. ")[1]
+        assert len(example.split(",")) == len(page.locator("#gains tr").all()) - 2  # header and ki rows
+        page.fill("input[name=observer_poles]", example)
+        page.press("input[name=observer_poles]", "Tab")
+        page.wait_for_selector("#gains td:text-is('L')", timeout=30_000)
+        assert page.text_content("#errors").strip() == ""
+
         # 4. download the report (with the design) and the design JSON
         with page.expect_download(timeout=120_000) as dl:
             page.click("#dl-report")

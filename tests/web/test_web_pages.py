@@ -72,17 +72,21 @@ def demo_fit(demo_run):
     return mi.identify(exp)
 
 
-def _identified_tab(client, demo_files) -> str:
+def _identified_tab(client, demo_files, page: list | None = None) -> str:
     tab = open_tab(client)
     assert client.post(f"/tab/{tab}/upload", files=multipart("files", demo_files)).status_code == 200
     form = {f"role_{k}": v for k, v in ROLES.items()} | {"method": "auto", "order": "auto", "delay": "auto"}
     res = client.post(f"/tab/{tab}/identify", data=form)
     assert res.status_code == 200, res.text
+    if page is not None:
+        page.append(res.text)
     return tab
 
 
 def test_identify_design_and_downloads_match_the_front_door(client, demo_files, demo_fit):
-    tab = _identified_tab(client, demo_files)
+    pages: list[str] = []
+    tab = _identified_tab(client, demo_files, pages)
+    page = pages[0]
     model = client.get(f"/tab/{tab}/download/model.json")
     assert model.status_code == 200
     assert 'filename="motorid-model.json"' in model.headers["content-disposition"]
@@ -107,6 +111,17 @@ def test_identify_design_and_downloads_match_the_front_door(client, demo_files, 
     # the mode map: the library's SVG plus one marker per map, its mode read off the map
     assert res.text.count('<circle class="marker') == 2
     assert re.search(r"on the 2nd order map", res.text)
+
+    # integral action and an observer (the placeholder's example: one pole per state)
+    example = re.search(r'name="observer_poles" placeholder="none, e.g. ([^"]+)"', page).group(1)
+    res = client.post(f"/tab/{tab}/design", data={"damping": "0.8", "wn": "6", "integral": "on",
+                                                  "observer_poles": example, "saturation": "10"})
+    assert res.status_code == 200, res.text
+    ref = mi.design(demo_fit.model, damping=0.8, wn=6.0, integral=True,
+                    observer_poles=[complex(p) for p in example.split(",")])
+    shown_l = re.search(r'<td class="l">L</td><td colspan="2">([^<]+)</td>', res.text).group(1)
+    np.testing.assert_allclose([float(v) for v in shown_l.split(",")], ref.L, rtol=1e-3)  # shown with 4 digits
+    assert client.get(f"/tab/{tab}/download/design.json").json()["ki"] == pytest.approx(ref.ki, rel=1e-9)
 
     report = client.get(f"/tab/{tab}/download/report.html")
     assert report.status_code == 200

@@ -138,9 +138,9 @@ def build_mode_maps(model: MotorModel, folder: Path, *, step_v: float, saturatio
 def design_point(model: MotorModel, design: Design, damping: float, wn: float) -> tuple[float, float, str]:
     """The (Kp, Kv) of the map's loop ``u = sat(Kp (r − θ) − Kv v)`` that the design stands for.
 
-    A design on (position, velocity) without integral action *is* that loop (``kr = k1``):
-    its own gains.  Otherwise the map shows the gains that place the chosen ζ, ωn on the
-    map's 2nd-order loop.
+    A design on (position, velocity) without integral action is that loop (``kr = k1`` when the
+    position integrates the velocity): its own gains.  Otherwise the map shows the gains that
+    place the chosen ζ, ωn on the map's 2nd-order loop.
 
     Parameters
     ----------

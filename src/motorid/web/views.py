@@ -198,15 +198,26 @@ def model_view(fit: IdentificationResult) -> dict[str, Any]:
 
 @dataclass(frozen=True, slots=True)
 class SliderRanges:
-    """The design sliders' ranges for one model (ωn scaled by its time constant τ)."""
+    """The design panel's ranges and examples for one model (ωn scaled by its time constant τ).
+
+    Attributes
+    ----------
+    damping, wn : tuple of float
+        ``(min, max, step, start)`` of each slider.
+    duration_s : float
+        Record length of the simulation at the start.
+    observer_example : str
+        One observer pole per state, well left of the controller's.
+    """
 
     damping: tuple[float, float, float, float]
     wn: tuple[float, float, float, float]
     duration_s: float
+    observer_example: str = ""
 
 
 def slider_ranges(model: MotorModel) -> SliderRanges:
-    """ζ from 0.2 to 2 (0.7 to start); ωn from 0.5/τ to 8/τ (2/τ to start).
+    """ζ from 0.2 to 2 (0.7 to start); ωn from 0.5/τ to 8/τ (2/τ to start); observer poles from 10 ωn.
 
     Parameters
     ----------
@@ -216,7 +227,8 @@ def slider_ranges(model: MotorModel) -> SliderRanges:
     Returns
     -------
     SliderRanges
-        ``(min, max, step, start)`` per slider and a record length of 8/(ζωn) at the start.
+        ``(min, max, step, start)`` per slider, a record length of 8/(ζωn) at the start and an
+        example of observer poles (one per state).
     """
     tau = model.first_order().time_constant_s
     tau = tau if math.isfinite(tau) and tau > 0 else 1.0
@@ -224,8 +236,9 @@ def slider_ranges(model: MotorModel) -> SliderRanges:
     start = 2.0 / tau
     step = float(f"{(hi - lo) / 300:.2g}")
     dur = float(f"{max(8.0 / (0.7 * start), 0.5):.2g}")
+    observer = ",".join(f"{-(10 + 2 * i) * start:.3g}" for i in range(model.A.shape[0]))
     return SliderRanges((0.2, 2.0, 0.01, 0.7), (float(f"{lo:.3g}"), float(f"{hi:.3g}"), step, float(f"{start:.3g}")),
-                        dur)
+                        dur, observer)
 
 
 @dataclass(frozen=True, slots=True)
