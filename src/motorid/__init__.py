@@ -62,7 +62,6 @@ import sys
 import types
 from typing import Any
 
-from motorid.capture import Capture, ChannelInfo, ScopeInfo
 from motorid.errors import MotorIdError
 
 __all__ = [
@@ -87,12 +86,15 @@ __version__ = "0.1.0"
 
 #: Public names loaded on first use, and the module each lives in.
 _LAZY: dict[str, str] = {
+    "Capture": "motorid.capture",  # numpy: not for ``motorid --help`` (issue 16)
+    "ChannelInfo": "motorid.capture",
+    "ScopeInfo": "motorid.capture",
     "read_experiment": "motorid.frontdoor",
     "design": "motorid.frontdoor",
     "write_report": "motorid.frontdoor",
     "Experiment": "motorid.frontdoor",
     "IdentificationResult": "motorid.frontdoor",
-    "ParameterEstimate": "motorid.frontdoor",
+    "ParameterEstimate": "motorid.identify.result",
     "Provenance": "motorid.frontdoor",
     "MotorModel": "motorid.model",
     "Design": "motorid.control.design",

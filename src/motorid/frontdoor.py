@@ -28,6 +28,7 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, Literal
 
 from motorid.capture import Capture
+from motorid.identify.result import ParameterEstimate
 from motorid.errors import OptionError
 
 if TYPE_CHECKING:
@@ -183,26 +184,6 @@ def read_experiment(
 
 
 # ------------------------------------------------------------------------------ identification
-
-
-@dataclass(frozen=True, slots=True)
-class ParameterEstimate:
-    """One identified quantity with its uncertainty (as lmfit's ``Parameter``).
-
-    Attributes
-    ----------
-    value : float or complex
-        The estimate (a complex pole or zero is a complex number).
-    stderr : float
-        Standard error (NaN when the method gives no interval).
-    ci95 : tuple of (float, float) or None
-        95 % interval (``None`` when the method gives none); for a complex pole or zero,
-        the interval of its real part.
-    """
-
-    value: float | complex
-    stderr: float = float("nan")
-    ci95: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True, slots=True)

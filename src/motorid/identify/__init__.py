@@ -5,37 +5,35 @@
   realisation (Masoud 2019, §IV).
 - :mod:`~motorid.identify.classic`: first-order gain and 63.2 % time constant (lab report
   §1.1, paper Fig. 1).
+
+The names below load on first use (``import motorid.identify.result`` for the result types
+must not pull scipy and python-control into a light import of the front door).
 """
 
-from motorid.identify.classic import ClassicResult, classic_first_order
-from motorid.identify.markov import (
-    MarkovParameters,
-    MarkovResult,
-    MarkovSettings,
-    companion_realisation,
-    detect_order,
-    hankel_matrix,
-    hankel_singular_values,
-    markov_identify,
-    markov_parameters,
-)
-from motorid.identify.pinv import PinvResult, PinvSettings, pinv_identify
-from motorid.identify.result import IdentificationError
+from __future__ import annotations
 
-__all__ = [
-    "ClassicResult",
-    "IdentificationError",
-    "MarkovParameters",
-    "MarkovResult",
-    "MarkovSettings",
-    "PinvResult",
-    "PinvSettings",
-    "classic_first_order",
-    "companion_realisation",
-    "detect_order",
-    "hankel_matrix",
-    "hankel_singular_values",
-    "markov_identify",
-    "markov_parameters",
-    "pinv_identify",
-]
+import importlib
+from typing import Any
+
+#: Public names and the module each lives in.
+_LAZY: dict[str, str] = {
+    "ClassicResult": "classic", "classic_first_order": "classic",
+    "MarkovParameters": "markov", "MarkovResult": "markov", "MarkovSettings": "markov",
+    "companion_realisation": "markov", "detect_order": "markov", "hankel_matrix": "markov",
+    "hankel_singular_values": "markov", "markov_identify": "markov", "markov_parameters": "markov",
+    "PinvResult": "pinv", "PinvSettings": "pinv", "pinv_identify": "pinv",
+    "IdentificationError": "result", "ParameterEstimate": "result",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f"motorid.identify.{module}"), name)
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

@@ -2,11 +2,36 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from motorid.errors import IdentificationError
 
-__all__ = ["IdentificationError", "equilibrated_condition"]
+__all__ = ["IdentificationError", "ParameterEstimate", "equilibrated_condition"]
+
+
+@dataclass(frozen=True, slots=True)
+class ParameterEstimate:
+    """One identified quantity with its uncertainty (as lmfit's ``Parameter``).
+
+    Attributes
+    ----------
+    value : float or complex
+        The estimate (a complex pole or zero is a complex number).
+    stderr : float
+        Standard error (NaN when the method gives no interval).
+    ci95 : tuple of (float, float) or None
+        95 % interval (``None`` when the method gives none); for a complex pole or zero,
+        the interval of its real part.
+    """
+
+    value: float | complex
+    stderr: float = float("nan")
+    ci95: tuple[float, float] | None = None
+
+
+
 
 
 # IdentificationError lives in motorid.errors with every other user-facing error

@@ -29,6 +29,7 @@ import numpy as np
 
 from motorid.errors import ModelFormatError, OptionError
 from motorid.model.nonlinearity import StaticNonlinearity
+from motorid.model.stage import Stage
 from motorid.model.serialize import SCHEMA, model_from_dict, model_to_dict, model_to_matlab
 from motorid.model.simplify import (
     CANCEL_TOL_REL,
@@ -184,8 +185,9 @@ class MotorModel:
     uncertainty : Mapping
         Standard deviations and 95% intervals of ``dc_gain``, ``time_constant``, poles and
         zeros (written as the top-level ``uncertainty`` key when present).
-    stages : tuple of Mapping
-        What each stage of ``--method auto`` found (the top-level ``stages`` key).
+    stages : tuple of Stage
+        What each stage of ``--method auto`` found (the top-level ``stages`` key); plain
+        mappings given here are converted.
     delay_s : float
         Dead time between the input and every output, seconds (0: none).  Not part of the
         state-space matrices (a delay has no finite realisation): responses and fits apply
@@ -215,7 +217,7 @@ class MotorModel:
     warnings: tuple[str, ...] = ()
     extras: Mapping[str, Any] = field(default_factory=dict)
     uncertainty: Mapping[str, Any] = field(default_factory=dict)
-    stages: tuple[Mapping[str, Any], ...] = ()
+    stages: tuple[Stage | Mapping[str, Any], ...] = ()
     delay_s: float = 0.0
     static_nonlinearity: StaticNonlinearity | None = None
 
@@ -253,7 +255,8 @@ class MotorModel:
         object.__setattr__(self, "warnings", tuple(str(w) for w in self.warnings))
         object.__setattr__(self, "extras", MappingProxyType(dict(self.extras)))
         object.__setattr__(self, "uncertainty", MappingProxyType(dict(self.uncertainty)))
-        object.__setattr__(self, "stages", tuple(MappingProxyType(dict(st)) for st in self.stages))
+        object.__setattr__(self, "stages", tuple(st if isinstance(st, Stage) else Stage.from_dict(st)
+                                                 for st in self.stages))
         delay = float(self.delay_s or 0.0)
         if not (math.isfinite(delay) and delay >= 0.0):
             raise ModelFormatError(f"delay_s must be a finite number ≥ 0, got {self.delay_s!r}")

@@ -107,7 +107,7 @@ def model_to_dict(model: MotorModel) -> dict[str, Any]:
     if model.uncertainty:
         data["uncertainty"] = dict(model.uncertainty)
     if model.stages:
-        data["stages"] = [dict(st) for st in model.stages]
+        data["stages"] = [st.to_dict() if hasattr(st, "to_dict") else dict(st) for st in model.stages]
     if model.delay_s > 0:
         data["delay_s"] = model.delay_s
     if model.static_nonlinearity is not None:
