@@ -149,3 +149,13 @@ def test_linear_design_in_python_on_the_identified_model(levels):
     res = simulate_closed_loop(model, d, s)
     assert any("dead-zone" in w for w in res.warnings)
     assert d.to_json()["dead_zone"]["value"] == pytest.approx(model.static_nonlinearity.dead_zone_v)
+
+
+def test_front_door_identify_levels(levels):
+    import motorid as mi
+
+    exp, folders = levels
+    res = mi.identify_levels([str(f) for f in folders])
+    assert abs(res.static.dead_zone_v - exp.truth.dead_zone_v) < 0.05
+    assert res.model.static_nonlinearity is not None and res.shared_dynamics
+    assert "identify_levels" in mi.__doc__

@@ -17,6 +17,7 @@ Front door
 
    read_experiment  -- read the captures of one step experiment, one per role
    identify         -- identify the motor model (``motorid identify``)
+   identify_levels  -- dead-zone, gain, rails and shared dynamics from several step levels
    design           -- state feedback, integral action, observer (``motorid design``)
    simulate         -- closed-loop run on the model or the virtual trainer (``motorid simulate``)
    write_report     -- the self-contained HTML report (``motorid report``)
@@ -90,6 +91,7 @@ _LAZY: dict[str, str] = {
     "ChannelInfo": "motorid.capture",
     "ScopeInfo": "motorid.capture",
     "read_experiment": "motorid.frontdoor",
+    "identify_levels": "motorid.frontdoor",
     "design": "motorid.frontdoor",
     "write_report": "motorid.frontdoor",
     "Experiment": "motorid.frontdoor",

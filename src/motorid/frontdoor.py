@@ -33,6 +33,7 @@ from motorid.errors import OptionError
 
 if TYPE_CHECKING:
     from motorid.control.design import Design
+    from motorid.identify.hammerstein import MultiLevelResult
     from motorid.identify.pipeline import Identification
     from motorid.identify.sanity import SanityReport
     from motorid.model import MotorModel
@@ -45,6 +46,7 @@ __all__ = [
     "Provenance",
     "design",
     "identify",
+    "identify_levels",
     "read_experiment",
     "simulate",
     "write_report",
@@ -108,6 +110,48 @@ def _file_digests(paths: Sequence[Path]) -> dict[str, str]:
                 h.update(block)
         digests[str(f)] = h.hexdigest()
     return digests
+
+
+def identify_levels(
+    velocity: Sequence[CapturePath],
+    *,
+    step_volts: Sequence[float] | None = None,
+    columns: Mapping[str, str] | None = None,
+) -> MultiLevelResult:
+    """Identify dead-zone, gain, rails and shared dynamics from steps at several levels.
+
+    ``motorid identify --velocity A --velocity B ...`` in Python (issue 15): a Hammerstein
+    model ``y = K·G(s)·f(u)``.
+
+    Parameters
+    ----------
+    velocity : sequence of str or Path (or CH1/CH2 pairs)
+        One velocity capture per step experiment (repeats of a level are separate captures).
+    step_volts : sequence of float, optional
+        The level of each capture without an input channel.
+    columns : Mapping, optional
+        Plain-CSV column map.
+
+    Returns
+    -------
+    MultiLevelResult
+        ``.model`` (with ``static_nonlinearity``), ``.static`` (the law with intervals and
+        every level's status), ``.dynamics`` and ``.dynamics_note``.
+
+    Raises
+    ------
+    OptionError
+        Fewer than two moving levels, or mismatched ``step_volts``.
+    """
+    from motorid.identify.hammerstein import identify_levels as _identify_levels
+    from motorid.io import read_capture
+
+    caps = []
+    for spec in velocity:
+        paths = [str(p) for p in _paths(spec)]
+        caps.append(read_capture(paths[0] if len(paths) == 1 else paths, columns=dict(columns) if columns else None,
+                                 role="velocity"))
+    return _identify_levels(caps, step_volts=None if step_volts is None else list(step_volts))
 
 
 def read_experiment(
