@@ -164,3 +164,24 @@ def test_specs_settings_and_outcomes_survive_pickling(class_root):
     outcome = ExperimentOutcome("s02", "ok", row={"dc_gain": 0.9, "warnings": []}, roles={"velocity": "ALL0001"})
     for obj in (spec, settings, outcome):
         assert pickle.loads(pickle.dumps(obj)) == obj
+
+
+def test_of_two_velocity_looking_captures_the_step_from_rest_is_taken(class_root):
+    """The demo's slow square wave shows one edge (+6.4 V → −6.35 V) and a settling velocity:
+    it looks like a velocity step too; the step experiment is the one starting from 0 V."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from motorid.io import read_capture
+
+    root, _ = class_root
+    (spec,) = [s for s in discover_experiments([root]) if s.name == "s00"]
+    vel = read_capture(root / "s00" / "ALL0001")
+    square = replace(vel, input_v=np.where(vel.input_v > 0.5 * vel.input_v.max(), -6.35, 6.4))
+    roles, others = assign_roles(spec, {("ALL0001",): vel, ("ALL0005",): square})
+    assert roles == {"velocity": ("ALL0001",)} and others == [("ALL0005",)]
+    # neither from rest: still refused, as two steps from rest are
+    shifted = replace(vel, input_v=vel.input_v + 3.0)
+    with pytest.raises(OptionError, match="2 captures look like velocity"):
+        assign_roles(spec, {("ALL0001",): shifted, ("ALL0005",): square})

@@ -184,6 +184,23 @@ def _label(paths: tuple[str, ...]) -> str:
     return "+".join(paths)
 
 
+#: A step starts from rest when its level before the edge is within this fraction of its amplitude.
+AT_REST_OF_AMPLITUDE = 0.05
+
+
+def _steps_from_rest(capture: Any) -> bool:
+    """Whether the capture's input channel steps from about 0 V (the paper's experiment)."""
+    from motorid.conditioning.edge import step_edge
+
+    if capture.input_v is None:
+        return False
+    try:
+        edge = step_edge(capture.time_s, capture.input_v, file=capture.source)
+    except MotorIdError:
+        return False
+    return abs(edge.baseline_v) <= AT_REST_OF_AMPLITUDE * abs(edge.amplitude_v)
+
+
 def assign_roles(spec: ExperimentSpec, captures: Mapping[tuple[str, ...], Any]
                  ) -> tuple[dict[str, tuple[str, ...]], list[tuple[str, ...]]]:
     """Give each capture of a folder without a roles file its role, from its signal.
@@ -224,6 +241,11 @@ def assign_roles(spec: ExperimentSpec, captures: Mapping[tuple[str, ...], Any]
         for role, keys in claims.items():
             if role in roles:
                 continue
+            if len(keys) > 1:
+                # the step experiment starts from rest; a slow square wave (validation) that
+                # shows one edge in the window swings between two non-zero levels
+                at_rest = [k for k in keys if _steps_from_rest(captures[k])]
+                keys = at_rest if len(at_rest) == 1 else keys
             if len(keys) > 1:
                 raise OptionError(f"{len(keys)} captures look like {role} ({', '.join(map(_label, keys))}): name "
                                   "the roles in an experiment.toml or manifest.csv in the folder")
@@ -271,13 +293,13 @@ def _identify_one(spec: ExperimentSpec, settings: BatchSettings) -> ExperimentOu
         force_role=settings.force_role or not spec.roles,  # guessed roles agree with the guess
     )
     fit = mi.identify(exp, **settings.identify)
-    warnings = list(fit.warnings)
+    warnings = [_relative(w, spec.folder) for w in fit.warnings]
     design_doc = None
     if settings.design is not None:
         try:
             design_doc = mi.design(fit, **settings.design).to_json()
         except MotorIdError as exc:
-            warnings.append(f"design: {exc}")
+            warnings.append(_relative(f"design: {exc}", spec.folder))
     report = None
     if settings.report:
         validation = {}
@@ -309,10 +331,14 @@ def _identify_one(spec: ExperimentSpec, settings: BatchSettings) -> ExperimentOu
     )
 
 
+def _relative(message: str, folder: str) -> str:
+    """A message with the experiment folder's prefix taken off its paths."""
+    return message.replace(folder.rstrip("/") + "/", "")
+
+
 def _one_line(message: str, folder: str) -> str:
-    """The first line of a message, with the experiment folder's prefix taken off its paths."""
-    line = (message.strip().splitlines() or [""])[0]
-    return line.replace(folder.rstrip("/") + "/", "")
+    """The first line of a message, paths relative to the experiment folder."""
+    return _relative((message.strip().splitlines() or [""])[0], folder)
 
 
 def run_experiment_task(job: tuple[ExperimentSpec, BatchSettings]) -> ExperimentOutcome:
