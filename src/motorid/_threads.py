@@ -33,14 +33,31 @@ def single_blas_thread(func: Callable[P, R]) -> Callable[P, R]:
     """Run ``func`` with every BLAS library (numpy's and scipy's) limited to one thread.
 
     The libraries are imported first so that both OpenBLAS copies are loaded when the limit
-    is applied; nested calls are cheap (threadpoolctl only sets the count again).
+    is applied; nested calls are cheap (threadpoolctl only sets the count again).  With
+    ``OPENBLAS_NUM_THREADS=1`` in the environment (the CLI sets it before anything loads) an
+    OpenBLAS loaded later starts with one thread anyway, so scipy is not imported for
+    functions that do not use it (``motorid inspect``: issue 16, start-up).
+
+    Parameters
+    ----------
+    func : callable
+        The function to wrap.
+
+    Returns
+    -------
+    callable
+        ``func`` run under a one-thread BLAS limit.
     """
 
     @functools.wraps(func)
     def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
+        import os
+
         import numpy  # noqa: F401 - loads numpy's OpenBLAS
-        import scipy.linalg  # noqa: F401 - loads scipy's own OpenBLAS
         from threadpoolctl import threadpool_limits
+
+        if os.environ.get("OPENBLAS_NUM_THREADS") != "1":
+            import scipy.linalg  # noqa: F401 - loads scipy's own OpenBLAS
 
         with threadpool_limits(limits=1, user_api="blas"):
             return func(*args, **kwargs)

@@ -19,7 +19,9 @@ from rich.console import Console
 from rich.table import Table
 
 from motorid.errors import MotorIdError, OptionError
-from motorid.io import atomic_outputs, check_writable
+
+# Everything else loads inside the command that needs it (issue 16): ``motorid --help`` imports
+# typer and rich only, not numpy, scipy, python-control or matplotlib.
 
 app = typer.Typer(
     add_completion=False,
@@ -27,7 +29,7 @@ app = typer.Typer(
     help="Identify a DC servo-motor model from oscilloscope step captures.",
     pretty_exceptions_enable=False,
 )
-_state = {"debug": False}
+_state = {"debug": False, "progress": False}
 
 
 def _console() -> Console:
@@ -38,8 +40,19 @@ def _console() -> Console:
 @app.callback()
 def _root(
     debug: Annotated[bool, typer.Option("--debug", help="Show the traceback of internal errors.")] = False,
+    progress: Annotated[bool, typer.Option(
+        "--progress",
+        help="Draw progress bars on stderr even when it is not a terminal.")] = False,
 ) -> None:
     _state["debug"] = debug
+    _state["progress"] = progress
+
+
+def _bar(description: str, total: float | None = None):
+    """A progress bar on stderr (:mod:`motorid.cli.progress`) when a terminal or ``--progress`` asks for one."""
+    from motorid.cli.progress import progress_bar, wanted
+
+    return progress_bar(description, total=total, enabled=wanted(_state["progress"]))
 
 
 def _parse_columns(spec: str | None) -> dict[str, str] | None:
@@ -242,10 +255,12 @@ def demo(
 ) -> None:
     """Record an example experiment on the virtual servo trainer and read it back."""
     from motorid.cli.demo import run_demo
+    from motorid.io import check_writable
 
     _check_options(preset=preset, step_volts=step_volts)
     check_writable({"--out": out}, force=force, folder=True)
-    result = run_demo(out, preset=preset, seed=seed, step_volts=step_volts, force=force)
+    with _bar("demo") as progress:
+        result = run_demo(out, preset=preset, seed=seed, step_volts=step_volts, force=force, progress=progress)
     con = _console()
     table = Table(title=f"virtual trainer '{preset}', seed {seed}: written to {out}")
     for head in ("capture", "files", "step at (s) true / read", "step (V) true / read", "role", "wraps true / read"):
@@ -419,6 +434,7 @@ def identify(
     """
     from motorid.cli.levels import parse_levels
     from motorid.identify.pipeline import IdentifySettings, identify_experiment
+    from motorid.io import atomic_outputs, check_writable
 
     levels = parse_levels(step_volts)
     velocities = [velocity] if isinstance(velocity, str) else list(velocity or [])
@@ -460,7 +476,9 @@ def identify(
         from motorid.control.design_io import read_design_json as read_design
 
         doc = read_design(design) if design is not None else None
-    result = identify_experiment(caps, settings, step_volts=step_volts_v, t0_s=t0)
+    with _bar(f"identifying (method {method})"):
+        # stage by stage once identify_experiment takes a progress callback; a spinner until then
+        result = identify_experiment(caps, settings, step_volts=step_volts_v, t0_s=t0)
     con = _console()
     _print_model(con, result.model, "identified model")
     con.print(f"choice: {result.reason}")
@@ -472,7 +490,8 @@ def identify(
         if report_out is not None:
             from motorid.report.assemble import make_report
 
-            outs.write_text(report_out, make_report(result, caps, validation=checks, design=doc))
+            with _bar("writing the report"):
+                outs.write_text(report_out, make_report(result, caps, validation=checks, design=doc))
     for label, path in (("model JSON", json_out), ("MATLAB/Octave script", matlab_out), ("report", report_out)):
         if path is not None:
             con.print(f"{label}: {path}")
@@ -484,7 +503,7 @@ def _identify_levels(velocities: list[str], experiments: list[str], levels: list
                      report_out: Path | None, ignored: list[str]) -> None:
     """The several-step-levels path of ``identify`` (issue 15)."""
     from motorid.cli.levels import experiment_capture, identify_levels_cmd
-    from motorid.io import read_capture
+    from motorid.io import atomic_outputs, read_capture
 
     colmap = _parse_columns(columns)
     caps = [read_capture(_capture_paths(v), columns=colmap, role="velocity") for v in velocities]
@@ -628,6 +647,7 @@ def report(
     """Identify and write one self-contained HTML report of the experiment."""
     from motorid.identify.pipeline import IdentifySettings, identify_experiment
     from motorid.control.design_io import read_design_json as read_design
+    from motorid.io import atomic_outputs, check_writable
     from motorid.report.assemble import make_report
 
     _check_options(method=method, sample_interval=sample_interval, step_volts=step_volts)
@@ -639,9 +659,13 @@ def report(
     _check_against_captures(caps, record_length=None)
     checks = _validation_captures(validate, columns)
     doc = read_design(design) if design is not None else None
-    result = identify_experiment(caps, settings, step_volts=step_volts)
-    with atomic_outputs() as outs:
-        outs.write_text(out, make_report(result, caps, validation=checks, design=doc))
+    with _bar("report", total=2) as progress:
+        progress(0, label="identifying")
+        result = identify_experiment(caps, settings, step_volts=step_volts)
+        progress(1, label="figures and page")
+        with atomic_outputs() as outs:
+            outs.write_text(out, make_report(result, caps, validation=checks, design=doc))
+        progress(2)
     _console().print(f"report: {out}")
     _strict_exit(result, strict)
 
@@ -679,11 +703,10 @@ def sweep(
         help="Keep a capture's role flag even when it looks like another role.")] = False,
 ) -> None:
     """The paper's Tables 1-3: k and τ over record length × sample interval."""
-    from rich.progress import Progress
-
     from motorid.conditioning.pipeline import ConditioningSettings
     from motorid.identify.pipeline import IdentifySettings
     from motorid.analysis.sweep import sensitivity_table
+    from motorid.io import atomic_outputs, check_writable
 
     _check_options(method=method, order=order, reduction=reduction, step_volts=step_volts)
     check_writable({"--json": json_out}, force=force, create_parents=False)
@@ -712,14 +735,11 @@ def sweep(
         lens, ints = lens_given, ints_given
     _check_against_captures(caps, record_length=min(lens))
     con = _console()
-    # no bar when stderr is not a terminal: a transient bar still leaves a blank line there,
-    # and the error line (exit 2) must be the only one a script sees
-    with Progress(console=Console(stderr=True), transient=True, disable=not sys.stderr.isatty()) as bar:
-        task = bar.add_task("identifying", total=len(lens) * len(ints))
-        res = sensitivity_table(
-            caps, lengths_s=lens, intervals_s=ints, settings=settings, step_volts=step_volts,
-            progress=lambda done, total: bar.update(task, completed=done),
-        )
+    # no bar when stderr is not a terminal (unless --progress): a transient bar still leaves a
+    # blank line there, and the error line (exit 2) must be the only one a script sees
+    with _bar("sweep", total=len(lens) * len(ints)) as progress:
+        res = sensitivity_table(caps, lengths_s=lens, intervals_s=ints, settings=settings, step_volts=step_volts,
+                                progress=progress)
     table = Table(title=f"k/(s+p) and τ by record length × sample interval (method {method})")
     table.add_column("ΔT")
     for length in res.lengths_s:

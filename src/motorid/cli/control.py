@@ -8,21 +8,23 @@ into one line and exit code 2.  Register everything on the main app with :func:`
 from __future__ import annotations
 
 import json
+import math
 import time
 from pathlib import Path
-from typing import Annotated, cast
+from typing import TYPE_CHECKING, Annotated, cast
 
-import numpy as np
 import typer
 
 from motorid.errors import MotorIdError, OptionError
-from motorid.control.design_io import load_design as _load_design
-from motorid.io import atomic_outputs, check_writable
-from motorid.model.serialize import load_model
+
+if TYPE_CHECKING:
+    import numpy as np
+
+# numpy, the model/design loaders and the writers load inside each command (issue 16: ``motorid
+# --help`` imports none of them)
 
 __all__ = [
     "design",
-    "load_model",
     "model_app",
     "model_from_params_cmd",
     "model_from_step_test_cmd",
@@ -52,6 +54,8 @@ def _check_outputs(outputs: list[tuple[Path | None, str, str | None]], force: bo
             raise OptionError(f"{option} {path} is a folder; give a file name")
         if not path.parent.is_dir():
             raise OptionError(f"{option} {path}: the folder {path.parent} does not exist; create it first")
+    from motorid.io import check_writable
+
     check_writable([p for p, _, _ in outputs], force=force)
 
 
@@ -60,7 +64,7 @@ def _check_numbers(values: dict[str, float | None], positive: tuple[str, ...] = 
     for option, v in values.items():
         if v is None:
             continue
-        if not np.isfinite(v):
+        if not math.isfinite(v):
             raise OptionError(f"{option} must be a finite number, got {v}")
         if option in positive and not v > 0:
             raise OptionError(f"{option} must be greater than 0, got {v:g}")
@@ -85,7 +89,7 @@ def _floats(text: str | None, option: str) -> tuple[float, ...] | None:
         vals = tuple(float(v) for v in text.split(",") if v.strip())
     except ValueError:
         raise OptionError(f"{option} must be comma-separated numbers, got {text!r}") from None
-    if not vals or not all(np.isfinite(vals)):
+    if not vals or not all(math.isfinite(v) for v in vals):
         raise OptionError(f"{option} must be finite numbers, got {text!r}")
     return vals
 
@@ -97,6 +101,8 @@ def _fmt_pole(p: complex) -> str:
 
 
 def _print_model(model, out: Path | None) -> None:
+    import numpy as np
+
     typer.echo(f"A = {np.array2string(model.A, precision=5)}")
     typer.echo(f"B = {np.array2string(model.B.ravel(), precision=5)}")
     typer.echo("states: " + ", ".join(model.states) + " (position volts, tacho volts)")
@@ -116,6 +122,7 @@ def model_from_params_cmd(
 ) -> None:
     """The lab report's state equations (eqs. 24-29) from physical parameters."""
     from motorid.control.params import MotorParams, model_from_params, parse_ratio
+    from motorid.io import atomic_outputs
 
     _check_outputs([(json_out, "--json", None)], force)
     model = model_from_params(MotorParams(km=km, kT=kt, gear=parse_ratio(gear), k0=k0, Tm_s=tm))
@@ -138,6 +145,7 @@ def model_from_step_test_cmd(
 ) -> None:
     """The lab report's model from its step-test measurements (eqs. 1-19)."""
     from motorid.control.params import model_from_params, params_from_step_test, parse_ratio
+    from motorid.io import atomic_outputs
 
     _check_outputs([(json_out, "--json", None)], force)
     p = params_from_step_test(v_tacho_ss=v_tacho_ss, u_step=u_step, Tm_s=tm, delta_theta_v=delta_theta,
@@ -172,6 +180,8 @@ def design(
     """State feedback, integral action and observer design (Tsiolakis 2022, §2-4)."""
     from motorid.control.design import DesignSettings, design_controller
     from motorid.control.feedback import parse_poles
+    from motorid.io import atomic_outputs
+    from motorid.model.serialize import load_model
 
     _check_outputs([(json_out, "--json", None)], force)
     settings = DesignSettings(
@@ -201,8 +211,8 @@ def design(
     if d.L is not None:
         # design_controller sets L, observer_poles and output_feedback_poles together
         typer.echo("L = [" + ", ".join(f"{v:.6g}" for v in d.L) + "]")
-        typer.echo("observer poles: " + ", ".join(_fmt_pole(p) for p in cast(np.ndarray, d.observer_poles)))
-        ofb_poles = sorted(cast(np.ndarray, d.output_feedback_poles), key=lambda p: (p.real, p.imag))
+        typer.echo("observer poles: " + ", ".join(_fmt_pole(p) for p in cast("np.ndarray", d.observer_poles)))
+        ofb_poles = sorted(cast("np.ndarray", d.output_feedback_poles), key=lambda p: (p.real, p.imag))
         typer.echo("plant + observer + feedback poles (separation): "
                    + ", ".join(_fmt_pole(p) for p in ofb_poles))
     typer.echo("Routh-Hurwitz: " + "; ".join(d.routh))
@@ -251,6 +261,9 @@ def simulate(
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Closed-loop simulation of a design: metrics, time series and a plot."""
+    from motorid.control.design_io import load_design as _load_design
+    from motorid.io import atomic_outputs
+    from motorid.model.serialize import load_model
     from motorid.simulate.closed_loop import ReferenceSignal, SimulationSettings, plot_simulation, simulate_closed_loop
 
     _check_outputs([(csv_out, "--csv", None), (json_out, "--json", None), (png, "--png", ".png")], force)
@@ -325,6 +338,8 @@ def modes(
         plot_mode_maps,
         servo_plants,
     )
+    from motorid.io import atomic_outputs
+    from motorid.model.serialize import load_model
 
     _check_outputs([(json_out, "--json", None), (png, "--png", ".png")], force)
     _check_numbers({"--step": step, "--saturation": saturation, "--duration": duration, "--extra-pole": extra_pole},

@@ -14,6 +14,7 @@ the model written to ``model.json`` and the whole story to ``report.html``.
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -23,8 +24,11 @@ from motorid.conditioning.inspect import CaptureSummary, describe_capture
 from motorid.errors import OutputExistsError
 from motorid.io import atomic_folder, check_writable, read_capture, write_tds_capture
 
-__all__ = ["CAPTURE_ORDER", "DemoResult", "DemoRow", "run_demo"]
+__all__ = ["CAPTURE_ORDER", "DEMO_STEPS", "DemoResult", "DemoRow", "run_demo"]
 
+#: The steps ``run_demo`` reports to its ``progress`` callback.
+DEMO_STEPS: tuple[str, ...] = ("trainer simulation", "writing and reading the captures", "identifying",
+                               "report")
 #: Folder index of each capture of the example experiment.
 CAPTURE_ORDER: tuple[str, ...] = ("position", "velocity", "current", "sine", "triangle", "square")
 
@@ -65,6 +69,7 @@ def run_demo(
     seed: int = 0,
     step_volts: float = 5.92,
     force: bool = False,
+    progress: Callable[..., None] | None = None,
 ) -> DemoResult:
     """Generate, write and read back the example experiment.
 
@@ -80,6 +85,9 @@ def run_demo(
         Step level.
     force : bool
         Overwrite existing files; without it nothing is written when any target exists.
+    progress : callable, optional
+        Called as ``progress(done, total, label)`` before each of the :data:`DEMO_STEPS` steps
+        and once at the end (the command line's progress bar, :mod:`motorid.cli.progress`).
 
     Returns
     -------
@@ -103,14 +111,23 @@ def run_demo(
             f"{len(existing)} output(s) exist (e.g. {existing[0].name}); use --force to overwrite",
             file=str(out),
         )
+    def step(done: int) -> None:
+        if progress is not None:
+            progress(done, len(DEMO_STEPS), DEMO_STEPS[done] if done < len(DEMO_STEPS) else None)
+
+    step(0)
     exp = run_experiment(preset, step_volts=step_volts, seed=seed)
     # all the demo's files appear, or none: a failure (full disk) puts back what was there
     with atomic_folder(out, _targets(out)):
-        return _write_demo(out, exp, preset=preset, seed=seed, step_volts=step_volts, force=force)
+        result = _write_demo(out, exp, preset=preset, seed=seed, step_volts=step_volts, force=force, step=step)
+    step(len(DEMO_STEPS))
+    return result
 
 
-def _write_demo(out: Path, exp: Any, *, preset: str, seed: int, step_volts: float, force: bool) -> DemoResult:
+def _write_demo(out: Path, exp: Any, *, preset: str, seed: int, step_volts: float, force: bool,
+                step: Callable[[int], None]) -> DemoResult:
     """Write the example captures, read them back, identify, write the model and report."""
+    step(1)
     captures = dict(exp.captures)
     captures.update(exp.validation)
     rows: list[DemoRow] = []
@@ -142,11 +159,13 @@ def _write_demo(out: Path, exp: Any, *, preset: str, seed: int, step_volts: floa
 
     read_back = {role: read_capture(out / f"ALL{CAPTURE_ORDER.index(role):04d}")
                  for role in ("position", "velocity", "current") if role in exp.captures}
+    step(2)
     ident = identify_experiment(read_back)
     model_path = out / "model.json"
     model_path.write_text(ident.model.to_json_text(), encoding="utf-8")
     from motorid.report.assemble import make_report
 
+    step(3)
     checks = {name: read_capture(out / f"ALL{CAPTURE_ORDER.index(name):04d}")
               for name in ("sine", "triangle", "square") if name in exp.validation}
     page = make_report(ident, read_back, validation=checks, truth=doc,

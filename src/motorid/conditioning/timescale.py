@@ -13,7 +13,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.ndimage
 
 from motorid.conditioning.edge import noise_level, quantisation_step
 
@@ -88,6 +87,8 @@ def response_times(time_s: np.ndarray, y: np.ndarray, *, pre: np.ndarray | None 
     z = v * np.sign(final) / abs(final)
     # a running median over a few samples takes ripple and spikes out without a phase lag
     width = int(min(max(3, n // 200 * 2 + 1), 31))
+    import scipy.ndimage  # loads on use (issue 16: start-up)
+
     zs = scipy.ndimage.median_filter(z, size=width, mode="nearest")
     above = np.flatnonzero(zs >= 1.0 - np.exp(-1.0))
     t63 = float(t[above[0]]) if above.size else float("nan")

@@ -16,7 +16,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import BSpline
 
 from motorid.conditioning.edge import noise_level, quantisation_step
 from motorid.errors import ConditioningError
@@ -76,6 +75,8 @@ def _fit_span(t: np.ndarray, y: np.ndarray, w: np.ndarray, good: np.ndarray) -> 
     follow the 8-bit quantisation staircase and bias the span; too few cannot follow the
     acceleration of the motor.
     """
+    from scipy.interpolate import BSpline  # loads on use (issue 16: start-up)
+
     tg, yg, wg = t[good], y[good], w[good]
     best: tuple[float, float] | None = None
     for spacing in (100, 50, 25):

@@ -4,6 +4,9 @@ One source for the command line (which adds colour) and for
 :meth:`motorid.IdentificationResult.summary` (plain text).  Each line is a tuple of
 ``(text, style)`` spans; ``style`` is a rich style name (``""``: none), so the command line
 can colour a line without the text passing through rich's markup parser.
+
+Numbers are written by :mod:`motorid.numfmt` (issue 16): four significant figures, a
+conjugate pair once as ``-2.800 ± 1.150j``, keys in words; the JSON keeps full precision.
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from motorid.model.notation import poly_text
+from motorid.numfmt import complex_text, metric_name, roots_text, sig
 
 __all__ = ["Span", "SummaryLine", "model_summary", "model_summary_lines"]
 
@@ -32,16 +36,16 @@ def _plain(text: str) -> SummaryLine:
     return ((text, ""),)
 
 
-def _complex_text(re_: float, im_: float) -> str:
-    return f"{re_:.4g}" if abs(im_) < 1e-12 else f"{re_:.4g}{im_:+.4g}j"
+def _array_text(a: Any) -> str:
+    return np.array2string(np.asarray(a, dtype=float), formatter={"float_kind": sig})
 
 
 def _header(model: Any, title: str) -> list[SummaryLine]:
     lines: list[SummaryLine] = [
         ((title, "bold"), (f": method {model.method}, order {model.order}, states {list(model.states)}, "
-                           f"step {model.step_volts:.4g} V", ""))]
-    lines.append(_plain(f"A = {np.array2string(model.A, precision=5, suppress_small=False)}"))
-    lines.append(_plain(f"B = {np.array2string(model.B.ravel(), precision=5, suppress_small=False)}ᵀ"))
+                           f"step {sig(model.step_volts)} V", ""))]
+    lines.append(_plain(f"A = {_array_text(model.A)}"))
+    lines.append(_plain(f"B = {_array_text(model.B.ravel())}ᵀ"))
     for name in ("velocity", "position", "current"):
         try:
             tf = getattr(model, f"{name}_tf")
@@ -51,16 +55,14 @@ def _header(model: Any, title: str) -> list[SummaryLine]:
             continue
         num, den = np.ravel(tf.num[0][0]), np.ravel(tf.den[0][0])
         lines.append(_plain(f"H_{name}(s) = ({poly_text(num)}) / ({poly_text(den)})"))
-    poles = ", ".join(f"{p.real:.4g}{p.imag:+.4g}j" if abs(p.imag) > 1e-12 else f"{p.real:.4g}"
-                      for p in model.poles())
-    lines.append(_plain(f"poles: {poles}"))
+    lines.append(_plain(f"poles: {roots_text(model.poles())}"))
     fo = model.first_order()
-    lines.append(_plain(f"first order: k/(s+p) = {fo.k:.4g}/(s + {fo.p:.4g}); dc gain {fo.dc_gain:.4g} V/V, "
-                        f"τ = {fo.time_constant_s:.4g} s"))
+    lines.append(_plain(f"first order: k/(s+p) = {sig(fo.k)}/(s + {sig(fo.p)}); dc gain {sig(fo.dc_gain)} V/V, "
+                        f"τ = {sig(fo.time_constant_s)} s"))
     if model.delay_s > 0:
-        lines.append(_plain(f"dead time: {1e3 * model.delay_s:.4g} ms (every H(s) above times "
-                            f"e^(−s·{model.delay_s:.4g})); mean residence time τ + dead time = "
-                            f"{fo.time_constant_s + model.delay_s:.4g} s"))
+        lines.append(_plain(f"dead time: {sig(1e3 * model.delay_s)} ms (every H(s) above times "
+                            f"e^(−s·{sig(model.delay_s)})); mean residence time τ + dead time = "
+                            f"{sig(fo.time_constant_s + model.delay_s)} s"))
     return lines
 
 
@@ -71,16 +73,17 @@ def _uncertainty(u: Mapping[str, Any]) -> list[SummaryLine]:
     for key, label in (("dc_gain", "dc gain"), ("time_constant", "τ (s)")):
         item = u[key]
         lo, hi = item["ci95"]
-        lines.append(_plain(f"{label}: {item['value']:.5g} ± {1.96 * item['std']:.2g} "
-                            f"(95% interval [{lo:.5g}, {hi:.5g}])"))
+        lines.append(_plain(f"{label}: {sig(item['value'])} ± {sig(1.96 * item['std'], 2)} "
+                            f"(95 % interval [{sig(lo)}, {sig(hi)}])"))
     if "delay" in u:
         item = u["delay"]
-        lines.append(_plain(f"delay: {1e3 * item['value']:.3g} ms ± {1.96e3 * item['std']:.2g} ms (95%; not in "
+        lines.append(_plain(f"delay: {sig(1e3 * item['value'])} ms ± {sig(1.96e3 * item['std'], 2)} ms (95 %; not in "
                             "the state-space model: add it as e^(-s·delay), e.g. control.pade)"))
     for name in ("poles", "zeros"):
         for i, item in enumerate(u.get(name, [])):
             re_, im_ = item["value"]
-            lines.append(_plain(f"{name[:-1]} {i + 1}: {_complex_text(re_, im_)} ± {1.96 * item['std']:.2g} (95%)"))
+            lines.append(_plain(f"{name[:-1]} {i + 1}: {complex_text(complex(re_, im_))} ± "
+                                f"{sig(1.96 * item['std'], 2)} (95 %)"))
     return lines
 
 
@@ -91,37 +94,42 @@ def _noise_and_stages(model: Any) -> list[SummaryLine]:
         parts = []
         for role, nm in noise.items():
             use = "; scale only: its 8-bit codes are not dithered by noise" if nm.get("use") == "scale only" else ""
-            parts.append(f"{role} σ {nm['sigma']:.3g} V (AR order {nm['ar_order']}{use})")
+            parts.append(f"{role} σ {sig(nm['sigma'])} V (AR order {nm['ar_order']}{use})")
         lines.append(_plain("noise model of the output-error fit: " + ", ".join(parts)))
     for st in model.stages:
-        desc = ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
-                         for k, v in st.items() if k in ("method", "order", "dc_gain", "time_constant",
-                                                         "markov_order", "oe_order", "agree"))
+        desc = ", ".join(_stage_item(k, v) for k, v in st.items()
+                         if k in ("method", "order", "dc_gain", "time_constant", "markov_order", "oe_order", "agree"))
         extra = f" — {st['evidence']}" if "evidence" in st else ""
         lines.append(_plain(f"stage {st['stage']}: {desc}{extra}"))
     return lines
+
+
+def _stage_item(key: str, value: Any) -> str:
+    if key == "time_constant" and isinstance(value, float):
+        return f"τ {sig(value)} s"
+    return f"{metric_name(key)} {sig(value) if isinstance(value, float) else value}"
 
 
 def _markov(extras: Mapping[str, Any]) -> list[SummaryLine]:
     ex = extras
     if ex.get("markov_basis") == "laguerre":
         return [
-            _plain(f"Laguerre basis: a = {ex['laguerre_pole']:.4g} 1/s, N = {ex['laguerre_terms']}; coefficients "
-                   + ", ".join(f"{x:.4g}" for x in ex["laguerre_coefficients"][:8])
+            _plain(f"Laguerre basis: a = {sig(ex['laguerre_pole'])} 1/s, N = {ex['laguerre_terms']}; coefficients "
+                   + ", ".join(sig(x) for x in ex["laguerre_coefficients"][:8])
                    + (" …" if ex["laguerre_terms"] > 8 else "")
-                   + f"; DC gain from them {ex['laguerre_dc_gain']:.5g} ± "
-                   f"{1.96 * ex['laguerre_dc_gain_std']:.2g} (95%)"),
+                   + f"; DC gain from them {sig(ex['laguerre_dc_gain'])} ± "
+                   f"{sig(1.96 * ex['laguerre_dc_gain_std'], 2)} (95 %)"),
             _plain("Hankel singular values of the Laguerre coefficients (normalised): "
-                   + ", ".join(f"{x:.3g}" for x in ex["hankel_singular_values_scaled"])
-                   + f"; noise floor {ex['hankel_noise_floor']:.3g}"),
+                   + ", ".join(sig(x) for x in ex["hankel_singular_values_scaled"])
+                   + f"; noise floor {sig(ex['hankel_noise_floor'])}"),
             _plain(f"Markov settings: {ex.get('markov_choice', '')}"),
         ]
     if "hankel_singular_values_scaled" in ex:
         return [
             _plain("Hankel singular values (normalised), time-scaled: "
-                   + ", ".join(f"{x:.3g}" for x in ex["hankel_singular_values_scaled"])
-                   + "; raw (seconds): " + ", ".join(f"{x:.3g}" for x in ex["hankel_singular_values_raw"])
-                   + f"; noise floor {ex['hankel_noise_floor']:.3g}"),
+                   + ", ".join(sig(x) for x in ex["hankel_singular_values_scaled"])
+                   + "; raw (seconds): " + ", ".join(sig(x) for x in ex["hankel_singular_values_raw"])
+                   + f"; noise floor {sig(ex['hankel_noise_floor'])}"),
             _plain(f"Markov settings: {ex.get('markov_choice', '')}"),
         ]
     return []
@@ -131,9 +139,9 @@ def _fit_and_checks(model: Any) -> list[SummaryLine]:
     lines: list[SummaryLine] = []
     for key, val in model.fit.items():
         if key.endswith("_fit_percent"):
-            lines.append(_plain(f"fit {key}: {val:.2f}% (MATLAB compare: 100·(1 − ‖y − ŷ‖/‖y − mean y‖))"))
+            lines.append(_plain(f"{metric_name(key)}: {sig(val)} % (MATLAB compare: 100·(1 − ‖y − ŷ‖/‖y − mean y‖))"))
         else:
-            lines.append(_plain(f"fit {key}: {100 * val:.2f}% (RMS error / measured steady-state change)"))
+            lines.append(_plain(f"{metric_name(key)}: {sig(100 * val)} % (RMS error / measured steady-state change)"))
     for note in model.extras.get("conditioning", ()) or ():
         lines.append(_plain(f"automatic choice: {note}"))
     sanity = model.extras.get("sanity")
