@@ -458,108 +458,178 @@ def output_error_fit(
     n, m = settings.n_poles, settings.n_zeros
     if n < 1 or m < 0 or m >= n:
         raise IdentificationError(f"output-error structure needs 1 ≤ zeros + 1 ≤ poles, got {n} poles and {m} zeros")
-    names = [c for c in ("velocity", "position", "current") if c in channels]
-    if "velocity" not in names and "position" not in names:
-        raise IdentificationError("the output-error fit needs a velocity or a position capture")
-    tc = {c: np.asarray(time_s[c] if isinstance(time_s, Mapping) else time_s, dtype=float) for c in names}
-    raw = {c: np.asarray(channels[c], dtype=float) for c in names}
-    for c in names:
-        if tc[c].shape != raw[c].shape:
-            raise IdentificationError(f"{c}: {raw[c].size} samples on a grid of {tc[c].size} times")
-    wraps = None
-    if wrap_count is not None and "position" in wrap_count and "position" in names:
-        wraps = np.asarray(wrap_count["position"], dtype=float)
-        if wraps.shape != raw["position"].shape:
-            raise IdentificationError(f"position: {wraps.size} wrap counts for {raw['position'].size} samples")
-        if not np.any(wraps):
-            wraps = None
-    layout = _Layout(settings, names, wrapped=wraps is not None)
-    if "current" in names:
-        # the current's sample at the edge sees it mid-jump when the electrical pole is faster
-        # than the sampling (how far depends on where the step fell between samples): leave it
-        # out — for every structure, so that their fits (and BIC) see the same data
-        first = tc["current"] > 0.5 * float(np.median(np.diff(tc["current"])))
-        tc["current"], raw["current"] = tc["current"][first], raw["current"][first]
-    ratio = {c: max(1, int((block or {}).get(c, 1))) for c in names}
-    tc = {c: tc[c][: tc[c].size // ratio[c] * ratio[c]] for c in names}
-    if wraps is not None:
-        wraps = wraps[: tc["position"].size]
-    data = {c: _block_mean(raw[c], ratio[c]) for c in names}
-    n_par = len(layout.names)
-    n_total = sum(v.size for v in data.values())
-    shortest = min(v.size for v in data.values())
-    if shortest <= n_par + 2:
-        raise IdentificationError(f"only {shortest} samples for {n_par} parameters: record more after the step")
-    taus0 = list(init_taus)[:n]
-    while len(taus0) < n:
-        taus0.append((taus0[-1] if taus0 else 0.3) / 8.0)
-    tz0 = list(init_zeros)[:m] + [0.5 * taus0[min(1, n - 1)]] * (m - len(list(init_zeros)[:m]))
-    th0_list = [init_dc_gain, *list(np.log(np.maximum(taus0, 1e-06))), *list(tz0)]
-    if settings.delay:
-        th0_list.append(max(float(init_delay_s), 0.0))
-    if "c" in layout.idx:
-        # c by least squares given the initial velocity model
-        base = position_closed_form(tc["position"], _vel_num(init_dc_gain, np.array(tz0)), taus0, step_volts)
-        c0 = float(base @ raw["position"][: base.size] / max(base @ base, 1e-300))
-        th0_list.append(c0 if np.isfinite(c0) and c0 != 0 else 1.0)
-    if "current" in names:
-        # current numerator: linear least squares on the responses of s^j/D(s)
-        nc = layout.n_current
-        cols = [step_response_closed_form(tc["current"], np.r_[1.0, np.zeros(nc - 1 - j)], taus0, step_volts)
-                for j in range(nc)]
-        a = np.column_stack(cols)
-        coef, *_ = np.linalg.lstsq(a, raw["current"][: a.shape[0]], rcond=None)
-        th0_list += list(coef)
-    pre_data = {c: _block_mean(np.asarray(pre[c], dtype=float), ratio[c], from_end=True)
-                for c in names if pre is not None and c in pre and len(pre[c]) >= ratio[c]}
-    th0_list += [float(np.mean(pre_data[c])) if c in pre_data else 0.0 for c in names]
-    th0_list += [0.0] * len(layout.shifted)
-    if wraps is not None:
-        th0_list.append(0.0)
-    th0 = np.asarray(th0_list, dtype=float)
-    w = {c: 1.0 / max(float(sigma.get(c, 1.0)), 1e-12) for c in names}
-    w_pre = {c: 1.0 / max(float((pre_sigma or sigma).get(c, 1.0)), 1e-12) for c in names}
-    filt = {c: np.asarray(whiten[c], dtype=float) for c in names if whiten is not None and c in whiten
-            and len(whiten[c]) > 1}
+    prob = _OeProblem.build(time_s, step_volts, channels, sigma, settings, pre=pre, block=block, whiten=whiten,
+                            pre_sigma=pre_sigma, wrap_count=wrap_count)
+    th0 = np.clip(prob.initial_parameters(init_taus, init_dc_gain, init_zeros, init_delay_s),
+                  prob.lower + 1e-9, prob.upper - 1e-9)
+    warnings: list[str] = []
+    with np.errstate(over="ignore", invalid="ignore"):
+        sol = scipy.optimize.least_squares(prob.residuals, th0, jac=prob.jacobian, bounds=(prob.lower, prob.upper),
+                                           x_scale="jac", max_nfev=settings.max_nfev, method="trf")
+    if not sol.success:
+        warnings.append(f"output-error fit stopped early: {sol.message}")
+    return prob.result(sol, step_std, warnings)
 
-    def white(c: str, e: np.ndarray) -> np.ndarray:
+
+#: Relative step of the forward differences of the Jacobian (time constants and zeros).
+JACOBIAN_STEP = 1e-7
+#: Relative step of the central differences of the delta method (derived quantities).
+DELTA_METHOD_STEP = 1e-6
+#: Fisher information worse conditioned than this: the parameters are poorly determined.
+MAX_FISHER_CONDITION = 1e14
+#: Time constants are searched between these bounds (s).
+TAU_BOUNDS_S = (1e-5, 1e3)
+#: A dead time is searched up to this fraction of the longest record.
+MAX_DELAY_FRACTION = 0.2
+#: Per-capture timing shifts are searched within this many sample intervals (default bound).
+SHIFT_BOUND_SAMPLES = 1.5
+
+
+@dataclass(slots=True)
+class _OeProblem:
+    """The least-squares problem of :func:`output_error_fit`: data, weights and the model.
+
+    Named steps: :meth:`build` (check and block-average the channels), :meth:`initial_parameters`,
+    :meth:`residuals` / :meth:`jacobian` (what scipy's ``least_squares`` calls) and
+    :meth:`result` (covariance, delta-method intervals, the :class:`OeResult`).
+    """
+
+    settings: OeSettings
+    layout: _Layout
+    names: list[str]
+    step_volts: float
+    tc: dict[str, np.ndarray]
+    raw: dict[str, np.ndarray]
+    data: dict[str, np.ndarray]
+    ratio: dict[str, int]
+    wraps: np.ndarray | None
+    pre_data: dict[str, np.ndarray]
+    sigma: Mapping[str, float]
+    w: dict[str, float]
+    w_pre: dict[str, float]
+    filt: dict[str, np.ndarray]
+    n_total: int
+    lower: np.ndarray
+    upper: np.ndarray
+
+    @classmethod
+    def build(cls, time_s: np.ndarray | Mapping[str, np.ndarray], step_volts: float,
+              channels: Mapping[str, np.ndarray], sigma: Mapping[str, float], settings: OeSettings, *,
+              pre: Mapping[str, np.ndarray] | None, block: Mapping[str, int] | None,
+              whiten: Mapping[str, np.ndarray] | None, pre_sigma: Mapping[str, float] | None,
+              wrap_count: Mapping[str, np.ndarray] | None) -> _OeProblem:
+        """Check the channels, drop the current's edge sample, block-average, set weights and bounds."""
+        names = [c for c in ("velocity", "position", "current") if c in channels]
+        if "velocity" not in names and "position" not in names:
+            raise IdentificationError("the output-error fit needs a velocity or a position capture")
+        tc = {c: np.asarray(time_s[c] if isinstance(time_s, Mapping) else time_s, dtype=float) for c in names}
+        raw = {c: np.asarray(channels[c], dtype=float) for c in names}
+        for c in names:
+            if tc[c].shape != raw[c].shape:
+                raise IdentificationError(f"{c}: {raw[c].size} samples on a grid of {tc[c].size} times")
+        wraps = None
+        if wrap_count is not None and "position" in wrap_count and "position" in names:
+            wraps = np.asarray(wrap_count["position"], dtype=float)
+            if wraps.shape != raw["position"].shape:
+                raise IdentificationError(f"position: {wraps.size} wrap counts for {raw['position'].size} samples")
+            if not np.any(wraps):
+                wraps = None
+        layout = _Layout(settings, names, wrapped=wraps is not None)
+        if "current" in names:
+            # the current's sample at the edge sees it mid-jump when the electrical pole is faster
+            # than the sampling (how far depends on where the step fell between samples): leave it
+            # out — for every structure, so that their fits (and BIC) see the same data
+            first = tc["current"] > 0.5 * float(np.median(np.diff(tc["current"])))
+            tc["current"], raw["current"] = tc["current"][first], raw["current"][first]
+        ratio = {c: max(1, int((block or {}).get(c, 1))) for c in names}
+        tc = {c: tc[c][: tc[c].size // ratio[c] * ratio[c]] for c in names}
+        if wraps is not None:
+            wraps = wraps[: tc["position"].size]
+        data = {c: _block_mean(raw[c], ratio[c]) for c in names}
+        n_par = len(layout.names)
+        shortest = min(v.size for v in data.values())
+        if shortest <= n_par + 2:
+            raise IdentificationError(f"only {shortest} samples for {n_par} parameters: record more after the step")
+        pre_data = {c: _block_mean(np.asarray(pre[c], dtype=float), ratio[c], from_end=True)
+                    for c in names if pre is not None and c in pre and len(pre[c]) >= ratio[c]}
+        n_total = sum(v.size for v in data.values()) + sum(v.size for v in pre_data.values())
+        w = {c: 1.0 / max(float(sigma.get(c, 1.0)), 1e-12) for c in names}
+        w_pre = {c: 1.0 / max(float((pre_sigma or sigma).get(c, 1.0)), 1e-12) for c in names}
+        filt = {c: np.asarray(whiten[c], dtype=float) for c in names if whiten is not None and c in whiten
+                and len(whiten[c]) > 1}
+        lower, upper = _bounds(layout, settings, tc)
+        return cls(settings, layout, names, step_volts, tc, raw, data, ratio, wraps, pre_data, sigma, w, w_pre, filt,
+                   n_total, lower, upper)
+
+    def initial_parameters(self, init_taus: Sequence[float], init_dc_gain: float, init_zeros: Sequence[float],
+                           init_delay_s: float) -> np.ndarray:
+        """The starting point: a paper method's gain, poles and zeros; the rest by least squares."""
+        n, m = self.settings.n_poles, self.settings.n_zeros
+        tc, raw, names, step_volts = self.tc, self.raw, self.names, self.step_volts
+        taus0 = list(init_taus)[:n]
+        while len(taus0) < n:
+            taus0.append((taus0[-1] if taus0 else 0.3) / 8.0)
+        tz0 = list(init_zeros)[:m] + [0.5 * taus0[min(1, n - 1)]] * (m - len(list(init_zeros)[:m]))
+        th0_list = [init_dc_gain, *list(np.log(np.maximum(taus0, 1e-06))), *list(tz0)]
+        if self.settings.delay:
+            th0_list.append(max(float(init_delay_s), 0.0))
+        if "c" in self.layout.idx:
+            # c by least squares given the initial velocity model
+            base = position_closed_form(tc["position"], _vel_num(init_dc_gain, np.array(tz0)), taus0, step_volts)
+            c0 = float(base @ raw["position"][: base.size] / max(base @ base, 1e-300))
+            th0_list.append(c0 if np.isfinite(c0) and c0 != 0 else 1.0)
+        if "current" in names:
+            # current numerator: linear least squares on the responses of s^j/D(s)
+            nc = self.layout.n_current
+            cols = [step_response_closed_form(tc["current"], np.r_[1.0, np.zeros(nc - 1 - j)], taus0, step_volts)
+                    for j in range(nc)]
+            a = np.column_stack(cols)
+            coef, *_ = np.linalg.lstsq(a, raw["current"][: a.shape[0]], rcond=None)
+            th0_list += list(coef)
+        th0_list += [float(np.mean(self.pre_data[c])) if c in self.pre_data else 0.0 for c in names]
+        th0_list += [0.0] * len(self.layout.shifted)
+        if self.wraps is not None:
+            th0_list.append(0.0)
+        return np.asarray(th0_list, dtype=float)
+
+    def _white(self, c: str, e: np.ndarray) -> np.ndarray:
         """The channel's FIR whitening from rest, along axis 0 (residuals or Jacobian columns).
 
         A vector goes through np.convolve, which lfilter wraps in apply_along_axis.
         """
-        if c not in filt:
+        if c not in self.filt:
             return e
         if e.ndim == 1:
-            return np.convolve(e, filt[c])[: e.size]
-        return scipy.signal.lfilter(filt[c], [1.0], e, axis=0)
+            return np.convolve(e, self.filt[c])[: e.size]
+        return scipy.signal.lfilter(self.filt[c], [1.0], e, axis=0)
 
-    off_idx = {c: layout.idx[f"off_{c}"] for c in names}
-    n_total += sum(v.size for v in pre_data.values())
-
-    def model(th: np.ndarray) -> dict[str, np.ndarray]:
-        pred = _predict(layout, th, tc, step_volts, names)
-        if wraps is not None:
-            pred["position"] = pred["position"] + th[layout.idx["span_position"]] * wraps
+    def predict(self, th: np.ndarray) -> dict[str, np.ndarray]:
+        """Every channel's model response (on its own sample times) for the parameters ``th``."""
+        pred = _predict(self.layout, th, self.tc, self.step_volts, self.names)
+        if self.wraps is not None:
+            pred["position"] = pred["position"] + th[self.layout.idx["span_position"]] * self.wraps
         return pred
 
-    def resid(th: np.ndarray) -> np.ndarray:
-        pred = model(th)
-        parts = [white(c, data[c] - _block_mean(pred[c], ratio[c])) * w[c] for c in names]
-        parts += [(pre_data[c] - th[off_idx[c]]) * w_pre[c] for c in pre_data]
+    def residuals(self, th: np.ndarray) -> np.ndarray:
+        """Whitened, weighted residuals of every channel and of the pre-step samples."""
+        pred = self.predict(th)
+        idx = self.layout.idx
+        parts = [self._white(c, self.data[c] - _block_mean(pred[c], self.ratio[c])) * self.w[c] for c in self.names]
+        parts += [(self.pre_data[c] - th[idx[f"off_{c}"]]) * self.w_pre[c] for c in self.pre_data]
         return np.concatenate(parts)
 
-    fd_params = [layout.idx[f"log_tau_{i}"] for i in range(n)] + [layout.idx[f"Tz_{j}"] for j in range(m)]
-
-    def jac(th: np.ndarray) -> np.ndarray:
-        """Jacobian of ``resid``.
+    def jacobian(self, th: np.ndarray) -> np.ndarray:
+        """Jacobian of :meth:`residuals`.
 
         Analytic in the gain, scale, current numerator, offsets, shifts, delay and span error (the
         responses are linear in them, or shifted in time); forward differences of the closed form
         for the time constants and zeros only — a third of the model evaluations of a
         finite-difference Jacobian.
         """
+        layout, names, tc, u = self.layout, self.names, self.tc, self.step_volts
+        n, m = self.settings.n_poles, self.settings.n_zeros
+        n_par = len(layout.names)
         q = layout.unpack(th)
-        u = step_volts
         te = {c: tc[c] - q["delay"] - q["shift"].get(c, 0.0) for c in names}
         num1 = _vel_num(1.0, q["tz"])
         d = {c: np.zeros((tc[c].size, n_par)) for c in names}
@@ -573,8 +643,8 @@ def output_error_fit(
             if "c" in layout.idx:
                 d["position"][:, layout.idx["c"]] = q["K"] * p1
             slope["position"] = q["c"] * q["K"] * step_response_closed_form(te["position"], num1, q["taus"], u)
-            if wraps is not None:
-                d["position"][:, layout.idx["span_position"]] = wraps
+            if self.wraps is not None:
+                d["position"][:, layout.idx["span_position"]] = self.wraps
         if "current" in names:
             nc = layout.n_current
             for j in range(nc):
@@ -582,68 +652,110 @@ def output_error_fit(
                     te["current"], np.eye(nc)[j], q["taus"], u)
             slope["current"] = _slope_closed_form(te["current"], q["cur"], q["taus"], u)
         for c in names:
-            d[c][:, off_idx[c]] = 1.0
+            d[c][:, layout.idx[f"off_{c}"]] = 1.0
             if f"shift_{c}" in layout.idx:
                 d[c][:, layout.idx[f"shift_{c}"]] = -slope[c]
             if "delay" in layout.idx:
                 d[c][:, layout.idx["delay"]] = -slope[c]
-        base = _predict(layout, th, tc, step_volts, names)
+        base = _predict(layout, th, tc, u, names)
+        fd_params = [layout.idx[f"log_tau_{i}"] for i in range(n)] + [layout.idx[f"Tz_{j}"] for j in range(m)]
         for k in fd_params:
-            h = 1e-7 * max(abs(th[k]), 1.0) if k <= n else 1e-7 * max(abs(th[k]), 1e-3)
+            h = JACOBIAN_STEP * max(abs(th[k]), 1.0) if k <= n else JACOBIAN_STEP * max(abs(th[k]), 1e-3)
             tp = th.copy()
             tp[k] += h
-            moved = _predict(layout, tp, tc, step_volts, names)
+            moved = _predict(layout, tp, tc, u, names)
             for c in names:
                 d[c][:, k] = (moved[c] - base[c]) / h
         rows = []
         for c in names:
-            block = d[c] if ratio[c] == 1 else d[c].reshape(-1, ratio[c], n_par).mean(axis=1)
-            rows.append(-w[c] * white(c, block))
-        for c in pre_data:
-            r_pre = np.zeros((pre_data[c].size, n_par))
-            r_pre[:, off_idx[c]] = -w_pre[c]
+            block = d[c] if self.ratio[c] == 1 else d[c].reshape(-1, self.ratio[c], n_par).mean(axis=1)
+            rows.append(-self.w[c] * self._white(c, block))
+        for c in self.pre_data:
+            r_pre = np.zeros((self.pre_data[c].size, n_par))
+            r_pre[:, layout.idx[f"off_{c}"]] = -self.w_pre[c]
             rows.append(r_pre)
         return np.vstack(rows)
 
+    def result(self, sol: Any, step_std: float, warnings: list[str]) -> OeResult:
+        """Covariance (Gauss–Newton, scaled by the residual variance), delta-method intervals."""
+        layout, names, n = self.layout, self.names, self.settings.n_poles
+        n_par = len(layout.names)
+        n_total = self.n_total
+        th = sol.x
+        r = sol.fun
+        rss = float(r @ r)
+        dof = max(n_total - n_par, 1)
+        s2 = rss / dof
+        jac_m = sol.jac
+        jtj = jac_m.T @ jac_m
+        cond = np.linalg.cond(jtj) if np.all(np.isfinite(jtj)) else np.inf
+        if not np.isfinite(cond) or cond > MAX_FISHER_CONDITION:
+            warnings.append(f"parameters poorly determined (Fisher information condition number {cond:.2g}): "
+                            "a lower order may do")
+        cov = np.linalg.pinv(jtj) * s2
+        d0, std, ci = _delta_method(layout, th, cov, step_std / self.step_volts)
+        q = layout.unpack(th)
+        num = _vel_num(q["K"], q["tz"])
+        den = np.array([1.0])
+        for tau in q["taus"]:
+            den = np.polymul(den, [tau, 1.0])
+        lead = den[0]
+        pred = {c: _block_mean(v, self.ratio[c]) for c, v in self.predict(th).items()}
+        data = self.data
+        return OeResult(
+            params=th, param_names=layout.names, cov=cov,
+            velocity_num=num / lead, velocity_den=den / lead,
+            dc_gain=d0["dc_gain"], time_constant_s=d0["time_constant"],
+            poles=np.array([d0[f"pole_{i}"] for i in range(n)], dtype=complex),
+            zeros=np.array([d0[k] for k in d0 if k.startswith("zero_")], dtype=complex),
+            delay_s=float(q["delay"]) if self.settings.delay else None,
+            position_scale=None if q["c"] is None else float(q["c"]),
+            current_num=None if q["cur"] is None else np.asarray(q["cur"], dtype=float) / lead,
+            std=std, ci95=ci,
+            residual_rms={c: float(np.sqrt(np.mean((data[c] - pred[c]) ** 2))) for c in names},
+            sigma={c: float(self.sigma.get(c, 1.0)) for c in names},
+            n_samples=n_total, nfev=int(sol.nfev), cost=0.5 * rss,
+            bic=n_total * np.log(rss / n_total) + n_par * np.log(n_total),
+            aic=n_total * np.log(rss / n_total) + 2 * n_par,
+            settings=self.settings, warnings=tuple(warnings),
+            residuals={c: data[c] - pred[c] for c in names},
+        )
+
+
+def _bounds(layout: _Layout, settings: OeSettings, tc: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of the parameters: time constants, the dead time and the per-capture shifts."""
+    n_par = len(layout.names)
+    n = settings.n_poles
     lower = np.full(n_par, -np.inf)
     upper = np.full(n_par, np.inf)
-    lower[1 : 1 + n] = np.log(1e-5)
-    upper[1 : 1 + n] = np.log(1e3)
+    lower[1 : 1 + n] = np.log(TAU_BOUNDS_S[0])
+    upper[1 : 1 + n] = np.log(TAU_BOUNDS_S[1])
     if settings.delay:
         lower[layout.idx["delay"]] = 0.0
-        upper[layout.idx["delay"]] = 0.2 * max(float(v[-1]) for v in tc.values())
+        upper[layout.idx["delay"]] = MAX_DELAY_FRACTION * max(float(v[-1]) for v in tc.values())
     if settings.shifts:
         bound = settings.shift_bound_s
         if bound is None:
-            bound = 1.5 * max(float(np.median(np.diff(v))) for v in tc.values())
+            bound = SHIFT_BOUND_SAMPLES * max(float(np.median(np.diff(v))) for v in tc.values())
         for c in layout.shifted:
             lower[layout.idx[f"shift_{c}"]] = -bound
             upper[layout.idx[f"shift_{c}"]] = bound
-    th0 = np.clip(th0, lower + 1e-9, upper - 1e-9)
-    warnings: list[str] = []
-    with np.errstate(over="ignore", invalid="ignore"):
-        sol = scipy.optimize.least_squares(resid, th0, jac=jac, bounds=(lower, upper), x_scale="jac",
-                                           max_nfev=settings.max_nfev, method="trf")
-    if not sol.success:
-        warnings.append(f"output-error fit stopped early: {sol.message}")
-    th = sol.x
-    r = sol.fun
-    rss = float(r @ r)
-    dof = max(n_total - n_par, 1)
-    s2 = rss / dof
-    jac_m = sol.jac
-    jtj = jac_m.T @ jac_m
-    cond = np.linalg.cond(jtj) if np.all(np.isfinite(jtj)) else np.inf
-    if not np.isfinite(cond) or cond > 1e14:
-        warnings.append(f"parameters poorly determined (Fisher information condition number {cond:.2g}): "
-                        "a lower order may do")
-    cov = np.linalg.pinv(jtj) * s2
-    # delta method for every derived quantity
+    return lower, upper
+
+
+def _delta_method(layout: _Layout, th: np.ndarray, cov: np.ndarray, step_rel_std: float,
+                  ) -> tuple[dict[str, float], dict[str, float], dict[str, tuple[float, float]]]:
+    """Derived quantities (gain, τ, poles, zeros...) with standard errors and 95 % intervals.
+
+    Central differences of :func:`_derived` give the gradients; the measured step level's
+    relative error adds ``(K·σ_u/u)²`` to the DC gain's variance (every gain scales with 1/u).
+    """
+    n_par = th.size
     d0 = _derived(layout, th)
     keys = list(d0)
     grads = np.zeros((len(keys), n_par))
     for i in range(n_par):
-        h = 1e-6 * max(abs(th[i]), 1e-3)
+        h = DELTA_METHOD_STEP * max(abs(th[i]), 1e-3)
         tp, tm = th.copy(), th.copy()
         tp[i] += h
         tm[i] -= h
@@ -651,34 +763,10 @@ def output_error_fit(
         grads[:, i] = [(dp.get(k, d0[k]) - dm.get(k, d0[k])) / (2 * h) for k in keys]
     var = np.einsum("ij,jk,ik->i", grads, cov, grads)
     # the step level is measured, not known: its error scales the fitted gain
-    var[keys.index("dc_gain")] += (d0["dc_gain"] * step_std / step_volts) ** 2
+    var[keys.index("dc_gain")] += (d0["dc_gain"] * step_rel_std) ** 2
     std = {k: float(np.sqrt(max(v, 0.0))) for k, v in zip(keys, var, strict=False)}
     ci = {k: (d0[k] - 1.96 * std[k], d0[k] + 1.96 * std[k]) for k in keys}
-    q = layout.unpack(th)
-    num = _vel_num(q["K"], q["tz"])
-    den = np.array([1.0])
-    for tau in q["taus"]:
-        den = np.polymul(den, [tau, 1.0])
-    lead = den[0]
-    pred = {c: _block_mean(v, ratio[c]) for c, v in model(th).items()}
-    return OeResult(
-        params=th, param_names=layout.names, cov=cov,
-        velocity_num=num / lead, velocity_den=den / lead,
-        dc_gain=d0["dc_gain"], time_constant_s=d0["time_constant"],
-        poles=np.array([d0[f"pole_{i}"] for i in range(n)], dtype=complex),
-        zeros=np.array([d0[k] for k in keys if k.startswith("zero_")], dtype=complex),
-        delay_s=float(q["delay"]) if settings.delay else None,
-        position_scale=None if q["c"] is None else float(q["c"]),
-        current_num=None if q["cur"] is None else np.asarray(q["cur"], dtype=float) / lead,
-        std=std, ci95=ci,
-        residual_rms={c: float(np.sqrt(np.mean((data[c] - pred[c]) ** 2))) for c in names},
-        sigma={c: float(sigma.get(c, 1.0)) for c in names},
-        n_samples=n_total, nfev=int(sol.nfev), cost=0.5 * rss,
-        bic=n_total * np.log(rss / n_total) + n_par * np.log(n_total),
-        aic=n_total * np.log(rss / n_total) + 2 * n_par,
-        settings=settings, warnings=tuple(warnings),
-        residuals={c: data[c] - pred[c] for c in names},
-    )
+    return d0, std, ci
 
 
 def position_scale_fit(
