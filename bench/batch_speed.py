@@ -11,7 +11,12 @@ and report and the class summary, exactly what ``motorid batch`` does.
 
 Printed: wall time of each engine, the ratio to ``--jobs 1``, the Dask cluster's start-up
 (cluster and workers started, separately from the batch), and whether the three
-``summary.csv`` files are identical (they must be: no timings in them).
+``summary.csv`` files are identical (they must be: no timings in them).  Per experiment, the
+median wall time in its worker and the mean CPU time: equal CPU in every engine shows the
+workers do the same work; a wall time well above the CPU time shows other processes on
+the cores.  With the kernel's autogroup scheduling (``/proc/sys/kernel/sched_autogroup_enabled``)
+the cores are shared between sessions, not processes: while another session is busy, the
+two workers share this session's part and the ratio says nothing about the engine.
 """
 
 from __future__ import annotations
@@ -60,10 +65,12 @@ def timed(label: str, roots: list[Path], out: Path, settings: BatchSettings, **k
     wall = time.perf_counter() - t0
     counts = {s: sum(r.status == s for r in result.rows) for s in ("ok", "warning", "failed")}
     # each experiment's time in its worker: it grows when other processes share the cores
-    per = statistics.median(json.loads(p.read_text())["seconds"] for p in out.rglob("result.json"))
+    recs = [json.loads(p.read_text()) for p in out.rglob("result.json")]
+    per = statistics.median(r["seconds"] for r in recs)
+    cpu = sum(r["cpu_seconds"] for r in recs)
     print(f"{label:<30}{wall:7.1f} s   {len(result.computed)} computed: {counts['ok']} ok, "
-          f"{counts['warning']} warning, {counts['failed']} failed; median {per:.2f} s per experiment in "
-          "its worker", flush=True)
+          f"{counts['warning']} warning, {counts['failed']} failed; per experiment in its worker: median "
+          f"{per:.2f} s wall, {cpu / len(recs):.2f} s CPU", flush=True)
     return wall
 
 

@@ -116,6 +116,7 @@ def write_outcome(out: Path, outcome: ExperimentOutcome, input_hash: str | None)
         "roles": dict(outcome.roles),
         "files": written,
         "seconds": round(outcome.seconds, 3),
+        "cpu_seconds": round(outcome.cpu_seconds, 3),
     }
     with atomic_outputs() as outs:
         outs.write_text(folder / RESULT_FILE, json.dumps(record, indent=2) + "\n")

@@ -160,7 +160,10 @@ class ExperimentOutcome:
     error : str
         The one-line reason of a failure (paths relative to the experiment folder).
     seconds : float
-        Worker time.
+        Wall time in the worker [s].
+    cpu_seconds : float
+        CPU time of the worker process meanwhile [s] (far below ``seconds``: other processes
+        shared the cores).
     """
 
     name: str
@@ -172,6 +175,7 @@ class ExperimentOutcome:
     report_html: str | None = None
     error: str = ""
     seconds: float = 0.0
+    cpu_seconds: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "row", MappingProxyType(dict(self.row)))
@@ -356,7 +360,7 @@ def run_experiment_task(job: tuple[ExperimentSpec, BatchSettings]) -> Experiment
         error as the command line prints it; anything else as ``internal error: …``).
     """
     spec, settings = job
-    t_start = time.perf_counter()
+    t_start, cpu_start = time.perf_counter(), time.process_time()
     try:
         outcome = _identify_one(spec, settings)
     except MotorIdError as exc:
@@ -364,4 +368,4 @@ def run_experiment_task(job: tuple[ExperimentSpec, BatchSettings]) -> Experiment
     except Exception as exc:  # a bug in one experiment must not stop the class's batch
         outcome = ExperimentOutcome(spec.name, "failed",
                                     error=_one_line(f"internal error: {type(exc).__name__}: {exc}", spec.folder))
-    return replace(outcome, seconds=time.perf_counter() - t_start)
+    return replace(outcome, seconds=time.perf_counter() - t_start, cpu_seconds=time.process_time() - cpu_start)
