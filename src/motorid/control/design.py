@@ -549,18 +549,16 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
     Tsiolakis 2022, eqs. 30–58.
     """
     s = settings  # validated on construction (DesignSettings.__post_init__)
-    ways = [s.poles is not None, s.damping is not None, s.settling_time_s is not None or s.overshoot_pct is not None]
     mr = measurable_realisation(model)
     work = mr.model
     a, b = work.A, work.B
     n = a.shape[0]
     out_name, c = output_row(work, s.output)
-    names = _gain_names(n)
     # a pole pair (damping/ωn, settling time/overshoot) on the loop with the integrator when the
     # integrator's pole is not given otherwise
     pair_with_integrator = s.integral and s.ki is None and s.integral_pole is None and s.poles is None
     n_pair = n + 1 if pair_with_integrator else n
-    if (ways[2] or s.wn is not None) and n_pair < 2:
+    if (s.settling_time_s is not None or s.overshoot_pct is not None or s.wn is not None) and n_pair < 2:
         which = "--damping/--wn" if s.wn is not None else "--settling-time/--overshoot"
         raise OptionError(f"{which} place a pole pair, but this model has one state ({work.states[0]}): "
                           "give one real pole with --poles (e.g. --poles -5), or add --integral to place "
@@ -571,77 +569,16 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
 
         check_observable(a, c, out_name)
     warnings: list[str] = list(mr.warnings)
-    k: np.ndarray | None = None
-    poles: np.ndarray | None = None
-    if s.poles is not None:
-        raw = np.asarray(s.poles, dtype=complex)
-        want = n + 1 if (s.integral and raw.size == n + 1 and s.ki is None and s.integral_pole is None) else n
-        poles = check_poles(raw, want, option="--poles")
-        check_pole_range(poles, a)
-    elif s.damping is not None:
-        if s.k2 is not None:
-            k2 = float(check_gains([s.k2], "--k2")[0])
-            k1, _ = k1_for_damping(a, b, k2, float(s.damping))
-            k = np.array([[k1, k2]])
-        else:
-            wn = cast(float, s.wn)  # DesignSettings: --damping without --k2 comes with --wn
-            poles, w = poles_from_damping(float(s.damping), float(wn), n_pair)
-            check_pole_range(poles, a, option="--wn")
-            warnings += w
-    else:
-        # DesignSettings: neither --poles nor --damping means --settling-time with --overshoot
-        ts, os_pct = cast(float, s.settling_time_s), cast(float, s.overshoot_pct)
-        poles, w = poles_from_specs(float(ts), float(os_pct), n_pair)
-        check_pole_range(poles, a, option="--settling-time")
-        warnings += w
-
-    ki: float | None = None
-    kr: float | None = None
+    k, poles = _requested_poles(s, a, b, n, n_pair, warnings)
+    ki: float | None
+    kr: float | None
     if s.integral:
-        poly = integral_poly(a, b, c, names)
-        if poles is not None and poles.size == n + 1:
-            k, ki = integral_gains(a, b, c, poles)
-        elif s.integral_pole is not None:
-            ip = check_poles([s.integral_pole], 1, "integral", "--integral-pole")
-            if ip[0].imag != 0:
-                raise OptionError("--integral-pole must be real (a lone complex pole has no conjugate)")
-            check_pole_range(ip, a, "integral", "--integral-pole")
-            state_poles = poles if poles is not None else np.linalg.eigvals(a - b @ k)
-            k, ki = integral_gains(a, b, c, np.concatenate([state_poles, ip]))
-        elif s.ki is not None:
-            ki = float(check_gains([s.ki], "--ki")[0])
-            if k is None:  # no --k2: the branches above placed poles
-                k = place_gains(a, b, cast(np.ndarray, poles))
-        else:
-            raise OptionError("--integral needs --ki, --integral-pole, or n + 1 values in --poles")
-        gains = np.concatenate([k.ravel(), [ki]])
-        routh = routh_conditions(poly)
-        bad = routh_violations(poly, gains)
-        if bad:
-            warnings.append("the gains violate the Routh–Hurwitz condition(s): " + "; ".join(bad)
-                            + " — the closed loop is unstable")
-        from motorid.control.integral import augment_integral
-
-        aa, ba = augment_integral(a, b, c)
-        cl = np.linalg.eigvals(aa - ba @ gains.reshape(1, -1))
-        if poles is not None and poles.size == n + 1:
-            warnings += _check_placed(cl, poles)
+        k, ki, kr, routh, cl = _integral_loop(s, a, b, c, k, poles, warnings)
     else:
-        if k is None:  # no --k2: the branches above placed poles
-            k = place_gains(a, b, cast(np.ndarray, poles))
-        poly = affine_char_poly(a, b, names)
-        routh = routh_conditions(poly)
-        cl = np.linalg.eigvals(a - b @ k)
-        if poles is not None:
-            warnings += _check_placed(cl, poles)
-        if np.any(cl.real >= 0):
-            warnings.append("the state-feedback loop is unstable; kr is not meaningful")
-        kr = reference_gain(a, b, c, k)
-
+        k, ki, kr, routh, cl = _state_feedback_loop(a, b, c, k, poles, warnings)
     k_row = k.ravel()
     if not np.all(np.isfinite(k_row)) or (ki is not None and not math.isfinite(ki)):
         raise ControlDesignError("the placement gave non-finite gains; choose other poles")
-
     big = float(np.max(np.abs(k_row)))
     if big > LARGE_GAIN:
         i = int(np.argmax(np.abs(k_row)))
@@ -650,22 +587,109 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
                         "check the model's open-loop poles or ask for slower closed-loop poles")
     l_col = obs = ofb = None
     if s.observer_poles is not None:
-        op = check_poles(np.asarray(s.observer_poles, dtype=complex), n, "observer", "--observer-poles",
-                         require_stable=True)
-        check_pole_range(op, a, "observer", "--observer-poles")
-        l_col = observer_gain(a, c, op, out_name)
-        if not np.all(np.isfinite(l_col)):
-            raise ControlDesignError("the observer placement gave non-finite gains; choose other observer poles")
-        obs = np.linalg.eigvals(a - l_col @ c)
-        ofb = np.linalg.eigvals(output_feedback_matrix(a, b, c, k, l_col, ki))
-        slow_obs = float(np.max(obs.real))
-        if slow_obs > float(np.max(cl.real)) / 2:
-            warnings.append("the observer is not clearly faster than the controller (its slowest pole "
-                            f"{slow_obs:.3g} vs {float(np.max(cl.real)):.3g}); estimates will lag")
-        l_col = l_col.ravel()
+        l_col, obs, ofb = _observer(s, a, b, c, k, ki, cl, out_name, warnings)
     warnings += _dead_time_warnings(model.delay_s, a, b, c, k, ki)
     changed = mr.changed
     nl = model.static_nonlinearity
     return Design(tuple(work.states), out_name, k_row, kr, ki, l_col, cl, obs, ofb, tuple(routh),
                   tuple(warnings), mr.source_states if changed else None, mr.transform if changed else None,
                   None if nl is None else nl.dead_zone_v)
+
+
+def _requested_poles(s: DesignSettings, a: np.ndarray, b: np.ndarray, n: int, n_pair: int,
+                     warnings: list[str]) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The poles asked for (explicit, ζ/ωn or specs), or the gains of the report's k2 → k1 design."""
+    if s.poles is not None:
+        raw = np.asarray(s.poles, dtype=complex)
+        want = n + 1 if (s.integral and raw.size == n + 1 and s.ki is None and s.integral_pole is None) else n
+        poles = check_poles(raw, want, option="--poles")
+        check_pole_range(poles, a)
+        return None, poles
+    if s.damping is not None:
+        if s.k2 is not None:
+            k2 = float(check_gains([s.k2], "--k2")[0])
+            k1, _ = k1_for_damping(a, b, k2, float(s.damping))
+            return np.array([[k1, k2]]), None
+        wn = cast(float, s.wn)  # DesignSettings: --damping without --k2 comes with --wn
+        poles, w = poles_from_damping(float(s.damping), float(wn), n_pair)
+        check_pole_range(poles, a, option="--wn")
+        warnings += w
+        return None, poles
+    # DesignSettings: neither --poles nor --damping means --settling-time with --overshoot
+    ts, os_pct = cast(float, s.settling_time_s), cast(float, s.overshoot_pct)
+    poles, w = poles_from_specs(float(ts), float(os_pct), n_pair)
+    check_pole_range(poles, a, option="--settling-time")
+    warnings += w
+    return None, poles
+
+
+def _integral_loop(s: DesignSettings, a: np.ndarray, b: np.ndarray, c: np.ndarray, k: np.ndarray | None,
+                   poles: np.ndarray | None, warnings: list[str],
+                   ) -> tuple[np.ndarray, float, None, list[str], np.ndarray]:
+    """Gains with integral action ``ż = y − r`` and its Routh–Hurwitz check (report §3)."""
+    n = a.shape[0]
+    poly = integral_poly(a, b, c, _gain_names(n))
+    if poles is not None and poles.size == n + 1:
+        k, ki = integral_gains(a, b, c, poles)
+    elif s.integral_pole is not None:
+        ip = check_poles([s.integral_pole], 1, "integral", "--integral-pole")
+        if ip[0].imag != 0:
+            raise OptionError("--integral-pole must be real (a lone complex pole has no conjugate)")
+        check_pole_range(ip, a, "integral", "--integral-pole")
+        state_poles = poles if poles is not None else np.linalg.eigvals(a - b @ cast(np.ndarray, k))
+        k, ki = integral_gains(a, b, c, np.concatenate([state_poles, ip]))
+    elif s.ki is not None:
+        ki = float(check_gains([s.ki], "--ki")[0])
+        if k is None:  # no --k2: the branches above placed poles
+            k = place_gains(a, b, cast(np.ndarray, poles))
+    else:
+        raise OptionError("--integral needs --ki, --integral-pole, or n + 1 values in --poles")
+    gains = np.concatenate([k.ravel(), [ki]])
+    routh = routh_conditions(poly)
+    bad = routh_violations(poly, gains)
+    if bad:
+        warnings.append("the gains violate the Routh–Hurwitz condition(s): " + "; ".join(bad)
+                        + " — the closed loop is unstable")
+    from motorid.control.integral import augment_integral
+
+    aa, ba = augment_integral(a, b, c)
+    cl = np.linalg.eigvals(aa - ba @ gains.reshape(1, -1))
+    if poles is not None and poles.size == n + 1:
+        warnings += _check_placed(cl, poles)
+    return k, ki, None, list(routh), cl
+
+
+def _state_feedback_loop(a: np.ndarray, b: np.ndarray, c: np.ndarray, k: np.ndarray | None,
+                         poles: np.ndarray | None, warnings: list[str],
+                         ) -> tuple[np.ndarray, None, float, list[str], np.ndarray]:
+    """Gains of plain state feedback with the reference gain ``kr`` (report §2)."""
+    n = a.shape[0]
+    if k is None:  # no --k2: the branches above placed poles
+        k = place_gains(a, b, cast(np.ndarray, poles))
+    poly = affine_char_poly(a, b, _gain_names(n))
+    routh = routh_conditions(poly)
+    cl = np.linalg.eigvals(a - b @ k)
+    if poles is not None:
+        warnings += _check_placed(cl, poles)
+    if np.any(cl.real >= 0):
+        warnings.append("the state-feedback loop is unstable; kr is not meaningful")
+    return k, None, reference_gain(a, b, c, k), list(routh), cl
+
+
+def _observer(s: DesignSettings, a: np.ndarray, b: np.ndarray, c: np.ndarray, k: np.ndarray, ki: float | None,
+              cl: np.ndarray, out_name: str, warnings: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Luenberger observer gain, its poles and the output-feedback poles (report §4)."""
+    n = a.shape[0]
+    op = check_poles(np.asarray(s.observer_poles, dtype=complex), n, "observer", "--observer-poles",
+                     require_stable=True)
+    check_pole_range(op, a, "observer", "--observer-poles")
+    l_col = observer_gain(a, c, op, out_name)
+    if not np.all(np.isfinite(l_col)):
+        raise ControlDesignError("the observer placement gave non-finite gains; choose other observer poles")
+    obs = np.linalg.eigvals(a - l_col @ c)
+    ofb = np.linalg.eigvals(output_feedback_matrix(a, b, c, k, l_col, ki))
+    slow_obs = float(np.max(obs.real))
+    if slow_obs > float(np.max(cl.real)) / 2:
+        warnings.append("the observer is not clearly faster than the controller (its slowest pole "
+                        f"{slow_obs:.3g} vs {float(np.max(cl.real)):.3g}); estimates will lag")
+    return l_col.ravel(), obs, ofb
