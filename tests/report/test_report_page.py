@@ -80,7 +80,7 @@ def test_identify_report_with_design_shows_closed_loop_and_modes(demo, run_cli, 
     assert res.code == 0, res.err
     html = page.read_text(encoding="utf-8")
     design = html[html.index('<section id="design">'):]
-    assert 'alt="closed loop"' in design and 'alt="mode map"' in design and "settling_time_s" in design
+    assert 'alt="closed loop"' in design and 'alt="mode map"' in design and "settling time (2 %)" in design
     assert 'alt="ALL0003"' in html  # the validation overlay
 
 

@@ -11,8 +11,16 @@ from motorid.errors import MotorIdError
 from motorid.identify.pipeline import Identification, IdentifySettings
 from motorid.report import ReportInputs, build_report
 from motorid.analysis.sweep import PAPER_LENGTHS_S, data_grid, sensitivity_table
+from motorid.simulate.closed_loop import SimulationSettings
+from motorid.simulate.modes import ModeCriteria
 
-__all__ = ["make_report"]
+__all__ = ["MODE_MAP_KP", "MODE_MAP_KV", "REPORT_RAILS_V", "make_report"]
+
+#: Actuator rails (±V) of the report's closed-loop run: the same as the mode map's (paper Fig. 12).
+REPORT_RAILS_V = ModeCriteria().saturation_v
+#: The mode map's grid: Kp (V/V) and Kv (V/(V/s)), as in the paper's Figs. 11–13.
+MODE_MAP_KP = (0.5, 60.0, 40)
+MODE_MAP_KV = (0.0, 8.0, 40)
 
 
 @single_blas_thread
@@ -25,6 +33,7 @@ def make_report(
     truth: Mapping[str, Any] | None = None,
     sweep: bool = True,
     title: str = "motorid report",
+    simulation: SimulationSettings | None = None,
 ) -> str:
     """The HTML report of an identification (see :func:`motorid.report.build_report`).
 
@@ -49,6 +58,9 @@ def make_report(
         Compute the sensitivity table (default True).
     title : str
         The page title.
+    simulation : SimulationSettings, optional
+        The closed-loop run shown with a design (default: a step with the actuator rails of the
+        mode map, :data:`REPORT_RAILS_V`; a disturbance given here is marked on the plot).
 
     Returns
     -------
@@ -70,11 +82,12 @@ def make_report(
                                       step_volts=step, **axes)
         except MotorIdError:
             table = None  # the section says the table could not be computed
-    return build_report(ReportInputs(ident, captures, validation or {}, table, _design_view(ident, design), truth,
-                                     title))
+    view = _design_view(ident, design, simulation)
+    return build_report(ReportInputs(ident, captures, validation or {}, table, view, truth, title))
 
 
-def _design_view(ident: Identification, design: Mapping[str, Any] | None) -> dict[str, Any] | None:
+def _design_view(ident: Identification, design: Mapping[str, Any] | None,
+                 settings: SimulationSettings | None) -> dict[str, Any] | None:
     """The design JSON plus its closed-loop step response and mode maps on the identified model.
 
     The closed loop needs the design's state vector in the model; when the identified model
@@ -82,43 +95,60 @@ def _design_view(ident: Identification, design: Mapping[str, Any] | None) -> dic
     """
     if design is None:
         return None
-    import tempfile
-
-    import numpy as np
-
     from motorid.control.design import Design
-    from motorid.simulate.closed_loop import SimulationSettings, simulate_closed_loop
-    from motorid.simulate.modes import ModeCriteria, mode_map, plot_mode_maps, servo_plants
 
     view: dict[str, Any] = dict(design)
-    model = ident.model
     des = Design.from_json(design)
+    run = settings if settings is not None else SimulationSettings(saturation_v=REPORT_RAILS_V)
     try:
-        # a design in measurable coordinates (position, velocity, current…) is simulated on
-        # the model re-expressed in them (simulate_closed_loop does the change of states)
-        sim = simulate_closed_loop(model, des, SimulationSettings())
+        view["simulation"] = _closed_loop_view(ident, des, run)
     except MotorIdError as exc:
-        sim = None
         view["note"] = (f"the design (states {list(des.states)}) cannot be simulated on the identified model "
-                        f"(states {list(model.states)}): {exc.message}")
-    if sim is not None:
-        cols = sim.columns()
-        view["simulation"] = {
-            "time": cols["time"].tolist(),
-            "series": {"reference": cols["reference"].tolist(), "output": cols["output"].tolist(),
-                       "u (control)": cols["u"].tolist()},
-            "metrics": {k: v for k, v in sim.metrics.__dict__.items()} if hasattr(sim.metrics, "__dict__")
-            else {f: getattr(sim.metrics, f) for f in sim.metrics.__dataclass_fields__},
-        }
+                        f"(states {list(ident.model.states)}): {exc.message}")
     try:
-        kp = np.linspace(0.5, 60.0, 40)
-        kv = np.linspace(0.0, 8.0, 40)
-        maps = tuple(mode_map(pl, kp, kv, ModeCriteria()) for pl in servo_plants(model))
-        with tempfile.TemporaryDirectory() as tmp:
-            path = f"{tmp}/modes.png"
-            plot_mode_maps(maps, path)
-            with open(path, "rb") as fh:
-                view["modes_png"] = fh.read()
+        view["mode_maps"] = _mode_maps(ident)
+        view["design_gains"] = _design_gains(des)
     except MotorIdError as exc:
         view["note"] = f"{view.get('note', '')} mode map not drawn: {exc.message}".strip()
     return view
+
+
+def _closed_loop_view(ident: Identification, des: Any, settings: SimulationSettings) -> dict[str, Any]:
+    """The closed-loop run as the page shows it: columns, metrics, rails and load instants."""
+    from dataclasses import asdict
+
+    from motorid.simulate.closed_loop import simulate_closed_loop
+
+    # a design in measurable coordinates (position, velocity, current…) is simulated on
+    # the model re-expressed in them (simulate_closed_loop does the change of states)
+    sim = simulate_closed_loop(ident.model, des, settings)
+    cols = sim.columns()
+    return {
+        "time": cols["time"].tolist(),
+        "series": {"reference": cols["reference"].tolist(), "output": cols["output"].tolist(),
+                   "u (control)": cols["u"].tolist()},
+        "metrics": asdict(sim.metrics),
+        "rails_v": settings.saturation_v,
+        "disturbances_s": [settings.disturbance_start_s] if settings.disturbance_v != 0 else [],
+    }
+
+
+def _mode_maps(ident: Identification) -> tuple[Any, ...]:
+    """The mode maps of the 2nd- and 3rd-order servo plants on the report's grid."""
+    import numpy as np
+
+    from motorid.simulate.modes import mode_map, servo_plants
+
+    kp, kv = np.linspace(*MODE_MAP_KP), np.linspace(*MODE_MAP_KV)
+    return tuple(mode_map(pl, kp, kv, ModeCriteria()) for pl in servo_plants(ident.model))
+
+
+def _design_gains(des: Any) -> tuple[float, float] | None:
+    """The design as a point of the mode map: its own (Kp, Kv) when it is that loop, else None.
+
+    The map's loop is ``u = sat(Kp (r − θ) − Kv θ̇)``: a design on (position, velocity) without
+    integral action is exactly that loop.
+    """
+    if tuple(des.states) == ("position", "velocity") and des.ki is None:
+        return float(des.K[0]), float(des.K[1])
+    return None

@@ -1,15 +1,23 @@
 """The report's figures, each a function of data returning PNG bytes.
 
-Matplotlib figures are made without pyplot, so the caller's backend is never switched.
+Matplotlib figures are made without pyplot, so the caller's backend is never switched, and
+every figure is drawn inside its own style context (:func:`styled`): the report's fonts and
+sizes never leak into the caller's ``rcParams``.
 
-The figure numbers of Masoud 2019 that each one corresponds to are given in the docstrings.
+Every figure is as wide as the text of an A4 page, so that a printed figure keeps its fonts at
+their point size (≥ 11 pt, issue 16).  The figure numbers of Masoud 2019 that each one
+corresponds to are given in the docstrings.
 """
 
 from __future__ import annotations
 
+import functools
 import io
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, ParamSpec, TypeVar, cast
 
+import matplotlib
 import numpy as np
 from matplotlib.figure import Figure
 
@@ -20,19 +28,83 @@ from motorid.conditioning.pipeline import ConditionedExperiment
 from motorid.model import MotorModel
 
 __all__ = [
+    "DPI",
+    "FONT_PT",
+    "FULL_WIDTH_IN",
+    "IntervalCheck",
     "closed_loop",
     "conditioned_signals",
     "current_denoising",
     "hankel_values",
+    "interval_checks",
+    "mode_maps",
     "png",
     "pole_zero",
     "raw_captures",
     "step_fit",
+    "styled",
     "sweep_maps",
     "validation_overlay",
 ]
 
-DPI = 80
+#: Resolution of the PNGs (dots per inch): sharp on paper at the figure's own size.
+DPI = 120
+#: Width of every figure: the text width of an A4 page (210 mm − 2 × 12 mm margins = 7.3 in), so
+#: that the page shows it at its own size and a print keeps its fonts at their point size.
+FULL_WIDTH_IN = 7.3
+#: The smallest font of any text in a figure (points).
+FONT_PT = 11
+#: Height of one strip of time series (a capture, a signal).
+_STRIP_IN = 2.2
+#: Metrics per line under a closed-loop plot's title.
+_METRICS_PER_LINE = 2
+#: The report's matplotlib style, applied per figure (never globally).
+_STYLE: dict[str, Any] = {
+    "font.size": FONT_PT,
+    "axes.titlesize": FONT_PT + 1,
+    "axes.labelsize": FONT_PT,
+    "xtick.labelsize": FONT_PT,
+    "ytick.labelsize": FONT_PT,
+    "legend.fontsize": FONT_PT,
+    "legend.title_fontsize": FONT_PT,
+    "figure.titlesize": FONT_PT + 1,
+    "legend.framealpha": 0.85,
+    "lines.linewidth": 1.3,
+    "axes.grid": True,
+    "grid.alpha": 0.3,
+    "savefig.dpi": DPI,
+}
+#: Colours of the six modes of the mode map (the order of :data:`motorid.simulate.modes.MODES`).
+_MODE_COLOURS = ("#d62728", "#1f77b4", "#2ca02c", "#bcbd22", "#ff7f0e", "#9467bd")
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+
+
+def styled(func: Callable[_P, _R]) -> Callable[_P, _R]:
+    """Run a figure function inside the report's style context (fonts ≥ :data:`FONT_PT`).
+
+    Font sizes are read from ``rcParams`` when an artist is created, so the whole function,
+    drawing and saving, runs inside :func:`matplotlib.rc_context`; the caller's settings are
+    restored afterwards.
+
+    Parameters
+    ----------
+    func : callable
+        A function that draws a figure.
+
+    Returns
+    -------
+    callable
+        The same function, styled.
+    """
+
+    @functools.wraps(func)
+    def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> _R:
+        with matplotlib.rc_context(cast("Any", _STYLE)):
+            return func(*args, **kwargs)
+
+    return wrapper
 
 
 def _subplots(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float], **kwargs):
@@ -40,7 +112,7 @@ def _subplots(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float], *
 
     No global figure manager, no backend switch — a notebook's backend is left alone.
     """
-    fig = Figure(figsize=figsize)
+    fig = Figure(figsize=figsize, layout="constrained")
     return fig, fig.subplots(nrows, ncols, **kwargs)
 
 
@@ -58,10 +130,11 @@ def png(fig: Figure) -> bytes:
         The PNG image.
     """
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=DPI, bbox_inches="tight")
+    fig.savefig(buf, format="png", dpi=DPI)
     return buf.getvalue()
 
 
+@styled
 def raw_captures(captures: Mapping[str, Capture]) -> bytes:
     """The captures as recorded, CH1 and CH2 on each file's own time axis (paper Fig. 25).
 
@@ -76,20 +149,19 @@ def raw_captures(captures: Mapping[str, Capture]) -> bytes:
         The PNG image.
     """
     n = len(captures)
-    fig, axes = _subplots(n, 1, figsize=(8, 2.2 * n), squeeze=False)
+    fig, axes = _subplots(n, 1, figsize=(FULL_WIDTH_IN, _STRIP_IN * n), squeeze=False)
     for ax, (role, cap) in zip(axes[:, 0], captures.items(), strict=False):
         if cap.input_v is not None:
-            ax.plot(cap.time_s, cap.input_v, lw=0.8, label="CH1 input")
-        ax.plot(cap.time_s, cap.output_v, lw=0.8, label=f"CH2 {role}")
-        ax.set_title(f"{role}: {cap.source}", fontsize=9)
+            ax.plot(cap.time_s, cap.input_v, lw=0.9, label="CH1 input")
+        ax.plot(cap.time_s, cap.output_v, lw=0.9, label=f"CH2 {role}")
+        ax.set_title(f"{role}: {cap.source}", loc="left")
         ax.set_ylabel("V")
-        ax.legend(fontsize=7, loc="best")
-        ax.grid(alpha=0.3)
+        ax.legend(loc="best")
     axes[-1, 0].set_xlabel("time on the file's axis (s)")
-    fig.tight_layout()
     return png(fig)
 
 
+@styled
 def conditioned_signals(cond: ConditionedExperiment, derivative_method: str = "five_point") -> bytes:
     """Synchronised, unwrapped, reduced step responses and the numerical derivative (Figs. 16–17, 26).
 
@@ -107,28 +179,27 @@ def conditioned_signals(cond: ConditionedExperiment, derivative_method: str = "f
     """
     roles = list(cond.full_outputs)
     extra = 1 if "position" in roles else 0
-    fig, axes = _subplots(len(roles) + extra, 1, figsize=(8, 2.2 * (len(roles) + extra)), squeeze=False)
+    fig, axes = _subplots(len(roles) + extra, 1, figsize=(FULL_WIDTH_IN, _STRIP_IN * (len(roles) + extra)),
+                          squeeze=False, sharex=True)
     for ax, role in zip(axes[:, 0], roles, strict=False):
-        ax.plot(cond.full_time_s, cond.full_outputs[role], lw=0.8, label=f"{role}, synchronised")
+        ax.plot(cond.full_time_s, cond.full_outputs[role], lw=0.9, label=f"{role}, synchronised")
         ax.plot(cond.time_s, cond.outputs[role], "o", ms=3, label=f"reduced ×{cond.ratio}")
-        ax.set_ylabel("V")
-        ax.legend(fontsize=7)
-        ax.grid(alpha=0.3)
+        ax.set_ylabel(f"{role} (V)")
+        ax.legend(loc="best")
     if extra:
         ax = axes[-1, 0]
         dt = cond.sample_interval_s
         dpos = derivative(cond.outputs["position"], dt, derivative_method)
-        ax.plot(cond.time_s, dpos, "o-", ms=3, lw=0.8, label=f"d/dt position ({derivative_method})")
+        ax.plot(cond.time_s, dpos, "o-", ms=3, lw=0.9, label=f"d/dt position ({derivative_method})")
         if "velocity" in cond.outputs:
-            ax.plot(cond.full_time_s, cond.full_outputs["velocity"], lw=0.8, label="tacho velocity")
+            ax.plot(cond.full_time_s, cond.full_outputs["velocity"], lw=0.9, label="tacho velocity")
         ax.set_ylabel("V, V/s")
-        ax.legend(fontsize=7)
-        ax.grid(alpha=0.3)
+        ax.legend(loc="best")
     axes[-1, 0].set_xlabel("time from the step (s)")
-    fig.tight_layout()
     return png(fig)
 
 
+@styled
 def current_denoising(cond: ConditionedExperiment) -> bytes:
     """Armature current as recorded and FFT-denoised (paper Figs. 18, 31–32).
 
@@ -145,16 +216,16 @@ def current_denoising(cond: ConditionedExperiment) -> bytes:
     t = cond.full_time_s
     raw = cond.full_outputs["current"]
     den = fft_denoise(raw, float(t[1] - t[0]))
-    fig, ax = _subplots(figsize=(8, 2.6))
+    fig, ax = _subplots(figsize=(FULL_WIDTH_IN, 3.0))
     ax.plot(t, raw, lw=0.5, alpha=0.6, label="recorded")
-    ax.plot(t, den.values, lw=1.2, label=f"FFT denoised (cut-off {den.cutoff_hz:.3g} Hz)")
+    ax.plot(t, den.values, lw=1.4, label=f"FFT denoised (cut-off {den.cutoff_hz:.3g} Hz)")
     ax.set_xlabel("time from the step (s)")
-    ax.set_ylabel("V")
-    ax.legend(fontsize=7)
-    ax.grid(alpha=0.3)
+    ax.set_ylabel("current channel (V)")
+    ax.legend(loc="best")
     return png(fig)
 
 
+@styled
 def pole_zero(model: MotorModel) -> bytes:
     """Poles (×) and zeros (○) of the velocity TF, with their 95% intervals when known.
 
@@ -168,30 +239,32 @@ def pole_zero(model: MotorModel) -> bytes:
     bytes
         The PNG image.
     """
-    fig, ax = _subplots(figsize=(5, 3.4))
+    fig, ax = _subplots(figsize=(FULL_WIDTH_IN, 3.4))
     poles, zeros = model.poles(), model.zeros()
-    ax.plot(np.real(poles), np.imag(poles), "x", ms=9, mew=2, label="poles")
+    ax.plot(np.real(poles), np.imag(poles), "x", ms=10, mew=2, label="poles")
     if zeros.size:
-        ax.plot(np.real(zeros), np.imag(zeros), "o", mfc="none", ms=9, mew=2, label="zeros")
+        ax.plot(np.real(zeros), np.imag(zeros), "o", mfc="none", ms=10, mew=2, label="zeros")
     u = model.uncertainty
     for key, marker in (("poles", "C0"), ("zeros", "C1")):
         for item in u.get(key, []) if u else []:
             re_, im_ = item["value"]
             half = 1.96 * float(item["std"]) if item["std"] is not None else 0.0
             if np.isfinite(half):
-                ax.errorbar(re_, im_, xerr=half, color=marker, capsize=3, lw=1)
-    ax.axvline(0, color="k", lw=0.5)
-    ax.axhline(0, color="k", lw=0.5)
+                ax.errorbar(re_, im_, xerr=half, color=marker, capsize=4, lw=1.2)
+    ax.axvline(0, color="k", lw=0.6)
+    ax.axhline(0, color="k", lw=0.6)
     ax.set_xscale("symlog", linthresh=1.0)
-    ax.set_xlabel("real (1/s, symlog)")
-    ax.set_ylabel("imag (1/s)")
-    ax.legend(fontsize=7)
-    ax.grid(alpha=0.3)
+    ax.set_xlabel("real part (1/s, symlog); bars: 95 % interval")
+    ax.set_ylabel("imaginary part (1/s)")
+    ax.legend(loc="best")
     return png(fig)
 
 
+@styled
 def step_fit(model: MotorModel, cond: ConditionedExperiment) -> bytes:
     """Measured vs model step responses with residuals (paper Figs. 27–28, 33–35).
+
+    One response above its residual per output, stacked, so that every panel is full width.
 
     Parameters
     ----------
@@ -210,25 +283,27 @@ def step_fit(model: MotorModel, cond: ConditionedExperiment) -> bytes:
     if not roles and "velocity" in cond.full_outputs:
         roles = ["velocity"]
     sim = model.step_response(t, cond.step_volts)
-    fig, axes = _subplots(2, len(roles), figsize=(4 * len(roles), 4.2), squeeze=False,
-                             gridspec_kw={"height_ratios": [3, 1]})
+    fig, axes = _subplots(2 * len(roles), 1, figsize=(FULL_WIDTH_IN, 2.9 * len(roles)), squeeze=False,
+                          gridspec_kw={"height_ratios": [3, 1.3] * len(roles)})
     for j, role in enumerate(roles):
+        top, bottom = axes[2 * j, 0], axes[2 * j + 1, 0]
+        bottom.sharex(top)
         y = cond.full_outputs[role]
         yh = sim.get(role)
-        axes[0, j].plot(t, y, lw=0.7, label="measured")
+        top.plot(t, y, lw=0.8, label="measured")
         if yh is not None:
-            axes[0, j].plot(t, yh, lw=1.2, label=f"model ({model.method})")
-            axes[1, j].plot(t, y - yh, lw=0.6, color="C3")
-        axes[0, j].set_title(role, fontsize=9)
-        axes[0, j].legend(fontsize=7)
-        axes[0, j].grid(alpha=0.3)
-        axes[1, j].set_xlabel("time from the step (s)")
-        axes[1, j].set_ylabel("residual (V)")
-        axes[1, j].grid(alpha=0.3)
-    fig.tight_layout()
+            top.plot(t, yh, lw=1.5, label=f"model ({model.method})")
+            bottom.plot(t, y - yh, lw=0.7, color="C3")
+        top.set_title(role, loc="left")
+        top.set_ylabel(f"{role} (V)")
+        top.legend(loc="best")
+        top.tick_params(labelbottom=False)
+        bottom.set_xlabel("time from the step (s)")
+        bottom.set_ylabel("residual (V)")
     return png(fig)
 
 
+@styled
 def hankel_values(scaled: Sequence[float], raw: Sequence[float], floor: float | None) -> bytes:
     """Normalised Hankel singular values, time-scaled and raw (order evidence, paper §IV).
 
@@ -246,19 +321,20 @@ def hankel_values(scaled: Sequence[float], raw: Sequence[float], floor: float | 
     bytes
         The PNG image.
     """
-    fig, ax = _subplots(figsize=(5, 3))
+    fig, ax = _subplots(figsize=(FULL_WIDTH_IN, 3.2))
     k = np.arange(1, len(scaled) + 1)
     ax.semilogy(k, np.maximum(scaled, 1e-16), "o-", label="time-scaled")
     ax.semilogy(np.arange(1, len(raw) + 1), np.maximum(raw, 1e-16), "s--", label="raw (seconds)")
     if floor is not None and np.isfinite(floor):
         ax.axhline(floor, color="k", ls=":", label="noise floor")
-    ax.set_xlabel("index")
+    ax.set_xlabel("index k")
     ax.set_ylabel("σ_k / σ_1")
-    ax.legend(fontsize=7)
-    ax.grid(alpha=0.3, which="both")
+    ax.legend(loc="best")
+    ax.grid(True, which="both")
     return png(fig)
 
 
+@styled
 def sweep_maps(lengths: Sequence[float], intervals: Sequence[float], k: np.ndarray, tau: np.ndarray) -> bytes:
     """Heat maps of k and τ over record length × sample interval (paper Tables 1–3).
 
@@ -278,22 +354,26 @@ def sweep_maps(lengths: Sequence[float], intervals: Sequence[float], k: np.ndarr
     bytes
         The PNG image.
     """
-    fig, axes = _subplots(1, 2, figsize=(8, 3))
-    for ax, data, name in ((axes[0], k, "k"), (axes[1], tau, "τ (s)")):
+    fig, axes = _subplots(1, 2, figsize=(FULL_WIDTH_IN, 3.4))
+    for ax, data, name in ((axes[0], k, "k (1/s)"), (axes[1], tau, "τ (s)")):
         im = ax.imshow(data, aspect="auto", origin="upper", cmap="viridis")
         ax.set_xticks(range(len(lengths)), [f"{x:g} s" for x in lengths])
         ax.set_yticks(range(len(intervals)), [f"{1000 * x:g} ms" for x in intervals])
         ax.set_xlabel("record length")
         ax.set_ylabel("ΔT")
-        ax.set_title(name, fontsize=9)
+        ax.set_title(name)
+        ax.grid(False)
+        middle = float(np.nanmean(data)) if np.isfinite(data).any() else 0.0
         for i in range(data.shape[0]):
             for j in range(data.shape[1]):
-                ax.text(j, i, f"{data[i, j]:.3g}", ha="center", va="center", fontsize=7, color="w")
+                # dark text on the light (high) end of viridis, white on the dark end
+                colour = "k" if np.isfinite(data[i, j]) and data[i, j] > middle else "w"
+                ax.text(j, i, f"{data[i, j]:.3g}", ha="center", va="center", color=colour)
         fig.colorbar(im, ax=ax, fraction=0.046)
-    fig.tight_layout()
     return png(fig)
 
 
+@styled
 def validation_overlay(time_s: np.ndarray, input_v: np.ndarray, measured: np.ndarray, simulated: np.ndarray,
                        title: str) -> bytes:
     """Model driven by a recorded test signal vs the measured response (paper Figs. 36–38).
@@ -316,19 +396,21 @@ def validation_overlay(time_s: np.ndarray, input_v: np.ndarray, measured: np.nda
     bytes
         The PNG image.
     """
-    fig, ax = _subplots(figsize=(8, 2.6))
-    ax.plot(time_s, input_v, lw=0.6, alpha=0.5, label="input (CH1)")
-    ax.plot(time_s, measured, lw=0.7, label="measured")
-    ax.plot(time_s, simulated, lw=1.2, label="model")
-    ax.set_title(title, fontsize=9)
+    fig, ax = _subplots(figsize=(FULL_WIDTH_IN, 3.0))
+    ax.plot(time_s, input_v, lw=0.7, alpha=0.5, label="input (CH1)")
+    ax.plot(time_s, measured, lw=0.8, label="measured")
+    ax.plot(time_s, simulated, lw=1.4, label="model")
+    ax.set_title(title, loc="left")
     ax.set_xlabel("time (s)")
     ax.set_ylabel("V")
-    ax.legend(fontsize=7)
-    ax.grid(alpha=0.3)
+    ax.legend(loc="best")
     return png(fig)
 
 
-def closed_loop(time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str) -> bytes:
+@styled
+def closed_loop(time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str, *,
+                rails_v: float | None = None, disturbances_s: Sequence[float] = (),
+                metrics: Sequence[str] = ()) -> bytes:
     """Closed-loop response: output, reference, control effort (and estimated states).
 
     Parameters
@@ -336,23 +418,142 @@ def closed_loop(time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str
     time_s : ndarray
         Times in s.
     series : Mapping[str, ndarray]
-        The simulation's columns by name (``reference``, ``output``, ``u``, states, ...).
+        The simulation's columns by name (``reference``, ``output``, ``u``, states, ...); a name
+        starting with ``u`` or containing ``control`` goes on the control-effort panel.
     title : str
         The figure title.
+    rails_v : float, optional
+        The actuator rails ±V, drawn on the control-effort panel.
+    disturbances_s : sequence of float
+        Instants a load is applied (s), drawn on both panels.
+    metrics : sequence of str
+        Short texts (e.g. ``"overshoot: 4.3 %"``) shown under the title.
 
     Returns
     -------
     bytes
         The PNG image.
     """
-    fig, axes = _subplots(2, 1, figsize=(8, 4), sharex=True)
+    fig, axes = _subplots(2, 1, figsize=(FULL_WIDTH_IN, 5.0), sharex=True, gridspec_kw={"height_ratios": [3, 2]})
     for name, y in series.items():
         ax = axes[1] if name.startswith("u") or "control" in name else axes[0]
-        ax.plot(time_s, y, lw=1, label=name)
+        ax.plot(time_s, y, lw=1.3, label=name)
+    if rails_v is not None:
+        for sign in (1.0, -1.0):
+            axes[1].axhline(sign * rails_v, color="k", ls="--", lw=1.0,
+                            label=f"rails ±{rails_v:g} V" if sign > 0 else None)
+    for i, t_d in enumerate(disturbances_s):
+        for ax in axes:
+            ax.axvline(t_d, color="C3", ls=":", lw=1.4, label="load applied" if i == 0 else None)
     for ax in axes:
-        ax.legend(fontsize=7)
-        ax.grid(alpha=0.3)
-    axes[0].set_title(title, fontsize=9)
+        ax.legend(loc="best")
+    # the metrics go under the title, never over the curves: three to a line
+    lines = ["   ".join(metrics[i:i + _METRICS_PER_LINE]) for i in range(0, len(metrics), _METRICS_PER_LINE)]
+    axes[0].set_title("\n".join([title, *lines]), loc="left")
+    axes[0].set_ylabel("V")
+    axes[1].set_ylabel("control u (V)")
     axes[1].set_xlabel("time (s)")
-    fig.tight_layout()
+    return png(fig)
+
+
+@styled
+def mode_maps(maps: Sequence[Any], design_gains: tuple[float, float] | None = None) -> bytes:
+    """The modes of the saturated position/velocity loop over (Kp, Kv), one map per plant (Figs. 4, 11–13).
+
+    Parameters
+    ----------
+    maps : sequence of ModeMap
+        From :func:`motorid.simulate.modes.mode_map`.
+    design_gains : (float, float), optional
+        A design's own ``(Kp, Kv)``, marked on every map.
+
+    Returns
+    -------
+    bytes
+        The PNG image.
+    """
+    from matplotlib.artist import Artist
+    from matplotlib.colors import ListedColormap
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    from motorid.simulate.modes import MODES
+
+    cmap = ListedColormap(list(_MODE_COLOURS))
+    fig, axes = _subplots(1, len(maps), figsize=(FULL_WIDTH_IN, 4.2), squeeze=False)
+    for ax, m in zip(axes[0], maps, strict=False):
+        ext = (float(m.kp[0]), float(m.kp[-1]), float(m.kv[0]), float(m.kv[-1]))
+        ax.imshow(m.labels, origin="lower", aspect="auto", extent=ext, cmap=cmap, vmin=-0.5,
+                  vmax=len(MODES) - 0.5, interpolation="nearest")
+        if design_gains is not None:
+            ax.plot(*design_gains, marker="*", ms=16, mfc="white", mec="k", ls="none")
+        ax.set_title(m.plant)
+        ax.set_xlabel("Kp (V/V)")
+        ax.set_ylabel("Kv (V/(V/s))")
+        ax.grid(False)
+    handles: list[Artist] = [Patch(color=c, label=name.replace("_", " "))
+                             for c, name in zip(_MODE_COLOURS, MODES, strict=False)]
+    if design_gains is not None:
+        handles.append(Line2D([], [], marker="*", ms=14, mfc="white", mec="k", ls="none",
+                                               label="this design"))
+    fig.legend(handles=handles, loc="outside lower center", ncol=4)
+    return png(fig)
+
+
+@dataclass(frozen=True, slots=True)
+class IntervalCheck:
+    """One estimate with its 95 % interval and a value to compare it with.
+
+    Attributes
+    ----------
+    label : str
+        The quantity, with its unit (``"dc gain (V/V)"``).
+    value : float
+        The estimate.
+    ci95 : (float, float)
+        Its 95 % interval.
+    reference : float or None
+        The value compared with it (the truth, or the classic estimate).
+    reference_label : str
+        What ``reference`` is (``"truth"``, ``"classic estimate"``).
+    """
+
+    label: str
+    value: float
+    ci95: tuple[float, float]
+    reference: float | None
+    reference_label: str
+
+
+@styled
+def interval_checks(checks: Sequence[IntervalCheck]) -> bytes:
+    """Each estimate with its 95 % interval and the truth (or the classic estimate) beside it.
+
+    One row per quantity; the horizontal axis of each row spans the interval and the
+    reference, so that a miss shows as a marker outside the bar.
+
+    Parameters
+    ----------
+    checks : sequence of IntervalCheck
+        The quantities.
+
+    Returns
+    -------
+    bytes
+        The PNG image.
+    """
+    fig, axes = _subplots(len(checks), 1, figsize=(FULL_WIDTH_IN, 1.3 * len(checks) + 0.3), squeeze=False)
+    for ax, c in zip(axes[:, 0], checks, strict=False):
+        lo, hi = c.ci95
+        ax.errorbar([c.value], [0], xerr=[[c.value - lo], [hi - c.value]], fmt="o", color="C0", capsize=6, lw=2,
+                    label="estimate, 95 % interval")
+        if c.reference is not None:
+            ax.plot([c.reference], [0], "D", color="C3", ms=9, label=c.reference_label)
+        ax.set_yticks([])
+        ax.set_ylim(-1, 1.8)  # room above the markers for the legend
+        ax.set_xlabel(c.label)
+        ax.grid(False, axis="y")
+        if ax is axes[0, 0]:
+            ax.legend(loc="upper center", ncol=2, frameon=False)
+        ax.ticklabel_format(axis="x", useOffset=False)
     return png(fig)

@@ -3,44 +3,64 @@
 Sections follow the story of the paper: raw captures → conditioning → the model (matrices,
 transfer functions, poles/zeros, k and τ with intervals) → fit and residuals → order
 evidence and the stages of ``--method auto`` → sensitivity to record length and sample
-interval → validation on other inputs → the controller, when a design is given.  The page
-uses print CSS so that "Print to PDF" gives a report a student can hand in.
+interval → validation on other inputs → the controller, when a design is given.
+
+Each section is one function here that turns the results into the plain values its Jinja2
+template (``templates/sections/<id>.html``, autoescaped) shows; :func:`build_report` runs
+them in page order.  The page has print CSS for A4, so that "Print to PDF" gives a report an
+instructor can hand out.
 """
 
 from __future__ import annotations
 
 import base64
 import datetime as _dt
-import html
+import functools
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+import jinja2
 import numpy as np
+from markupsafe import Markup
 
 from motorid.capture import Capture
 from motorid.identify.pipeline import Identification
 from motorid.model.notation import poly_text
 from motorid.report import figures
+from motorid.report.truth import reference_values, truth_checks
 
-__all__ = ["SECTIONS", "ReportInputs", "build_report"]
+__all__ = [
+    "METRIC_LABELS", "SECTIONS", "SECTION_BUILDERS", "RenderedSection", "ReportInputs", "build_report",
+    "render_page", "render_section", "template_environment",
+]
 
 #: Section ids, in page order (the headless-browser test checks they all render).
 SECTIONS: tuple[str, ...] = (
     "summary", "captures", "conditioning", "current", "model", "fit", "order", "stages",
     "sensitivity", "validation", "design",
 )
-
-_CSS = """
-body{font-family:system-ui,-apple-system,'Segoe UI',sans-serif;max-width:60rem;margin:1.5rem auto;
-padding:0 1rem;color:#222;line-height:1.45}
-h1{font-size:1.6rem;margin-bottom:.2rem}h2{font-size:1.25rem;border-bottom:1px solid #ccc;margin-top:2rem}
-table{border-collapse:collapse;margin:.6rem 0;font-size:.9rem}td,th{border:1px solid #bbb;padding:.2rem .5rem;
-text-align:right}th{background:#f2f2f2}td.l,th.l{text-align:left}img{max-width:100%;height:auto}
-.muted{color:#666;font-size:.85rem}.warn{color:#8a5300}code,pre{font-family:ui-monospace,monospace;font-size:.85rem}
-pre{background:#f7f7f7;padding:.5rem;overflow-x:auto}section{page-break-inside:avoid}
-@media print{body{max-width:none;margin:0}h2{page-break-after:avoid}img{max-width:95%}section{break-inside:avoid}}
-"""
+#: Significant figures of the numbers on the page (full precision stays in the JSON).
+SIGNIFICANT = 4
+#: A fit entry whose key ends so is already a percentage (MATLAB's fit); the others are fractions.
+_PERCENT_SUFFIX = "_fit_percent"
+#: Closed-loop metrics in words, with their units (the keys of ``ResponseMetrics``).
+METRIC_LABELS: dict[str, tuple[str, str]] = {
+    "rise_time_s": ("rise time (10 → 90 %)", "s"),
+    "settling_time_s": ("settling time (2 %)", "s"),
+    "overshoot_pct": ("overshoot", "%"),
+    "steady_state_error_v": ("steady-state error", "V"),
+    "tracking_rms_v": ("tracking error (RMS, second half)", "V"),
+    "peak_control_v": ("peak control |u|", "V"),
+}
+#: The metrics written on the closed-loop plot (all of them are in the table under it).
+_HEADLINE_METRICS = ("rise_time_s", "settling_time_s", "overshoot_pct", "peak_control_v")
+#: Design entries shown in the gains table, with what they are.
+_DESIGN_ROWS: tuple[tuple[str, str], ...] = (
+    ("K", "state feedback K"), ("kr", "reference gain kr"), ("ki", "integral gain ki"),
+    ("L", "observer gain L"), ("closed_loop_poles", "closed-loop poles (1/s)"),
+    ("observer_poles", "observer poles (1/s)"),
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -59,7 +79,10 @@ class ReportInputs:
         A :class:`motorid.analysis.sweep.SweepResult` or ``None``.
     design : Mapping or None
         A design JSON (``motorid.design/1``) and, under ``"simulation"``, a closed-loop run
-        ``{"time": [...], "series": {name: [...]}, "metrics": {...}}``; ``"modes_png"``: bytes.
+        ``{"time": [...], "series": {name: [...]}, "metrics": {...}}`` with optional
+        ``"rails_v"`` (actuator rails ±V) and ``"disturbances_s"`` (load instants); under
+        ``"mode_maps"`` a tuple of :class:`motorid.simulate.modes.ModeMap` (or ``"modes_png"``:
+        bytes of an image drawn elsewhere) and ``"design_gains"``: the design's own ``(Kp, Kv)``.
     truth : Mapping or None
         The trainer's ``truth.json`` (shown beside the model for the demo).
     title : str
@@ -75,40 +98,488 @@ class ReportInputs:
     title: str = "motorid report"
 
 
-def _img(data: bytes, alt: str) -> str:
-    return f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{base64.b64encode(data).decode()}">'
+@dataclass(frozen=True, slots=True)
+class RenderedSection:
+    """A section of the page: its id, heading and rendered (autoescaped) body."""
+
+    sid: str
+    title: str
+    body: Markup
 
 
-def _table(head: list[str], rows: list[list[Any]]) -> str:
-    def cell(x: Any, tag: str, first: bool) -> str:
-        text = f"{x:.5g}" if isinstance(x, (float, np.floating)) else html.escape(str(x))
-        return f'<{tag}{" class=l" if first else ""}>{text}</{tag}>'
-
-    out = ["<table><tr>" + "".join(cell(h, "th", i == 0) for i, h in enumerate(head)) + "</tr>"]
-    for r in rows:
-        out.append("<tr>" + "".join(cell(x, "td", i == 0) for i, x in enumerate(r)) + "</tr>")
-    return "".join(out) + "</table>"
+# ------------------------------------------------------------------------------ templates
 
 
-def _matrix(name: str, m: np.ndarray) -> str:
-    rows = "\n".join("  [" + ", ".join(f"{x: .5g}" for x in row) + "]" for row in np.atleast_2d(m))
-    return f"<pre>{html.escape(name)} =\n{rows}</pre>"
+def _cell(x: Any) -> str:
+    """A table cell or inline number: :data:`SIGNIFICANT` figures, complex as ``a ± bj``."""
+    if isinstance(x, (bool, np.bool_)):
+        return str(x)
+    if isinstance(x, (complex, np.complexfloating)):
+        re_, im_ = float(x.real), float(x.imag)
+        if abs(im_) < 1e-12 * max(1.0, abs(re_)):
+            return f"{re_:.{SIGNIFICANT}g}"
+        return f"{re_:.{SIGNIFICANT}g} ± {abs(im_):.{SIGNIFICANT}g}j"
+    if isinstance(x, (float, np.floating)):
+        return f"{x:.{SIGNIFICANT}g}"
+    return "" if x is None else str(x)
 
 
-def _section(sid: str, title: str, body: str) -> str:
-    return f'<section id="{sid}"><h2>{html.escape(title)}</h2>{body}</section>'
+@functools.cache
+def template_environment() -> jinja2.Environment:
+    """The Jinja2 environment of the report's templates (autoescaped, strict about undefined names).
+
+    Returns
+    -------
+    jinja2.Environment
+        Loads ``motorid/report/templates``; filter ``cell`` formats a number for the page.
+    """
+    env = jinja2.Environment(
+        loader=jinja2.PackageLoader("motorid.report", "templates"),
+        autoescape=True,
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+    )
+    env.filters["cell"] = _cell
+    return env
 
 
-def _safe(sid: str, title: str, make: Callable[[], str]) -> str:
-    """A section that cannot be drawn says why instead of breaking the page."""
+def _uri(png: bytes) -> str:
+    return "data:image/png;base64," + base64.b64encode(png).decode()
+
+
+def render_section(sid: str, title: str, make: Callable[[], Mapping[str, Any]],
+                   template: str | None = None) -> RenderedSection:
+    """Render one section; a section that cannot be drawn says why instead of breaking the page.
+
+    Parameters
+    ----------
+    sid : str
+        The section's id (its anchor).
+    title : str
+        Its heading.
+    make : callable
+        Returns the names its template shows.
+    template : str, optional
+        The template (default ``sections/<sid>.html``).
+
+    Returns
+    -------
+    RenderedSection
+        The id, heading and body.
+    """
+    env = template_environment()
     try:
-        return _section(sid, title, make())
+        body = env.get_template(template or f"sections/{sid}.html").render(**make())
     except Exception as exc:
-        return _section(sid, title, f'<p class="warn">not available: {html.escape(str(exc))}</p>')
+        body = env.from_string('<p class="warn">not available: {{ why }}</p>').render(why=str(exc))
+    return RenderedSection(sid, title, Markup(body))
+
+
+def render_page(template: str, title: str, sections: list[RenderedSection], **context: Any) -> str:
+    """Render a whole page (``report.html`` or ``levels.html``) around its sections.
+
+    Parameters
+    ----------
+    template : str
+        The page template, which extends ``base.html``.
+    title : str
+        Page title.
+    sections : list of RenderedSection
+        The sections in page order.
+    **context
+        Further names the page template uses.
+
+    Returns
+    -------
+    str
+        A complete HTML document.
+    """
+    from motorid import __version__
+
+    stamp = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
+    return template_environment().get_template(template).render(
+        title=title, version=__version__, stamp=stamp, sections=sections, **context)
+
+
+# ------------------------------------------------------------------------------- sections
+
+
+def _reference(inp: ReportInputs) -> tuple[dict[str, float], str] | None:
+    return reference_values(inp.identification.model, inp.truth, inp.identification.candidates.get("classic"))
+
+
+def _fit_words(key: str) -> str:
+    """``velocity_nrmse`` → "velocity NRMSE"; ``position_fit_percent`` → "position fit (MATLAB compare)"."""
+    if key.endswith(_PERCENT_SUFFIX):
+        return f"{key[: -len(_PERCENT_SUFFIX)]} fit (MATLAB compare)"
+    if key.endswith("_nrmse"):
+        return f"{key[: -len('_nrmse')]} NRMSE"
+    return key.replace("_", " ")
+
+
+def _value_text(x: Any) -> str:
+    """A design entry: numbers to :data:`SIGNIFICANT` figures, ``[re, im]`` pairs as complex numbers."""
+    if isinstance(x, (list, tuple)):
+        if x and all(isinstance(v, (list, tuple)) and len(v) == 2 for v in x):
+            return ", ".join(_cell(complex(float(v[0]), float(v[1]))) for v in x)
+        return "[" + ", ".join(_value_text(v) for v in x) + "]"
+    return _cell(x)
+
+
+def summary_section(inp: ReportInputs) -> dict[str, Any]:
+    """The headline numbers, the estimates against the truth (or the classic estimate), the warnings.
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        The report's inputs.
+
+    Returns
+    -------
+    dict
+        The names ``sections/summary.html`` shows.
+    """
+    ident = inp.identification
+    model, cond = ident.model, ident.conditioned
+    fo = model.first_order()
+    u = model.uncertainty
+    rows: list[list[Any]] = [
+        ["method", model.method], ["states (size of A)", model.order], ["step", f"{_cell(cond.step_volts)} V"],
+        ["dc gain", f"{_cell(fo.dc_gain)} V/V"], ["τ", f"{_cell(fo.time_constant_s)} s"],
+        ["k/(s+p)", f"{_cell(fo.k)}/(s + {_cell(fo.p)})"]]
+    if u:
+        for key, label, unit in (("dc_gain", "dc gain 95 %", "V/V"), ("time_constant", "τ 95 %", "s")):
+            lo, hi = u[key]["ci95"]
+            rows.append([label, f"[{_cell(lo)}, {_cell(hi)}] {unit}"])
+    if model.delay_s > 0:
+        rows.append(["dead time", f"{_cell(1e3 * model.delay_s)} ms "
+                                  f"(τ + dead time {_cell(fo.time_constant_s + model.delay_s)} s)"])
+    for key, val in model.fit.items():
+        rows.append([_fit_words(key), f"{val:.2f} %" if key.endswith(_PERCENT_SUFFIX) else f"{100 * val:.2f} %"])
+    sanity = model.extras.get("sanity")
+    if isinstance(sanity, dict):
+        rows.append(["sanity checks", "all passed" if sanity.get("passed") else
+                     f"{sum(not c['passed'] for c in sanity.get('checks', []))} FAILED (see the warnings)"])
+    ref = _reference(inp)
+    checks: tuple[Any, ...] = ()
+    label = ""
+    if ref is not None:
+        values, label = ref
+        rows.append([label, f"dc gain {_cell(values['dc_gain'])} V/V, τ {_cell(values['time_constant'])} s"])
+        checks = truth_checks(model, values, label, truth=inp.truth, step_volts=cond.step_volts)
+    interval_png = ""
+    if checks:
+        interval_png = _uri(figures.interval_checks(
+            [figures.IntervalCheck(f"{c.quantity} ({c.unit})", c.value, c.ci95, c.reference, label) for c in checks]))
+    return {
+        "rows": rows, "checks": checks, "interval_png": interval_png, "reference_label": label,
+        "reason": ident.reason, "notes": [str(n) for n in model.extras.get("conditioning", []) or []],
+        "warnings": list(model.warnings), "files": list(cond.sources.items()),
+    }
+
+
+def captures_section(inp: ReportInputs) -> dict[str, Any]:
+    """The raw captures as recorded.
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        The report's inputs.
+
+    Returns
+    -------
+    dict
+        The names ``sections/captures.html`` shows.
+    """
+    return {"png": _uri(figures.raw_captures(inp.captures)) if inp.captures else ""}
+
+
+def conditioning_section(inp: ReportInputs) -> dict[str, Any]:
+    """The synchronised, unwrapped, reduced and differentiated signals.
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        The report's inputs.
+
+    Returns
+    -------
+    dict
+        The names ``sections/conditioning.html`` shows.
+    """
+    cond = inp.identification.conditioned
+    return {"png": _uri(figures.conditioned_signals(cond)), "ratio": cond.ratio,
+            "reduction": cond.settings.reduction, "interval": _cell(cond.sample_interval_s)}
+
+
+def current_section(inp: ReportInputs) -> dict[str, Any]:
+    """The armature current, recorded and FFT-denoised.
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        The report's inputs.
+
+    Returns
+    -------
+    dict
+        The names ``sections/current.html`` shows.
+    """
+    cond = inp.identification.conditioned
+    return {"png": _uri(figures.current_denoising(cond)) if "current" in cond.full_outputs else ""}
+
+
+def _matrix_text(m: np.ndarray) -> str:
+    return "\n".join("  [" + ", ".join(f"{x: .5g}" for x in row) + "]" for row in np.atleast_2d(m))
+
+
+def model_section(inp: ReportInputs) -> dict[str, Any]:
+    """Matrices, transfer functions, first-order summary, intervals, noise model, pole-zero map.
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        The report's inputs.
+
+    Returns
+    -------
+    dict
+        The names ``sections/model.html`` shows.
+    """
+    model = inp.identification.model
+    fo = model.first_order()
+    tfs = []
+    for name in ("velocity", "position", "current"):
+        tf = getattr(model, f"{name}_tf")
+        if tf is not None:
+            tfs.append((name, poly_text(np.ravel(tf.num[0][0])), poly_text(np.ravel(tf.den[0][0]))))
+    u = model.uncertainty
+    rows: list[list[Any]] = []
+    if u:
+        rows = [[key.replace("_", " "), u[key]["value"], u[key]["std"],
+                 f"[{_cell(u[key]['ci95'][0])}, {_cell(u[key]['ci95'][1])}]"] for key in ("dc_gain", "time_constant")]
+        for key in ("poles", "zeros"):
+            for i, item in enumerate(u.get(key, [])):
+                rows.append([f"{key[:-1]} {i + 1}", complex(*item["value"]), item["std"],
+                             f"[{_cell(item['ci95'][0])}, {_cell(item['ci95'][1])}]"])
+    noise = model.extras.get("noise") or {}
+    noise_rows = [[role, nm["sigma"], nm["ar_order"], nm.get("pre_step_sigma", ""),
+                   "its scale only: 8-bit codes not dithered by noise" if nm["use"] == "scale only"
+                   else "the dynamics"] for role, nm in noise.items()]
+    return {
+        "matrices": [(name, _matrix_text(getattr(model, name))) for name in ("A", "B", "C", "D")],
+        "states": ", ".join(model.states), "outputs": ", ".join(model.outputs), "tfs": tfs,
+        "first_order": {"k": fo.k, "p": fo.p, "dc_gain": fo.dc_gain, "tau": fo.time_constant_s},
+        "uncertainty_rows": rows, "structure": bool(u) and "structure_std" in u.get("dc_gain", {}),
+        "method": str(u.get("method", "")) if u else "", "noise_rows": noise_rows,
+        "pole_zero_png": _uri(figures.pole_zero(model)),
+    }
+
+
+def fit_section(inp: ReportInputs) -> dict[str, Any]:
+    """Measured against model step responses, with residuals.
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        The report's inputs.
+
+    Returns
+    -------
+    dict
+        The names ``sections/fit.html`` shows.
+    """
+    ident = inp.identification
+    return {"png": _uri(figures.step_fit(ident.model, ident.conditioned))}
+
+
+def order_section(inp: ReportInputs) -> dict[str, Any]:
+    """The order evidence: Hankel singular values (or the Laguerre coefficients).
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        The report's inputs.
+
+    Returns
+    -------
+    dict
+        The names ``sections/order.html`` shows; ``kind`` is ``none``, ``laguerre`` or ``hankel``.
+    """
+    mk = inp.identification.candidates.get("markov")
+    if mk is None or "hankel_singular_values_scaled" not in mk.extras:
+        return {"kind": "none"}
+    ex = mk.extras
+    choice = str(ex.get("markov_choice", ""))
+    if ex.get("markov_basis") == "laguerre":
+        floor = ex["hankel_noise_floor"]
+        return {
+            "kind": "laguerre", "pole": ex["laguerre_pole"], "terms": ex["laguerre_terms"],
+            "dc_gain": ex["laguerre_dc_gain"], "dc_gain_std": ex["laguerre_dc_gain_std"], "floor": floor,
+            "sv_rows": [[i + 1, x, "above" if x > floor else "below"]
+                        for i, x in enumerate(ex["hankel_singular_values_scaled"])],
+            "coefficient_rows": [[k, g, sd] for k, (g, sd) in enumerate(
+                zip(ex["laguerre_coefficients"], ex["laguerre_coefficients_std"], strict=False))],
+            "choice": choice,
+        }
+    png = figures.hankel_values(ex["hankel_singular_values_scaled"], ex["hankel_singular_values_raw"],
+                                ex.get("hankel_noise_floor"))
+    return {"kind": "hankel", "png": _uri(png), "choice": choice}
+
+
+def stages_section(inp: ReportInputs) -> dict[str, Any]:
+    """The stages of ``--method auto``, one row each.
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        The report's inputs.
+
+    Returns
+    -------
+    dict
+        The names ``sections/stages.html`` shows.
+    """
+    model = inp.identification.model
+    rows = [[st.get("stage"), st.get("method", ""), st.get("order", ""), st.get("dc_gain", ""),
+             st.get("time_constant", ""),
+             "" if st.get("velocity_nrmse") is None else f"{100 * st['velocity_nrmse']:.2f} %",
+             st.get("evidence", st.get("failed", ""))] for st in model.stages]
+    return {"rows": rows, "method": model.method}
+
+
+def sensitivity_section(inp: ReportInputs) -> dict[str, Any]:
+    """The paper's table of k and τ over record length × sample interval.
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        The report's inputs.
+
+    Returns
+    -------
+    dict
+        The names ``sections/sensitivity.html`` shows (no ``rows``: not computed).
+    """
+    sw = inp.sweep
+    if sw is None:
+        return {"rows": []}
+    rows = [[f"{1000 * dt:g} ms"] + [f"k = {_cell(sw.k[i, j])}, τ = {_cell(sw.tau_s[i, j])}"
+                                     for j in range(len(sw.lengths_s))]
+            for i, dt in enumerate(sw.intervals_s)]
+    sp = sw.spread()
+    return {"head": ["ΔT"] + [f"{x:g} s" for x in sw.lengths_s], "rows": rows, "method": sw.method,
+            "spread_k": f"{100 * sp['k']:.1f}", "spread_tau": f"{100 * sp['tau']:.1f}",
+            "png": _uri(figures.sweep_maps(sw.lengths_s, sw.intervals_s, sw.k, sw.tau_s))}
+
+
+def validation_section(inp: ReportInputs) -> dict[str, Any]:
+    """The model driven by other recorded inputs, scored and overlaid.
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        The report's inputs.
+
+    Returns
+    -------
+    dict
+        The names ``sections/validation.html`` shows.
+    """
+    from motorid.analysis.validation import validate_capture
+    from motorid.errors import MotorIdError
+
+    rows: list[list[Any]] = []
+    overlays: list[tuple[str, str]] = []
+    for name, cap in inp.validation.items():
+        try:
+            r = validate_capture(inp.identification.model, cap)
+        except MotorIdError as exc:
+            rows.append([name, "—", "—", "—", f"not validated: {exc.message}"])
+            continue
+        rows.append([name, f"{100 * r.nrmse:.2f} %", f"{r.fit_percent:.1f} %", f"{r.offset_v:+.4g} V",
+                     "; ".join(r.notes + r.warnings)])
+        overlays.append((name, _uri(figures.validation_overlay(
+            r.time_s, r.input_v, r.measured_v, r.simulated_v,
+            f"{name}: NRMSE {100 * r.nrmse:.2f} %, fit {r.fit_percent:.1f} %"))))
+    return {"rows": rows, "overlays": overlays}
+
+
+def _metric_rows(metrics: Mapping[str, Any]) -> list[list[str]]:
+    """Metrics in words with units (:data:`METRIC_LABELS`); unknown keys as given."""
+    rows = []
+    for key, val in metrics.items():
+        words, unit = METRIC_LABELS.get(key, (key, ""))
+        undefined = isinstance(val, float) and not np.isfinite(val)
+        rows.append([words, "—" if undefined else f"{_cell(val)} {unit}".strip()])
+    return rows
+
+
+def design_section(inp: ReportInputs) -> dict[str, Any]:
+    """The controller: gains, Routh table, closed-loop response with rails and metrics, mode maps.
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        The report's inputs.
+
+    Returns
+    -------
+    dict
+        The names ``sections/design.html`` shows.
+    """
+    d = inp.design
+    if not d:
+        return {"given": False}
+    gain_rows = [["states", ", ".join(map(str, d.get("states") or []))]]
+    gain_rows += [[words, _value_text(d.get(key))] for key, words in _DESIGN_ROWS if d.get(key) is not None]
+    view: dict[str, Any] = {"given": True, "gain_rows": gain_rows, "routh": [str(x) for x in d.get("routh") or []],
+                            "closed_loop_png": "", "caption": "", "metric_rows": [], "note": str(d.get("note") or ""),
+                            "modes_png": "", "modes_marker": ""}
+    sim = d.get("simulation")
+    if sim:
+        metrics = sim.get("metrics") or {}
+        metric_rows = _metric_rows(metrics)
+        headline = _metric_rows({k: metrics[k] for k in _HEADLINE_METRICS if k in metrics})
+        rails, disturbances = sim.get("rails_v"), tuple(sim.get("disturbances_s") or ())
+        png = figures.closed_loop(np.asarray(sim["time"]), {k: np.asarray(v) for k, v in sim["series"].items()},
+                                  "closed-loop step response on the identified model", rails_v=rails,
+                                  disturbances_s=disturbances, metrics=[f"{w}: {v}" for w, v in headline])
+        view["closed_loop_png"] = _uri(png)
+        view["metric_rows"] = metric_rows
+        view["caption"] = ("Dashed: the actuator rails ±" + _cell(rails) + " V, where the command saturates. "
+                           if rails is not None else "No actuator rails in this run. ") + (
+            "Dotted: the instants a load is applied." if disturbances else "")
+    gains = d.get("design_gains")
+    if d.get("mode_maps"):
+        view["modes_png"] = _uri(figures.mode_maps(d["mode_maps"], gains))
+        view["modes_marker"] = (f"The star marks this design's own gains, Kp = {_cell(gains[0])} V/V, "
+                                f"Kv = {_cell(gains[1])} V/(V/s)." if gains is not None else
+                                "This design has other states or integral action, so it is not a point of these maps.")
+    elif d.get("modes_png"):
+        view["modes_png"] = _uri(d["modes_png"])
+    return view
+
+
+#: The sections in page order: (id, heading, the function that prepares its template's names).
+SECTION_BUILDERS: tuple[tuple[str, str, Callable[[ReportInputs], Mapping[str, Any]]], ...] = (
+    ("summary", "Summary", summary_section),
+    ("captures", "Raw captures (as recorded)", captures_section),
+    ("conditioning", "Conditioned signals: synchronised, unwrapped, reduced, differentiated", conditioning_section),
+    ("current", "Armature current: recorded and FFT-denoised", current_section),
+    ("model", "The identified model", model_section),
+    ("fit", "Measured vs model step response, with residuals", fit_section),
+    ("order", "Order evidence: Hankel singular values", order_section),
+    ("stages", "Stages of the identification", stages_section),
+    ("sensitivity", "Sensitivity to record length and sample interval", sensitivity_section),
+    ("validation", "Validation on other inputs", validation_section),
+    ("design", "Controller", design_section),
+)
 
 
 def build_report(inp: ReportInputs) -> str:
-    """Build the HTML page.
+    """Build the HTML page: every section of :data:`SECTIONS`, in order, from its template.
 
     Parameters
     ----------
@@ -120,208 +591,7 @@ def build_report(inp: ReportInputs) -> str:
     str
         A complete, self-contained HTML document.
     """
-    ident = inp.identification
-    model = ident.model
-    cond = ident.conditioned
-    fo = model.first_order()
-    parts: list[str] = []
-
-    def summary() -> str:
-        u = model.uncertainty
-        rows: list[list[Any]] = [
-            ["method", model.method], ["order (states)", model.order], ["step", f"{cond.step_volts:.4g} V"],
-            ["dc gain", f"{fo.dc_gain:.5g} V/V"], ["τ", f"{fo.time_constant_s:.5g} s"],
-            ["k/(s+p)", f"{fo.k:.5g}/(s + {fo.p:.5g})"]]
-        if u:
-            for key, label in (("dc_gain", "dc gain 95%"), ("time_constant", "τ 95%")):
-                lo, hi = u[key]["ci95"]
-                rows.append([label, f"[{lo:.5g}, {hi:.5g}]"])
-        if model.delay_s > 0:
-            rows.append(["dead time", f"{1e3 * model.delay_s:.4g} ms "
-                                      f"(τ + dead time {fo.time_constant_s + model.delay_s:.5g} s)"])
-        for key, val in model.fit.items():
-            shown = f"{val:.2f} %" if key.endswith("_fit_percent") else f"{100 * val:.2f} %"
-            rows.append([f"fit {key}", shown])
-        sanity = model.extras.get("sanity")
-        if isinstance(sanity, dict):
-            rows.append(["sanity checks", "all passed" if sanity.get("passed") else
-                         f"{sum(not c['passed'] for c in sanity.get('checks', []))} FAILED (see the warnings)"])
-        if inp.truth:
-            tf = inp.truth.get("transfer_functions", {}).get("first_order", {})
-            if tf:
-                rows.append(["trainer truth (linearised)",
-                             f"dc gain {tf['dc_gain']:.5g}, τ {tf['time_constant']:.5g} s"])
-        body = _table(["", "value"], rows)
-        body += f"<p>{html.escape(ident.reason)}</p>"
-        for note in model.extras.get("conditioning", []) or []:
-            body += f"<p class=muted>{html.escape(str(note))}</p>"
-        if model.warnings:
-            body += "<ul>" + "".join(f'<li class="warn">{html.escape(w)}</li>' for w in model.warnings) + "</ul>"
-        files = ", ".join(f"{html.escape(r)}: {html.escape(s)}" for r, s in cond.sources.items())
-        body += "<p class=muted>Files: " + files + "</p>"
-        return body
-
-    parts.append(_safe("summary", "Summary", summary))
-    parts.append(_safe("captures", "Raw captures (as recorded)",
-                       lambda: _img(figures.raw_captures(inp.captures), "raw captures") if inp.captures
-                       else "<p>no raw captures given</p>"))
-    parts.append(_safe("conditioning", "Conditioned signals: synchronised, unwrapped, reduced, differentiated",
-                       lambda: _img(figures.conditioned_signals(cond), "conditioned signals")
-                       + f"<p class=muted>step edge per capture; reduction ratio {cond.ratio} "
-                         f"({cond.settings.reduction}); sample interval after reduction "
-                         f"{cond.sample_interval_s:.4g} s</p>"))
-    parts.append(_safe("current", "Armature current: recorded and FFT-denoised",
-                       lambda: _img(figures.current_denoising(cond), "current") if "current" in cond.full_outputs
-                       else "<p>no current capture given</p>"))
-
-    def model_section() -> str:
-        body = _matrix("A", model.A) + _matrix("B", model.B) + _matrix("C", model.C) + _matrix("D", model.D)
-        body += f"<p class=muted>states: {', '.join(model.states)}; outputs: {', '.join(model.outputs)}</p>"
-        for name in ("velocity", "position", "current"):
-            tf = getattr(model, f"{name}_tf")
-            if tf is None:
-                continue
-            num, den = np.ravel(tf.num[0][0]), np.ravel(tf.den[0][0])
-            body += (f"<p><code>H_{name}(s) = ({html.escape(poly_text(num))}) / "
-                     f"({html.escape(poly_text(den))})</code></p>")
-        body += (f"<p>first order: <code>k/(s+p) = {fo.k:.5g}/(s + {fo.p:.5g})</code>, dc gain {fo.dc_gain:.5g}, "
-                 f"τ = {fo.time_constant_s:.5g} s</p>")
-        u = model.uncertainty
-        if u:
-            rows = [[k, u[k]["value"], u[k]["std"], f"[{u[k]['ci95'][0]:.5g}, {u[k]['ci95'][1]:.5g}]"]
-                    for k in ("dc_gain", "time_constant")]
-            for key in ("poles", "zeros"):
-                for i, item in enumerate(u.get(key, [])):
-                    rows.append([f"{key[:-1]} {i + 1}", f"{item['value'][0]:.5g}{item['value'][1]:+.3g}j",
-                                 item["std"], f"[{item['ci95'][0]}, {item['ci95'][1]}]"])
-            body += _table(["quantity", "value", "std", "95% interval"], rows)
-            body += ("<p class=muted>What the intervals include: the noise of every channel (its AR model), "
-                     "the nuisance parameters fitted with the model (pre-step levels, capture timing, the "
-                     "encoder span, the dead time), the error of the step level read off the input channel"
-                     + (", and the uncertainty of the structure itself (BIC-weighted spread of the candidate "
-                        "structures)" if "structure_std" in u.get("dc_gain", {}) else "")
-                     + f". Method: {html.escape(str(u.get('method', '')))}</p>")
-        noise = model.extras.get("noise")
-        if noise:
-            body += "<p>noise model of the output-error fit (AR whitening of each channel's residuals):</p>"
-            body += _table(["channel", "innovation σ (V)", "AR order", "pre-step σ (V)", "used for"],
-                           [[role, nm["sigma"], nm["ar_order"], nm.get("pre_step_sigma", ""),
-                             "its scale only: 8-bit codes not dithered by noise" if nm["use"] == "scale only"
-                             else "the dynamics"] for role, nm in noise.items()])
-        body += _img(figures.pole_zero(model), "pole-zero map")
-        return body
-
-    parts.append(_safe("model", "The identified model", model_section))
-    parts.append(_safe("fit", "Measured vs model step response, with residuals",
-                       lambda: _img(figures.step_fit(model, cond), "step fit")))
-
-    def order_section() -> str:
-        mk = ident.candidates.get("markov")
-        if mk is None or "hankel_singular_values_scaled" not in mk.extras:
-            return "<p>the Markov method was not run</p>"
-        ex = mk.extras
-        if ex.get("markov_basis") == "laguerre":
-            sv = ex["hankel_singular_values_scaled"]
-            floor = ex["hankel_noise_floor"]
-            rows = [[i + 1, x, "above" if x > floor else "below"] for i, x in enumerate(sv)]
-            coef = [[k, g, sd] for k, (g, sd) in enumerate(zip(ex["laguerre_coefficients"],
-                                                               ex["laguerre_coefficients_std"], strict=False))]
-            return (f"<p>Generalised Markov parameters on a Laguerre basis: pole a = {ex['laguerre_pole']:.4g} 1/s, "
-                    f"N = {ex['laguerre_terms']} terms; DC gain from the coefficients √(2/a)·Σ(−1)ᵏg_k = "
-                    f"{ex['laguerre_dc_gain']:.5g} ± {ex['laguerre_dc_gain_std']:.2g}.</p>"
-                    + _table(["k", "σ_k / σ_1", f"vs noise floor {floor:.3g}"], rows)
-                    + "<p>Laguerre coefficients:</p>" + _table(["k", "g_k", "std"], coef)
-                    + f"<p class=muted>{html.escape(str(ex.get('markov_choice', '')))}</p>")
-        return (_img(figures.hankel_values(ex["hankel_singular_values_scaled"], ex["hankel_singular_values_raw"],
-                                           ex.get("hankel_noise_floor")), "Hankel singular values")
-                + f"<p class=muted>{html.escape(str(ex.get('markov_choice', '')))}</p>")
-
-    parts.append(_safe("order", "Order evidence: Hankel singular values", order_section))
-
-    def stages_section() -> str:
-        if not model.stages:
-            return f"<p>single method: {html.escape(model.method)}</p>"
-        rows = []
-        for st in model.stages:
-            rows.append([st.get("stage"), st.get("method", ""), st.get("order", ""),
-                         st.get("dc_gain", ""), st.get("time_constant", ""),
-                         "" if st.get("velocity_nrmse") is None else f"{100 * st['velocity_nrmse']:.2f} %",
-                         st.get("evidence", st.get("failed", ""))])
-        return _table(["stage", "method", "order", "dc gain", "τ (s)", "NRMSE", "note"], rows)
-
-    parts.append(_safe("stages", "Stages of the identification", stages_section))
-
-    def sweep_section() -> str:
-        sw = inp.sweep
-        if sw is None:
-            return "<p>no sensitivity table computed</p>"
-        rows = [[f"{1000 * dt:g} ms"]
-                + [f"k = {sw.k[i, j]:.4f}, τ = {sw.tau_s[i, j]:.4f}" for j in range(len(sw.lengths_s))]
-                for i, dt in enumerate(sw.intervals_s)]
-        sp = sw.spread()
-        return (_table(["ΔT"] + [f"{x:g} s" for x in sw.lengths_s], rows)
-                + f"<p>method {html.escape(sw.method)}; spread k ±{100 * sp['k']:.1f} %, τ ±{100 * sp['tau']:.1f} %</p>"
-                + _img(figures.sweep_maps(sw.lengths_s, sw.intervals_s, sw.k, sw.tau_s), "sensitivity maps"))
-
-    parts.append(_safe("sensitivity", "Sensitivity to record length and sample interval", sweep_section))
-
-    def validation_section() -> str:
-        if not inp.validation:
-            return "<p>no validation captures given (<code>--validate CAP...</code>)</p>"
-        from motorid.errors import MotorIdError
-        from motorid.analysis.validation import validate_capture
-
-        body, rows = "", []
-        for name, cap in inp.validation.items():
-            try:
-                r = validate_capture(model, cap)
-            except MotorIdError as exc:
-                rows.append([name, "—", "—", "—", f"not validated: {exc.message}"])
-                continue
-            rows.append([name, f"{100 * r.nrmse:.2f} %", f"{r.fit_percent:.1f} %", f"{r.offset_v:+.4g} V",
-                         "; ".join(r.notes + r.warnings)])
-            body += _img(figures.validation_overlay(r.time_s, r.input_v, r.measured_v, r.simulated_v,
-                                                    f"{name}: NRMSE {100 * r.nrmse:.2f} %, fit {r.fit_percent:.1f} %"),
-                         name)
-        definition = ("<p>NRMSE = RMS(measured − model) / measured change of the response (a step: its "
-                      "steady-state change; other inputs: its P99 − P1 span); fit = 100·(1 − ‖y − ŷ‖/‖y − ȳ‖), "
-                      "MATLAB <code>compare</code>'s fit. The model's initial state and an output offset are "
-                      "estimated by least squares over the whole record.</p>")
-        return _table(["capture", "NRMSE", "fit", "offset", "notes"], rows) + definition + body
-
-    parts.append(_safe("validation", "Validation on other inputs", validation_section))
-
-    def design_section() -> str:
-        d = inp.design
-        if not d:
-            return "<p>no controller design given (<code>--design d.json</code>)</p>"
-        rows = [[k, str(d.get(k))] for k in ("K", "kr", "ki", "L", "closed_loop_poles", "observer_poles")
-                if d.get(k) is not None]
-        body = _table(["", "value"], rows)
-        if d.get("routh"):
-            body += "<p>Routh–Hurwitz: " + "; ".join(html.escape(str(x)) for x in d["routh"]) + "</p>"
-        sim = d.get("simulation")
-        if sim:
-            series = {k: np.asarray(v) for k, v in sim["series"].items()}
-            body += _img(figures.closed_loop(np.asarray(sim["time"]), series, "closed-loop step response"),
-                         "closed loop")
-            if sim.get("metrics"):
-                body += _table(["metric", "value"], [[k, v] for k, v in sim["metrics"].items()])
-        if d.get("note"):
-            body += f"<p class=muted>{html.escape(str(d['note']))}</p>"
-        if d.get("modes_png"):
-            body += ("<p>Modes of the saturated position/velocity loop (paper Fig. 4, 11–13), "
-                     "2nd- and 3rd-order model:</p>")
-            body += _img(d["modes_png"], "mode map")
-        return body
-
-    parts.append(_safe("design", "Controller", design_section))
-    stamp = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
-    from motorid import __version__
-
-    return (
-        "<!DOCTYPE html><html lang=en><head><meta charset=utf-8>"
-        f"<title>{html.escape(inp.title)}</title><style>{_CSS}</style></head><body>"
-        f"<h1>{html.escape(inp.title)}</h1><p class=muted>motorid {__version__}, {stamp}</p>"
-        + "".join(parts) + "</body></html>"
-    )
+    sections = [render_section(sid, title, functools.partial(make, inp)) for sid, title, make in SECTION_BUILDERS]
+    ref = _reference(inp)
+    return render_page("report.html", inp.title, sections, has_reference=ref is not None,
+                       reference_label=ref[1] if ref else "")

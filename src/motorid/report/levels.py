@@ -6,8 +6,9 @@ overlaid, and the Hammerstein model.
 
 from __future__ import annotations
 
-import datetime as _dt
-import html
+import base64
+import functools
+from typing import Any
 
 import matplotlib
 import numpy as np
@@ -15,7 +16,7 @@ import numpy as np
 from motorid.identify.hammerstein import MultiLevelResult
 from motorid.model.notation import poly_text
 from motorid.report import figures
-from motorid.report.html import _CSS, _img, _section, _table
+from motorid.report.html import render_page, render_section
 
 __all__ = ["build_levels_report", "normalised_responses_png", "static_characteristic_png"]
 
@@ -23,12 +24,14 @@ __all__ = ["build_levels_report", "normalised_responses_png", "static_characteri
 STATUS_STYLE = {"moving": ("o", "C0"), "still": ("s", "0.5"), "saturated": ("^", "C3")}
 
 
+@figures.styled
 def static_characteristic_png(result: MultiLevelResult) -> bytes:
     """Steady output against step level: the points by status, the fitted law and its 95 % band.
 
     Parameters
     ----------
     result : MultiLevelResult
+        The multi-level identification.
 
     Returns
     -------
@@ -36,7 +39,7 @@ def static_characteristic_png(result: MultiLevelResult) -> bytes:
         PNG image.
     """
     st = result.static
-    fig, ax = figures._subplots(figsize=(9, 5))
+    fig, ax = figures._subplots(figsize=(figures.FULL_WIDTH_IN, 4.4))
     u = np.array([p.step_volts for p in st.points])
     span = np.linspace(min(0.0, u.min()) * 1.05, max(0.0, u.max()) * 1.05, 300)
     law = st.predict(span)
@@ -55,26 +58,28 @@ def static_characteristic_png(result: MultiLevelResult) -> bytes:
             ax.errorbar([p.step_volts for p in pts], [p.steady_state for p in pts],
                         yerr=[1.96 * p.stderr for p in pts], fmt=marker, color=colour, label=f"{status} level")
     ax.axvline(st.dead_zone_v, color="0.4", ls=":", lw=1)
-    ax.set_xlabel("step level u (V)", fontsize=12)
-    ax.set_ylabel("steady output y_ss (V)", fontsize=12)
-    ax.legend(fontsize=11)
+    ax.set_xlabel("step level u (V)")
+    ax.set_ylabel("steady output y_ss (V)")
+    ax.legend(loc="best")
     ax.grid(alpha=0.3)
     return figures.png(fig)
 
 
+@figures.styled
 def normalised_responses_png(result: MultiLevelResult) -> bytes:
     """Every moving level's response divided by its steady state, overlaid (shared dynamics?).
 
     Parameters
     ----------
     result : MultiLevelResult
+        The multi-level identification.
 
     Returns
     -------
     bytes
         PNG image.
     """
-    fig, ax = figures._subplots(figsize=(9, 5))
+    fig, ax = figures._subplots(figsize=(figures.FULL_WIDTH_IN, 4.4))
     levels = sorted({round(p.step_volts, 2) for p, _ in result.responses})
     cmap = matplotlib.colormaps["viridis"]
     for point, resp in result.responses:
@@ -89,33 +94,33 @@ def normalised_responses_png(result: MultiLevelResult) -> bytes:
     seen: dict[str, object] = {}
     for h, lab in zip(handles, labels, strict=True):
         seen.setdefault(lab, h)
-    ax.legend(list(seen.values()), list(seen), fontsize=10)
+    ax.legend(list(seen.values()), list(seen), loc="best", ncol=2)
     ax.axhline(1 - np.exp(-1), color="0.5", lw=0.8, ls=":")
-    ax.set_xlabel("time from the step (s)", fontsize=12)
-    ax.set_ylabel("y / y_ss", fontsize=12)
+    ax.set_xlabel("time from the step (s)")
+    ax.set_ylabel("y / y_ss")
     ax.grid(alpha=0.3)
     return figures.png(fig)
 
 
-def build_levels_report(result: MultiLevelResult, title: str = "motorid report: several step levels") -> str:
-    """The self-contained HTML page of a multi-level identification.
+def _uri(png: bytes) -> str:
+    return "data:image/png;base64," + base64.b64encode(png).decode()
+
+
+def static_section(result: MultiLevelResult) -> dict[str, Any]:
+    """The dead-zone, the static gain and the saturation, with the characteristic's plot.
 
     Parameters
     ----------
     result : MultiLevelResult
-    title : str
-        Page title.
+        The multi-level identification.
 
     Returns
     -------
-    str
-        A complete HTML document.
+    dict
+        The names ``levels/static.html`` shows.
     """
-    from motorid import __version__
-
     st = result.static
-    model = result.model
-    fo = model.first_order()
+    fo = result.model.first_order()
     rows = [["dead-zone u₀ (input-referred)", f"{st.dead_zone_v:.4g} V",
              f"[{st.dead_zone_ci95[0]:.4g}, {st.dead_zone_ci95[1]:.4g}] V"],
             ["static gain K", f"{st.gain:.4g} V/V", f"[{st.gain_ci95[0]:.4g}, {st.gain_ci95[1]:.4g}] V/V"]]
@@ -126,31 +131,85 @@ def build_levels_report(result: MultiLevelResult, title: str = "motorid report: 
         rows.append(["saturation seen from", f"{st.saturation_input_v:.4g} V",
                      f"output ≈ {st.saturation_output_v:.4g} V"])
     rows.append(["time constant (joint fit)", f"{fo.time_constant_s:.4g} s", ""])
+    return {"rows": rows, "png": _uri(static_characteristic_png(result))}
+
+
+def levels_section(result: MultiLevelResult) -> dict[str, Any]:
+    """Every level's response normalised, and the per-level time constants.
+
+    Parameters
+    ----------
+    result : MultiLevelResult
+        The multi-level identification.
+
+    Returns
+    -------
+    dict
+        The names ``levels/levels.html`` shows.
+    """
+    return {"png": _uri(normalised_responses_png(result)), "note": result.dynamics_note,
+            "rows": [[f"{d.step_volts:.3g} V", f"{d.time_constant_s:.4g} s", f"{d.stderr:.2g} s", d.count]
+                     for d in result.dynamics]}
+
+
+def hammerstein_section(result: MultiLevelResult) -> dict[str, Any]:
+    """The Hammerstein model: the linear part's TF and the static nonlinearity f(u).
+
+    Parameters
+    ----------
+    result : MultiLevelResult
+        The multi-level identification.
+
+    Returns
+    -------
+    dict
+        The names ``levels/model.html`` shows.
+    """
+    st = result.static
+    tf = result.model.velocity_tf
+    clip = None if st.saturation_input_v is None else f"{st.saturation_input_v - st.dead_zone_v:.4g}"
+    return {"num": poly_text(tf.num[0][0]), "den": poly_text(tf.den[0][0]), "dead_zone": f"{st.dead_zone_v:.4g}",
+            "clip": clip}
+
+
+def warnings_section(result: MultiLevelResult) -> dict[str, Any]:
+    """The warnings of the multi-level identification.
+
+    Parameters
+    ----------
+    result : MultiLevelResult
+        The multi-level identification.
+
+    Returns
+    -------
+    dict
+        The names ``levels/warnings.html`` shows.
+    """
+    return {"warnings": list(result.warnings)}
+
+
+def build_levels_report(result: MultiLevelResult, title: str = "motorid report: several step levels") -> str:
+    """The self-contained HTML page of a multi-level identification.
+
+    Parameters
+    ----------
+    result : MultiLevelResult
+        The multi-level identification.
+    title : str
+        Page title.
+
+    Returns
+    -------
+    str
+        A complete HTML document.
+    """
     parts = [
-        _section("static", "Static characteristic", _table(["quantity", "value", "95 % interval"], rows)
-                 + _img(static_characteristic_png(result), "static characteristic")
-                 + "<p>Each point is one step: its level and the mean of its settled part (error bars: 95 %). "
-                 "Grey squares never left their noise band (inside the dead-zone); red triangles fall short of "
-                 "the line (the rails) and are left out of the fit.</p>"),
-        _section("levels", "Per-level responses, normalised",
-                 _img(normalised_responses_png(result), "normalised responses")
-                 + f"<p>{html.escape(result.dynamics_note)}</p>"
-                 + _table(["level", "τ (first order)", "std. error", "captures"],
-                          [[f"{d.step_volts:.3g} V", f"{d.time_constant_s:.4g} s", f"{d.stderr:.2g} s", d.count]
-                           for d in result.dynamics])),
-        _section("model", "Hammerstein model: y = K·G(s)·f(u)",
-                 "<pre>velocity TF (per volt of f(u)) = "
-                 f"{html.escape(poly_text(model.velocity_tf.num[0][0]))} / "
-                 f"({html.escape(poly_text(model.velocity_tf.den[0][0]))})</pre>"
-                 + f"<p>f(u) = u − {st.dead_zone_v:.4g} V above the dead-zone, 0 inside it"
-                 + ("" if st.saturation_input_v is None else
-                    f", clipped at {st.saturation_input_v - st.dead_zone_v:.4g} V") + ".</p>"),
+        ("static", "Static characteristic", static_section, "levels/static.html"),
+        ("levels", "Per-level responses, normalised", levels_section, "levels/levels.html"),
+        ("model", "Hammerstein model: y = K·G(s)·f(u)", hammerstein_section, "levels/model.html"),
     ]
     if result.warnings:
-        parts.append(_section("warnings", "Warnings", "".join(
-            f'<p class="warn">{html.escape(w)}</p>' for w in result.warnings)))
-    stamp = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
-    return ("<!DOCTYPE html><html lang=en><head><meta charset=utf-8>"
-            f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>"
-            f"<h1>{html.escape(title)}</h1><p class=muted>motorid {__version__}, {stamp}</p>"
-            + "".join(parts) + "</body></html>")
+        parts.append(("warnings", "Warnings", warnings_section, "levels/warnings.html"))
+    sections = [render_section(sid, heading, functools.partial(make, result), template)
+                for sid, heading, make, template in parts]
+    return render_page("levels.html", title, sections)
