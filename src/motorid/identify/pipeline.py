@@ -583,7 +583,14 @@ def identify_experiment(
     if "velocity" not in captures and "position" not in captures:
         raise OptionError("give at least --velocity or --position")
     cond = condition_experiment(captures, settings.conditioning, step_volts=step_volts, t0_s=t0_s)
-    return identify_conditioned(cond, settings)
+    ident = identify_conditioned(cond, settings)
+    from motorid.model.units import units_of
+
+    units = units_of(captures)
+    if not units:
+        return ident
+    # the data's units (a plain-CSV log in rpm): the gain reads rpm/V (issue 16)
+    return replace(ident, model=ident.model.replace(units=units))
 
 
 def with_conditioning(settings: IdentifySettings, **changes: Any) -> IdentifySettings:

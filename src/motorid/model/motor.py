@@ -30,6 +30,7 @@ import numpy as np
 from motorid.errors import ModelFormatError, OptionError
 from motorid.model.nonlinearity import StaticNonlinearity
 from motorid.model.stage import Stage
+from motorid.model.units import ChannelScale, dc_gain_unit
 from motorid.model.serialize import SCHEMA, model_from_dict, model_to_dict, model_to_matlab
 from motorid.model.simplify import (
     CANCEL_TOL_REL,
@@ -196,6 +197,12 @@ class MotorModel:
         A dead-zone (and rails) in front of the linear part (a Hammerstein model identified
         from several step levels): the linear model's input is ``f(u)``, not ``u``.  The JSON
         carries it as the top-level ``static_nonlinearity`` (issue 15).
+    units : Mapping
+        Unit of each channel's data (``{"velocity": "rpm"}``; ``input`` for the input);
+        missing channels are volts.  Top-level ``units`` and ``dc_gain_unit`` in the JSON.
+    scales : Mapping
+        Sensor constants (:class:`~motorid.model.units.ChannelScale`) that turn a volts
+        channel into a physical quantity (``scales`` in the JSON).
 
     Raises
     ------
@@ -220,6 +227,8 @@ class MotorModel:
     stages: tuple[Stage | Mapping[str, Any], ...] = ()
     delay_s: float = 0.0
     static_nonlinearity: StaticNonlinearity | None = None
+    units: Mapping[str, str] = field(default_factory=dict)
+    scales: Mapping[str, ChannelScale] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         a = _as_matrix("A", self.A, (None, None))
@@ -261,10 +270,17 @@ class MotorModel:
         if not (math.isfinite(delay) and delay >= 0.0):
             raise ModelFormatError(f"delay_s must be a finite number ≥ 0, got {self.delay_s!r}")
         object.__setattr__(self, "delay_s", delay)
+        object.__setattr__(self, "units", MappingProxyType({str(k): str(v) for k, v in self.units.items() if v}))
+        object.__setattr__(self, "scales", MappingProxyType(dict(self.scales)))
         if self.static_nonlinearity is not None and not isinstance(self.static_nonlinearity, StaticNonlinearity):
             raise ModelFormatError("static_nonlinearity must be a StaticNonlinearity")
 
     # ------------------------------------------------------------------ basics
+    @property
+    def dc_gain_unit(self) -> str:
+        """Unit of the velocity DC gain: ``rpm/V`` for data in rpm, ``V/V`` for scope volts."""
+        return dc_gain_unit(self.units)
+
     @property
     def order(self) -> int:
         """Number of states."""
@@ -498,6 +514,8 @@ class MotorModel:
             extras={**self.extras, "derived_from_order": self.order},
             delay_s=self.delay_s,
             static_nonlinearity=self.static_nonlinearity,
+            units=self.units,
+            scales=self.scales,
         )
 
     # ------------------------------------------------------------- responses

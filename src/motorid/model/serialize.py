@@ -18,6 +18,7 @@ from pathlib import Path
 from motorid.errors import ModelFormatError
 from motorid.io.jsonfile import read_json
 from motorid.model.nonlinearity import StaticNonlinearity
+from motorid.model.units import ChannelScale
 from motorid.model.simplify import _roots, _tf_coeffs
 
 if TYPE_CHECKING:
@@ -112,6 +113,11 @@ def model_to_dict(model: MotorModel) -> dict[str, Any]:
         data["delay_s"] = model.delay_s
     if model.static_nonlinearity is not None:
         data["static_nonlinearity"] = model.static_nonlinearity.to_json()
+    data["dc_gain_unit"] = model.dc_gain_unit
+    if model.units:
+        data["units"] = dict(model.units)
+    if model.scales:
+        data["scales"] = {k: v.to_json() for k, v in model.scales.items()}
     return _jsonable(data)
 
 
@@ -168,6 +174,9 @@ def model_from_dict(cls: type[MotorModel], data: Mapping[str, Any]) -> MotorMode
         delay_s=data.get("delay_s") or 0.0,
         static_nonlinearity=(None if data.get("static_nonlinearity") is None
                              else StaticNonlinearity.from_json(data["static_nonlinearity"])),
+        units={str(k): str(v) for k, v in (data.get("units") or {}).items()},
+        scales={str(k): ChannelScale(float(v["volts_per_unit"]), str(v["unit"]))
+                for k, v in (data.get("scales") or {}).items()},
     )
 
 

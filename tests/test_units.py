@@ -1,0 +1,59 @@
+"""Issue 16, units: the gain reads in the data's units (rpm/V for a log in rpm) and per
+physical unit when a sensor constant is given; the JSON says its unit."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import pytest
+
+from motorid.model.units import ChannelScale, dc_gain_unit, parse_scales, parse_units, physical_gain
+
+
+def test_hslu_log_in_rpm_prints_the_gain_in_rpm_per_volt(real_dir, run_cli, tmp_path):
+    # must-show: `motorid identify` on ../shared/real/hslu-rtl-dcmotor prints the gain in rpm/V
+    f = real_dir / "hslu-rtl-dcmotor" / "csv" / "06_dc_step_5_15_00.csv"
+    m = tmp_path / "m.json"
+    res = run_cli("identify", "--velocity", f, "--json", m)
+    assert res.code == 0, res.err
+    line = next(ln for ln in res.out.splitlines() if ln.startswith("first order"))
+    gain = float(re.search(r"dc gain (\S+) rpm/V", line).group(1))
+    doc = json.loads(m.read_text())
+    assert doc["dc_gain_unit"] == "rpm/V" and doc["units"]["velocity"] == "rpm"
+    # the authors' own first-order fit: ≈ 245.5 rpm/V (../shared/real/README.md)
+    assert gain == pytest.approx(245.5, rel=0.01)
+    assert gain == pytest.approx(doc["first_order"]["dc_gain"], rel=1e-3)
+
+
+def test_a_tacho_constant_gives_the_gain_per_rad_s(demo_run, run_cli, tmp_path):
+    d = demo_run.folder
+    m = tmp_path / "m.json"
+    res = run_cli("identify", "--velocity", d / "ALL0001", "--scale", "velocity=0.5V/(rad/s)", "--json", m,
+                  "--method", "classic")
+    assert res.code == 0, res.err
+    doc = json.loads(m.read_text())
+    assert doc["dc_gain_unit"] == "V/V"
+    assert doc["scales"]["velocity"] == {"volts_per_unit": 0.5, "unit": "rad/s"}
+    phys = float(re.search(r"dc gain (\S+) \(rad/s\)/V", res.out).group(1))
+    assert phys == pytest.approx(doc["first_order"]["dc_gain"] / 0.5, rel=1e-3)
+
+
+def test_declared_units_override_and_bad_scales_are_one_line(demo_run, run_cli):
+    d = demo_run.folder
+    res = run_cli("identify", "--velocity", d / "ALL0001", "--units", "velocity=krpm", "--method", "classic")
+    assert res.code == 0 and "krpm/V" in res.out
+    res = run_cli("identify", "--velocity", d / "ALL0001", "--scale", "velocity=fast")
+    assert res.code == 2 and res.err.count("\n") == 1 and "volts per unit" in res.err
+    res = run_cli("identify", "--velocity", d / "ALL0001", "--units", "speed=rpm")
+    assert res.code == 2 and "unknown channel 'speed'" in res.err
+
+
+def test_unit_helpers():
+    assert parse_units(["velocity=rpm,current=A"]) == {"velocity": "rpm", "current": "A"}
+    sc = parse_scales(["current=0.47ohm", "position=20V/rev"])
+    assert sc["current"] == ChannelScale(0.47, "A") and sc["position"] == ChannelScale(20.0, "rev")
+    assert dc_gain_unit({}) == "V/V" and dc_gain_unit({"velocity": "rpm"}) == "rpm/V"
+    assert physical_gain(0.9, {}, {"velocity": ChannelScale(0.1504, "rad/s")}) == pytest.approx(
+        (0.9 / 0.1504, "(rad/s)/V"))
+    assert physical_gain(245.0, {"velocity": "rpm"}, {"velocity": ChannelScale(0.1, "rad/s")}) is None
