@@ -94,6 +94,8 @@ def write_outcome(out: Path, outcome: ExperimentOutcome, input_hash: str | None)
     """
     folder = experiment_dir(out, outcome.name)
     folder.mkdir(parents=True, exist_ok=True)
+    for stale in folder.glob(".*.part*"):  # temporary files of a batch killed while writing here
+        stale.unlink(missing_ok=True)
     files = {"model": ("model.json", outcome.model_json), "design": ("design.json", outcome.design_json),
              "report": ("report.html", outcome.report_html)}
     written = {}
