@@ -122,7 +122,7 @@ def test_roles_are_guessed_and_the_rest_left_for_validation(class_root):
     folder = root / "s02"  # position, velocity, current and a sine capture
     (spec,) = [s for s in discover_experiments([root]) if s.name == "s02"]
     caps = {key: read_capture(folder / key[0]) for key in spec.captures}
-    roles, others = assign_roles(spec, caps)
+    roles, others = assign_roles(caps)
     # the trainer wrote them in the paper's order: ALL0000 position, ALL0001 velocity, ALL0002 current
     assert roles == {"position": ("ALL0000",), "velocity": ("ALL0001",), "current": ("ALL0002",)}
     assert others == [("ALL0003",)]
@@ -132,11 +132,10 @@ def test_two_captures_of_one_role_are_refused(class_root):
     from motorid.io import read_capture
 
     root, _ = class_root
-    (spec,) = [s for s in discover_experiments([root]) if s.name == "s00"]
     vel = read_capture(root / "s00" / "ALL0001")
     caps = {("ALL0001",): vel, ("copy",): vel}
     with pytest.raises(OptionError, match=r"2 captures look like velocity \(ALL0001, copy\)"):
-        assign_roles(spec, caps)
+        assign_roles(caps)
 
 
 def test_settings_check_options_and_fingerprint_what_changes_a_result():
@@ -176,12 +175,11 @@ def test_of_two_velocity_looking_captures_the_step_from_rest_is_taken(class_root
     from motorid.io import read_capture
 
     root, _ = class_root
-    (spec,) = [s for s in discover_experiments([root]) if s.name == "s00"]
     vel = read_capture(root / "s00" / "ALL0001")
     square = replace(vel, input_v=np.where(vel.input_v > 0.5 * vel.input_v.max(), -6.35, 6.4))
-    roles, others = assign_roles(spec, {("ALL0001",): vel, ("ALL0005",): square})
+    roles, others = assign_roles({("ALL0001",): vel, ("ALL0005",): square})
     assert roles == {"velocity": ("ALL0001",)} and others == [("ALL0005",)]
     # neither from rest: still refused, as two steps from rest are
     shifted = replace(vel, input_v=vel.input_v + 3.0)
     with pytest.raises(OptionError, match="2 captures look like velocity"):
-        assign_roles(spec, {("ALL0001",): shifted, ("ALL0005",): square})
+        assign_roles({("ALL0001",): shifted, ("ALL0005",): square})

@@ -205,8 +205,7 @@ def _steps_from_rest(capture: Any) -> bool:
     return abs(edge.baseline_v) <= AT_REST_OF_AMPLITUDE * abs(edge.amplitude_v)
 
 
-def assign_roles(spec: ExperimentSpec, captures: Mapping[tuple[str, ...], Any]
-                 ) -> tuple[dict[str, tuple[str, ...]], list[tuple[str, ...]]]:
+def assign_roles(captures: Mapping[tuple[str, ...], Any]) -> tuple[dict[str, tuple[str, ...]], list[tuple[str, ...]]]:
     """Give each capture of a folder without a roles file its role, from its signal.
 
     A capture's own labels win (a plain-CSV log's column names: one file may hold several
@@ -215,8 +214,6 @@ def assign_roles(spec: ExperimentSpec, captures: Mapping[tuple[str, ...], Any]
 
     Parameters
     ----------
-    spec : ExperimentSpec
-        The experiment.
     captures : Mapping[tuple of str, Capture]
         Each capture read without a role, keyed by its paths.
 
@@ -287,7 +284,7 @@ def _identify_one(spec: ExperimentSpec, settings: BatchSettings) -> ExperimentOu
         roles_from = "experiment.toml" if (folder / "experiment.toml").is_file() else "manifest.csv"
     else:
         caps = {key: read_capture(_paths_arg(folder, key), columns=colmap) for key in spec.captures}
-        roles, others = assign_roles(spec, caps)
+        roles, others = assign_roles(caps)
         roles_from = "guessed"
     exp = mi.read_experiment(
         **{role: _paths_arg(folder, paths) for role, paths in roles.items()},
