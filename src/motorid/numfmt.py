@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 
-__all__ = ["DIGITS", "METRIC_NAMES", "complex_text", "metric_name", "roots_text", "sig"]
+__all__ = ["DIGITS", "METRIC_NAMES", "REAL_TOL", "complex_text", "metric_name", "roots_text", "sig"]
 
 #: Significant figures printed by default.
 DIGITS = 4
@@ -104,6 +104,15 @@ def sig(x: float, digits: int = DIGITS) -> str:
     return "0" if text in ("-0", "0") else text
 
 
+#: An imaginary part below this fraction of ``max(1, |z|)`` is rounding (a double real pole
+#: comes out of an eigenvalue solver as ``p ± 1e-8j``): the number is printed as real.
+REAL_TOL = 1e-6
+
+
+def _is_real(z: complex) -> bool:
+    return abs(z.imag) <= REAL_TOL * max(1.0, abs(z))
+
+
 def _fixed(x: float, places: int) -> str:
     text = f"{x:.{max(places, 0)}f}"
     return text[1:] if text.startswith("-") and float(text) == 0.0 else text
@@ -137,7 +146,7 @@ def complex_text(z: complex, digits: int = DIGITS, *, pair: bool = False) -> str
     z = complex(z)
     if not (math.isfinite(z.real) and math.isfinite(z.imag)):
         return str(z)
-    if abs(z.imag) <= 1e-9 * max(1.0, abs(z)):
+    if _is_real(z):
         return sig(z.real, digits)
     places = _shared_places(z, digits)
     if places < 0 or abs(z) >= 1e6 or abs(z) < 1e-4:  # exponents: each part on its own
@@ -169,7 +178,7 @@ def roots_text(values: Iterable[complex], digits: int = DIGITS) -> str:
     parts: list[str] = []
     while left:
         z = left.pop(0)
-        if abs(z.imag) <= 1e-9 * max(1.0, abs(z)):
+        if _is_real(z):
             parts.append(complex_text(z, digits))
             continue
         # its conjugate, if present: the closest root to z̄ within a relative tolerance

@@ -19,6 +19,7 @@ from rich.console import Console
 from rich.table import Table
 
 from motorid.errors import MotorIdError, OptionError
+from motorid.numfmt import sig
 
 # Everything else loads inside the command that needs it (issue 16): ``motorid --help`` imports
 # typer and rich only, not numpy, scipy, python-control or matplotlib.
@@ -52,7 +53,7 @@ def _bar(description: str, total: float | None = None):
     """A progress bar on stderr (:mod:`motorid.cli.progress`) when a terminal or ``--progress`` asks for one."""
     from motorid.cli.progress import progress_bar, wanted
 
-    return progress_bar(description, total=total, enabled=wanted(_state["progress"]))
+    return progress_bar(description, total=total, enabled=wanted(_state["progress"]), force_terminal=_state["progress"])
 
 
 def _parse_columns(spec: str | None) -> dict[str, str] | None:
@@ -229,10 +230,10 @@ def inspect(
         table.add_row(
             Path(s.file).name,
             s.format,
-            f"{s.sample_interval_s:.6g}",
+            sig(s.sample_interval_s),
             str(s.n_samples),
-            "—" if s.step is None else f"{s.step.time_s:.6g}",
-            "—" if s.step_volts is None else f"{s.step_volts:.4g}",
+            "—" if s.step is None else sig(s.step.time_s),
+            "—" if s.step_volts is None else sig(s.step_volts),
             s.role,
             str(s.wraps),
         )
@@ -269,8 +270,8 @@ def demo(
         table.add_row(
             row.name,
             row.folder,
-            f"{row.true_step_time_s:.5f} / {row.read.step.time_s:.5f}" if row.read.step else "— / —",
-            f"{row.true_step_volts:.4f} / {row.read.step_volts:.4f}" if row.read.step_volts is not None else "—",
+            f"{sig(row.true_step_time_s)} / {sig(row.read.step.time_s)}" if row.read.step else "— / —",
+            f"{sig(row.true_step_volts)} / {sig(row.read.step_volts)}" if row.read.step_volts is not None else "—",
             row.read.role,
             f"{row.true_wraps} / {row.read.wraps}",
         )
@@ -283,12 +284,12 @@ def demo(
     for name, m in ident.candidates.items():
         fo = m.first_order()
         mark = " ← chosen" if name == ident.model.method else ""
-        t2.add_row(f"{name}{mark}", str(len(m.poles())), f"{fo.dc_gain:.4f}", f"{fo.time_constant_s:.4f}",
-                   f"{100 * m.fit['velocity_nrmse']:.2f}%")
-    t2.add_row("truth (linearised)", str(len(truth.velocity.poles())), f"{truth.dc_gain:.4f}",
-               f"{truth.time_constant_s:.4f}", "—")
+        t2.add_row(f"{name}{mark}", str(len(m.poles())), sig(fo.dc_gain), sig(fo.time_constant_s),
+                   f"{sig(100 * m.fit['velocity_nrmse'])} %")
+    t2.add_row("truth (linearised)", str(len(truth.velocity.poles())), sig(truth.dc_gain),
+               sig(truth.time_constant_s), "—")
     eff = truth.dc_gain * (1 - truth.equivalent_input_offset_v / result.experiment.step_volts)
-    t2.add_row("truth as a step shows it", "", f"{eff:.4f}", "", "dead-zone + friction offset")
+    t2.add_row("truth as a step shows it", "", sig(eff), "", "dead-zone + friction offset")
     con.print(t2)
     con.print(f"choice: {ident.reason}")
     con.print(f"model JSON: {result.out / 'model.json'}")
@@ -606,8 +607,8 @@ def validate(
             table.add_column(head)
         for r in results:
             verdict = "—" if max_nrmse is None else ("FAIL" if r in failed else "pass")
-            table.add_row(Path(r.source).name, r.input_kind, f"{100 * r.nrmse:.2f}%", f"{r.fit_percent:.1f}%",
-                          f"{r.offset_v:+.4g} V", verdict)
+            table.add_row(Path(r.source).name, r.input_kind, f"{sig(100 * r.nrmse)} %", f"{sig(r.fit_percent)} %",
+                          f"{sig(r.offset_v)} V", verdict)
         con.print(table)
         for r in results:
             for w in r.warnings:
@@ -747,14 +748,14 @@ def sweep(
     for i, dt in enumerate(res.intervals_s):
         table.add_row(
             f"{1000 * dt:g} ms",
-            *(f"k = {res.k[i, j]:.4f} τ = {res.tau_s[i, j]:.4f}" for j in range(len(res.lengths_s))),
+            *(f"k = {sig(res.k[i, j])} τ = {sig(res.tau_s[i, j])}" for j in range(len(res.lengths_s))),
         )
     con.print(table)
     if grid_note:
         con.print(grid_note)
     sp = res.spread()
-    con.print(f"spread (half-range / median): k ±{100 * sp['k']:.1f}%, τ ±{100 * sp['tau']:.1f}%, "
-              f"dc gain ±{100 * sp['dc_gain']:.1f}%")
+    con.print(f"spread (half-range / median): k ±{sig(100 * sp['k'])} %, τ ±{sig(100 * sp['tau'])} %, "
+              f"dc gain ±{sig(100 * sp['dc_gain'])} %")
     for cell, why in res.failures.items():
         con.print(f"[yellow]failed[/yellow] {cell}: {why}")
     if json_out is not None:

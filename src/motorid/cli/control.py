@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Annotated, cast
 import typer
 
 from motorid.errors import MotorIdError, OptionError
+from motorid.numfmt import metric_name, roots_text, sig
 
 if TYPE_CHECKING:
     import numpy as np
@@ -82,6 +83,13 @@ def _plot_to(outs, target: Path, plot, *args, **kwargs) -> None:
         raise write_error(target, exc) from None
 
 
+def _bar(description: str, total: float | None = None):
+    """The command line's progress bar (``--progress`` lives on the main app; imported late: app imports this)."""
+    from motorid.cli.app import _bar as app_bar
+
+    return app_bar(description, total)
+
+
 def _floats(text: str | None, option: str) -> tuple[float, ...] | None:
     if text is None:
         return None
@@ -94,17 +102,11 @@ def _floats(text: str | None, option: str) -> tuple[float, ...] | None:
     return vals
 
 
-def _fmt_pole(p: complex) -> str:
-    if abs(p.imag) < 1e-6 * max(1.0, abs(p)):
-        return f"{p.real:.4g}"
-    return f"{p.real:.4g}{p.imag:+.4g}j"
-
-
 def _print_model(model, out: Path | None) -> None:
     import numpy as np
 
-    typer.echo(f"A = {np.array2string(model.A, precision=5)}")
-    typer.echo(f"B = {np.array2string(model.B.ravel(), precision=5)}")
+    typer.echo(f"A = {np.array2string(np.asarray(model.A, dtype=float), formatter={'float_kind': sig})}")
+    typer.echo(f"B = {np.array2string(np.asarray(model.B, dtype=float).ravel(), formatter={'float_kind': sig})}")
     typer.echo("states: " + ", ".join(model.states) + " (position volts, tacho volts)")
     if out is not None:
         typer.echo(f"model JSON: {out}")
@@ -150,7 +152,8 @@ def model_from_step_test_cmd(
     _check_outputs([(json_out, "--json", None)], force)
     p = params_from_step_test(v_tacho_ss=v_tacho_ss, u_step=u_step, Tm_s=tm, delta_theta_v=delta_theta,
                               delta_t_s=delta_t, gear=parse_ratio(gear))
-    typer.echo(f"km = {p.km:.4g} rpm/V, kT = {p.kT:.4g} V/rpm, k0 = {p.k0:.4g}, kμ = {p.gear:.4g}, Tm = {p.Tm_s:g} s")
+    typer.echo(f"km = {sig(p.km)} rpm/V, kT = {sig(p.kT)} V/rpm, k0 = {sig(p.k0)}, kμ = {sig(p.gear)}, "
+               f"Tm = {sig(p.Tm_s)} s")
     model = model_from_params(p)
     if json_out is not None:
         with atomic_outputs() as outs:
@@ -200,28 +203,27 @@ def design(
         typer.echo("states: the model's " + ", ".join(d.model_states) + " re-expressed as the measured "
                    + ", ".join(d.states) + " (gains on the model's own states: K_model in the JSON)")
     for i, k in enumerate(d.K):
-        typer.echo(f"k{i + 1} = {k:.6g}    ({d.states[i]})")
-    typer.echo("gains per sensor: " + ", ".join(f"k_{name} = {g:.6g} {unit}" for name, g, unit in d.sensor_gains()))
+        typer.echo(f"k{i + 1} = {sig(k)}    ({d.states[i]})")
+    typer.echo("gains per sensor: " + ", ".join(f"k_{name} = {sig(g)} {unit}" for name, g, unit in d.sensor_gains()))
     if d.kr is not None:
-        typer.echo(f"kr = {d.kr:.6g}")
+        typer.echo(f"kr = {sig(d.kr)}")
     if d.ki is not None:
-        typer.echo(f"ki = {d.ki:.6g}")
+        typer.echo(f"ki = {sig(d.ki)}")
     cl_poles = sorted(d.closed_loop_poles, key=lambda p: (p.real, p.imag))
-    typer.echo("closed-loop poles: " + ", ".join(_fmt_pole(p) for p in cl_poles))
+    typer.echo("closed-loop poles: " + roots_text(cl_poles))
     if d.L is not None:
         # design_controller sets L, observer_poles and output_feedback_poles together
-        typer.echo("L = [" + ", ".join(f"{v:.6g}" for v in d.L) + "]")
-        typer.echo("observer poles: " + ", ".join(_fmt_pole(p) for p in cast("np.ndarray", d.observer_poles)))
+        typer.echo("L = [" + ", ".join(sig(v) for v in d.L) + "]")
+        typer.echo("observer poles: " + roots_text(cast("np.ndarray", d.observer_poles)))
         ofb_poles = sorted(cast("np.ndarray", d.output_feedback_poles), key=lambda p: (p.real, p.imag))
-        typer.echo("plant + observer + feedback poles (separation): "
-                   + ", ".join(_fmt_pole(p) for p in ofb_poles))
+        typer.echo("plant + observer + feedback poles (separation): " + roots_text(ofb_poles))
     typer.echo("Routh-Hurwitz: " + "; ".join(d.routh))
     if d.dead_zone_v is not None:
         info = d.dead_zone_info()
         bound = info["steady_state_error_bound_v"]
-        typer.echo(f"dead-zone: u0 = {d.dead_zone_v:.4g} V in the model"
+        typer.echo(f"dead-zone: u0 = {sig(d.dead_zone_v)} V in the model"
                    + ("" if bound is None else
-                      f"; without compensation a position step may stop anywhere within ±{bound:.4g} V "
+                      f"; without compensation a position step may stop anywhere within ±{sig(bound)} V "
                       "(u0 / k_position)")
                    + "; simulate --compensate-dead-zone adds u0·sign(u) to the command (inverse dead-zone)")
     for w in d.warnings:
@@ -230,6 +232,12 @@ def design(
         with atomic_outputs() as outs:
             outs.write_text(json_out, d.to_json_text() + "\n")
         typer.echo(f"design JSON: {json_out}")
+
+
+#: The simulation metrics printed, in order, with their units.
+_METRIC_UNITS: tuple[tuple[str, str], ...] = (
+    ("rise_time_s", "s"), ("settling_time_s", "s"), ("overshoot_pct", "%"), ("steady_state_error_v", "V"),
+    ("tracking_rms_v", "V"), ("peak_control_v", "V"))
 
 
 def simulate(
@@ -291,15 +299,14 @@ def simulate(
         if plant == "trainer":
             from motorid.trainer.closed_loop import simulate_on_trainer
 
-            res = simulate_on_trainer(model, d, settings)
+            with _bar(f"trainer simulation ({duration:g} s)"):
+                res = simulate_on_trainer(model, d, settings)
         else:
             res = simulate_closed_loop(model, d, settings)
     except OptionError as exc:
         raise exc.with_file(str(design_file)) from None
     m = res.metrics
-    typer.echo(f"rise time {m.rise_time_s:.4g} s, settling time {m.settling_time_s:.4g} s, overshoot "
-               f"{m.overshoot_pct:.3g} %, steady-state error {m.steady_state_error_v:.4g} V, "
-               f"tracking RMS {m.tracking_rms_v:.4g} V, peak |u| {m.peak_control_v:.4g} V")
+    typer.echo(", ".join(f"{metric_name(key)} {sig(getattr(m, key))} {unit}" for key, unit in _METRIC_UNITS))
     for w in res.warnings:
         typer.echo(f"warning: {w}")
     with atomic_outputs() as outs:  # the CSV, JSON and plot appear together, or none
@@ -352,14 +359,20 @@ def modes(
     except OptionError as exc:
         raise exc.with_file(str(model_file)) from None
     maps = []
-    for pl in plants:
-        t0 = time.perf_counter()
-        mm = mode_map(pl, kp_axis, kv_axis, criteria)
-        elapsed = time.perf_counter() - t0
-        maps.append(mm)
-        counts = mm.counts()
-        typer.echo(f"{pl.name}: " + ", ".join(f"{m} {counts[m]}" for m in MODES)
-                   + f"  ({kp_axis.size}×{kv_axis.size} grid, {mm.steps} steps, {elapsed:.2f} s)")
+    lines = []
+    with _bar("mode maps", total=len(plants)) as progress:
+        for i, pl in enumerate(plants):
+            progress(i, label=pl.name)
+            t0 = time.perf_counter()
+            mm = mode_map(pl, kp_axis, kv_axis, criteria)
+            elapsed = time.perf_counter() - t0
+            maps.append(mm)
+            counts = mm.counts()
+            lines.append(f"{pl.name}: " + ", ".join(f"{m} {counts[m]}" for m in MODES)
+                         + f"  ({kp_axis.size}×{kv_axis.size} grid, {mm.steps} steps, {elapsed:.2f} s)")
+        progress(len(plants))
+    for line in lines:
+        typer.echo(line)
     with atomic_outputs() as outs:
         if json_out is not None:
             outs.write_text(json_out, json.dumps(modes_json(tuple(maps), criteria), indent=1) + "\n")

@@ -76,7 +76,8 @@ class ProgressCallback:
 
 
 @contextmanager
-def progress_bar(description: str, *, total: float | None = None, enabled: bool) -> Iterator[ProgressCallback]:
+def progress_bar(description: str, *, total: float | None = None, enabled: bool,
+                 force_terminal: bool = False) -> Iterator[ProgressCallback]:
     """A transient progress bar on stderr for the duration of a ``with`` block.
 
     Parameters
@@ -87,6 +88,9 @@ def progress_bar(description: str, *, total: float | None = None, enabled: bool)
         Steps in all; ``None`` draws a spinner with the elapsed time until a total is reported.
     enabled : bool
         Draw the bar (see :func:`wanted`); otherwise the callback does nothing.
+    force_terminal : bool
+        Draw it live even when stderr is not a terminal (``--progress``: rich would otherwise
+        only print the final state there).
 
     Yields
     ------
@@ -101,6 +105,7 @@ def progress_bar(description: str, *, total: float | None = None, enabled: bool)
 
     columns = (SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
                TimeElapsedColumn())
-    with Progress(*columns, console=Console(stderr=True), transient=True) as bar:
+    console = Console(stderr=True, force_terminal=True if force_terminal else None)
+    with Progress(*columns, console=console, transient=True) as bar:
         task = bar.add_task(description, total=total)
         yield ProgressCallback(bar, task, description)

@@ -144,9 +144,10 @@ class ResponseMetrics:
     Attributes
     ----------
     rise_time_s : float
-        10 % → 90 % of the step.
+        10 % → 90 % of the step (first samples at or beyond each level).
     settling_time_s : float
-        Last entry into the ±2 % band of the step around the final reference.
+        Time after the step of the first sample after the last one at or outside the ±2 % band
+        of the step around the final reference (``control.step_info``'s definition).
     overshoot_pct : float
         Peak beyond the final reference, % of the step.
     steady_state_error_v : float
@@ -343,19 +344,20 @@ def response_metrics(time_s: np.ndarray, output_v: np.ndarray, reference_v: np.n
     if abs(delta) < 1e-12:
         return ResponseMetrics(nan, nan, nan, ess, rms, peak_u)
     frac = (y[k0:] - y0) / delta
-    tt = t[k0:]
-    i10 = np.flatnonzero(frac >= 0.1)
-    i90 = np.flatnonzero(frac >= 0.9)
-    rise = float(tt[i90[0]] - tt[i10[0]]) if i10.size and i90.size else nan
-    outside = np.flatnonzero(np.abs(frac - 1.0) > 0.02)
-    if outside.size == 0:
-        settle = 0.0
-    elif outside[-1] + 1 < tt.size:
-        settle = float(tt[outside[-1] + 1] - tt[0])
-    else:
-        settle = nan
-    overshoot = float(max(0.0, np.max(frac) - 1.0) * 100.0)
-    return ResponseMetrics(rise, settle, overshoot, ess, rms, peak_u)
+    if not np.any(frac >= 0.9):
+        # never reaches 90 %: no rise time, not settled, no overshoot (step_info would fail on
+        # the empty crossing; these are the values it gives a response that gets there late)
+        return ResponseMetrics(nan, nan, 0.0, ess, rms, peak_u)
+    import control
+
+    # python-control's step_info on the change since the step (its definitions are ours: rise
+    # 10 → 90 % of the step, settling = first sample after the last one outside ±2 % of it,
+    # overshoot = peak beyond the final value in % of the step), with the final *reference*
+    # as the final value, so a steady-state error shows as an unsettled response
+    info = control.step_info(y[k0:] - y0, T=t[k0:] - t[k0], yfinal=delta, SettlingTimeThreshold=0.02,
+                             RiseTimeLimits=(0.1, 0.9))
+    return ResponseMetrics(float(info["RiseTime"]), float(info["SettlingTime"]), float(info["Overshoot"]), ess,
+                           rms, peak_u)
 
 
 def _zoh(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
