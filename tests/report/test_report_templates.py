@@ -192,3 +192,18 @@ def test_mode_maps_have_gain_units_and_mark_the_design(drawn):
         assert ax.get_xlabel() == "Kp (V/V)" and ax.get_ylabel() == "Kv (V/(V/s))"
         stars = [ln for ln in ax.get_lines() if isinstance(ln, Line2D) and ln.get_marker() == "*"]
         assert [(float(s.get_xdata()[0]), float(s.get_ydata()[0])) for s in stars] == [(12.0, 2.5)]
+
+
+def test_a_long_capture_path_wraps_instead_of_squeezing_the_axes(drawn, recwarn):
+    """A web upload's capture lives in a long temporary path: the title wraps, the axes keep
+    their size (matplotlib warns 'constrained_layout not applied' when a title is too wide)."""
+    t = np.linspace(-0.5, 2, 200)
+    source = "/tmp/" + "/".join(["motorid-upload-0123456789abcdef"] * 8) + "/ALL0001"
+    # raw_captures reads only these fields of a Capture
+    cap = SimpleNamespace(time_s=t, output_v=np.tanh(np.clip(t, 0, None)), input_v=np.where(t > 0, 5.0, 0.0),
+                          source=source)
+    figures.raw_captures({"velocity": cap})
+    assert not [w for w in recwarn if "constrained_layout" in str(w.message)]
+    ax = drawn[0].axes[0]
+    assert ax.get_position().width > 0.7  # the panel keeps most of the figure's width
+    assert ax.get_title(loc="left").replace("\n", "") == f"velocity: {source}"

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import functools
 import io
+import textwrap
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ParamSpec, TypeVar, cast
@@ -56,6 +57,8 @@ FULL_WIDTH_IN = 7.3
 FONT_PT = 11
 #: Height of one strip of time series (a capture, a signal).
 _STRIP_IN = 2.2
+#: Characters per line of a title: longer titles (a capture's path) wrap instead of squeezing the axes.
+_TITLE_CHARS = 72
 #: Metrics per line under a closed-loop plot's title.
 _METRICS_PER_LINE = 2
 #: The report's matplotlib style, applied per figure (never globally).
@@ -116,6 +119,11 @@ def _subplots(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float], *
     return fig, fig.subplots(nrows, ncols, **kwargs)
 
 
+def _wrapped(title: str) -> str:
+    """A title wrapped to :data:`_TITLE_CHARS` per line (paths break anywhere)."""
+    return "\n".join(textwrap.fill(line, _TITLE_CHARS) for line in title.splitlines())
+
+
 def png(fig: Figure) -> bytes:
     """Render a figure to PNG bytes (the figure is not kept by any manager).
 
@@ -154,7 +162,7 @@ def raw_captures(captures: Mapping[str, Capture]) -> bytes:
         if cap.input_v is not None:
             ax.plot(cap.time_s, cap.input_v, lw=0.9, label="CH1 input")
         ax.plot(cap.time_s, cap.output_v, lw=0.9, label=f"CH2 {role}")
-        ax.set_title(f"{role}: {cap.source}", loc="left")
+        ax.set_title(_wrapped(f"{role}: {cap.source}"), loc="left")
         ax.set_ylabel("V")
         ax.legend(loc="best")
     axes[-1, 0].set_xlabel("time on the file's axis (s)")
@@ -400,7 +408,7 @@ def validation_overlay(time_s: np.ndarray, input_v: np.ndarray, measured: np.nda
     ax.plot(time_s, input_v, lw=0.7, alpha=0.5, label="input (CH1)")
     ax.plot(time_s, measured, lw=0.8, label="measured")
     ax.plot(time_s, simulated, lw=1.4, label="model")
-    ax.set_title(title, loc="left")
+    ax.set_title(_wrapped(title), loc="left")
     ax.set_xlabel("time (s)")
     ax.set_ylabel("V")
     ax.legend(loc="best")
@@ -449,7 +457,7 @@ def closed_loop(time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str
         ax.legend(loc="best")
     # the metrics go under the title, never over the curves: three to a line
     lines = ["   ".join(metrics[i:i + _METRICS_PER_LINE]) for i in range(0, len(metrics), _METRICS_PER_LINE)]
-    axes[0].set_title("\n".join([title, *lines]), loc="left")
+    axes[0].set_title(_wrapped("\n".join([title, *lines])), loc="left")
     axes[0].set_ylabel("V")
     axes[1].set_ylabel("control u (V)")
     axes[1].set_xlabel("time (s)")
