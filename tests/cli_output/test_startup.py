@@ -12,6 +12,8 @@ import subprocess
 import sys
 import textwrap
 
+import pytest
+
 HEAVY = ("numpy", "scipy", "control", "matplotlib", "pandas")
 
 
@@ -40,8 +42,9 @@ def _loaded(mods: list[str], root: str) -> bool:
     return any(m == root or m.startswith(root + ".") for m in mods)
 
 
-def test_help_loads_no_numerical_library() -> None:
-    mods, rc = _modules_after(["--help"])
+@pytest.mark.parametrize("args", [["--help"], ["identify", "--help"]])
+def test_help_loads_no_numerical_library(args: list[str]) -> None:
+    mods, rc = _modules_after(args)
     assert rc == 0
     assert [h for h in HEAVY if _loaded(mods, h)] == []
 

@@ -11,7 +11,7 @@ import json
 import math
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, cast
+from typing import TYPE_CHECKING, Annotated, Any, cast
 
 import typer
 
@@ -105,8 +105,11 @@ def _floats(text: str | None, option: str) -> tuple[float, ...] | None:
 def _print_model(model, out: Path | None) -> None:
     import numpy as np
 
-    typer.echo(f"A = {np.array2string(np.asarray(model.A, dtype=float), formatter={'float_kind': sig})}")
-    typer.echo(f"B = {np.array2string(np.asarray(model.B, dtype=float).ravel(), formatter={'float_kind': sig})}")
+    def text(a: Any) -> str:
+        return np.array2string(np.asarray(a, dtype=float), formatter={"float_kind": lambda v: sig(float(v))})
+
+    typer.echo(f"A = {text(model.A)}")
+    typer.echo(f"B = {text(np.ravel(model.B))}")
     typer.echo("states: " + ", ".join(model.states) + " (position volts, tacho volts)")
     if out is not None:
         typer.echo(f"model JSON: {out}")

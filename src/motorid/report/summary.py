@@ -37,7 +37,7 @@ def _plain(text: str) -> SummaryLine:
 
 
 def _array_text(a: Any) -> str:
-    return np.array2string(np.asarray(a, dtype=float), formatter={"float_kind": sig})
+    return np.array2string(np.asarray(a, dtype=float), formatter={"float_kind": lambda v: sig(float(v))})
 
 
 def _header(model: Any, title: str) -> list[SummaryLine]:
