@@ -124,6 +124,11 @@ def _wrapped(title: str) -> str:
     return "\n".join(textwrap.fill(line, _TITLE_CHARS) for line in title.splitlines())
 
 
+def _short(x: float) -> str:
+    """A number in at most five characters for a heat-map cell (``1044``, ``0.357``, ``12.3``)."""
+    return f"{x:.0f}" if abs(x) >= 100 else f"{x:.3g}"
+
+
 def png(fig: Figure) -> bytes:
     """Render a figure to PNG bytes (the figure is not kept by any manager).
 
@@ -376,7 +381,7 @@ def sweep_maps(lengths: Sequence[float], intervals: Sequence[float], k: np.ndarr
             for j in range(data.shape[1]):
                 # dark text on the light (high) end of viridis, white on the dark end
                 colour = "k" if np.isfinite(data[i, j]) and data[i, j] > middle else "w"
-                ax.text(j, i, f"{data[i, j]:.3g}", ha="center", va="center", color=colour)
+                ax.text(j, i, _short(float(data[i, j])), ha="center", va="center", color=colour)
         fig.colorbar(im, ax=ax, fraction=0.046)
     return png(fig)
 
