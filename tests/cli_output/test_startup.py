@@ -60,3 +60,31 @@ def test_inspect_loads_numpy_but_not_scipy_control_or_matplotlib(demo_run) -> No
     assert rc == 0
     assert _loaded(mods, "numpy")
     assert [h for h in ("scipy", "control", "matplotlib") if _loaded(mods, h)] == []
+
+
+def test_one_blas_thread_without_importing_scipy_up_front() -> None:
+    # with OPENBLAS_NUM_THREADS=1 (what the CLI sets) the wrapper no longer imports scipy.linalg;
+    # a scipy loaded later inside the wrapped function must still run one BLAS thread
+    code = textwrap.dedent(
+        """
+        import json, sys
+        from motorid._threads import blas_threads, single_blas_thread
+
+        @single_blas_thread
+        def light():
+            return "scipy" in sys.modules
+
+        @single_blas_thread
+        def heavy():
+            import scipy.linalg  # noqa: F401
+            return blas_threads()
+
+        print(json.dumps([light(), heavy()]))
+        """
+    )
+    env = {k: v for k, v in os.environ.items() if k not in ("OMP_NUM_THREADS", "MKL_NUM_THREADS")}
+    env["OPENBLAS_NUM_THREADS"] = "1"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    scipy_loaded, threads = json.loads(out.stdout.strip().splitlines()[-1])
+    assert scipy_loaded is False
+    assert len(threads) >= 2 and all(n == 1 for n in threads.values()), threads  # numpy's and scipy's OpenBLAS
