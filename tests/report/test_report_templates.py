@@ -77,7 +77,7 @@ def test_a_section_that_fails_says_why_escaped():
 
 @pytest.mark.parametrize(("x", "text"), [
     (0.90463751983, "0.9046"), (1234567.0, "1.235e+06"), (np.float64(-2.3113984), "-2.311"),
-    (complex(-2.8, 1.15), "-2.8 ± 1.15j"), (complex(-2.8, 0.0), "-2.8"), (3, "3"), (None, ""),
+    (complex(-2.8, 1.15), "-2.800 + 1.150j"), (complex(-2.8, 0.0), "-2.8"), (3, "3"), (None, ""),
 ])
 def test_numbers_on_the_page_have_four_significant_figures(x, text):
     assert page._cell(x) == text
@@ -85,7 +85,12 @@ def test_numbers_on_the_page_have_four_significant_figures(x, text):
 
 def test_metric_names_are_words_with_units():
     rows = page._metric_rows({"settling_time_s": 1.5244, "overshoot_pct": 2.7684, "peak_control_v": float("nan")})
-    assert rows == [["settling time (2 %)", "1.524 s"], ["overshoot", "2.768 %"], ["peak control |u|", "—"]]
+    assert rows == [["settling time (2 %)", "1.524 s"], ["overshoot", "2.768 %"], ["peak |u|", "—"]]
+
+
+def test_closed_loop_poles_print_a_conjugate_pair_once():
+    assert page._value_text([[-21.0, 0.0], [-3.5, 3.5707], [-3.5, -3.5707]]) == "-21, -3.500 ± 3.571j"
+    assert page._value_text([1.80416812, -5.70634635]) == "[1.804, -5.706]"
 
 
 # -------------------------------------------------------------------------- truth checks

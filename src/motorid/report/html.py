@@ -27,11 +27,12 @@ from markupsafe import Markup
 from motorid.capture import Capture
 from motorid.identify.pipeline import Identification
 from motorid.model.notation import poly_text
+from motorid.numfmt import DIGITS, complex_text, metric_name, roots_text, sig
 from motorid.report import figures
 from motorid.report.truth import reference_values, truth_checks
 
 __all__ = [
-    "METRIC_LABELS", "SECTIONS", "SECTION_BUILDERS", "RenderedSection", "ReportInputs", "build_report",
+    "METRIC_UNITS", "SECTIONS", "SECTION_BUILDERS", "RenderedSection", "ReportInputs", "build_report",
     "render_page", "render_section", "template_environment",
 ]
 
@@ -41,17 +42,13 @@ SECTIONS: tuple[str, ...] = (
     "sensitivity", "validation", "design",
 )
 #: Significant figures of the numbers on the page (full precision stays in the JSON).
-SIGNIFICANT = 4
+SIGNIFICANT = DIGITS
 #: A fit entry whose key ends so is already a percentage (MATLAB's fit); the others are fractions.
 _PERCENT_SUFFIX = "_fit_percent"
-#: Closed-loop metrics in words, with their units (the keys of ``ResponseMetrics``).
-METRIC_LABELS: dict[str, tuple[str, str]] = {
-    "rise_time_s": ("rise time (10 → 90 %)", "s"),
-    "settling_time_s": ("settling time (2 %)", "s"),
-    "overshoot_pct": ("overshoot", "%"),
-    "steady_state_error_v": ("steady-state error", "V"),
-    "tracking_rms_v": ("tracking error (RMS, second half)", "V"),
-    "peak_control_v": ("peak control |u|", "V"),
+#: Units of the closed-loop metrics (their words come from :func:`motorid.numfmt.metric_name`).
+METRIC_UNITS: dict[str, str] = {
+    "rise_time_s": "s", "settling_time_s": "s", "overshoot_pct": "%", "steady_state_error_v": "V",
+    "tracking_rms_v": "V", "peak_control_v": "V",
 }
 #: The metrics written on the closed-loop plot (all of them are in the table under it).
 _HEADLINE_METRICS = ("rise_time_s", "settling_time_s", "overshoot_pct", "peak_control_v")
@@ -111,16 +108,13 @@ class RenderedSection:
 
 
 def _cell(x: Any) -> str:
-    """A table cell or inline number: :data:`SIGNIFICANT` figures, complex as ``a ± bj``."""
+    """A table cell or inline number: :data:`SIGNIFICANT` figures, complex as ``a + bj`` (:mod:`motorid.numfmt`)."""
     if isinstance(x, (bool, np.bool_)):
         return str(x)
     if isinstance(x, (complex, np.complexfloating)):
-        re_, im_ = float(x.real), float(x.imag)
-        if abs(im_) < 1e-12 * max(1.0, abs(re_)):
-            return f"{re_:.{SIGNIFICANT}g}"
-        return f"{re_:.{SIGNIFICANT}g} ± {abs(im_):.{SIGNIFICANT}g}j"
+        return complex_text(complex(x), SIGNIFICANT)
     if isinstance(x, (float, np.floating)):
-        return f"{x:.{SIGNIFICANT}g}"
+        return sig(float(x), SIGNIFICANT)
     return "" if x is None else str(x)
 
 
@@ -209,20 +203,11 @@ def _reference(inp: ReportInputs) -> tuple[dict[str, float], str] | None:
     return reference_values(inp.identification.model, inp.truth, inp.identification.candidates.get("classic"))
 
 
-def _fit_words(key: str) -> str:
-    """``velocity_nrmse`` → "velocity NRMSE"; ``position_fit_percent`` → "position fit (MATLAB compare)"."""
-    if key.endswith(_PERCENT_SUFFIX):
-        return f"{key[: -len(_PERCENT_SUFFIX)]} fit (MATLAB compare)"
-    if key.endswith("_nrmse"):
-        return f"{key[: -len('_nrmse')]} NRMSE"
-    return key.replace("_", " ")
-
-
 def _value_text(x: Any) -> str:
     """A design entry: numbers to :data:`SIGNIFICANT` figures, ``[re, im]`` pairs as complex numbers."""
     if isinstance(x, (list, tuple)):
         if x and all(isinstance(v, (list, tuple)) and len(v) == 2 for v in x):
-            return ", ".join(_cell(complex(float(v[0]), float(v[1]))) for v in x)
+            return roots_text([complex(float(v[0]), float(v[1])) for v in x], SIGNIFICANT)
         return "[" + ", ".join(_value_text(v) for v in x) + "]"
     return _cell(x)
 
@@ -256,7 +241,7 @@ def summary_section(inp: ReportInputs) -> dict[str, Any]:
         rows.append(["dead time", f"{_cell(1e3 * model.delay_s)} ms "
                                   f"(τ + dead time {_cell(fo.time_constant_s + model.delay_s)} s)"])
     for key, val in model.fit.items():
-        rows.append([_fit_words(key), f"{val:.2f} %" if key.endswith(_PERCENT_SUFFIX) else f"{100 * val:.2f} %"])
+        rows.append([metric_name(key), f"{val:.2f} %" if key.endswith(_PERCENT_SUFFIX) else f"{100 * val:.2f} %"])
     sanity = model.extras.get("sanity")
     if isinstance(sanity, dict):
         rows.append(["sanity checks", "all passed" if sanity.get("passed") else
@@ -331,7 +316,9 @@ def current_section(inp: ReportInputs) -> dict[str, Any]:
 
 
 def _matrix_text(m: np.ndarray) -> str:
-    return "\n".join("  [" + ", ".join(f"{x: .5g}" for x in row) + "]" for row in np.atleast_2d(m))
+    cells = [[sig(float(x), SIGNIFICANT) for x in row] for row in np.atleast_2d(m)]
+    width = max((len(c) for row in cells for c in row), default=1)
+    return "\n".join("  [" + ", ".join(c.rjust(width) for c in row) + "]" for row in cells)
 
 
 def model_section(inp: ReportInputs) -> dict[str, Any]:
@@ -507,10 +494,10 @@ def validation_section(inp: ReportInputs) -> dict[str, Any]:
 
 
 def _metric_rows(metrics: Mapping[str, Any]) -> list[list[str]]:
-    """Metrics in words with units (:data:`METRIC_LABELS`); unknown keys as given."""
+    """Metrics in words with units (:data:`METRIC_UNITS`); an undefined one (NaN) as a dash."""
     rows = []
     for key, val in metrics.items():
-        words, unit = METRIC_LABELS.get(key, (key, ""))
+        words, unit = metric_name(key), METRIC_UNITS.get(key, "")
         undefined = isinstance(val, float) and not np.isfinite(val)
         rows.append([words, "—" if undefined else f"{_cell(val)} {unit}".strip()])
     return rows

@@ -13,6 +13,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from motorid.numfmt import sig
+
 __all__ = ["TruthCheck", "reference_values", "truth_checks"]
 
 #: Half-width of the 95 % interval in standard errors (normal approximation, as the intervals).
@@ -128,12 +130,12 @@ def truth_checks(model: Any, reference: Mapping[str, float], reference_label: st
         z = (ref - value) / std
         inside = lo <= ref <= hi
         who = reference_label[0].upper() + reference_label[1:]
-        where = (f"{who}, {ref:.4g} {unit}, lies inside the 95 % interval of the {words} "
-                 f"[{lo:.4g}, {hi:.4g}] {unit}, {abs(z):.2g} standard errors from the estimate {value:.4g}.")
+        where = (f"{who}, {sig(ref)} {unit}, lies inside the 95 % interval of the {words} "
+                 f"[{sig(lo)}, {sig(hi)}] {unit}, {abs(z):.2g} standard errors from the estimate {sig(value)}.")
         if not inside:
             side = "above" if z > 0 else "below"
-            where = (f"{who}, {ref:.4g} {unit}, lies {abs(z):.3g} standard errors {side} the {words} "
-                     f"estimate {value:.4g} {unit}, outside its 95 % interval [{lo:.4g}, {hi:.4g}]: "
+            where = (f"{who}, {sig(ref)} {unit}, lies {abs(z):.3g} standard errors {side} the {words} "
+                     f"estimate {sig(value)} {unit}, outside its 95 % interval [{sig(lo)}, {sig(hi)}]: "
                      + " ".join(_miss_causes(key, model, value, std, ref, reference_label, truth, step_volts)))
         out.append(TruthCheck(words, unit, value, std, (lo, hi), ref, reference_label, z, inside, where))
     return tuple(out)
@@ -164,7 +166,7 @@ def _miss_causes(key: str, model: Any, value: float, std: float, ref: float, lab
                       "read-off.")
     if key == "time_constant" and model.delay_s > 0:
         causes.append(f"The fitted τ excludes a dead time of {1e3 * model.delay_s:.3g} ms (τ + dead time = "
-                      f"{value + model.delay_s:.4g} s).")
+                      f"{sig(value + model.delay_s)} s).")
     return causes
 
 
@@ -188,8 +190,8 @@ def _input_offset_cause(value: float, std: float, ref: float, offset_v: float, s
     factor = 1.0 - offset_v / step_v
     corrected, corrected_std = value / factor, std / factor
     z = (ref - corrected) / corrected_std
-    return (f"the trainer's friction acts as an input offset of {offset_v:.3g} V, so of the {step_v:.3g} V step the "
-            f"motor sees {step_v - offset_v:.3g} V and the gain measured as output/step is "
-            f"{100 * offset_v / step_v:.2g} % below the linearised truth; corrected for it the estimate is "
-            f"{corrected:.4g}, {abs(z):.2g} standard errors from the truth.", z)
+    return (f"the trainer's friction acts as an input offset of {sig(offset_v, 3)} V, so of the "
+            f"{sig(step_v, 3)} V step the motor sees {sig(step_v - offset_v, 3)} V and the gain measured as "
+            f"output/step is {100 * offset_v / step_v:.2g} % below the linearised truth; corrected for it the "
+            f"estimate is {sig(corrected)}, {abs(z):.2g} standard errors from the truth.", z)
 
