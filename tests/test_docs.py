@@ -12,10 +12,11 @@ import io
 import re
 import shlex
 import sys
+from pathlib import Path
 
 import pytest
 
-from conftest import REPO
+REPO = Path(__file__).resolve().parents[1]
 
 FENCE = re.compile(r"```(python|text|bash)\n(.*?)```", flags=re.S)
 NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")
