@@ -14,6 +14,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from motorid.batch import BatchSettings, run_batch
@@ -140,3 +141,18 @@ def test_cli_reports_links_validation_and_progress(class_root, run_cli, tmp_path
     assert 'href="s02/report.html"' in page
     report = (out / "s02" / "report.html").read_text(encoding="utf-8")
     assert "ALL0003" in report  # the manifest's validation capture is in the report
+
+
+def test_design_on_every_model(class_root, tmp_path):
+    from motorid.control.design_io import read_design_json
+
+    root, _ = class_root
+    settings = BatchSettings(report=False, design={"damping": 0.7, "wn": 5.0})
+    result = run_batch([root / "s00"], tmp_path, settings)
+    assert [r.status for r in result.rows] == ["ok"]
+    doc = read_design_json(tmp_path / "s00" / "design.json")
+    # the closed-loop poles are the ones asked for: ζ = 0.7, ωn = 5 rad/s (independent of the gains)
+    poles = sorted((complex(*p) if isinstance(p, list) else complex(p) for p in doc["closed_loop_poles"]),
+                   key=lambda p: p.imag)
+    dominant = [p for p in poles if abs(abs(p) - 5.0) < 1e-6]
+    assert dominant and np.isclose(-dominant[0].real / abs(dominant[0]), 0.7)
