@@ -105,14 +105,25 @@ def test_report_screenshots_and_a4_print(chromium, report_with_design, tmp_path)
                         str(ARTEFACTS / "report-print")], check=True, timeout=60)
 
 
-def test_report_page_of_the_demo_shows_the_truth_against_the_interval(report_with_design):
+def test_report_page_of_the_demo_shows_the_truth_against_the_interval(report_with_design, demo_run):
     html = report_with_design.read_text(encoding="utf-8")
     summary = html[html.index('<section id="summary">'):html.index('<section id="captures">')]
     assert 'alt="estimates against their intervals"' in summary
+    # each quantity: inside or outside its interval as the model's own numbers say (independent check)
+    from motorid.report.truth import QUANTITIES
+
+    model, first = demo_run.result.identification.model, demo_run.truth["transfer_functions"]["first_order"]
+    for key, words, _ in QUANTITIES:
+        lo, hi = model.uncertainty[key]["ci95"]
+        inside = lo <= first[key] <= hi
+        assert (f"lies inside the 95 % interval of the {words}" in summary) == inside, key
+        assert (f"standard errors above the {words}" in summary or f"standard errors below the {words}"
+                in summary) == (not inside), key
     # the demo's gain misses the linearised truth by far more than its interval: the trainer's
-    # friction (an input offset of 0.1 V on a 5.92 V step) explains it, and the page says so
-    assert "outside its 95 % interval" in summary and "input offset of 0.1 V" in summary
-    assert "lies inside the 95 % interval of the τ" in summary
+    # friction (an input offset of 0.1 V on a 5.92 V step) is named as the cause
+    gain = model.uncertainty["dc_gain"]
+    assert (first["dc_gain"] - gain["value"]) / gain["std"] > 10
+    assert "input offset of 0.1 V" in summary and "1.7 % below the linearised truth" in summary
     design = html[html.index('<section id="design">'):]
     assert "rails ±10 V" in design and "Kp in V/V" in design and "V/(V/s)" in design
     assert "settling time (2 %)" in design

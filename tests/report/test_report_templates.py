@@ -110,7 +110,7 @@ def test_a_miss_explained_by_the_trainers_input_offset():
     truth_gain, offset, step = 0.92055, 0.1, 5.92
     measured = truth_gain * (1 - offset / step) - 0.0003  # biased by the offset, plus a little noise
     std = 0.00022
-    model = _fake_model(value=measured, std=std)
+    model = _fake_model(value=measured, std=std, noise={"position": {"use": "scale only"}})
     truth = {"transfer_functions": {"first_order": {"dc_gain": truth_gain, "time_constant": 0.5},
                                     "equivalent_input_offset_v": offset}}
     values, label = reference_values(model, truth)
@@ -123,14 +123,15 @@ def test_a_miss_explained_by_the_trainers_input_offset():
     assert f"corrected for it the estimate is {corrected:.4g}" in gain.sentence
     z_corr = (truth_gain - corrected) / (std / (1 - offset / step))
     assert abs(z_corr) < 1.96 and f"{abs(z_corr):.2g} standard errors from the truth" in gain.sentence
-    assert "quantisation" not in gain.sentence  # the offset alone explains it
+    assert "8-bit" not in gain.sentence and "linearised plant" not in gain.sentence  # the offset alone explains it
 
 
 def test_a_miss_with_an_undithered_8_bit_channel_names_the_quantisation():
     model = _fake_model(value=1.0, std=0.01, noise={"position": {"use": "scale only"}, "velocity": {"use": "dynamics"}})
     gain = truth_checks(model, {"dc_gain": 1.05, "time_constant": 0.5}, TRUTH_LABEL)[0]
     assert not gain.inside and "5 standard errors above" in gain.sentence
-    assert "8-bit quantisation of the position channel" in gain.sentence
+    assert "8-bit codes of the position channel are not dithered" in gain.sentence
+    assert "The truth is the linearised plant" in gain.sentence  # a second cause starts its own sentence
 
 
 def test_without_truth_the_classic_estimate_is_the_reference():

@@ -136,9 +136,14 @@ def truth_checks(model: Any, reference: Mapping[str, float], reference_label: st
             side = "above" if z > 0 else "below"
             where = (f"{who}, {sig(ref)} {unit}, lies {abs(z):.3g} standard errors {side} the {words} "
                      f"estimate {sig(value)} {unit}, outside its 95 % interval [{sig(lo)}, {sig(hi)}]: "
-                     + " ".join(_miss_causes(key, model, value, std, ref, reference_label, truth, step_volts)))
+                     + _sentences(_miss_causes(key, model, value, std, ref, reference_label, truth, step_volts)))
         out.append(TruthCheck(words, unit, value, std, (lo, hi), ref, reference_label, z, inside, where))
     return tuple(out)
+
+
+def _sentences(parts: list[str]) -> str:
+    """The causes as one text: the first continues the sentence before it, the others start their own."""
+    return " ".join([parts[0]] + [p[0].upper() + p[1:] for p in parts[1:]])
 
 
 def _miss_causes(key: str, model: Any, value: float, std: float, ref: float, label: str,
@@ -153,12 +158,13 @@ def _miss_causes(key: str, model: Any, value: float, std: float, ref: float, lab
             return causes  # the offset explains the whole miss
     scale_only = [role for role, nm in (model.extras.get("noise") or {}).items() if nm.get("use") == "scale only"]
     if scale_only:
-        causes.append(f"the 8-bit quantisation of the {', '.join(scale_only)} channel is not dithered by its noise, "
-                      "so its error is a staircase the interval (which assumes random noise) does not cover.")
-    if label == TRUTH_LABEL and not causes:
+        causes.append(f"the 8-bit codes of the {', '.join(scale_only)} channel are not dithered by its noise: their "
+                      "error is a staircase, correlated from sample to sample, so the interval, which treats it as "
+                      "random, is too narrow.")
+    if label == TRUTH_LABEL:
         causes.append("the truth is the linearised plant, without its friction, dead-zones and amplifier "
                       "nonlinearity; the interval covers the noise of the record only, not this difference "
-                      "of model structure.")
+                      "of structure.")
     if label == CLASSIC_LABEL:
         causes.append("the classic estimate reads the final value and the 63 % time off single points of the "
                       "record and ignores the fast poles, so it differs from the fitted model by more than the "
