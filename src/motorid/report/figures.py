@@ -119,6 +119,11 @@ def _subplots(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float], *
     return fig, fig.subplots(nrows, ncols, **kwargs)
 
 
+def _channel_unit(info: Any) -> str:
+    """The unit a channel was recorded in (``V`` for scope channels and when unknown)."""
+    return str(getattr(info, "units", "") or "V")
+
+
 def _wrapped(title: str) -> str:
     """A title wrapped to :data:`_TITLE_CHARS` per line (paths break anywhere)."""
     return "\n".join(textwrap.fill(line, _TITLE_CHARS) for line in title.splitlines())
@@ -164,18 +169,21 @@ def raw_captures(captures: Mapping[str, Capture]) -> bytes:
     n = len(captures)
     fig, axes = _subplots(n, 1, figsize=(FULL_WIDTH_IN, _STRIP_IN * n), squeeze=False)
     for ax, (role, cap) in zip(axes[:, 0], captures.items(), strict=False):
+        out_unit = _channel_unit(getattr(cap, "output_info", None))
+        in_unit = _channel_unit(getattr(cap, "input_info", None))
         if cap.input_v is not None:
-            ax.plot(cap.time_s, cap.input_v, lw=0.9, label="CH1 input")
-        ax.plot(cap.time_s, cap.output_v, lw=0.9, label=f"CH2 {role}")
+            ax.plot(cap.time_s, cap.input_v, lw=0.9, label=f"CH1 input ({in_unit})")
+        ax.plot(cap.time_s, cap.output_v, lw=0.9, label=f"CH2 {role} ({out_unit})")
         ax.set_title(_wrapped(f"{role}: {cap.source}"), loc="left")
-        ax.set_ylabel("V")
+        ax.set_ylabel(out_unit if in_unit == out_unit or cap.input_v is None else f"{in_unit}, {out_unit}")
         ax.legend(loc="best")
     axes[-1, 0].set_xlabel("time on the file's axis (s)")
     return png(fig)
 
 
 @styled
-def conditioned_signals(cond: ConditionedExperiment, derivative_method: str = "five_point") -> bytes:
+def conditioned_signals(cond: ConditionedExperiment, derivative_method: str = "five_point", *,
+                        units: Mapping[str, str] | None = None) -> bytes:
     """Synchronised, unwrapped, reduced step responses and the numerical derivative (Figs. 16–17, 26).
 
     Parameters
@@ -184,6 +192,8 @@ def conditioned_signals(cond: ConditionedExperiment, derivative_method: str = "f
         The conditioned captures.
     derivative_method : str
         The numerical derivative shown (default ``five_point``).
+    units : Mapping[str, str], optional
+        The unit of each channel's data (``MotorModel.units``; missing: volts).
 
     Returns
     -------
@@ -197,7 +207,7 @@ def conditioned_signals(cond: ConditionedExperiment, derivative_method: str = "f
     for ax, role in zip(axes[:, 0], roles, strict=False):
         ax.plot(cond.full_time_s, cond.full_outputs[role], lw=0.9, label=f"{role}, synchronised")
         ax.plot(cond.time_s, cond.outputs[role], "o", ms=3, label=f"reduced ×{cond.ratio}")
-        ax.set_ylabel(f"{role} (V)")
+        ax.set_ylabel(f"{role} ({(units or {}).get(role) or 'V'})")
         ax.legend(loc="best")
     if extra:
         ax = axes[-1, 0]
@@ -206,7 +216,8 @@ def conditioned_signals(cond: ConditionedExperiment, derivative_method: str = "f
         ax.plot(cond.time_s, dpos, "o-", ms=3, lw=0.9, label=f"d/dt position ({derivative_method})")
         if "velocity" in cond.outputs:
             ax.plot(cond.full_time_s, cond.full_outputs["velocity"], lw=0.9, label="tacho velocity")
-        ax.set_ylabel("V, V/s")
+        pos_unit = (units or {}).get("position") or "V"
+        ax.set_ylabel(f"{pos_unit}/s")
         ax.legend(loc="best")
     axes[-1, 0].set_xlabel("time from the step (s)")
     return png(fig)
@@ -308,11 +319,12 @@ def step_fit(model: MotorModel, cond: ConditionedExperiment) -> bytes:
             top.plot(t, yh, lw=1.5, label=f"model ({model.method})")
             bottom.plot(t, y - yh, lw=0.7, color="C3")
         top.set_title(role, loc="left")
-        top.set_ylabel(f"{role} (V)")
+        unit = model.units.get(role) or "V"
+        top.set_ylabel(f"{role} ({unit})")
         top.legend(loc="best")
         top.tick_params(labelbottom=False)
         bottom.set_xlabel("time from the step (s)")
-        bottom.set_ylabel("residual (V)")
+        bottom.set_ylabel(f"residual ({unit})")
     return png(fig)
 
 

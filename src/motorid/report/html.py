@@ -27,6 +27,7 @@ from markupsafe import Markup
 from motorid.capture import Capture
 from motorid.identify.pipeline import Identification
 from motorid.model.notation import poly_text
+from motorid.model.units import physical_gain
 from motorid.numfmt import DIGITS, complex_text, metric_name, roots_text, sig
 from motorid.report import figures
 from motorid.report.truth import reference_values, truth_checks
@@ -229,14 +230,20 @@ def summary_section(inp: ReportInputs) -> dict[str, Any]:
     model, cond = ident.model, ident.conditioned
     fo = model.first_order()
     u = model.uncertainty
+    gain_unit = model.dc_gain_unit
     rows: list[list[Any]] = [
         ["method", model.method], ["states (size of A)", model.order], ["step", f"{_cell(cond.step_volts)} V"],
-        ["dc gain", f"{_cell(fo.dc_gain)} V/V"], ["τ", f"{_cell(fo.time_constant_s)} s"],
+        ["dc gain", f"{_cell(fo.dc_gain)} {gain_unit}"], ["τ", f"{_cell(fo.time_constant_s)} s"],
         ["k/(s+p)", f"{_cell(fo.k)}/(s + {_cell(fo.p)})"]]
     if u:
-        for key, label, unit in (("dc_gain", "dc gain 95 %", "V/V"), ("time_constant", "τ 95 %", "s")):
+        for key, label, unit in (("dc_gain", "dc gain 95 %", gain_unit), ("time_constant", "τ 95 %", "s")):
             lo, hi = u[key]["ci95"]
             rows.append([label, f"[{_cell(lo)}, {_cell(hi)}] {unit}"])
+    for channel, scale in model.scales.items():
+        phys = physical_gain(fo.dc_gain, model.units, model.scales, channel)
+        if phys is not None:
+            rows.append([f"dc gain per {scale.unit} ({channel} sensor {_cell(scale.volts_per_unit)} V/{scale.unit})",
+                         f"{_cell(phys[0])} {phys[1]}"])
     if model.delay_s > 0:
         rows.append(["dead time", f"{_cell(1e3 * model.delay_s)} ms "
                                   f"(τ + dead time {_cell(fo.time_constant_s + model.delay_s)} s)"])
@@ -251,7 +258,7 @@ def summary_section(inp: ReportInputs) -> dict[str, Any]:
     label = ""
     if ref is not None:
         values, label = ref
-        rows.append([label, f"dc gain {_cell(values['dc_gain'])} V/V, τ {_cell(values['time_constant'])} s"])
+        rows.append([label, f"dc gain {_cell(values['dc_gain'])} {gain_unit}, τ {_cell(values['time_constant'])} s"])
         checks = truth_checks(model, values, label, truth=inp.truth, step_volts=cond.step_volts)
     interval_png = ""
     if checks:
@@ -294,7 +301,8 @@ def conditioning_section(inp: ReportInputs) -> dict[str, Any]:
         The names ``sections/conditioning.html`` shows.
     """
     cond = inp.identification.conditioned
-    return {"png": _uri(figures.conditioned_signals(cond)), "ratio": cond.ratio,
+    units = inp.identification.model.units
+    return {"png": _uri(figures.conditioned_signals(cond, units=units)), "ratio": cond.ratio,
             "reduction": cond.settings.reduction, "interval": _cell(cond.sample_interval_s)}
 
 
@@ -351,13 +359,15 @@ def model_section(inp: ReportInputs) -> dict[str, Any]:
                 rows.append([f"{key[:-1]} {i + 1}", complex(*item["value"]), item["std"],
                              f"[{_cell(item['ci95'][0])}, {_cell(item['ci95'][1])}]"])
     noise = model.extras.get("noise") or {}
-    noise_rows = [[role, nm["sigma"], nm["ar_order"], nm.get("pre_step_sigma", ""),
+    noise_rows = [[f"{role} ({model.units.get(role) or 'V'})", nm["sigma"], nm["ar_order"],
+                   nm.get("pre_step_sigma", ""),
                    "its scale only: 8-bit codes not dithered by noise" if nm["use"] == "scale only"
                    else "the dynamics"] for role, nm in noise.items()]
     return {
         "matrices": [(name, _matrix_text(getattr(model, name))) for name in ("A", "B", "C", "D")],
         "states": ", ".join(model.states), "outputs": ", ".join(model.outputs), "tfs": tfs,
-        "first_order": {"k": fo.k, "p": fo.p, "dc_gain": fo.dc_gain, "tau": fo.time_constant_s},
+        "first_order": {"k": fo.k, "p": fo.p, "dc_gain": fo.dc_gain, "tau": fo.time_constant_s,
+                        "gain_unit": model.dc_gain_unit},
         "uncertainty_rows": rows, "structure": bool(u) and "structure_std" in u.get("dc_gain", {}),
         "method": str(u.get("method", "")) if u else "", "noise_rows": noise_rows,
         "pole_zero_png": _uri(figures.pole_zero(model)),

@@ -19,7 +19,8 @@ __all__ = ["TruthCheck", "reference_values", "truth_checks"]
 
 #: Half-width of the 95 % interval in standard errors (normal approximation, as the intervals).
 Z95 = 1.96
-#: The headline quantities: (key in the uncertainty dict, words, unit).
+#: The headline quantities: (key in the uncertainty dict, words, unit); the gain's unit is the
+#: model's own (``rpm/V`` for data in rpm) when it has one.
 QUANTITIES: tuple[tuple[str, str, str], ...] = (("dc_gain", "dc gain", "V/V"), ("time_constant", "τ", "s"))
 #: Label of the trainer's truth (the linearised plant: friction and dead-zones left out).
 TRUTH_LABEL = "the trainer's truth (linearised)"
@@ -117,8 +118,10 @@ def truth_checks(model: Any, reference: Mapping[str, float], reference_label: st
         One per quantity of :data:`QUANTITIES` with a finite, positive standard error.
     """
     u = model.uncertainty or {}
+    gain_unit = str(getattr(model, "dc_gain_unit", "V/V"))
     out = []
     for key, words, unit in QUANTITIES:
+        unit = gain_unit if key == "dc_gain" else unit
         item = u.get(key)
         if not item or key not in reference:
             continue
