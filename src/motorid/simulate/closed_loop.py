@@ -377,7 +377,6 @@ def _vector(values: tuple[float, ...] | None, n: int, option: str) -> np.ndarray
     return v
 
 
-@single_blas_thread
 class ClosedLoopPlant(Protocol):
     """A plant other than the linear model, advanced one control interval at a time.
 
@@ -398,6 +397,7 @@ class ClosedLoopPlant(Protocol):
         """Hold ``u`` for one control interval starting at time ``t``."""
 
 
+@single_blas_thread
 def simulate_closed_loop(model: MotorModel, design: Design, settings: SimulationSettings, *,
                          plant: ClosedLoopPlant | None = None) -> SimulationResult:
     """Run the designed controller in closed loop.
