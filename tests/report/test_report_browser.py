@@ -127,3 +127,31 @@ def test_report_page_of_the_demo_shows_the_truth_against_the_interval(report_wit
     design = html[html.index('<section id="design">'):]
     assert "rails ±10 V" in design and "Kp in V/V" in design and "V/(V/s)" in design
     assert "settling time (2 %)" in design
+
+
+def test_a_load_disturbance_is_marked_on_the_closed_loop(demo_run, monkeypatch):
+    """make_report(simulation=...) runs the design with a brake load: the page marks the
+    instant, the figure draws it, and the rails are the run's own."""
+    import numpy as np
+
+    import motorid as mi
+    from motorid.io import read_capture
+    from motorid.report import figures
+    from motorid.report.assemble import make_report
+    from motorid.simulate.closed_loop import SimulationSettings
+
+    kept = []
+    real_png = figures.png
+    monkeypatch.setattr(figures, "png", lambda fig: kept.append(fig) or real_png(fig))
+    ident = demo_run.result.identification
+    captures = {role: read_capture(demo_run.folder / f"ALL{i:04d}")
+                for i, role in enumerate(("position", "velocity", "current"))}
+    design = mi.design(ident.model, damping=0.7, wn=5.0, integral=True).to_json()
+    run = SimulationSettings(duration_s=4.0, saturation_v=8.0, disturbance_v=1.0, disturbance_start_s=2.5)
+    html = make_report(ident, captures, design=design, sweep=False, simulation=run)
+    section = html[html.index('<section id="design">'):]
+    assert "rails ±8 V" in section and "the instants a load is applied" in section
+    loop = next(f for f in kept if f.axes and f.axes[-1].get_ylabel() == "control u (V)")
+    for ax in loop.axes[:2]:
+        assert any(len(ln.get_xdata()) == 2 and np.allclose(ln.get_xdata(), 2.5) for ln in ax.get_lines())
+    assert any(len(ln.get_ydata()) == 2 and np.allclose(ln.get_ydata(), 8.0) for ln in loop.axes[1].get_lines())

@@ -18,6 +18,10 @@ __all__ = ["MODE_MAP_KP", "MODE_MAP_KV", "REPORT_RAILS_V", "make_report"]
 
 #: Actuator rails (±V) of the report's closed-loop run: the same as the mode map's (paper Fig. 12).
 REPORT_RAILS_V = ModeCriteria().saturation_v
+#: States of the sensitivity table's pinv models: the paper's reduced state [θ, θ̇] when a
+#: position capture is there, the velocity alone otherwise.
+SWEEP_ORDER_WITH_POSITION = 2
+SWEEP_ORDER_VELOCITY_ONLY = 1
 #: The mode map's grid: Kp (V/V) and Kv (V/(V/s)), as in the paper's Figs. 11–13.
 MODE_MAP_KP = (0.5, 60.0, 40)
 MODE_MAP_KV = (0.0, 8.0, 40)
@@ -67,23 +71,26 @@ def make_report(
     str
         A complete, self-contained HTML document.
     """
-    table = None
-    if sweep:
-        cond = ident.conditioned
-        # captures without an input channel were identified with the user's step level
-        step = cond.step_volts if any(c.input_v is None for c in captures.values()) else None
-        try:
-            order = 2 if "position" in captures else 1  # the paper's reduced state [θ, θ̇]
-            axes: dict[str, Any] = {}
-            if float(cond.full_time_s[-1]) < max(PAPER_LENGTHS_S):
-                lengths, intervals, _ = data_grid(captures, step_volts=step)
-                axes = {"lengths_s": lengths, "intervals_s": intervals}
-            table = sensitivity_table(captures, settings=IdentifySettings(method="pinv", order=order),
-                                      step_volts=step, **axes)
-        except MotorIdError:
-            table = None  # the section says the table could not be computed
+    table = _sensitivity(ident, captures) if sweep else None
     view = _design_view(ident, design, simulation)
     return build_report(ReportInputs(ident, captures, validation or {}, table, view, truth, title))
+
+
+def _sensitivity(ident: Identification, captures: Mapping[str, Capture]) -> Any:
+    """The paper's sensitivity table on these captures, or None when it cannot be computed."""
+    cond = ident.conditioned
+    # captures without an input channel were identified with the user's step level
+    step = cond.step_volts if any(c.input_v is None for c in captures.values()) else None
+    order = SWEEP_ORDER_WITH_POSITION if "position" in captures else SWEEP_ORDER_VELOCITY_ONLY
+    axes: dict[str, Any] = {}
+    try:
+        if float(cond.full_time_s[-1]) < max(PAPER_LENGTHS_S):
+            lengths, intervals, _ = data_grid(captures, step_volts=step)
+            axes = {"lengths_s": lengths, "intervals_s": intervals}
+        return sensitivity_table(captures, settings=IdentifySettings(method="pinv", order=order),
+                                 step_volts=step, **axes)
+    except MotorIdError:
+        return None  # the section says the table could not be computed
 
 
 def _design_view(ident: Identification, design: Mapping[str, Any] | None,
