@@ -403,6 +403,13 @@ def identify(
              "(V1,V2,...).")] = None,
     t0: Annotated[float | None, typer.Option("--t0", help="Step instant on the files' time axis.")] = None,
     columns: Annotated[str | None, typer.Option(help="Plain CSV column map, e.g. time=t,input=u,velocity=rpm.")] = None,
+    units: Annotated[list[str] | None, typer.Option(
+        "--units",
+        help="Unit of a channel's data, e.g. velocity=rpm (default: from a plain-CSV column name, else V).")] = None,
+    scale: Annotated[list[str] | None, typer.Option(
+        "--scale",
+        help="Sensor constant of a volts channel: velocity=0.1504V/(rad/s) (tacho), current=0.47ohm (shunt), "
+             "position=20V/rev (potentiometer); the gain is also printed per physical unit.")] = None,
     experiment: Annotated[list[str] | None, typer.Option(
         "--experiment",
         help="A step experiment at one level (a capture folder, or a folder of ALLnnnn captures: its velocity "
@@ -477,9 +484,9 @@ def identify(
         from motorid.control.design_io import read_design_json as read_design
 
         doc = read_design(design) if design is not None else None
-    with _bar(f"identifying (method {method})"):
-        # stage by stage once identify_experiment takes a progress callback; a spinner until then
-        result = identify_experiment(caps, settings, step_volts=step_volts_v, t0_s=t0)
+    with _bar(f"identifying (method {method})") as progress:
+        result = identify_experiment(caps, settings, step_volts=step_volts_v, t0_s=t0, progress=progress)
+    result = _with_units(result, units, scale)
     con = _console()
     _print_model(con, result.model, "identified model")
     con.print(f"choice: {result.reason}")
@@ -497,6 +504,19 @@ def identify(
         if path is not None:
             con.print(f"{label}: {path}")
     _strict_exit(result, strict)
+
+
+def _with_units(result, units: list[str] | None, scale: list[str] | None):  # -> Identification
+    """``--units``/``--scale`` attached to the identified model (the maths stays in data units)."""
+    from dataclasses import replace
+
+    from motorid.model.units import parse_scales, parse_units
+
+    declared, scales = parse_units(units), parse_scales(scale)
+    if not declared and not scales:
+        return result
+    model = result.model.replace(units={**result.model.units, **declared}, scales=scales)
+    return replace(result, model=model)
 
 
 def _identify_levels(velocities: list[str], experiments: list[str], levels: list[float] | None,

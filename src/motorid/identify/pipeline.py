@@ -243,6 +243,8 @@ def _pinv_states(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel
 LAGUERRE_SAMPLES = 5000
 #: Most samples the sanity gate looks at (an evenly sub-sampled record beyond).
 SANITY_SAMPLES = 20000
+#: Stages reported to a progress callback: conditioning, paper methods, refinement, sanity checks.
+PROGRESS_STEPS = 4
 
 
 def _dynamic_part(cond: ConditionedExperiment, max_samples: int, time_s: np.ndarray, *arrays: np.ndarray,
@@ -452,7 +454,8 @@ def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: Motor
 
 @single_blas_thread
 def identify_conditioned(
-    cond: ConditionedExperiment, settings: IdentifySettings = IdentifySettings()
+    cond: ConditionedExperiment, settings: IdentifySettings = IdentifySettings(),
+    progress: Callable[..., None] | None = None,
 ) -> Identification:
     """Identify a model from conditioned data (see :func:`identify_experiment`).
 
@@ -462,6 +465,8 @@ def identify_conditioned(
         The conditioned captures.
     settings : IdentifySettings
         Method and options (the conditioning part is already applied).
+    progress : callable, optional
+        ``progress(done, total, label)`` before each stage (the CLI draws a bar with it).
 
     Returns
     -------
@@ -472,8 +477,10 @@ def identify_conditioned(
         raise OptionError(f"unknown method {settings.method!r}; use one of {', '.join(METHODS)}")
     if settings.order not in ("auto", 1, 2, 3):
         raise OptionError(f"--order must be auto, 1, 2 or 3, not {settings.order!r}")
+    report = progress or (lambda *args: None)
     t, v, notes = _velocity(cond, full=True)
     extra_warn = list(cond.warnings) + notes + _settled_warning(t, v)
+    report(1, PROGRESS_STEPS, "paper methods")
     stages: list[dict[str, Any]] = []
     unwhitened: dict[str, float] | None = None
     if settings.method in PAPER_METHODS:
@@ -494,6 +501,7 @@ def identify_conditioned(
         if failures:
             reason += "; not run: " + "; ".join(f"{k} ({v})" for k, v in failures.items())
         model = candidates[best]
+        report(2, PROGRESS_STEPS, "output-error fits, order selection, SRIVC check")
         if settings.method == "srivc":
             from motorid.identify.stages import STRUCTURES, srivc_stage
 
@@ -533,6 +541,7 @@ def identify_conditioned(
     recorded = {r.source: r.input_v[r.time_s >= 0] for r in cond.responses.values() if r.edge.method != "onset"}
     # its first-order baseline is a nonlinear fit: 9 s on a 10-million-sample log
     t_gate, v_gate = _dynamic_part(cond, SANITY_SAMPLES, t, v)
+    report(3, PROGRESS_STEPS, "sanity checks")
     sanity = sanity_checks(model, t_gate, v_gate, cond.step_volts,
                            sample_interval_s=float(t[1] - t[0]), unwhitened=unwhitened, input_v=recorded)
     gate = tuple(f"SANITY CHECK FAILED — {f}" for f in sanity.failures)
@@ -548,6 +557,7 @@ def identify_conditioned(
                 "apparent_dead_time_s": cond.dead_time_s},
         stages=tuple(stages),
     )
+    report(PROGRESS_STEPS, PROGRESS_STEPS, "done")
     return Identification(model, cond, candidates, failures, reason, sanity)
 
 
@@ -558,6 +568,7 @@ def identify_experiment(
     *,
     step_volts: float | None = None,
     t0_s: float | None = None,
+    progress: Callable[..., None] | None = None,
 ) -> Identification:
     """Identify a motor model from the captures of one step experiment.
 
@@ -569,6 +580,9 @@ def identify_experiment(
         Method, order, conditioning.
     step_volts, t0_s : float, optional
         For captures without an input channel.
+    progress : callable, optional
+        ``progress(done, total, label)`` before each stage (conditioning, paper methods,
+        refinement, sanity checks); the CLI's progress bar.
 
     Returns
     -------
@@ -582,8 +596,10 @@ def identify_experiment(
     """
     if "velocity" not in captures and "position" not in captures:
         raise OptionError("give at least --velocity or --position")
+    if progress is not None:
+        progress(0, PROGRESS_STEPS, "conditioning")
     cond = condition_experiment(captures, settings.conditioning, step_volts=step_volts, t0_s=t0_s)
-    ident = identify_conditioned(cond, settings)
+    ident = identify_conditioned(cond, settings, progress)
     from motorid.model.units import units_of
 
     units = units_of(captures)

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from motorid.model.notation import poly_text
+from motorid.model.units import physical_gain
 from motorid.numfmt import complex_text, metric_name, roots_text, sig
 
 __all__ = ["Span", "SummaryLine", "model_summary", "model_summary_lines"]
@@ -57,8 +58,13 @@ def _header(model: Any, title: str) -> list[SummaryLine]:
         lines.append(_plain(f"H_{name}(s) = ({poly_text(num)}) / ({poly_text(den)})"))
     lines.append(_plain(f"poles: {roots_text(model.poles())}"))
     fo = model.first_order()
-    lines.append(_plain(f"first order: k/(s+p) = {sig(fo.k)}/(s + {sig(fo.p)}); dc gain {sig(fo.dc_gain)} V/V, "
-                        f"τ = {sig(fo.time_constant_s)} s"))
+    lines.append(_plain(f"first order: k/(s+p) = {sig(fo.k)}/(s + {sig(fo.p)}); dc gain {sig(fo.dc_gain)} "
+                        f"{model.dc_gain_unit}, τ = {sig(fo.time_constant_s)} s"))
+    for channel, scale in model.scales.items():
+        phys = physical_gain(fo.dc_gain, model.units, model.scales, channel)
+        if phys is not None:
+            lines.append(_plain(f"{channel} sensor {sig(scale.volts_per_unit)} V/{scale.unit}: dc gain "
+                                f"{sig(phys[0])} {phys[1]}"))
     if model.delay_s > 0:
         lines.append(_plain(f"dead time: {sig(1e3 * model.delay_s)} ms (every H(s) above times "
                             f"e^(−s·{sig(model.delay_s)})); mean residence time τ + dead time = "
@@ -66,11 +72,11 @@ def _header(model: Any, title: str) -> list[SummaryLine]:
     return lines
 
 
-def _uncertainty(u: Mapping[str, Any]) -> list[SummaryLine]:
+def _uncertainty(u: Mapping[str, Any], gain_unit: str = "V/V") -> list[SummaryLine]:
     lines: list[SummaryLine] = []
     if not u:
         return lines
-    for key, label in (("dc_gain", "dc gain"), ("time_constant", "τ (s)")):
+    for key, label in (("dc_gain", f"dc gain ({gain_unit})"), ("time_constant", "τ (s)")):
         item = u[key]
         lo, hi = item["ci95"]
         lines.append(_plain(f"{label}: {sig(item['value'])} ± {sig(1.96 * item['std'], 2)} "
@@ -175,7 +181,7 @@ def model_summary_lines(model: Any, title: str = "identified model") -> list[Sum
     list of SummaryLine
         One entry per printed line, each a tuple of ``(text, rich style)`` spans.
     """
-    return (_header(model, title) + _uncertainty(model.uncertainty) + _noise_and_stages(model)
+    return (_header(model, title) + _uncertainty(model.uncertainty, model.dc_gain_unit) + _noise_and_stages(model)
             + _markov(model.extras) + _fit_and_checks(model))
 
 
