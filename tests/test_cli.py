@@ -108,7 +108,10 @@ def test_every_user_error_is_a_motorid_error_and_its_builtin() -> None:
     assert result.IdentificationError is errors.IdentificationError
     assert atomic.OutputWriteError is errors.OutputWriteError
     assert model.ModelFormatError is errors.ModelFormatError
-    builtin = {"OutputExistsError": FileExistsError, "OutputWriteError": OSError}
+    builtin = {"OutputExistsError": FileExistsError, "OutputWriteError": OSError,
+               # the oscilloscope (issue 17): an instrument that cannot be reached is an OSError,
+               # one that never triggers a TimeoutError
+               "InstrumentError": OSError, "AcquisitionTimeoutError": TimeoutError}
     for name in errors.__all__:
         cls = getattr(errors, name)
         assert issubclass(cls, errors.MotorIdError)
