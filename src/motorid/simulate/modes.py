@@ -557,8 +557,8 @@ def plot_mode_maps(maps: tuple[ModeMap, ...], path: str | Path) -> None:
         ax.imshow(m.labels, origin="lower", aspect="auto", extent=ext, cmap=cmap, vmin=-0.5,
                   vmax=len(MODES) - 0.5, interpolation="nearest")
         ax.set_title(m.plant)
-        ax.set_xlabel("Kp")
-        ax.set_ylabel("Kv")
+        ax.set_xlabel("Kp (V/V)")
+        ax.set_ylabel("Kv (V/(V/s))")
     fig.legend(handles=[Patch(color=c, label=name) for c, name in zip(colours, MODES, strict=False)],
                loc="lower center", ncol=len(MODES), fontsize="small")
     fig.tight_layout(rect=(0, 0.07, 1, 1))
