@@ -43,8 +43,8 @@ def _array_text(a: Any) -> str:
 
 def _header(model: Any, title: str) -> list[SummaryLine]:
     lines: list[SummaryLine] = [
-        ((title, "bold"), (f": method {model.method}, order {model.order}, states {list(model.states)}, "
-                           f"step {sig(model.step_volts)} V", ""))]
+        ((title, "bold"), (f": method {model.method}, {model.order} states {list(model.states)}, "
+                           f"{_velocity_poles(model)} poles of the velocity TF, step {sig(model.step_volts)} V", ""))]
     lines.append(_plain(f"A = {_array_text(model.A)}"))
     lines.append(_plain(f"B = {_array_text(model.B.ravel())}ᵀ"))
     for name in ("velocity", "position", "current"):
@@ -110,7 +110,16 @@ def _noise_and_stages(model: Any) -> list[SummaryLine]:
     return lines
 
 
+def _velocity_poles(model: Any) -> int:
+    """Poles of the velocity transfer function (the 'order' the paper and python-control mean)."""
+    den = np.trim_zeros(np.ravel(model.velocity_tf.den[0][0]), "f")
+    return int(den.size - 1)
+
+
 def _stage_item(key: str, value: Any) -> str:
+    # one word per idea (issue 16): a stage's "order" is its model's number of states
+    if key == "order":
+        return f"states {value}"
     if key == "time_constant" and isinstance(value, float):
         return f"τ {sig(value)} s"
     return f"{metric_name(key)} {sig(value) if isinstance(value, float) else value}"
