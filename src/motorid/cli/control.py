@@ -318,7 +318,8 @@ def simulate(
         if json_out is not None:
             outs.write_text(json_out, res.to_json_text() + "\n")
         if png is not None:
-            _plot_to(outs, png, plot_simulation, res, title=f"{model_file.name} + {design_file.name} ({plant})")
+            _plot_to(outs, png, plot_simulation, res, title=f"{model_file.name} + {design_file.name} ({plant})",
+                     rails_v=saturation, disturbance_s=disturbance_start if disturbance else None)
     for label, path in (("time series CSV", csv_out), ("simulation JSON", json_out), ("plot", png)):
         if path is not None:
             typer.echo(f"{label}: {path}")

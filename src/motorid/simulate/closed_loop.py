@@ -528,7 +528,8 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
                             tuple(warnings))
 
 
-def simulation_figure(result: SimulationResult, title: str = "") -> Figure:
+def simulation_figure(result: SimulationResult, title: str = "", *, rails_v: float | None = None,
+                      disturbance_s: float | None = None) -> Figure:
     """Draw output and reference, control input, and true vs estimated states.
 
     The figure is a :class:`matplotlib.figure.Figure` made without pyplot: no backend is
@@ -540,11 +541,15 @@ def simulation_figure(result: SimulationResult, title: str = "") -> Figure:
         A closed-loop run.
     title : str
         Figure title (none when empty).
+    rails_v : float, optional
+        Actuator rails ±V, drawn on the control axes.
+    disturbance_s : float, optional
+        When the load disturbance starts, marked on every axes.
 
     Returns
     -------
     matplotlib.figure.Figure
-        Three stacked axes sharing the time axis.
+        Three stacked axes sharing the time axis; the headline metrics under the title.
     """
     from matplotlib.figure import Figure
 
@@ -572,13 +577,28 @@ def simulation_figure(result: SimulationResult, title: str = "") -> Figure:
     ax.set_ylabel("states (V)")
     ax.set_xlabel("time (s)")
     ax.legend(loc="best")
-    if title:
-        fig.suptitle(title)
+    if rails_v is not None:
+        for sign in (1, -1):
+            axes[1].axhline(sign * rails_v, color="0.4", ls="--", lw=0.8,
+                            label="actuator rails" if sign == 1 else None)
+        axes[1].legend(loc="best")
+    if disturbance_s is not None:
+        for a in axes:
+            a.axvline(disturbance_s, color="C3", ls=":", lw=1.0)
+        axes[0].annotate("load applied", (disturbance_s, 0.02), xycoords=("data", "axes fraction"), color="C3",
+                         fontsize=9)
+    m = result.metrics
+    settling = f"{m.settling_time_s:.3g} s" if math.isfinite(m.settling_time_s) else "not reached"
+    metrics = (f"rise {m.rise_time_s:.3g} s, settling (2 %) {settling}, overshoot "
+               f"{m.overshoot_pct:.3g} %, steady-state error {m.steady_state_error_v:.3g} V, peak |u| "
+               f"{m.peak_control_v:.3g} V")
+    fig.suptitle(f"{title}\n{metrics}" if title else metrics, fontsize=10)
     fig.tight_layout()
     return fig
 
 
-def plot_simulation(result: SimulationResult, path: str | Path, title: str = "") -> None:
+def plot_simulation(result: SimulationResult, path: str | Path, title: str = "", *, rails_v: float | None = None,
+                    disturbance_s: float | None = None) -> None:
     """Write a PNG of :func:`simulation_figure` (output, control input, states).
 
     Parameters
@@ -589,5 +609,9 @@ def plot_simulation(result: SimulationResult, path: str | Path, title: str = "")
         PNG file to write (overwritten; the caller checks ``--force``).
     title : str
         Figure title (none when empty).
+    rails_v : float, optional
+        Actuator rails ±V, drawn on the control axes.
+    disturbance_s : float, optional
+        When the load disturbance starts, marked on every axes.
     """
-    result.plot(title).savefig(str(path), dpi=100)
+    simulation_figure(result, title, rails_v=rails_v, disturbance_s=disturbance_s).savefig(str(path), dpi=100)
