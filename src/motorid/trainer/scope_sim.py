@@ -135,6 +135,8 @@ def simulated_tds2012(
     capture = exp.captures[role]
     scope = capture.scope
     idn = f"TEKTRONIX,{scope.model},{scope.serial},CF:91.1CT {scope.firmware}"
+    # a trainer capture always records its horizontal scale; else the record's 10 divisions
+    scale = scope.horizontal_scale_s or float(capture.time_s[-1] - capture.time_s[0]) / 10
     spec = write_sim_device(Path(folder) / "tds2012-sim.yaml", capture_channels(capture, displayed=displayed),
-                            horizontal_scale_s=float(scope.horizontal_scale_s or (capture.time_s[-1] - capture.time_s[0]) / 10), idn=idn, triggers=triggers)
+                            horizontal_scale_s=float(scale), idn=idn, triggers=triggers)
     return SimulatedScope(spec, sim_resource(spec), capture, role)
