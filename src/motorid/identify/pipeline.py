@@ -268,19 +268,25 @@ def _markov_laguerre(cond: ConditionedExperiment, s: IdentifySettings) -> MotorM
 
     a, N and the dead time from the measured response time, by BIC; the order from the Hankel
     singular values above the coefficients' noise floor; the recorded input channel drives the
-    regressors.
+    regressors; each order's realisation is polished by output-error least squares on the same
+    samples, with the current capture sharing the poles, and the order is the polished fits' BIC.
     """
     from motorid.identify.laguerre import LaguerreSettings, laguerre_identify
 
     t = cond.full_time_s
     output = "velocity" if "velocity" in cond.full_outputs else "position"
+    # the current (poles shared) joins the polish of the realisation; a position beside a velocity does not: its
+    # errors follow the motion (wrap span error, undithered 8-bit codes) and buy a spurious slow pole pair
+    others = [ch for ch in ("current",) if ch in cond.full_outputs and ch != output]
     y = cond.full_outputs[output]
     u = cond.full_input_v
     # a 3000 s log took 40 s of SVDs of 300 000-row regressors
-    t, y, u = _dynamic_part(cond, LAGUERRE_SAMPLES, t, y, u, length_s=s.markov_window_s)
+    t, y, u, *rest = _dynamic_part(cond, LAGUERRE_SAMPLES, t, y, u, *(cond.full_outputs[ch] for ch in others),
+                                   length_s=s.markov_window_s)
     lset = LaguerreSettings(n_terms=s.markov_params, order=s.order if s.order == "auto" else int(s.order))
     res = laguerre_identify(t, y, cond.step_volts, lset, input_v=u, output=output,
-                            response_time_s=cond.response_time_s, dead_time_s=cond.dead_time_s)
+                            response_time_s=cond.response_time_s, dead_time_s=cond.dead_time_s,
+                            extra_outputs=dict(zip(others, rest, strict=True)))
     notes = [] if output == "velocity" else [
         "no velocity capture: the Laguerre expansion is of the position channel's derivative "
         "(position volts per second), fitted to the position itself"]
