@@ -986,9 +986,9 @@ def _delayed_response(a_c: np.ndarray, b_c: np.ndarray, c_rows: np.ndarray, d_co
         e = scipy.linalg.expm(m * step)
         return e[:ns, :ns], e[:ns, ns:]
 
-    phi, _ = gamma(h)
     e_rest, g_rest = gamma(h - frac)  # the part of the interval fed by the current sample
-    _, g_head = gamma(frac)
+    e_head, g_head = gamma(frac)
+    phi = e_rest @ e_head
     g_a = g_rest
     g_b = e_rest @ g_head  # the head of the interval, still fed by the previous sample
     out = np.empty((u.size, c_rows.shape[0]))
@@ -1092,7 +1092,7 @@ def laguerre_polish(
     step_volts: float = 1.0,
     delay_s: float = 0.0,
     primary: str = "velocity",
-    rounds: int = 2,
+    rounds: int = 1,
     offsets: bool = False,
 ) -> LaguerrePolish:
     """Polish a realisation by output-error least squares on every channel given.
