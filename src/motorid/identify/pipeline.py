@@ -16,7 +16,7 @@ import numpy as np
 from motorid._threads import single_blas_thread
 from motorid.capture import Capture
 from motorid.conditioning.denoise import fft_denoise
-from motorid.conditioning.derivative import derivative
+from motorid.conditioning.derivative import derivative, savgol_derivative
 from motorid.conditioning.pipeline import ConditionedExperiment, ConditioningSettings, condition_experiment
 from motorid.errors import OptionError
 from motorid.identify.classic import classic_first_order
@@ -145,7 +145,10 @@ def _velocity(cond: ConditionedExperiment, full: bool) -> tuple[np.ndarray, np.n
     if "velocity" in outs:
         return t, outs["velocity"], []
     dt = float(t[1] - t[0])
-    v = derivative(outs["position"], dt, "savgol")
+    # a 7-sample derivative of an 8-bit position is its quantisation steps: at full rate, smooth
+    # over the reduced interval (issue 14: position-only experiments failed the sanity gate)
+    window = max(7, 2 * (cond.ratio // 2) + 1) if full else 7
+    v = savgol_derivative(outs["position"], dt, window=window, polyorder=2)
     return t, v, ["no velocity capture: velocity is the derivative of the position (position volts per second)"]
 
 
