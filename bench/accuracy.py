@@ -120,7 +120,7 @@ def peer_era(cond, order):
     log = np.real(scipy.linalg.logm(aug)) / dt
     sysc = control.ss(log[:n, :n], log[:n, n:], sysd.C, sysd.D)
     tf = control.ss2tf(sysc)
-    return first_order_of(np.squeeze(tf.num[0][0]), np.squeeze(tf.den[0][0])) + (order,)
+    return (*first_order_of(np.squeeze(tf.num[0][0]), np.squeeze(tf.den[0][0])), order)
 
 
 def peer_curve_fit(cond):
@@ -167,7 +167,8 @@ def real_setup_run(name: str, seed: int, methods):
                     dc, tau, order = peer_curve_fit(cond)
                     ci = None
                 else:
-                    m = identify_conditioned(cond, IdentifySettings(**METHOD_SETTINGS.get(method, {"method": method}))).model
+                    options = METHOD_SETTINGS.get(method, {"method": method})
+                    m = identify_conditioned(cond, IdentifySettings(**options)).model
                     fo = m.first_order()
                     dc, tau = fo.dc_gain, fo.time_constant_s + m.delay_s
                     order = len([p for p in m.poles() if abs(p) > 1e-9])
@@ -179,7 +180,7 @@ def real_setup_run(name: str, seed: int, methods):
                         ci = (u["dc_gain"]["ci95"], (tau - 1.96 * sd, tau + 1.96 * sd))
                 out[method] = {"dc": dc, "tau": tau, "order": order, "ci": ci,
                                "time": time.perf_counter() - t0, "failed": None}
-            except Exception as exc:  # noqa: BLE001 - a failed run is counted, not fatal
+            except Exception as exc:
                 out[method] = {"failed": f"{type(exc).__name__}: {exc}"[:120], "time": time.perf_counter() - t0}
     return name, "realistic", seed, rec.truth.dc_gain, rec.truth.residence_time_s, out, None
 
@@ -230,7 +231,7 @@ def one_run(args):
                         ci = (u["dc_gain"]["ci95"], u["time_constant"]["ci95"])
                 out[method] = {"dc": dc, "tau": tau, "order": order, "ci": ci,
                                "time": time.perf_counter() - t0, "failed": None}
-            except Exception as exc:  # noqa: BLE001 - a failed run is counted, not fatal
+            except Exception as exc:
                 out[method] = {"failed": f"{type(exc).__name__}: {exc}"[:120], "time": time.perf_counter() - t0}
     dc_true = exp.truth.dc_gain
     if case == "realistic":
@@ -249,8 +250,9 @@ def crlb(name: str, cond, sigma: float) -> tuple[float, float]:
     The experiment as the estimator sees it: every sample of each capture after its step
     (each capture's own grid and length) and its pre-step samples, every channel's pre-step
     level and each capture's sub-sample timing unknown (nuisance parameters), white noise
-    ``sigma``, the step level read off each capture's noisy input channel; the true model in the output-error parameterisation (gain, time constants,
-    zeros, position scale, current numerator, offsets, shifts).  Poles faster than half a
+    ``sigma``, the step level read off each capture's noisy input channel; the true model in the
+    output-error parameterisation (gain, time constants, zeros, position scale, current numerator,
+    offsets, shifts).  Poles faster than half a
     sample are left out (no estimator can see them: they act as a lag the capture shifts
     take up, see :func:`visible_tau`); the current then jumps at the step: its numerator
     gets a direct term (the reduced model ``(Js + b)/(R(Js + b) + K²)`` of a negligible
@@ -278,7 +280,7 @@ def crlb(name: str, cond, sigma: float) -> tuple[float, float]:
     # shifts on, as the estimator; a direct current term only where the reduced truth has one
     settings = OeSettings(n_poles=len(taus), n_zeros=len(zs), current_direct=bool(fast))
     layout = _Layout(settings, channels)
-    theta = [k] + list(np.log(taus)) + list(zs) + [c]
+    theta = [k, *list(np.log(taus)), *list(zs), c]
     if "current" in channels:
         cnum, cden = poly(tr.current)
         # I(s) = cnum/cden over Π(1 + τ_i s) (cden monic, cden(0) = Π p_i): numerator
@@ -309,7 +311,8 @@ def crlb(name: str, cond, sigma: float) -> tuple[float, float]:
 
     h = 1e-6 * np.maximum(np.abs(theta), 1e-3)
     h[n_model - len(layout.shifted) : n_model] = 1e-7  # shifts are seconds around 0
-    jac = np.column_stack([(pred(theta + e) - pred(theta - e)) / (2 * hh) for e, hh in zip(np.diag(h), h)])
+    jac = np.column_stack([(pred(theta + e) - pred(theta - e)) / (2 * hh)
+                           for e, hh in zip(np.diag(h), h, strict=True)])
     cov = np.linalg.pinv(jac.T @ jac) * sigma**2
     n = len(taus)
     g_dc = np.zeros_like(theta)
@@ -334,7 +337,7 @@ def main() -> None:
     if "peer:n4sid" in methods:
         try:
             import sippy_unipi  # noqa: F401
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:
             print(f"peer:n4sid skipped: sippy-unipi does not import ({exc})")
             methods = tuple(m for m in methods if m != "peer:n4sid")
     cases = {p: ["realistic"] if p in REAL_SETUP_PRESETS else args.cases.split(",") for p in args.presets.split(",")}

@@ -50,10 +50,11 @@ def _distribution_figure(rows: Sequence[SummaryRow]) -> str | None:
                 label=["", "outlier"])
         ax.set_xlabel(label)
         ax.set_ylabel("experiments")
-    lo_g = [r.dc_gain - r.dc_gain_ci[0] if r.dc_gain_ci else 0.0 for r in ok]
-    hi_g = [r.dc_gain_ci[1] - r.dc_gain if r.dc_gain_ci else 0.0 for r in ok]
-    lo_t = [r.time_constant - r.time_constant_ci[0] if r.time_constant_ci else 0.0 for r in ok]
-    hi_t = [r.time_constant_ci[1] - r.time_constant if r.time_constant_ci else 0.0 for r in ok]
+    # ok rows have a gain and a time constant (the rows without are failed or skipped)
+    lo_g = [float(r.dc_gain or 0.0) - r.dc_gain_ci[0] if r.dc_gain_ci else 0.0 for r in ok]
+    hi_g = [r.dc_gain_ci[1] - float(r.dc_gain or 0.0) if r.dc_gain_ci else 0.0 for r in ok]
+    lo_t = [float(r.time_constant or 0.0) - r.time_constant_ci[0] if r.time_constant_ci else 0.0 for r in ok]
+    hi_t = [r.time_constant_ci[1] - float(r.time_constant or 0.0) if r.time_constant_ci else 0.0 for r in ok]
     either = out_g | out_t
     ax_s.errorbar(tau, gain, xerr=[lo_t, hi_t], yerr=[lo_g, hi_g], fmt="none", ecolor="#999", lw=0.8)
     ax_s.scatter(tau[~either], gain[~either], s=14, color="#4878a8")
