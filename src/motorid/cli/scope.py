@@ -130,6 +130,12 @@ def _target(visa_library: str, resource: str | None, simulate: bool, *, sim_role
         return
     if visa_library != "@py":
         raise OptionError("--simulate and --visa-library both choose the backend: give one of them")
+    import importlib.util
+
+    missing = [m for m in ("pyvisa", "pyvisa_sim", "yaml") if importlib.util.find_spec(m) is None]
+    if missing:
+        raise OptionError(f"--simulate needs the visa extra ({', '.join(missing)} missing): "
+                          "pip install 'motorid[visa]'")
     from motorid.trainer.scope_sim import simulated_tds2012
 
     with tempfile.TemporaryDirectory(prefix="motorid-sim-") as tmp:
