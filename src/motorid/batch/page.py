@@ -9,7 +9,6 @@ on the page depends on when or where the batch ran (no dates, no timings).
 
 from __future__ import annotations
 
-import base64
 import html
 import io
 from collections.abc import Sequence
@@ -18,6 +17,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from motorid.batch.summary import OUTLIER_Z, SummaryRow
+from motorid.report.figures import data_uri
 
 __all__ = ["summary_html"]
 
@@ -30,7 +30,7 @@ tr.outlier td{font-weight:bold}.flag{color:#b00}img{max-width:100%}"""
 def _png(fig: Figure) -> str:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=80, bbox_inches="tight", metadata={"Software": None})
-    return f'<img alt="class distribution" src="data:image/png;base64,{base64.b64encode(buf.getvalue()).decode()}">'
+    return f'<img alt="class distribution" src="{data_uri(buf.getvalue())}">'
 
 
 def _distribution_figure(rows: Sequence[SummaryRow]) -> str | None:

@@ -12,6 +12,7 @@ corresponds to are given in the docstrings.
 from __future__ import annotations
 
 import functools
+import base64
 import io
 import textwrap
 from collections.abc import Callable, Mapping, Sequence
@@ -150,6 +151,24 @@ def png(fig: Figure) -> bytes:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=DPI)
     return buf.getvalue()
+
+
+def data_uri(data: bytes, kind: str = "png") -> str:
+    """An image as a ``data:`` URI, for a self-contained page (the report, the web page, a batch).
+
+    Parameters
+    ----------
+    data : bytes
+        The encoded image.
+    kind : str
+        ``png`` or ``svg+xml``.
+
+    Returns
+    -------
+    str
+        ``data:image/<kind>;base64,…``.
+    """
+    return f"data:image/{kind};base64,{base64.b64encode(data).decode('ascii')}"
 
 
 @styled

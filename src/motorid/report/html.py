@@ -13,7 +13,6 @@ instructor can hand out.
 
 from __future__ import annotations
 
-import base64
 import datetime as _dt
 import functools
 from collections.abc import Callable, Mapping
@@ -139,9 +138,6 @@ def template_environment() -> jinja2.Environment:
     return env
 
 
-def _uri(png: bytes) -> str:
-    return "data:image/png;base64," + base64.b64encode(png).decode()
-
 
 def render_section(sid: str, title: str, make: Callable[[], Mapping[str, Any]],
                    template: str | None = None) -> RenderedSection:
@@ -262,7 +258,7 @@ def summary_section(inp: ReportInputs) -> dict[str, Any]:
         checks = truth_checks(model, values, label, truth=inp.truth, step_volts=cond.step_volts)
     interval_png = ""
     if checks:
-        interval_png = _uri(figures.interval_checks(
+        interval_png = figures.data_uri(figures.interval_checks(
             [figures.IntervalCheck(f"{c.quantity} ({c.unit})", c.value, c.ci95, c.reference, label) for c in checks]))
     return {
         "rows": rows, "checks": checks, "interval_png": interval_png, "reference_label": label,
@@ -284,7 +280,7 @@ def captures_section(inp: ReportInputs) -> dict[str, Any]:
     dict
         The names ``sections/captures.html`` shows.
     """
-    return {"png": _uri(figures.raw_captures(inp.captures)) if inp.captures else ""}
+    return {"png": figures.data_uri(figures.raw_captures(inp.captures)) if inp.captures else ""}
 
 
 def conditioning_section(inp: ReportInputs) -> dict[str, Any]:
@@ -302,7 +298,7 @@ def conditioning_section(inp: ReportInputs) -> dict[str, Any]:
     """
     cond = inp.identification.conditioned
     units = inp.identification.model.units
-    return {"png": _uri(figures.conditioned_signals(cond, units=units)), "ratio": cond.ratio,
+    return {"png": figures.data_uri(figures.conditioned_signals(cond, units=units)), "ratio": cond.ratio,
             "reduction": cond.settings.reduction, "interval": _cell(cond.sample_interval_s)}
 
 
@@ -320,7 +316,7 @@ def current_section(inp: ReportInputs) -> dict[str, Any]:
         The names ``sections/current.html`` shows.
     """
     cond = inp.identification.conditioned
-    return {"png": _uri(figures.current_denoising(cond)) if "current" in cond.full_outputs else ""}
+    return {"png": figures.data_uri(figures.current_denoising(cond)) if "current" in cond.full_outputs else ""}
 
 
 def _matrix_text(m: np.ndarray) -> str:
@@ -370,7 +366,7 @@ def model_section(inp: ReportInputs) -> dict[str, Any]:
                         "gain_unit": model.dc_gain_unit},
         "uncertainty_rows": rows, "structure": bool(u) and "structure_std" in u.get("dc_gain", {}),
         "method": str(u.get("method", "")) if u else "", "noise_rows": noise_rows,
-        "pole_zero_png": _uri(figures.pole_zero(model)),
+        "pole_zero_png": figures.data_uri(figures.pole_zero(model)),
     }
 
 
@@ -388,7 +384,7 @@ def fit_section(inp: ReportInputs) -> dict[str, Any]:
         The names ``sections/fit.html`` shows.
     """
     ident = inp.identification
-    return {"png": _uri(figures.step_fit(ident.model, ident.conditioned))}
+    return {"png": figures.data_uri(figures.step_fit(ident.model, ident.conditioned))}
 
 
 def order_section(inp: ReportInputs) -> dict[str, Any]:
@@ -422,7 +418,7 @@ def order_section(inp: ReportInputs) -> dict[str, Any]:
         }
     png = figures.hankel_values(ex["hankel_singular_values_scaled"], ex["hankel_singular_values_raw"],
                                 ex.get("hankel_noise_floor"))
-    return {"kind": "hankel", "png": _uri(png), "choice": choice}
+    return {"kind": "hankel", "png": figures.data_uri(png), "choice": choice}
 
 
 def stages_section(inp: ReportInputs) -> dict[str, Any]:
@@ -468,7 +464,7 @@ def sensitivity_section(inp: ReportInputs) -> dict[str, Any]:
     sp = sw.spread()
     return {"head": ["ΔT"] + [f"{x:g} s" for x in sw.lengths_s], "rows": rows, "method": sw.method,
             "spread_k": f"{100 * sp['k']:.1f}", "spread_tau": f"{100 * sp['tau']:.1f}",
-            "png": _uri(figures.sweep_maps(sw.lengths_s, sw.intervals_s, sw.k, sw.tau_s))}
+            "png": figures.data_uri(figures.sweep_maps(sw.lengths_s, sw.intervals_s, sw.k, sw.tau_s))}
 
 
 def validation_section(inp: ReportInputs) -> dict[str, Any]:
@@ -497,7 +493,7 @@ def validation_section(inp: ReportInputs) -> dict[str, Any]:
             continue
         rows.append([name, f"{100 * r.nrmse:.2f} %", f"{r.fit_percent:.1f} %", f"{r.offset_v:+.4g} V",
                      "; ".join(r.notes + r.warnings)])
-        overlays.append((name, _uri(figures.validation_overlay(
+        overlays.append((name, figures.data_uri(figures.validation_overlay(
             r.time_s, r.input_v, r.measured_v, r.simulated_v,
             f"{name}: NRMSE {100 * r.nrmse:.2f} %, fit {r.fit_percent:.1f} %"))))
     return {"rows": rows, "overlays": overlays}
@@ -543,19 +539,19 @@ def design_section(inp: ReportInputs) -> dict[str, Any]:
         png = figures.closed_loop(np.asarray(sim["time"]), {k: np.asarray(v) for k, v in sim["series"].items()},
                                   "closed-loop step response on the identified model", rails_v=rails,
                                   disturbances_s=disturbances, metrics=[f"{w}: {v}" for w, v in headline])
-        view["closed_loop_png"] = _uri(png)
+        view["closed_loop_png"] = figures.data_uri(png)
         view["metric_rows"] = metric_rows
         view["caption"] = ("Dashed: the actuator rails ±" + _cell(rails) + " V, where the command saturates. "
                            if rails is not None else "No actuator rails in this run. ") + (
             "Dotted: the instants a load is applied." if disturbances else "")
     gains = d.get("design_gains")
     if d.get("mode_maps"):
-        view["modes_png"] = _uri(figures.mode_maps(d["mode_maps"], gains))
+        view["modes_png"] = figures.data_uri(figures.mode_maps(d["mode_maps"], gains))
         view["modes_marker"] = (f"The star marks this design's own gains, Kp = {_cell(gains[0])} V/V, "
                                 f"Kv = {_cell(gains[1])} V/(V/s)." if gains is not None else
                                 "This design has other states or integral action, so it is not a point of these maps.")
     elif d.get("modes_png"):
-        view["modes_png"] = _uri(d["modes_png"])
+        view["modes_png"] = figures.data_uri(d["modes_png"])
     return view
 
 

@@ -7,7 +7,6 @@ mode-map marker).
 
 from __future__ import annotations
 
-import base64
 import math
 import time
 from collections.abc import Mapping
@@ -36,27 +35,8 @@ __all__ = [
     "inspect_capture",
     "map_limits",
     "model_view",
-    "png_data_uri",
     "slider_ranges",
 ]
-
-
-def png_data_uri(data: bytes, kind: str = "png") -> str:
-    """``data:`` URI of an image.
-
-    Parameters
-    ----------
-    data : bytes
-        The image file's bytes.
-    kind : str
-        ``png`` or ``svg+xml``.
-
-    Returns
-    -------
-    str
-        ``data:image/<kind>;base64,…``.
-    """
-    return f"data:image/{kind};base64,{base64.b64encode(data).decode('ascii')}"
 
 
 def inspect_capture(cid: str, files: CaptureFiles, folder: Path) -> CaptureEntry:
@@ -152,7 +132,7 @@ def model_view(fit: IdentificationResult) -> dict[str, Any]:
 
     def add(title: str, make: Any) -> None:
         try:
-            figs[title] = png_data_uri(make())
+            figs[title] = figures.data_uri(make())
         except Exception as exc:  # a figure that cannot be drawn says why, as in the report
             errors.append(f"{title}: not available ({exc})")
 
@@ -369,7 +349,7 @@ def design_update(model: MotorModel, form: DesignForm, maps: ModeMapView | None)
     cols = sim.columns()
     series = {"reference": cols["reference"], f"output ({sim.output})": cols["output"], "u (control)": cols["u"]}
     sat = f", rails ±{form.saturation_v:g} V" if form.saturation_v else ""
-    plot = png_data_uri(figures.closed_loop(cols["time"], series,
+    plot = figures.data_uri(figures.closed_loop(cols["time"], series,
                                             f"closed loop: ζ = {form.damping:g}, ωn = {form.wn:g} rad/s{sat}"))
     kp, kv, what = design_point(model, des, form.damping, form.wn)
     markers = mark(maps, kp, kv) if maps is not None else []
