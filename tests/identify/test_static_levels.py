@@ -103,3 +103,39 @@ def test_a_motor_without_friction_has_no_dead_zone():
     fit = _fit(exp)
     assert fit.dead_zone_v < 0.03
     assert fit.dead_zone_ci95[0] < 0.0 < fit.dead_zone_ci95[1] or fit.dead_zone_v < 0.01
+
+
+def test_steps_that_do_not_start_from_rest_use_absolute_levels():
+    # a rig stepping 2 V → 4…10 V: the motor already turns before the step, so the increments
+    # alone would put the dead-zone near 0; the absolute levels give it back
+    exp = multilevel_experiment("deadzone", levels=(4.0, 6.0, 8.0, 10.0), repeats=2, seed=3, start_volts=2.0)
+    points = [level_response(c.capture)[0] for c in exp.captures]
+    assert sorted({round(p.step_volts) for p in points}) == [4, 6, 8, 10]
+    fit = fit_static_characteristic(points)
+    assert abs(fit.dead_zone_v - exp.truth.dead_zone_v) < 0.05
+    assert fit.gain == pytest.approx(exp.truth.gain, rel=0.01)
+
+
+def _rpm_log(path, level, rng, unit="rpm"):
+    t = np.arange(-0.5, 3.0, 0.01)
+    u = np.where(t >= 0, level, 0.0)
+    y = np.where(t >= 0, 240.0 * (level - 0.5) * (1 - np.exp(-np.clip(t, 0, None) / 0.3)), 0.0)
+    y = y + rng.normal(0, 2.0, t.size)
+    np.savetxt(path, np.column_stack([t, u, y]), delimiter=",", header=f"time_s,motor_voltage_V,speed_{unit}",
+               comments="")
+    return path
+
+
+def test_levels_logged_in_rpm_give_the_gain_in_rpm_per_volt(tmp_path, run_cli):
+    rng = np.random.default_rng(0)
+    logs = [_rpm_log(tmp_path / f"l{v}.csv", v, rng) for v in (2.0, 4.0, 6.0)]
+    m = tmp_path / "m.json"
+    res = run_cli("identify", *[a for f in logs for a in ("--velocity", f)], "--json", m)
+    assert res.code == 0, res.err
+    assert "static gain K = 240" in res.out and "rpm/V" in res.out
+    doc = __import__("json").loads(m.read_text())
+    assert doc["dc_gain_unit"] == "rpm/V"
+    assert doc["static_nonlinearity"]["dead_zone"]["value"] == pytest.approx(0.5, abs=0.05)
+    mixed = _rpm_log(tmp_path / "rad.csv", 3.0, rng, unit="rads")
+    res = run_cli("identify", "--velocity", logs[0], "--velocity", mixed)
+    assert res.code == 2 and "different units" in res.err and res.err.count("\n") == 1

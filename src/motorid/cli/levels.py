@@ -127,7 +127,8 @@ def identify_levels_cmd(
     result = identify_levels(captures, step_volts=levels)
     st = result.static
     table = Table(title="static characteristic (one row per step experiment)")
-    for col in ("capture", "step (V)", "steady output (V)", "± 95 %", "status"):
+    out_unit = result.model.units.get("velocity", "V")
+    for col in ("capture", "step (V)", f"steady output ({out_unit})", "± 95 %", "status"):
         table.add_column(col, justify="left" if col in ("capture", "status") else "right")
     for point, _ in result.responses:
         table.add_row(Path(point.source).name or point.source, f"{point.step_volts:.4g}",
@@ -136,13 +137,14 @@ def identify_levels_cmd(
     lo, hi = st.dead_zone_ci95
     con.print(f"dead-zone u0 = {st.dead_zone_v:.4g} V (95 % interval [{lo:.4g}, {hi:.4g}] V), input-referred: "
               "amplifier dead-zone plus Coulomb friction")
-    con.print(f"static gain K = {st.gain:.4g} V/V (95 % interval [{st.gain_ci95[0]:.4g}, {st.gain_ci95[1]:.4g}])")
+    con.print(f"static gain K = {st.gain:.4g} {result.model.dc_gain_unit} "
+              f"(95 % interval [{st.gain_ci95[0]:.4g}, {st.gain_ci95[1]:.4g}])")
     if st.negative is not None:
         n = st.negative
         con.print(f"negative steps: dead-zone {n.dead_zone_v:.4g} V [{n.dead_zone_ci95[0]:.4g}, "
                   f"{n.dead_zone_ci95[1]:.4g}], gain {n.gain:.4g}")
     if st.saturation_input_v is not None:
-        con.print(f"saturation: output ≈ {st.saturation_output_v:.4g} V, "
+        con.print(f"saturation: output ≈ {st.saturation_output_v:.4g} {out_unit}, "
                   f"reached from u ≈ {st.saturation_input_v:.4g} V")
     con.print(f"dynamics: {result.dynamics_note}")
     for w in result.warnings:

@@ -36,9 +36,14 @@ from motorid.identify.static import (
 )
 from motorid.model.motor import MotorModel, model_from_velocity_tf
 from motorid.model.nonlinearity import StaticNonlinearity
+from motorid.model.units import units_of
 
 __all__ = ["LevelDynamics", "MultiLevelResult", "identify_levels", "level_response"]
 
+#: A step starts from rest when the input before it is within this fraction of the step (or
+#: three noise levels, or FROM_REST_MIN_V); otherwise the points are absolute levels.
+FROM_REST_FRACTION = 0.02
+FROM_REST_MIN_V = 0.05
 #: Samples per capture used by the joint dynamic fit (the record after the step, thinned).
 JOINT_SAMPLES = 400
 #: The dynamic fit uses the record up to this many 63 % times after the step.
@@ -99,6 +104,18 @@ class MultiLevelResult:
     responses: tuple[tuple[LevelPoint, StepResponse], ...] = field(default=())
 
 
+def _start_level(capture: Capture, resp: StepResponse) -> float | None:
+    """The input before the step when it is clearly not 0 (the step does not start from rest).
+
+    Only a recorded input channel tells: without one the level given is the step itself.
+    """
+    if capture.input_v is None or resp.edge.method == "onset":
+        return None
+    start = float(resp.edge.baseline_v)
+    tolerance = max(FROM_REST_FRACTION * abs(resp.step_volts), 3.0 * resp.edge.noise_v, FROM_REST_MIN_V)
+    return start if abs(start) > tolerance else None
+
+
 def level_response(capture: Capture, *, step_volts: float | None = None) -> tuple[LevelPoint, StepResponse, float]:
     """One capture's step response, its static-characteristic point and its 63 % time.
 
@@ -121,7 +138,14 @@ def level_response(capture: Capture, *, step_volts: float | None = None) -> tupl
     times = response_times(t[after], y[after], pre=y[~after])
     quantum = quantisation_step(y, below=0.25 * abs(times.final)) if times.final else 0.0
     value, stderr, settled = steady_state(t, y, times.t63_s, times.noise, quantum)
-    point = LevelPoint(step_volts=resp.step_volts, steady_state=value, stderr=stderr, noise=times.noise,
+    level = resp.step_volts
+    start = _start_level(capture, resp)
+    if start is not None:
+        # a step that does not start from rest (5 V → 15 V): the static law holds for absolute
+        # levels, not for increments — the motor already turned before the step
+        level = start + resp.step_volts
+        value += float(np.mean(capture.output_v[: max(resp.edge.index, 1)]))
+    point = LevelPoint(step_volts=level, steady_state=value, stderr=stderr, noise=times.noise,
                        settled=settled, source=capture.source)
     return point, resp, times.t63_s
 
@@ -228,6 +252,16 @@ def _joint_fit(responses: list[tuple[StepResponse, float]], order: int, t63: flo
     return den_of(sol.x), float(np.sum(sol.fun**2)), n
 
 
+def _common_units(captures: Sequence[Capture]) -> dict[str, str]:
+    """The data units the captures share (a log in rpm: the gain reads rpm/V), or an error."""
+    found = {tuple(sorted(units_of({"velocity": c}).items())) for c in captures}
+    if len(found) > 1:
+        raise OptionError("the captures record the velocity in different units ("
+                          + "; ".join(", ".join(f"{k} {v}" for k, v in u) or "volts" for u in sorted(found))
+                          + "): give every level in one unit")
+    return dict(found.pop()) if found else {}
+
+
 def identify_levels(
     captures: Sequence[Capture],
     *,
@@ -292,7 +326,7 @@ def identify_levels(
         settings={"levels": len(set(level_groups([p.step_volts for p in static.points]))),
                   "captures": len(captures),
                   "order_by_bic": order},
-        warnings=tuple(warnings), static_nonlinearity=nl,
+        warnings=tuple(warnings), static_nonlinearity=nl, units=_common_units(captures),
     )
     classified = {(p.source, p.step_volts): p for p in static.points}
     responses = tuple((classified.get((m[0].source, m[0].step_volts), m[0]), m[1]) for m in measured)

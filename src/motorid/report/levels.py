@@ -6,7 +6,6 @@ overlaid, and the Hammerstein model.
 
 from __future__ import annotations
 
-import base64
 import functools
 from typing import Any
 
@@ -59,7 +58,7 @@ def static_characteristic_png(result: MultiLevelResult) -> bytes:
                         yerr=[1.96 * p.stderr for p in pts], fmt=marker, color=colour, label=f"{status} level")
     ax.axvline(st.dead_zone_v, color="0.4", ls=":", lw=1)
     ax.set_xlabel("step level u (V)")
-    ax.set_ylabel("steady output y_ss (V)")
+    ax.set_ylabel(f"steady output y_ss ({result.model.units.get('velocity', 'V')})")
     ax.legend(loc="best")
     ax.grid(alpha=0.3)
     return figures.png(fig)
@@ -102,9 +101,6 @@ def normalised_responses_png(result: MultiLevelResult) -> bytes:
     return figures.png(fig)
 
 
-def _uri(png: bytes) -> str:
-    return "data:image/png;base64," + base64.b64encode(png).decode()
-
 
 def static_section(result: MultiLevelResult) -> dict[str, Any]:
     """The dead-zone, the static gain and the saturation, with the characteristic's plot.
@@ -121,17 +117,18 @@ def static_section(result: MultiLevelResult) -> dict[str, Any]:
     """
     st = result.static
     fo = result.model.first_order()
+    unit = result.model.dc_gain_unit
     rows = [["dead-zone u₀ (input-referred)", f"{st.dead_zone_v:.4g} V",
              f"[{st.dead_zone_ci95[0]:.4g}, {st.dead_zone_ci95[1]:.4g}] V"],
-            ["static gain K", f"{st.gain:.4g} V/V", f"[{st.gain_ci95[0]:.4g}, {st.gain_ci95[1]:.4g}] V/V"]]
+            ["static gain K", f"{st.gain:.4g} {unit}", f"[{st.gain_ci95[0]:.4g}, {st.gain_ci95[1]:.4g}] {unit}"]]
     if st.negative is not None:
         rows.append(["dead-zone for negative steps", f"{st.negative.dead_zone_v:.4g} V",
                      f"[{st.negative.dead_zone_ci95[0]:.4g}, {st.negative.dead_zone_ci95[1]:.4g}] V"])
     if st.saturation_input_v is not None:
         rows.append(["saturation seen from", f"{st.saturation_input_v:.4g} V",
-                     f"output ≈ {st.saturation_output_v:.4g} V"])
+                     f"output ≈ {st.saturation_output_v:.4g} {result.model.units.get('velocity', 'V')}"])
     rows.append(["time constant (joint fit)", f"{fo.time_constant_s:.4g} s", ""])
-    return {"rows": rows, "png": _uri(static_characteristic_png(result))}
+    return {"rows": rows, "png": figures.data_uri(static_characteristic_png(result))}
 
 
 def levels_section(result: MultiLevelResult) -> dict[str, Any]:
@@ -147,7 +144,7 @@ def levels_section(result: MultiLevelResult) -> dict[str, Any]:
     dict
         The names ``levels/levels.html`` shows.
     """
-    return {"png": _uri(normalised_responses_png(result)), "note": result.dynamics_note,
+    return {"png": figures.data_uri(normalised_responses_png(result)), "note": result.dynamics_note,
             "rows": [[f"{d.step_volts:.3g} V", f"{d.time_constant_s:.4g} s", f"{d.stderr:.2g} s", d.count]
                      for d in result.dynamics]}
 

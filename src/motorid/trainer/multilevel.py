@@ -17,7 +17,7 @@ import numpy as np
 from motorid.capture import Capture
 from motorid.errors import OptionError
 from motorid.simulate.signals import step_signal
-from motorid.trainer.plant import simulate_plant
+from motorid.trainer.plant import PlantResponse, simulate_plant
 from motorid.trainer.presets import TrainerConfig, preset
 from motorid.trainer.scope import ScopeSettings, acquire, draw_trigger_index, record_time
 from motorid.trainer.sensors import tacho_v
@@ -146,6 +146,19 @@ def _scale(level: float) -> float:
     return VOLTS_PER_DIV_STEPS[-1]
 
 
+def _settled_at_start(cfg: TrainerConfig, t: np.ndarray, u: np.ndarray, start_volts: float) -> PlantResponse:
+    """The plant over ``t``; from a non-zero start, after one record of lead-in at that input."""
+    if start_volts == 0.0:
+        return simulate_plant(cfg, t, u)
+    n = t.size
+    dt = float(t[1] - t[0])
+    t_all = np.concatenate((t[0] + (np.arange(n) - n) * dt, t))
+    full = simulate_plant(cfg, t_all, np.concatenate((np.full(n, start_volts), u)))
+    return PlantResponse(*(np.asarray(a)[n:] for a in (
+        full.time_s, full.amp_out_v, full.current_a, full.motor_speed_rad_s, full.motor_angle_rad,
+        full.output_angle_rad)))
+
+
 def multilevel_experiment(
     name: str = "deadzone",
     *,
@@ -154,6 +167,7 @@ def multilevel_experiment(
     seed: int = 0,
     sec_per_div: float = 0.5,
     config: TrainerConfig | None = None,
+    start_volts: float = 0.0,
 ) -> MultiLevelExperiment:
     """Record velocity steps at several levels, each level ``repeats`` times.
 
@@ -171,6 +185,9 @@ def multilevel_experiment(
         Horizontal scale (0.5 s/div: 5 s records, over 10 time constants of the motor).
     config : TrainerConfig, optional
         A configuration instead of a named preset.
+    start_volts : float
+        The input before each step (0: from rest); the motor has settled at it before the
+        scope triggers, as on a rig whose steps go e.g. from 5 V to 15 V.
 
     Returns
     -------
@@ -184,23 +201,24 @@ def multilevel_experiment(
     cfg = multilevel_config(name) if config is None else config
     if repeats < 1:
         raise OptionError(f"repeats must be >= 1, got {repeats}")
-    bad = [u for u in levels if not np.isfinite(u) or abs(u) > 10.0 or u == 0]
-    if bad:
-        raise OptionError(f"step levels must be non-zero and within ±10 V, got {bad[0]!r}")
+    bad = [u for u in levels if not np.isfinite(u) or abs(u) > 10.0 or u == start_volts]
+    if bad or not (np.isfinite(start_volts) and abs(start_volts) <= 10.0):
+        raise OptionError(f"step levels must differ from the start ({start_volts:g} V) and lie within ±10 V, "
+                          f"got {bad[0] if bad else start_volts!r}")
     truth = static_truth(cfg)
     rngs = np.random.default_rng(seed).spawn(len(levels) * repeats)
     out: list[LevelCapture] = []
     for i, level in enumerate(levels):
         expected = truth.gain * max(abs(level) - truth.dead_zone_v, 0.0) + 0.3
-        settings = ScopeSettings(sec_per_div=sec_per_div, ch1_volts_per_div=_scale(level),
+        settings = ScopeSettings(sec_per_div=sec_per_div, ch1_volts_per_div=_scale(max(abs(level), abs(start_volts))),
                                  ch2_volts_per_div=_scale(expected))
         for r in range(repeats):
             rng = rngs[i * repeats + r]
             trig = draw_trigger_index(settings, rng)
             step_t = -float(rng.uniform(0.0, 1.0)) * settings.sample_interval_s
             t = record_time(settings, trig)
-            u = step_signal(t, step_t, float(level))
-            plant = simulate_plant(cfg, t, u)
+            u = start_volts + step_signal(t, step_t, float(level) - start_volts)
+            plant = _settled_at_start(cfg, t, u, start_volts)
             y = tacho_v(cfg, plant, rng)
             cap = acquire(settings, trig, u + rng.normal(0.0, cfg.noise_v, t.size), y, role="velocity",
                           source=f"<trainer:velocity {level:g} V #{r + 1}>")
