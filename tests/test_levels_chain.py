@@ -159,3 +159,13 @@ def test_front_door_identify_levels(levels):
     assert abs(res.static.dead_zone_v - exp.truth.dead_zone_v) < 0.05
     assert res.model.static_nonlinearity is not None and res.shared_dynamics
     assert "identify_levels" in mi.__doc__
+
+
+def test_real_hslu_logs_asked_for_several_levels_say_why_not(real_dir, run_cli):
+    # the HSLU rig steps 5 V → 15 V (with and without a brake: one level) and its other logs are
+    # closed-loop: each refusal is one line, exit 2
+    csv = real_dir / "hslu-rtl-dcmotor" / "csv"
+    res = run_cli("identify", "--velocity", csv / "06_dc_step_5_15_00.csv", "--velocity", csv / "06_dc_step_5_15_05.csv")
+    assert res.code == 2 and res.err.count("\n") == 1 and "at least two step levels that move" in res.err
+    res = run_cli("identify", "--velocity", csv / "06_dc_step_5_15_00.csv", "--velocity", csv / "09_dc_step_20_25_00.csv")
+    assert res.code == 2 and res.err.count("\n") == 1 and "no step in the input channel" in res.err
