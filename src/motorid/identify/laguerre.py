@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import control
@@ -251,7 +251,7 @@ class LaguerreResult:
                 "current_tf": (None if pol.current_tf is None
                                else {"num": [float(x) for x in pol.current_tf[0]],
                                      "den": [float(x) for x in pol.current_tf[1]]}),
-                "bic": pol.bic, "n_params": pol.n_params}
+                "bic": pol.bic, "n_params": pol.n_params, "ar_order": dict(pol.ar_order)}
         return model_from_velocity_tf(
             num, den, method="markov", step_volts=self.step_volts,
             settings={**asdict(self.settings), "basis": "laguerre", "pole_chosen": coeff.pole,
@@ -604,6 +604,7 @@ def laguerre_identify(
     response_time_s: float = float("nan"),
     dead_time_s: float = 0.0,
     extra_outputs: dict[str, Any] | None = None,
+    pre_step: dict[str, Any] | None = None,
 ) -> LaguerreResult:
     """Identify a transfer function from one step response by Laguerre–Hankel realisation.
 
@@ -627,6 +628,9 @@ def laguerre_identify(
     extra_outputs : dict, optional
         Other channels on ``time_s`` (``position`` beside a velocity, ``current``): used by the
         polish (integrator known, poles shared).
+    pre_step : dict, optional
+        Channel → its samples before the step, baseline removed, at the spacing of ``time_s``:
+        the polish fits each such channel's offset on them (:func:`laguerre_polish`).
 
     Returns
     -------
@@ -727,7 +731,8 @@ def laguerre_identify(
         raise IdentificationError("no stable realisation of the Laguerre coefficients for any pole, number of "
                                   "terms or order" + (f" ({errors[0]})" if errors else ""))
     chosen = min(candidates, key=lambda c: c.score)
-    polished = _polish_orders(candidates, t, {output: yy, **extras}, u, step_volts, output) if settings.polish else []
+    polished = (_polish_orders(candidates, t, {output: yy, **extras}, u, step_volts, output, pre_step)
+                if settings.polish else [])
     polish: LaguerrePolish | None = None
     if polished:
         _, chosen, polish, a_p, b_p, c_p = min(polished, key=lambda r: r[0])
@@ -759,8 +764,14 @@ def laguerre_identify(
     if polish is not None:
         others = ", ".join(f"{o}: {polish.bic:.1f}" if o == m else f"{o}: {b:.1f}"
                            for b, o in sorted((r[0], r[1].order) for r in polished))
-        choice += (f"; realisation polished by output-error least squares on {', '.join(polish.channels)} "
-                   f"(dead time {1e3 * polish.delay_s:.3g} ms), order {m} by the polished fits' BIC ({others})")
+        ar = {ch: k for ch, k in polish.ar_order.items() if k > 0}
+        noise = ("; residuals whitened by AR noise models (" + ", ".join(f"{ch} order {k}" for ch, k in ar.items())
+                 + ") shared by every order" if ar else "")
+        offsets = " with their pre-step samples (offsets fitted)" if any(
+            np.size((pre_step or {}).get(ch, ())) for ch in polish.channels) else ""
+        choice += (f"; realisation polished by output-error least squares on {', '.join(polish.channels)}{offsets} "
+                   f"(dead time {1e3 * polish.delay_s:.3g} ms){noise}, order {m} by the polished fits' BIC "
+                   f"on one effective sample size per channel ({others})")
     return LaguerreResult(
         A=a_f, B=b_f, C=c_f, order=m, coefficients=coeff, hankel_sv=sv, noise_floor=floor,
         dc_gain=dc, dc_gain_std=dc_std, model_dc_gain=model_dc, step_volts=float(step_volts), output=output,
@@ -790,26 +801,25 @@ def _state_space(num: np.ndarray, den: np.ndarray) -> Any:
 
 
 def _polish_orders(candidates: list[_Candidate], t: np.ndarray, outputs: dict[str, np.ndarray],
-                   u: np.ndarray | None, step_volts: float, primary: str) -> list[tuple[Any, ...]]:
+                   u: np.ndarray | None, step_volts: float, primary: str,
+                   pre_step: dict[str, np.ndarray] | None = None) -> list[tuple[Any, ...]]:
     """The best realisation of each order, polished; (BIC, candidate, polish, A, B, C) of the stable ones."""
     best: dict[int, _Candidate] = {}
     for c in candidates:
         if c.stable and (c.order not in best or c.score < best[c.order].score):
             best[c.order] = c
-    out: list[tuple[Any, ...]] = []
+    chosen: list[tuple[_Candidate, LaguerrePolish]] = []
     prev: LaguerrePolish | None = None
     for m, c in sorted(best.items()):
         starts = [(c.A, c.B, c.C, c.coefficients.delay_s)]
-        if prev is not None and prev.den.size == m and prev.delay_s > 0:
-            # a dead time and a fast pole look alike on a step: start order m also from order m − 1 with
-            # its dead time made a pole, e^(−θs) ≈ 1/(1 + θs)
-            sysp = _state_space(prev.num, np.polymul(prev.den, [prev.delay_s, 1.0]))
+        if prev is not None and prev.den.size == m:
+            sysp = _state_space(*_one_pole_more(prev, float(t[1] - t[0])))
             starts.append((sysp.A, sysp.B, sysp.C, 0.0))
         fits = []
         for a_0, b_0, c_0, d_0 in starts:
             try:
                 pol = laguerre_polish(t, outputs, a_0, b_0, c_0, input_v=u, step_volts=step_volts,
-                                      delay_s=d_0, primary=primary)
+                                      delay_s=d_0, primary=primary, pre_step=pre_step)
             except (IdentificationError, np.linalg.LinAlgError, ValueError):
                 continue
             if (pol.den.size - 1 == m and np.all(np.isfinite(pol.den)) and np.all(np.isfinite(pol.num))
@@ -817,11 +827,89 @@ def _polish_orders(candidates: list[_Candidate], t: np.ndarray, outputs: dict[st
                 fits.append(pol)
         if not fits:
             continue
-        pol = min(fits, key=lambda f: f.bic)
+        pol = min(_on_common_inflation(fits), key=lambda f: f.bic)
         prev = pol
+        chosen.append((c, pol))
+    final = list(zip([c for c, _ in chosen], _on_common_inflation([p for _, p in chosen]), strict=True))
+    if final:
+        final = _with_shared_noise_model(final, t, outputs, u, step_volts, primary, pre_step)
+    out: list[tuple[Any, ...]] = []
+    for c, pol in final:
         sys = _state_space(pol.num, pol.den)
         out.append((pol.bic, c, pol, *(np.asarray(x, dtype=float) for x in (sys.A, sys.B, sys.C))))
     return out
+
+
+def _with_shared_noise_model(fits: list[tuple[_Candidate, LaguerrePolish]], t: np.ndarray,
+                             outputs: dict[str, np.ndarray], u: np.ndarray | None, step_volts: float, primary: str,
+                             pre_step: dict[str, np.ndarray] | None) -> list[tuple[_Candidate, LaguerrePolish]]:
+    """Every order refitted by generalised least squares under one noise model, when the residuals are coloured.
+
+    The noise model (an AR polynomial per channel, order by BIC) comes from the residuals of the fit the
+    common-inflation BIC prefers; tacho ripple and aliased PWM are coloured, and a lag-1 inflation alone leaves
+    most of what they hide unused (a 7 ms pole beside 4 ms samples was told from a dead time in half the
+    realistic runs).  With white residuals everywhere the fits are returned as they are.
+    """
+    from motorid.identify.output_error import ar_noise_model  # the output-error method's own Yule–Walker AR
+
+    best = min(fits, key=lambda f: f[1].bic)[1]
+    noise = {ch: ar_noise_model(r)[0] for ch, r in best.residuals.items()}
+    if all(poly.size == 1 for poly in noise.values()):
+        return fits
+    out: list[tuple[_Candidate, LaguerrePolish]] = []
+    for c, pol in sorted(fits, key=lambda f: f[1].den.size):
+        m = pol.den.size - 1
+        starts = [(pol.num, pol.den, pol.delay_s)]
+        prev = out[-1][1] if out else None
+        if prev is not None and prev.den.size == m:
+            starts.append((*_one_pole_more(prev, float(t[1] - t[0])), 0.0))
+        tries = []
+        for num, den, delay in starts:
+            sys = _state_space(num, den)
+            try:
+                gls = laguerre_polish(t, outputs, sys.A, sys.B, sys.C, input_v=u, step_volts=step_volts,
+                                      delay_s=delay, primary=primary, pre_step=pre_step, noise=noise)
+            except (IdentificationError, np.linalg.LinAlgError, ValueError):
+                continue
+            if (gls.den.size - 1 == m and np.all(np.isfinite(gls.den)) and np.all(np.isfinite(gls.num))
+                    and np.all(np.real(np.roots(gls.den)) < 0)):
+                tries.append(gls)
+        if tries:
+            out.append((c, min(tries, key=lambda f: f.bic)))
+    return out or fits
+
+
+def _one_pole_more(fit: LaguerrePolish, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """A start for one order more: the fit with its dead time made a pole, ``e^(−θs) ≈ 1/(1 + θs)``.
+
+    A dead time and a fast pole look alike on a step; without a dead time (or one under a sample) the new pole
+    is a one-sample lag, where the realisation of the higher order, from the velocity alone, may have nothing to
+    offer (the third-order trainer's fast pair nearly cancels its zero).
+    """
+    return fit.num, np.polymul(fit.den, [max(fit.delay_s, h), 1.0])
+
+
+def _on_common_inflation(fits: list[LaguerrePolish]) -> list[LaguerrePolish]:
+    """The fits with their BIC on one effective sample size per channel.
+
+    Each fit counts a channel's samples as ``n/inflation`` from its own residual's correlation;
+    compared across fits that is no likelihood comparison: a model whose residual is a little
+    whiter gains ``Δn·log(RSS/n)``, tens of BIC units for a 0.3 % change of the inflation and a
+    value that depends on the channel's units (the third pole BIC accepted in 4–13 % of
+    white-noise runs).  Scored here with every channel's least inflation among the fits.
+    """
+    if not fits:
+        return []
+    common = {ch: min(f.inflation[ch] for f in fits) for ch in fits[0].channels}
+    return [replace(f, bic=_polish_bic(f.n_samples, f.sigma, common, f.n_params)) for f in fits]
+
+
+def _polish_bic(n_samples: dict[str, int], sigma: dict[str, float], inflation: dict[str, float],
+                n_params: int) -> float:
+    """``Σ (n_ch/f_ch)·log(RSS_ch/n_ch) + p·log Σ n_ch/f_ch`` (``RSS_ch/n_ch = σ_ch²``)."""
+    n_eff = {ch: n_samples[ch] / inflation[ch] for ch in n_samples}
+    return float(sum(n_eff[ch] * math.log(max(sigma[ch] ** 2, 1e-300)) for ch in n_samples)
+                 + n_params * math.log(sum(n_eff.values())))
 
 
 @dataclass(frozen=True, slots=True)
@@ -930,7 +1018,7 @@ class LaguerrePolish:
     channels : tuple of str
         Channels fitted, the primary one first.
     sigma : dict
-        Per channel: RMS residual, volts.
+        Per channel: RMS residual, volts (of the whitened residual: the innovation, with a noise model).
     inflation : dict
         Per channel: ``(1 + ρ)/(1 − ρ)`` of the residual's lag-1 autocorrelation ρ; the
         channel's weight is ``1/(σ·√inflation)`` and it counts ``n/inflation`` samples.
@@ -940,9 +1028,16 @@ class LaguerrePolish:
     current_tf : tuple of ndarray or None
         ``(num, den)`` of the current channel, None without one.
     bic : float
-        ``Σ (n_ch/inflation_ch)·log(RSS_ch/n_ch) + p·log Σ n_ch/inflation_ch``.
+        ``Σ (n_ch/inflation_ch)·log(RSS_ch/n_ch) + p·log Σ n_ch/inflation_ch``; in a
+        :func:`laguerre_identify` result, scored on the inflation shared by the fits compared.
     n_params : int
-        Parameters fitted.
+        Parameters fitted (the channels' offsets included).
+    n_samples : dict
+        Per channel: residual samples (the pre-step ones included).
+    residuals : dict
+        Per channel: the residual, post-step samples then pre-step ones (not whitened).
+    ar_order : dict
+        Per channel: order of the AR noise model the residual was whitened by (0: none).
     """
 
     num: np.ndarray
@@ -955,6 +1050,9 @@ class LaguerrePolish:
     current_tf: tuple[np.ndarray, np.ndarray] | None
     bic: float
     n_params: int
+    n_samples: dict[str, int]
+    residuals: dict[str, np.ndarray]
+    ar_order: dict[str, int]
 
 
 def _lag1_inflation(r: np.ndarray) -> float:
@@ -1093,7 +1191,8 @@ def laguerre_polish(
     delay_s: float = 0.0,
     primary: str = "velocity",
     rounds: int = 1,
-    offsets: bool = False,
+    pre_step: dict[str, Any] | None = None,
+    noise: dict[str, Any] | None = None,
 ) -> LaguerrePolish:
     """Polish a realisation by output-error least squares on every channel given.
 
@@ -1124,10 +1223,21 @@ def laguerre_polish(
         Channel that ``A, B, C`` describe (``position``: ``G`` is its derivative).
     rounds : int
         Reweighting rounds of the joint fit.
-    offsets : bool
-        Fit a constant output offset per channel but the current (projected out of the
-        residual).  Off by default: without the pre-step samples an offset is nearly collinear
-        with the DC gain (on the white-noise trainer it multiplied the DC-gain RMSE by 8–19).
+    pre_step : dict, optional
+        Channel name → its samples before the step (baseline removed, as ``outputs``).  Given,
+        every channel with pre-step samples gets an output offset fitted on its pre-step and
+        post-step samples together (in closed form: the mean residual over both), so an error
+        of the baseline read off before the step is a nuisance parameter instead of a
+        misfit that an extra slow pole takes up.  Without the pre-step samples an offset is
+        nearly collinear with the DC gain (projected out of the post-step residual alone it
+        multiplied the white-noise DC-gain RMSE by 8–19), so none is fitted.
+    noise : dict, optional
+        Channel name → AR whitening polynomial ``[1, a_1, …, a_p]`` of its noise
+        (:func:`motorid.identify.output_error.ar_noise_model`).  Given, each channel's residual
+        is whitened by it before weighting (generalised least squares: tacho ripple and aliased
+        PWM then count for what they are), the fit starts at ``A, B, C`` itself (no
+        primary-alone round) and the BIC is that of the whitened residuals, so fits polished
+        with the same noise model compare on one likelihood.
 
     Returns
     -------
@@ -1167,22 +1277,46 @@ def laguerre_polish(
     # discontinuously, so it is left out (as in the output-error method)
     mask_of = {ch: (t > 1.5 * h) if ch == "current" else np.ones(t.size, dtype=bool) for ch in channels}
 
+    pre = {ch: np.asarray(v, dtype=float).ravel() for ch, v in (pre_step or {}).items()
+           if ch in channels and np.size(v) > 0}
+
     def centred(r: np.ndarray, mask: np.ndarray, channel: str) -> np.ndarray:
-        # each channel's output offset (its pre-step level is only estimated) projected out: exact least squares;
-        # not the current's, whose direct term is the same regressor after a step
-        return r - np.mean(r[mask]) if offsets and channel != "current" else r
+        # the channel's output offset (its pre-step level is only estimated), fitted by exact least squares on the
+        # pre-step samples (where the response is zero) and the post-step residual together
+        if channel not in pre:
+            return r
+        y0 = pre[channel]
+        return r - (float(np.sum(r[mask])) + float(np.sum(y0))) / (np.count_nonzero(mask) + y0.size)
+
+    def pre_residual(r: np.ndarray, mask: np.ndarray, channel: str) -> np.ndarray:
+        # the pre-step samples' residual under the same offset
+        if channel not in pre:
+            return np.zeros(0)
+        y0 = pre[channel]
+        return y0 - (float(np.sum(r[mask])) + float(np.sum(y0))) / (np.count_nonzero(mask) + y0.size)
+
+    whiten = {ch: np.atleast_1d(np.asarray(noise[ch], dtype=float)) for ch in channels
+              if noise is not None and ch in noise}
+
+    def residual(r: np.ndarray, channel: str, white: bool) -> np.ndarray:
+        # post-step (masked) then pre-step residual of one channel, each segment whitened by the channel's AR model
+        mk = mask_of[channel]
+        post, before = centred(r, mk, channel)[mk], pre_residual(r, mk, channel)
+        if white and channel in whiten and whiten[channel].size > 1:
+            poly = whiten[channel]
+            post = scipy.signal.lfilter(poly, [1.0], post)
+            before = scipy.signal.lfilter(poly, [1.0], before) if before.size else before
+        return np.r_[post, before]
 
     def fit(model: _PolishModel, x0: np.ndarray, w: np.ndarray) -> np.ndarray:
         y_all = np.column_stack([ys[ch] for ch in model.channels])
-        masks = [mask_of[ch] for ch in model.channels]
-        w = np.column_stack([mk * wi for mk, wi in zip(masks, w, strict=True)])
 
         def resid(xx: np.ndarray) -> np.ndarray:
             with np.errstate(all="ignore"):
                 r = y_all - predict(model, xx)
-                r = np.column_stack([centred(r[:, i], mk, ch)
-                                     for i, (mk, ch) in enumerate(zip(masks, model.channels, strict=True))]) * w
-            return np.nan_to_num(r, nan=1e6, posinf=1e6, neginf=-1e6).ravel()
+                out = np.concatenate([residual(r[:, i], ch, True) * wi
+                                      for i, (ch, wi) in enumerate(zip(model.channels, w, strict=True))])
+            return np.nan_to_num(out, nan=1e6, posinf=1e6, neginf=-1e6)
 
         lo, hi = lower[:x0.size].copy(), np.full(x0.size, np.inf)
         if model.n_shifts:
@@ -1194,14 +1328,17 @@ def laguerre_polish(
                                                 diff_step=1e-6, xtol=1e-10, ftol=1e-10, max_nfev=100 * x0.size).x
 
     def stats(pred: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
-        res = [centred(ys[ch] - pred[:, i], mask_of[ch], ch)[mask_of[ch]] for i, ch in enumerate(channels)]
+        # residuals as fitted (whitened when a noise model is given), their RMS and lag-1 inflation (1 when whitened)
+        res = [residual(ys[ch] - pred[:, i], ch, True) for i, ch in enumerate(channels)]
         sig = np.array([np.sqrt(np.mean(r**2)) for r in res])
-        infl = np.array([_lag1_inflation(r) for r in res])
+        infl = np.array([1.0 if whiten else _lag1_inflation(r) for r in res])
         return res, sig, infl
 
     # 1. the primary channel alone: the channels' weights must come from a model that fits, not from the
-    #    realisation (reweighting from a poor start locks onto whichever channel happens to fit best)
-    x = fit(_PolishModel(m, (primary,)), x, np.ones(1))
+    #    realisation (reweighting from a poor start locks onto whichever channel happens to fit best); with a noise
+    #    model the start is already a polished fit
+    if not whiten:
+        x = fit(_PolishModel(m, (primary,)), x, np.ones(1))
     # 2. the other channels' linear parameters by least squares with those poles
     if pm.free_scale or pm.current:
         a_s, b_s, _, _, dls = _PolishModel(m, (primary,)).system(x)
@@ -1219,20 +1356,23 @@ def laguerre_polish(
         x = np.r_[x, np.zeros(pm.n_shifts)]
     # 3. every channel, weighted by its residual level and correlation, re-estimated each round
     res, sig, infl = stats(predict(pm, x))
-    if len(channels) > 1:
+    if len(channels) > 1 or whiten:
         for _ in range(max(1, rounds)):
             x = fit(pm, x, 1.0 / (np.maximum(sig, 1e-12 * np.max(sig)) * np.sqrt(infl)))
             res, sig, infl = stats(predict(pm, x))
     q = pm.unpack(x)
-    n_eff = np.array([r.size / f for r, f in zip(res, infl, strict=True)])
-    mse = np.array([float(r @ r) / r.size for r in res])
-    n_fitted = pm.n_params + sum(ch != "current" for ch in channels) * int(offsets)
-    bic = float(np.sum(n_eff * np.log(np.maximum(mse, 1e-300))) + n_fitted * math.log(n_eff.sum()))
+    pred = predict(pm, x)
+    raw = {ch: residual(ys[ch] - pred[:, i], ch, False) for i, ch in enumerate(channels)}
+    n_fitted = pm.n_params + len(pre)  # the offsets too
+    n_samples = {ch: int(r.size) for ch, r in zip(channels, res, strict=True)}
+    sigma = {ch: float(sg) for ch, sg in zip(channels, sig, strict=True)}
+    inflation = {ch: float(f) for ch, f in zip(channels, infl, strict=True)}
     num_out = np.trim_zeros(q["n"][::-1], "f")
     den_out = np.r_[1.0, q["d"][::-1]]
     cur = (np.r_[q["dc"], q["nc"][::-1] + q["dc"] * q["d"][::-1]], den_out) if pm.current else None
     return LaguerrePolish(num=num_out if num_out.size else np.zeros(1), den=den_out, delay_s=q["delay"],
-                          channels=channels, sigma={ch: float(s) for ch, s in zip(channels, sig, strict=True)},
-                          inflation={ch: float(f) for ch, f in zip(channels, infl, strict=True)},
-                          position_scale=q["c"] if pm.free_scale else float("nan"), current_tf=cur, bic=bic,
-                          n_params=pm.n_params)
+                          channels=channels, sigma=sigma, inflation=inflation,
+                          position_scale=q["c"] if pm.free_scale else float("nan"), current_tf=cur,
+                          bic=_polish_bic(n_samples, sigma, inflation, n_fitted), n_params=n_fitted,
+                          n_samples=n_samples, residuals=raw,
+                          ar_order={ch: int(whiten[ch].size - 1) if ch in whiten else 0 for ch in channels})

@@ -290,11 +290,15 @@ def _markov_laguerre(cond: ConditionedExperiment, s: IdentifySettings) -> MotorM
     # a 3000 s log took 40 s of SVDs of 300 000-row regressors
     t, y, u, *rest = _dynamic_part(cond, LAGUERRE_SAMPLES, t, y, u, *(cond.full_outputs[ch] for ch in others),
                                    length_s=s.markov_window_s)
+    # each capture's samples before its step (its baseline was their mean), thinned as the record was: they pin
+    # the channel's offset in the polish
+    pre_step = {ch: r.output_v[r.time_s < 0][::max(1, round(float(t[1] - t[0]) / r.sample_interval_s))]
+                for ch in (output, *others) if (r := cond.responses.get(ch)) is not None}
     lset = LaguerreSettings(n_terms=s.markov_params, polish=s.method in MARKOV_POLISHED_FOR,
                             order=s.order if s.order == "auto" else int(s.order))
     res = laguerre_identify(t, y, cond.step_volts, lset, input_v=u, output=output,
                             response_time_s=cond.response_time_s, dead_time_s=cond.dead_time_s,
-                            extra_outputs=dict(zip(others, rest, strict=True)))
+                            extra_outputs=dict(zip(others, rest, strict=True)), pre_step=pre_step)
     notes = [] if output == "velocity" else [
         "no velocity capture: the Laguerre expansion is of the position channel's derivative "
         "(position volts per second), fitted to the position itself"]
