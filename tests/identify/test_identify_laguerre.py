@@ -325,8 +325,9 @@ def _polish_of(sigma: float, inflation: float, n_params: int):
     infl = {"velocity": inflation, "current": 1.0}
     return LaguerrePolish(num=np.ones(1), den=np.ones(2), delay_s=0.0, channels=("velocity", "current"), sigma=sig,
                           inflation=infl, position_scale=float("nan"), current_tf=None,
-                          bic=_polish_bic(n, sig, infl, n_params), n_params=n_params, n_samples=n,
-                          residuals={}, ar_order={"velocity": 0, "current": 0}, params=np.zeros(n_params))
+                          bic=_polish_bic(n, sig, infl, n_params), n_params=n_params,
+                          residuals={ch: np.zeros(k) for ch, k in n.items()}, ar_order={"velocity": 0, "current": 0},
+                          params=np.zeros(n_params))
 
 
 @pytest.mark.parametrize("unit", [1.0, 1e3])  # volts or millivolts: the choice must not depend on the unit

@@ -1049,8 +1049,6 @@ class LaguerrePolish:
         :func:`laguerre_identify` result, scored on the inflation shared by the fits compared.
     n_params : int
         Parameters fitted (the channels' offsets included).
-    n_samples : dict
-        Per channel: residual samples (the pre-step ones included).
     residuals : dict
         Per channel: the residual, post-step samples then pre-step ones (not whitened).
     ar_order : dict
@@ -1069,10 +1067,14 @@ class LaguerrePolish:
     current_tf: tuple[np.ndarray, np.ndarray] | None
     bic: float
     n_params: int
-    n_samples: dict[str, int]
     residuals: dict[str, np.ndarray]
     ar_order: dict[str, int]
     params: np.ndarray
+
+    @property
+    def n_samples(self) -> dict[str, int]:
+        """Per channel: residual samples (the pre-step ones included)."""
+        return {ch: int(r.size) for ch, r in self.residuals.items()}
 
 
 def _lag1_inflation(r: np.ndarray) -> float:
@@ -1346,12 +1348,12 @@ def laguerre_polish(
             return scipy.optimize.least_squares(resid, x0, bounds=(lo, hi), x_scale="jac", method="trf",
                                                 diff_step=1e-6, xtol=1e-10, ftol=1e-10, max_nfev=100 * x0.size).x
 
-    def stats(pred: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
-        # residuals as fitted (whitened when a noise model is given), their RMS and lag-1 inflation (1 when whitened)
+    def stats(pred: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        # RMS and lag-1 inflation (1 when whitened) of the residuals as fitted (whitened when a noise model is given)
         res = [residual(ys[ch] - pred[:, i], ch, True) for i, ch in enumerate(channels)]
         sig = np.array([np.sqrt(np.mean(r**2)) for r in res])
         infl = np.array([1.0 if whiten else _lag1_inflation(r) for r in res])
-        return res, sig, infl
+        return sig, infl
 
     # 1. the primary channel alone: the channels' weights must come from a model that fits, not from the
     #    realisation (reweighting from a poor start locks onto whichever channel happens to fit best); with a noise
@@ -1378,16 +1380,17 @@ def laguerre_polish(
             x = np.r_[x, coef]
         x = np.r_[x, np.zeros(pm.n_shifts)]
     # 3. every channel, weighted by its residual level and correlation, re-estimated each round
-    res, sig, infl = stats(predict(pm, x))
+    pred = predict(pm, x)
+    sig, infl = stats(pred)
     if len(channels) > 1 or whiten:
         for _ in range(max(1, rounds)):
             x = fit(pm, x, 1.0 / (np.maximum(sig, 1e-12 * np.max(sig)) * np.sqrt(infl)))
-            res, sig, infl = stats(predict(pm, x))
+            pred = predict(pm, x)
+            sig, infl = stats(pred)
     q = pm.unpack(x)
-    pred = predict(pm, x)
     raw = {ch: residual(ys[ch] - pred[:, i], ch, False) for i, ch in enumerate(channels)}
     n_fitted = pm.n_params + len(pre)  # the offsets too
-    n_samples = {ch: int(r.size) for ch, r in zip(channels, res, strict=True)}
+    n_samples = {ch: int(r.size) for ch, r in raw.items()}
     sigma = {ch: float(sg) for ch, sg in zip(channels, sig, strict=True)}
     inflation = {ch: float(f) for ch, f in zip(channels, infl, strict=True)}
     num_out = np.trim_zeros(q["n"][::-1], "f")
@@ -1397,5 +1400,5 @@ def laguerre_polish(
                           channels=channels, sigma=sigma, inflation=inflation,
                           position_scale=q["c"] if pm.free_scale else float("nan"), current_tf=cur,
                           bic=_polish_bic(n_samples, sigma, inflation, n_fitted), n_params=n_fitted,
-                          n_samples=n_samples, residuals=raw, params=x,
+                          residuals=raw, params=x,
                           ar_order={ch: int(whiten[ch].size - 1) if ch in whiten else 0 for ch in channels})
