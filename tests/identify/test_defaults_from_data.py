@@ -15,7 +15,12 @@ from motorid.model import MotorModel, model_from_velocity_tf
 from motorid.identify.stages import structure_uncertainty
 
 
-def _capture(t: np.ndarray, y: np.ndarray, *, u: np.ndarray | None = None, source: str = "<test>") -> Capture:
+def _capture(t: np.ndarray, y: np.ndarray, *, u: np.ndarray | None = None, source: str = "<test>",
+             logged: bool = False) -> Capture:
+    """A scope capture, or (``logged``) a DAQ log whose input column changes at the logged stamp."""
+    if logged:
+        return Capture(source=source, format="plain-csv", time_s=t, output_v=y, output_info=ChannelInfo("speed", "V"),
+                       input_v=u, input_info=None if u is None else ChannelInfo("voltage", "V"))
     return Capture(source=source, format="trainer", time_s=t, output_v=y,
                    output_info=ChannelInfo("CH2", "V", 1.0, 0.0, 1.0, 0.0),
                    input_v=u, input_info=None if u is None else ChannelInfo("CH1", "V", 5.0, 0.0, 1.0, 0.0),
@@ -122,7 +127,9 @@ def test_dead_time_rig_gets_its_dead_time_by_bic() -> None:
     resp = control.step_response(g, np.arange(0, 7, 1e-3))
     y = 245.5 * 5.0 + np.where(te >= 0, 10.0 * np.interp(te, resp.time, np.ravel(resp.outputs)), 0.0)
     y = y + rng.normal(0, 1.0, t.size)
-    cap = _capture(t, y, u=u)
+    # a DAQ log: the input column changes at the stamp the command was applied (a scope capture
+    # would place the step half a sample earlier, inside the interval before its edge sample)
+    cap = _capture(t, y, u=u, logged=True)
     r = identify_experiment({"velocity": cap})
     fo = r.model.first_order()
     assert fo.dc_gain == pytest.approx(245.5, rel=0.01)
@@ -164,7 +171,7 @@ def test_a_long_log_is_fitted_on_the_part_the_dynamics_need() -> None:
     g = control.tf([2.0], np.polymul([0.3, 1], [0.03, 1]))
     resp = control.step_response(g, np.arange(0, 10, 1e-3))
     y = np.where(k >= 0, 5.0 * np.interp(t, resp.time, np.ravel(resp.outputs)), 0.0) + rng.normal(0, 0.01, t.size)
-    cap = _capture(t, y, u=np.where(k >= 0, 5.0, 0.0))
+    cap = _capture(t, y, u=np.where(k >= 0, 5.0, 0.0), logged=True)  # a data logger's log
     cond = condition_experiment({"velocity": cap})
     assert fit_record_length(cond) == pytest.approx(MAX_RECORD_TIME_CONSTANTS * cond.response_time_s)
     r = identify_experiment({"velocity": cap})

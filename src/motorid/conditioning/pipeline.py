@@ -8,7 +8,7 @@ is left to the identification method that needs it.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -284,7 +284,8 @@ def _shared_onsets(
             if role == first:
                 continue
             late = responses[role].edge.time_s - t0
-            out[role] = step_response(captures[role], role, step_volts=step_volts, t0_s=t0)
+            # still an onset read off a response (its shift is fitted, shared with the group's)
+            out[role] = replace(step_response(captures[role], role, step_volts=step_volts, t0_s=t0), timing="onset")
             notes.append(f"one step instant for the {' and '.join(g)} captures (one acquisition): the "
                          f"{first}'s onset at {t0:.6g} s; the {role}'s own read-off was {1e3 * late:.3g} ms later")
     return out, notes

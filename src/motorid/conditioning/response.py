@@ -11,7 +11,18 @@ from motorid.conditioning.edge import StepEdge, response_onset, step_edge
 from motorid.conditioning.unwrap import unwrap_position
 from motorid.errors import ConditioningError, OptionError, StepNotFoundError
 
-__all__ = ["STEP_VOLTS_TOLERANCE", "StepResponse", "step_response"]
+__all__ = ["STEP_TIMINGS", "STEP_VOLTS_TOLERANCE", "StepResponse", "step_response"]
+
+#: Where a response's step instant comes from (:attr:`StepResponse.timing`):
+#: ``logged`` — a logged input column (a DAQ or Arduino log writes the command at the stamp it
+#: applies it: the instant is exact); ``sampled`` — a scope channel sampling a physical step (the
+#: edge lies between the last sample before it and the first at the new level: a sub-sample phase
+#: that no fit can tell from a delay); ``onset`` — read off the response itself (no input channel);
+#: ``given`` — ``--t0``.
+STEP_TIMINGS: tuple[str, ...] = ("logged", "sampled", "onset", "given")
+
+#: Capture formats whose input column is a logged command rather than a sampled voltage.
+LOGGED_FORMATS: tuple[str, ...] = ("plain-csv", "xlsx")
 
 #: Largest relative difference between a given ``step_volts`` and the step recorded on CH1.
 STEP_VOLTS_TOLERANCE = 0.05
@@ -46,6 +57,8 @@ class StepResponse:
         Position: turns added to each sample by the unwrapping (``None`` without wraps).
     glitches : ndarray of int or None
         Position: indices of samples interpolated over wrap glitches.
+    timing : str
+        Where the step instant comes from, one of :data:`STEP_TIMINGS`.
     """
 
     source: str
@@ -59,6 +72,7 @@ class StepResponse:
     warnings: tuple[str, ...]
     wrap_count: np.ndarray | None = None
     glitches: np.ndarray | None = None
+    timing: str = "onset"
 
     @property
     def sample_interval_s(self) -> float:
@@ -134,6 +148,12 @@ def step_response(
         if not 0 < idx < t.size:
             raise ConditioningError(f"--t0 {t0_s:g} s is outside the record", file=capture.source)
         edge = StepEdge(idx, float(t0_s), edge.baseline_v, edge.level_v, edge.amplitude_v, edge.noise_v, "given")
+    if edge.method == "onset" or edge.method == "given":
+        timing = edge.method
+    else:
+        # a scope re-saved as xlsx keeps its header: a sampled channel
+        logged = capture.format in LOGGED_FORMATS and capture.scope.record_length is None
+        timing = "logged" if logged else "sampled"
     k = max(1, edge.index)
     if k < 5:
         warnings.append(f"only {k} samples before the step: baseline uncertain")
@@ -154,4 +174,5 @@ def step_response(
         warnings=tuple(warnings),
         wrap_count=wrap_count,
         glitches=glitches,
+        timing=timing,
     )

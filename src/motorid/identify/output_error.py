@@ -28,12 +28,14 @@ import scipy.signal
 from motorid.identify.result import IdentificationError
 
 __all__ = [
+    "FRACTION_63",
     "OeResult",
     "OeSettings",
     "ar_noise_model",
     "output_error_fit",
     "position_closed_form",
     "position_scale_fit",
+    "step_63_time",
     "step_response_closed_form",
 ]
 
@@ -53,10 +55,20 @@ class OeSettings:
     max_nfev : int
         Most model evaluations of the optimiser.
     shifts : bool
-        Fit a time shift of each channel (separately triggered captures are aligned to a
-        sample at best).
+        Fit time shifts (of the channels in ``shift_groups``).
     shift_bound_s : float or None
         Largest shift; 1.5 samples of the fitted grid when ``None``.
+    shift_groups : tuple of tuple of str, or None
+        Channels whose step instant is not known from a recorded input, grouped by
+        acquisition: each group shares one fitted shift (the channels of one scope
+        acquisition saw one step).  Channels in no group have a fixed step instant (a logged
+        or sampled input gives it), so nothing can trade their lags for a time shift.
+        ``None``: every channel has a shift of its own.
+    shift_limits : tuple of (str, float)
+        Channels whose shift is bounded by this many seconds instead of ``shift_bound_s``: a
+        scope samples the input's edge, which lies somewhere in the sample interval before the
+        first sample at the new level, so that channel's shift (its sub-sample phase, about the
+        interval's middle) is bounded by half a sample.
     current_direct : bool or None
         Let the current jump at the step (a biproper current TF, ``n_poles + 1`` numerator
         coefficients): what a model that leaves out an electrical pole faster than the
@@ -73,6 +85,8 @@ class OeSettings:
     shifts: bool = True
     shift_bound_s: float | None = None
     current_direct: bool | None = None
+    shift_groups: tuple[tuple[str, ...], ...] | None = None
+    shift_limits: tuple[tuple[str, float], ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -97,7 +111,11 @@ class OeResult:
         Numerator of the current TF (same denominator) when fitted.
     std, ci95 : dict
         Standard deviation and 95% interval of ``dc_gain``, ``time_constant``, ``pole_i``,
-        ``zero_j`` (real parts) and ``delay``.
+        ``zero_j`` (real parts), ``delay`` and each fitted shift ``shift_<channel>``.
+    shifts : dict[str, float]
+        Fitted time shift of each channel that has one (s; positive: the response is later
+        than the step instant read off the data), keyed by channel; the channels of one
+        group share a value.
     residual_rms, sigma : dict
         Per channel: RMS residual (V) and the noise level used as weight.
     n_samples, nfev : int
@@ -136,6 +154,7 @@ class OeResult:
     settings: OeSettings
     warnings: tuple[str, ...] = field(default=())
     residuals: dict[str, np.ndarray] = field(default_factory=dict)
+    shifts: dict[str, float] = field(default_factory=dict)
 
 
 def _separate(taus: np.ndarray) -> np.ndarray:
@@ -322,12 +341,11 @@ class _Layout:
         # pre-step samples instead would add its error to every sample (and, read off a
         # quantised noise-free record, up to half an LSB that shifts the position ramp)
         names += [f"off_{c}" for c in channels]
-        # each capture is a separate acquisition whose step edge is known to a sample at
-        # best (an ideal step carries no sub-sample information): a small time shift per
-        # channel is a nuisance parameter too, or it would leak into τ
-        # with a delay, the first channel's shift is the delay: the others' are relative to it
-        self.shifted = [c for i, c in enumerate(channels) if settings.shifts
-                        and not (c == "current" and self.current_jumps) and not (settings.delay and i == 0)]
+        # a capture whose step instant was read off its own response (no input channel) is
+        # known to a sample at best: its time shift is a nuisance parameter, or the read-off's
+        # error would leak into τ.  The channels of one acquisition share one shift.
+        self.shift_of = self._shift_params(settings, channels)
+        self.shifted = list(dict.fromkeys(self.shift_of.values()))
         names += [f"shift_{c}" for c in self.shifted]
         if wrapped and "position" in channels:
             names.append("span_position")
@@ -335,6 +353,25 @@ class _Layout:
         self.channels = tuple(channels)
         self.n, self.m = n, m
         self.idx = {nm: i for i, nm in enumerate(names)}
+
+    def _shift_params(self, settings: OeSettings, channels: Sequence[str]) -> dict[str, str]:
+        """Channel → the channel whose ``shift_`` parameter it uses."""
+        if not settings.shifts:
+            return {}
+        timed = [c for c in channels if not (c == "current" and self.current_jumps)]
+        groups: list[tuple[str, ...]]
+        if settings.shift_groups is None:
+            groups = [(c,) for c in channels]
+        else:
+            groups = [tuple(c for c in g if c in channels) for g in settings.shift_groups]
+        groups = [tuple(c for c in g if c in timed) for g in groups]
+        groups = [g for g in groups if g]
+        free = {c for g in groups for c in g}
+        if settings.delay and groups and all(c in free for c in timed):
+            # no channel has a fixed step instant: the first group's shift is the delay (the others'
+            # are relative to it)
+            groups = groups[1:]
+        return {c: g[0] for g in groups for c in g}
 
     def unpack(self, th: np.ndarray) -> dict[str, Any]:
         n, m = self.n, self.m
@@ -345,7 +382,7 @@ class _Layout:
             "delay": th[self.idx["delay"]] if "delay" in self.idx else 0.0,
             "c": th[self.idx["c"]] if "c" in self.idx else (1.0 if "position" in self.channels else None),
             "off": {k[4:]: th[i] for k, i in self.idx.items() if k.startswith("off_")},
-            "shift": {k[6:]: th[i] for k, i in self.idx.items() if k.startswith("shift_")},
+            "shift": {c: th[self.idx[f"shift_{g}"]] for c, g in self.shift_of.items()},
             "cur": th[self.idx["cur_0"] : self.idx["cur_0"] + self.n_current] if "cur_0" in self.idx else None,
         }
         return out
@@ -371,17 +408,71 @@ def _predict(
     return {c: y + q["off"].get(c, 0.0) for c, y in out.items()}
 
 
+#: The fraction of the final change that defines the 63 % time: ``1 − e⁻¹``.
+FRACTION_63 = 1.0 - np.exp(-1.0)
+
+
+def step_63_time(num: ArrayLike, taus: ArrayLike, delay_s: float = 0.0) -> float:
+    """Seconds from the step until ``N(s)/Π(1 + τ_i s)·e^{−s·delay}`` first reaches 63.2 % of its final change.
+
+    The classic read-off of a step response, here of the model: the "time constant" a student
+    reads off the scope, which for more than one pole (or a dead time) is not the mean residence
+    time ``Στ_i − ΣTz_j + delay``.
+
+    Parameters
+    ----------
+    num : array_like
+        Numerator ``N(s)``, highest power first.
+    taus : array_like
+        Time constants of the denominator.
+    delay_s : float
+        Dead time.
+
+    Returns
+    -------
+    float
+        The 63 % time (s); NaN for a zero DC gain or a response that never gets there.
+    """
+    taus = _separate(np.asarray(taus, dtype=float))
+    num = np.atleast_1d(np.asarray(num, dtype=float))
+    k = float(num[-1])
+    if k == 0 or not np.all(np.isfinite(taus)) or taus.size == 0:
+        return float("nan")
+    horizon = 10.0 * max(float(np.sum(np.abs(taus))), float(np.max(np.abs(taus))))
+    t = np.linspace(0.0, horizon, 1001)
+    y = step_response_closed_form(t, num, taus, 1.0) / k
+    above = np.flatnonzero(y >= FRACTION_63)
+    if above.size == 0 or above[0] == 0:
+        return float("nan")
+    i = int(above[0])
+
+    def gap(x: float) -> float:
+        return float(step_response_closed_form(np.array([x]), num, taus, 1.0)[0] / k - FRACTION_63)
+
+    return float(scipy.optimize.brentq(gap, t[i - 1], t[i], xtol=1e-12 * horizon)) + float(delay_s)
+
+
 def _derived(layout: _Layout, th: np.ndarray) -> dict[str, float]:
     q = layout.unpack(th)
     taus = np.sort(q["taus"])[::-1]
     d = {"dc_gain": float(q["K"]), "time_constant": float(np.sum(q["taus"]) - np.sum(q["tz"]))}
+    d["residence_time"] = d["time_constant"] + float(q["delay"])
+    d["t63"] = step_63_time(_vel_num(q["K"], q["tz"]), q["taus"], float(q["delay"]))
     for i, tau in enumerate(taus):
         d[f"pole_{i}"] = float(-1.0 / tau)
+    # neighbouring poles as a pair: two nearly equal poles are known as a pair (their sum and
+    # product: natural frequency and damping) long before each one is
+    for i in range(taus.size - 1):
+        wn = float(1.0 / np.sqrt(taus[i] * taus[i + 1]))
+        d[f"pair_{i}_wn"] = wn
+        d[f"pair_{i}_zeta"] = float(0.5 * (1.0 / taus[i] + 1.0 / taus[i + 1]) / wn)
     tz = [z for z in q["tz"] if abs(z) > 1e-12]
     for j, z in enumerate(sorted(tz, key=abs, reverse=True)):
         d[f"zero_{j}"] = float(-1.0 / z)
     if "delay" in layout.idx:
         d["delay"] = float(q["delay"])
+    for c, g in layout.shift_of.items():
+        d[f"shift_{c}"] = float(th[layout.idx[f"shift_{g}"]])
     return d
 
 
@@ -603,16 +694,16 @@ class _OeProblem:
             return np.convolve(e, self.filt[c])[: e.size]
         return scipy.signal.lfilter(self.filt[c], [1.0], e, axis=0)
 
-    def predict(self, th: np.ndarray) -> dict[str, np.ndarray]:
-        """Every channel's model response (on its own sample times) for the parameters ``th``."""
-        pred = _predict(self.layout, th, self.tc, self.step_volts, self.names)
+    def predict(self, th: np.ndarray, tc: Mapping[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+        """Every channel's model response (on its own sample times, or ``tc``) for the parameters ``th``."""
+        pred = _predict(self.layout, th, self.tc if tc is None else tc, self.step_volts, self.names)
         if self.wraps is not None:
             pred["position"] = pred["position"] + th[self.layout.idx["span_position"]] * self.wraps
         return pred
 
-    def residuals(self, th: np.ndarray) -> np.ndarray:
+    def residuals(self, th: np.ndarray, tc: Mapping[str, np.ndarray] | None = None) -> np.ndarray:
         """Whitened, weighted residuals of every channel and of the pre-step samples."""
-        pred = self.predict(th)
+        pred = self.predict(th, tc)
         idx = self.layout.idx
         parts = [self._white(c, self.data[c] - _block_mean(pred[c], self.ratio[c])) * self.w[c] for c in self.names]
         parts += [(self.pre_data[c] - th[idx[f"off_{c}"]]) * self.w_pre[c] for c in self.pre_data]
@@ -653,8 +744,8 @@ class _OeProblem:
             slope["current"] = _slope_closed_form(te["current"], q["cur"], q["taus"], u)
         for c in names:
             d[c][:, layout.idx[f"off_{c}"]] = 1.0
-            if f"shift_{c}" in layout.idx:
-                d[c][:, layout.idx[f"shift_{c}"]] = -slope[c]
+            if c in layout.shift_of:
+                d[c][:, layout.idx[f"shift_{layout.shift_of[c]}"]] = -slope[c]
             if "delay" in layout.idx:
                 d[c][:, layout.idx["delay"]] = -slope[c]
         base = _predict(layout, th, tc, u, names)
@@ -719,6 +810,7 @@ class _OeProblem:
             aic=n_total * np.log(rss / n_total) + 2 * n_par,
             settings=self.settings, warnings=tuple(warnings),
             residuals={c: data[c] - pred[c] for c in names},
+            shifts={c: float(v) for c, v in q["shift"].items()},
         )
 
 
@@ -737,9 +829,10 @@ def _bounds(layout: _Layout, settings: OeSettings, tc: Mapping[str, np.ndarray])
         bound = settings.shift_bound_s
         if bound is None:
             bound = SHIFT_BOUND_SAMPLES * max(float(np.median(np.diff(v))) for v in tc.values())
+        limits = dict(settings.shift_limits)
         for c in layout.shifted:
-            lower[layout.idx[f"shift_{c}"]] = -bound
-            upper[layout.idx[f"shift_{c}"]] = bound
+            lower[layout.idx[f"shift_{c}"]] = -limits.get(c, bound)
+            upper[layout.idx[f"shift_{c}"]] = limits.get(c, bound)
     return lower, upper
 
 

@@ -467,7 +467,54 @@ def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: Motor
         except (IdentificationError, OptionError) as exc:
             stages.append({"stage": "srivc (second opinion)", "failed": exc.message})
     reason = (f"output-error fit initialised from {init_name}; {sel.evidence}")
+    worse = _worse_than_a_stage(model, stages, sel)
+    if worse:
+        model = model.replace(warnings=(*model.warnings, worse))
     return model, reason, unwhitened
+
+
+def _no_dead_time_warning(cond: ConditionedExperiment, model: MotorModel) -> list[str]:
+    """A warning when the data show a dead time the chosen model does not have.
+
+    The paper's pinv, its Taylor-Markov method and the classic read-off model none: fitted from
+    the step instant, their poles take up the dead time, and the residence time comes out short.
+    """
+    from motorid.identify.stages import dead_time_shows
+
+    if model.delay_s > 0 or not dead_time_shows(cond):
+        return []
+    return [f"the response stays in its noise band for {1e3 * cond.dead_time_s:.3g} ms after the step (a dead time), "
+            f"and this {model.method} model has none: its poles take it up, so τ and the residence time may be "
+            "short by up to that much — --method auto, oe or markov fit the dead time"]
+
+
+def _worse_than_a_stage(model: MotorModel, stages: list[dict[str, Any]], sel: Any) -> str | None:
+    """One sentence when the chosen model's velocity NRMSE is worse than one of its own stages'.
+
+    The output-error fit minimises the residuals weighted by each channel's noise, whitened by
+    its AR model when the noise is coloured, over every capture, with the pre-step samples; the
+    NRMSE is the raw velocity residual alone.  A stage that fitted the velocity only, unweighted,
+    can have the smaller NRMSE and still be the worse model of all the data — say which it is.
+    """
+    own = model.fit.get("velocity_nrmse")
+    if own is None or not np.isfinite(own):
+        return None
+    better = [(st.get("method"), st["velocity_nrmse"]) for st in stages
+              if isinstance(st.get("velocity_nrmse"), float) and np.isfinite(st["velocity_nrmse"])
+              and st["velocity_nrmse"] < own * 0.98 and st.get("stage") != "output-error"]
+    if not better:
+        return None
+    name, value = min(better, key=lambda x: x[1])
+    why = []
+    if sel.noise is not None and any(o > 0 for o in sel.noise.ar_order.values()):
+        why.append("it whitens the coloured noise by an AR model (its criterion is the innovations, not the raw "
+                   "residual the NRMSE measures)")
+    if len(sel.result.residuals) > 1:
+        why.append(f"it fits all {len(sel.result.residuals)} captures at once, weighted by their noise")
+    why.append("it is chosen by BIC, which charges each parameter")
+    return (f"the chosen model's velocity NRMSE {100 * own:.3g} % is above the {name} stage's "
+            f"{100 * value:.3g} % because " + "; ".join(why) + ": the smaller raw residual of a stage is not a better "
+            "model of the data")
 
 
 @single_blas_thread
@@ -563,6 +610,7 @@ def identify_conditioned(
     sanity = sanity_checks(model, t_gate, v_gate, cond.step_volts,
                            sample_interval_s=float(t[1] - t[0]), unwhitened=unwhitened, input_v=recorded)
     gate = tuple(f"SANITY CHECK FAILED — {f}" for f in sanity.failures)
+    extra_warn += _no_dead_time_warning(cond, model)
     if np.isfinite(model.dc_gain()) and model.dc_gain() < 0:
         # legitimate (a tacho wired the other way round), but a student should know it
         extra_warn.append(f"negative DC gain ({model.dc_gain():.4g}): the measured channel moves against the "

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import scipy.optimize
@@ -137,6 +138,48 @@ def first_order_baseline(time_s: np.ndarray, y: np.ndarray, step_volts: float) -
     return f(t, *p), {"dc_gain": float(p[0]), "time_constant": float(p[1]), "delay": float(p[2])}
 
 
+def _resolved_roots(u: Mapping[str, Any] | None) -> list[SanityCheck]:
+    """Every pole the data resolve (alone or as a pair); no right-half-plane zero they do not demand.
+
+    A pole whose 95 % interval reaches the imaginary axis, or is wider than the pole itself, is not
+    identified: the structure has a pole more than the record supports.  A right-half-plane zero
+    (an inverse response) is not physical for a DC motor's velocity; it passes only when its whole
+    interval lies in the right half-plane, i.e. the data demand it.
+    """
+    if not u:
+        return []
+    paired = {i for pair in u.get("pole_pairs", []) or [] for i in pair["poles"]}
+    loose = []
+    for i, item in enumerate(u.get("poles", []) or []):
+        lo, hi = item.get("ci95", (None, None))
+        re_ = float(item["value"][0])
+        if i in paired or lo is None or hi is None or not np.isfinite(lo + hi):
+            continue
+        if hi >= 0 or (hi - lo) / 2 > abs(re_):
+            loose.append(f"pole {i + 1} ({re_:.4g}, 95 % interval [{lo:.4g}, {hi:.4g}])")
+    checks = [SanityCheck(
+        "every pole resolved by the data", not loose,
+        "each pole's 95 % interval is narrower than the pole and stays in the left half-plane"
+        + (" (near-equal poles reported as a pair)" if paired else "") if not loose else
+        f"the data do not resolve {', '.join(loose)}: its interval reaches the right half-plane or is wider "
+        "than the pole — the structure has a pole more than the record supports (try --order with one pole "
+        "fewer, or record longer / with less noise)")]
+    for i, item in enumerate(u.get("zeros", []) or []):
+        lo, hi = item.get("ci95", (None, None))
+        re_ = float(item["value"][0])
+        if re_ <= 0 or lo is None:
+            continue
+        demanded = bool(lo > 0)
+        checks.append(SanityCheck(
+            "no unphysical right-half-plane zero", demanded,
+            f"zero {i + 1} at {re_:+.4g} (95 % interval [{lo:.4g}, {hi:.4g}]) is in the right half-plane: an inverse "
+            "response, which a DC motor's velocity does not have"
+            + ("; the data demand it (its whole interval is there): check the sensor and its filter" if demanded else
+               "; the data do not demand it (its interval reaches the left half-plane): a structure with fewer "
+               "zeros describes the record as well (try --order, or --method oe with fewer zeros)")))
+    return checks
+
+
 def _t63(t: np.ndarray, y: np.ndarray, final: float) -> float:
     """63.2 % time of a response towards ``final`` (the classic read-off's crossing)."""
     return first_crossing(t, y, (1.0 - np.exp(-1.0)) * final)[0]
@@ -239,7 +282,9 @@ def sanity_checks(
                "record's")))
     fo = model.first_order()
     u = model.uncertainty
-    for key, label, value in (("dc_gain", "DC gain", fo.dc_gain), ("time_constant", "τ", fo.time_constant_s)):
+    checks += _resolved_roots(u)
+    for key, label, value in (("dc_gain", "DC gain", fo.dc_gain), ("time_constant", "τ", fo.time_constant_s),
+                              ("residence_time_s", "mean residence time", model.residence_time_s())):
         item = u.get(key) if u else None
         if not item or "ci95" not in item:
             continue

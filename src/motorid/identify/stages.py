@@ -35,6 +35,7 @@ __all__ = [
     "NoiseModel",
     "OrderSelection",
     "channel_sigma",
+    "dead_time_shows",
     "noise_model",
     "oe_stage",
     "refine_noise",
@@ -141,6 +142,78 @@ def _shift_bound(cond: ConditionedExperiment) -> float:
     return 1.5 * max(r.sample_interval_s for r in cond.responses.values())
 
 
+def timing_groups(cond: ConditionedExperiment) -> tuple[tuple[str, ...], ...]:
+    """The channels whose step instant the fit refines, grouped by acquisition.
+
+    Each group gets one fitted time shift in the output-error fit: the channels whose step
+    instant was read off a response (the channels of one scope acquisition share one onset, see
+    :func:`motorid.conditioning.pipeline.condition_experiment`), and each channel whose input a
+    scope sampled (its sub-sample phase, bounded to the sample interval before the edge sample:
+    see :func:`oe_settings`).  A channel whose step instant a logged input or ``--t0`` fixes gets
+    none, so nothing can trade its lags (a dead time, an electrical pole) for a shift.
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+
+    Returns
+    -------
+    tuple of tuple of str
+        Channel groups, in the order of ``cond.responses``.
+    """
+    groups: list[list[str]] = []
+    for role, r in cond.responses.items():
+        if r.timing not in ("onset", "sampled") or role not in cond.full_outputs:
+            continue
+        if r.timing == "sampled":
+            groups.append([role])  # its own acquisition, its own sub-sample phase
+            continue
+        for g in groups:
+            other = cond.responses[g[0]].time_s
+            if other.shape == r.time_s.shape and np.array_equal(other, r.time_s):
+                g.append(role)
+                break
+        else:
+            groups.append([role])
+    return tuple(tuple(g) for g in groups)
+
+
+def _sampled_phase(r: Any) -> float:
+    """Seconds from a channel's step instant to its edge sample: half a sample for a scope input.
+
+    A scope samples the input's edge: the step lies in the sample interval before the first
+    sample at the new level, so the fit starts from its middle and refines the phase within it
+    (:func:`oe_settings`).
+    """
+    return 0.5 * r.sample_interval_s if r.timing == "sampled" else 0.0
+
+
+def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, delay: bool = False) -> OeSettings:
+    """The output-error settings of one structure on these captures: their timing.
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+    structure : tuple of int
+        ``(poles, zeros)`` of the velocity transfer function.
+    delay : bool
+        Fit a dead time.
+
+    Returns
+    -------
+    OeSettings
+        Shift groups from :func:`timing_groups`; the shift of a channel whose input a scope
+        sampled is bounded by half its sample interval about the interval's middle (the step
+        happened between two samples, never outside them).
+    """
+    limits = tuple((role, 0.5 * r.sample_interval_s) for role, r in cond.responses.items()
+                   if r.timing == "sampled" and role in cond.full_outputs)
+    return OeSettings(n_poles=structure[0], n_zeros=structure[1], delay=delay, shift_bound_s=_shift_bound(cond),
+                      shift_groups=timing_groups(cond), shift_limits=limits)
+
+
 @dataclass(frozen=True, slots=True)
 class _ChannelData:
     """What the output-error fit sees of each capture.
@@ -186,7 +259,7 @@ def _channel_data(cond: ConditionedExperiment, max_samples: int = MAX_FIT_SAMPLE
         after = good & (r.time_s >= -1e-9 * r.sample_interval_s)
         if length is not None:
             after &= r.time_s <= length + 0.5 * r.sample_interval_s
-        times[role], outs[role] = r.time_s[after], r.output_v[after]
+        times[role], outs[role] = r.time_s[after] + _sampled_phase(r), r.output_v[after]
         pre[role] = r.output_v[good & (r.time_s < 0)]
         block[role] = max(1, int(np.ceil(times[role].size / max_samples)))
         if r.wrap_count is not None:
@@ -248,7 +321,7 @@ def _oe_to_model(
                   "delay": res.delay_s is not None and res.delay_s > 0},
         sample_interval_s=float(cond.full_time_s[1] - cond.full_time_s[0]),
         warnings=tuple(res.warnings),
-        uncertainty=uncertainty_json(res),
+        uncertainty={**uncertainty_json(res), "timing": timing_json(res, cond)},
         extras={"bic": res.bic, "aic": res.aic, "sigma": dict(res.sigma), "delay_s": res.delay_s,
                 **({"noise": noise.to_json()} if noise is not None else {})},
         delay_s=res.delay_s or 0.0,
@@ -275,12 +348,103 @@ def uncertainty_json(res: OeResult) -> dict[str, Any]:
     out: dict[str, Any] = {
         "dc_gain": item("dc_gain", res.dc_gain),
         "time_constant": item("time_constant", res.time_constant_s),
+        "residence_time_s": item("residence_time", res.time_constant_s + (res.delay_s or 0.0)),
+        "t63_s": item("t63", float(np.mean(res.ci95["t63"])) if "t63" in res.ci95 else float("nan")),
         "poles": [item(f"pole_{i}", [float(np.real(p)), float(np.imag(p))]) for i, p in enumerate(res.poles)],
         "zeros": [item(f"zero_{i}", [float(np.real(z)), float(np.imag(z))]) for i, z in enumerate(res.zeros)],
         "method": "Gauss-Newton covariance of the output-error fit (delta method), 95% = ±1.96 std",
     }
+    pairs = unresolved_pairs(res)
+    if pairs:
+        out["pole_pairs"] = [{"poles": [i, i + 1],
+                              "natural_frequency": item(f"pair_{i}_wn", res_value(res, f"pair_{i}_wn")),
+                              "damping": item(f"pair_{i}_zeta", res_value(res, f"pair_{i}_zeta"))} for i in pairs]
     if res.delay_s is not None:
         out["delay"] = item("delay", res.delay_s)
+    return out
+
+
+def res_value(res: OeResult, key: str) -> float:
+    """A derived quantity's estimate: the centre of its (symmetric) 95 % interval."""
+    lo, hi = res.ci95.get(key, (float("nan"), float("nan")))
+    return 0.5 * (lo + hi)
+
+
+def unresolved_pairs(res: OeResult) -> list[int]:
+    """Neighbouring poles ``i, i+1`` (slowest first) that the data know only as a pair.
+
+    Each pole's 95 % interval holds the other pole, while the pair's natural frequency is known
+    to better than its own size: report the pair (natural frequency, damping), not two poles of
+    ±(more than their value).
+
+    Parameters
+    ----------
+    res : OeResult
+        An output-error result.
+
+    Returns
+    -------
+    list of int
+        The index of each pair's first pole.
+    """
+    out: list[int] = []
+    n = res.poles.size
+    for i in range(n - 1):
+        if out and out[-1] == i - 1:
+            continue
+        a, b = f"pole_{i}", f"pole_{i + 1}"
+        if a not in res.ci95 or b not in res.ci95 or f"pair_{i}_wn" not in res.std:
+            continue
+        pa, pb = float(np.real(res.poles[i])), float(np.real(res.poles[i + 1]))
+        (lo_a, hi_a), (lo_b, hi_b) = res.ci95[a], res.ci95[b]
+        overlap = lo_a <= pb <= hi_a or lo_b <= pa <= hi_b
+        wn = res_value(res, f"pair_{i}_wn")
+        if overlap and 1.96 * res.std[f"pair_{i}_wn"] < abs(wn):
+            out.append(i)
+    return out
+
+
+#: How each kind of step instant is described in the model JSON's ``uncertainty.timing``.
+TIMING_SOURCES = {
+    "logged": "the logged input's change (exact)",
+    "sampled": "the scope's input edge: its phase in the sample interval before the first sample at the new "
+               "level is fitted (edge_s: the interval's middle)",
+    "onset": "read off the response (no input channel): its shift is fitted",
+    "given": "--t0 (t0_s)",
+}
+
+
+def timing_json(res: OeResult, cond: ConditionedExperiment) -> dict[str, Any]:
+    """Per channel of the fit: where its step instant comes from, and its fitted shift with interval.
+
+    Parameters
+    ----------
+    res : OeResult
+        An output-error result.
+    cond : ConditionedExperiment
+        The captures it was fitted to.
+
+    Returns
+    -------
+    dict
+        Keyed by channel: ``step_instant`` (words), ``edge_s`` (the instant on the file's time
+        axis), and for a fitted shift ``shift_s``, ``std``, ``ci95`` (positive: the model's step is
+        that much later than the edge read off the data).
+    """
+    out: dict[str, Any] = {}
+    for role, r in cond.responses.items():
+        if role not in res.residuals:
+            continue
+        item: dict[str, Any] = {"step_instant": TIMING_SOURCES.get(r.timing, r.timing),
+                                "edge_s": float(r.edge.time_s) - _sampled_phase(r)}
+        if role in res.shifts:
+            lo, hi = res.ci95.get(f"shift_{role}", (float("nan"), float("nan")))
+            item.update(shift_s=res.shifts[role], std=res.std.get(f"shift_{role}", float("nan")), ci95=[lo, hi])
+        elif r.timing == "onset" and res.delay_s is not None:
+            item["note"] = "its shift is the dead time (a step instant read off the response cannot be told from it)"
+        elif r.timing == "sampled" and res.delay_s is not None and role not in res.shifts:
+            item["note"] = "its phase is in the dead time"
+        out[role] = item
     return out
 
 
@@ -382,7 +546,7 @@ def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
         taus, dc, zeros = _init_from(init, *structure)
         try:
             res = output_error_fit(data.time_s, cond.step_volts, data.outputs, sigma, taus, dc,
-                                   OeSettings(*structure, shift_bound_s=_shift_bound(cond)), pre=data.pre,
+                                   oe_settings(cond, structure), pre=data.pre,
                                    block=data.block, wrap_count=data.wrap_count, init_zeros=zeros)
         except IdentificationError:
             continue
@@ -464,7 +628,7 @@ def oe_stage(
     data = _channel_data(cond)
     noise = noise if noise is not None else noise_model(cond, init)
     taus, dc, zeros = _init_from(init, *structure)
-    settings = OeSettings(n_poles=structure[0], n_zeros=structure[1], delay=delay, shift_bound_s=_shift_bound(cond))
+    settings = oe_settings(cond, structure, delay=delay)
     fitted = {role: y for role, y in data.outputs.items() if role not in noise.scale_only}
     delay0 = init.delay_s if init.delay_s > 0 else cond.dead_time_s
     res = output_error_fit(data.time_s, cond.step_volts, fitted, noise.pre_sigma if white else noise.sigma,
@@ -589,7 +753,7 @@ def structure_uncertainty(best: MotorModel, fits: list[tuple[float, MotorModel]]
     -------
     dict
         The widened ``uncertainty`` object (same keys; ``structure_std`` added to
-        ``dc_gain`` and ``time_constant``).
+        ``dc_gain``, ``time_constant``, ``residence_time_s`` and ``t63_s``).
     """
     u = {k: (dict(v) if isinstance(v, Mapping) else v) for k, v in best.uncertainty.items()}
     if not u or len(fits) < 2:
@@ -598,11 +762,15 @@ def structure_uncertainty(best: MotorModel, fits: list[tuple[float, MotorModel]]
     w = np.exp(-0.5 * (bics - bics.min()))
     w /= w.sum()
     fo_best = best.first_order()
+    def own(key: str) -> Any:
+        return lambda m: float((m.uncertainty.get(key) or {}).get("value", float("nan")))
+
     for key, value_of in (("dc_gain", lambda m: m.first_order().dc_gain),
-                          ("time_constant", lambda m: m.first_order().time_constant_s + m.delay_s - best.delay_s)):
+                          ("time_constant", lambda m: m.first_order().time_constant_s + m.delay_s - best.delay_s),
+                          ("residence_time_s", own("residence_time_s")), ("t63_s", own("t63_s"))):
         if key not in u:
             continue
-        ref = fo_best.dc_gain if key == "dc_gain" else fo_best.time_constant_s
+        ref = {"dc_gain": fo_best.dc_gain, "time_constant": fo_best.time_constant_s}.get(key, u[key]["value"])
         vals = np.array([value_of(m) for _, m in fits], dtype=float)
         ok = np.isfinite(vals)
         extra = float(np.sum(w[ok] * (vals[ok] - ref) ** 2))
@@ -612,6 +780,46 @@ def structure_uncertainty(best: MotorModel, fits: list[tuple[float, MotorModel]]
     u["method"] = (str(u.get("method", "")) + "; widened by the BIC-weighted spread of the candidate "
                    "structures (dc gain, τ + dead time)")
     return u
+
+
+#: Structures whose BIC differ by less than this are a tie (Kass & Raftery 1995: "not worth
+#: more than a bare mention"): the one with fewer parameters is kept.
+TIE_BIC = 2.0
+
+
+def _simplest_of_ties(fits: list[Any]) -> tuple[list[Any], bool]:
+    """Fits sorted by BIC, with the simplest of those within :data:`TIE_BIC` of the best moved first.
+
+    A fit is ``(bic, (poles, zeros), delay, …)``; its size is poles + zeros + delay.  Returns the
+    list and whether a tie decided the first place.
+    """
+    ties = [f for f in fits if f[0] - fits[0][0] < TIE_BIC]
+    simplest = min(ties, key=lambda f: (f[1][0] + f[1][1] + int(f[2]), f[0]))
+    if simplest is fits[0]:
+        return fits, False
+    # the runner-up is then the best by BIC
+    return [simplest] + [f for f in fits if f is not simplest], True
+
+
+def dead_time_shows(cond: ConditionedExperiment) -> bool:
+    """Whether the data show an apparent dead time worth fitting.
+
+    At least :data:`DEAD_TIME_SAMPLES` recorded samples in the noise band after the step, or, on
+    a coarse grid, one sample and :data:`DEAD_TIME_FRACTION` of the 63 % time.
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+
+    Returns
+    -------
+    bool
+    """
+    dt_rec = min(r.sample_interval_s for r in cond.responses.values())
+    dead = cond.dead_time_s * (1 + 1e-9)
+    t63 = cond.response_time_s if np.isfinite(cond.response_time_s) else np.inf
+    return bool(dead >= DEAD_TIME_SAMPLES * dt_rec or (dead >= dt_rec and dead >= DEAD_TIME_FRACTION * t63))
 
 
 def select_order(
@@ -659,13 +867,8 @@ def select_order(
     n_quick = int(quick.settings.get("n_poles", 0)) if noise.preliminary is not None else 0
     dt_rec = min(r.sample_interval_s for r in cond.responses.values())
     fastest = 2.0 / dt_rec
-    if delay is None:
-        dead = cond.dead_time_s * (1 + 1e-9)
-        t63 = cond.response_time_s if np.isfinite(cond.response_time_s) else np.inf
-        shows = dead >= DEAD_TIME_SAMPLES * dt_rec or (dead >= dt_rec and dead >= DEAD_TIME_FRACTION * t63)
-        variants = (False, True) if shows else (False,)
-    else:
-        variants = (bool(delay),)
+    tried_delay = delay is None and dead_time_shows(cond)
+    variants = (False, True) if tried_delay else (bool(delay),)
     fits: list[tuple[float, tuple[int, int], bool, OeResult, MotorModel]] = []
     for with_delay in variants:
         models: dict[tuple[int, int], MotorModel] = {}
@@ -695,7 +898,8 @@ def select_order(
     if not fits:
         raise IdentificationError("the output-error fit failed for every order: " + "; ".join(errors))
     fits.sort(key=lambda f: f[0])
-    bic0 = fits[0][0]
+    fits, _ = _simplest_of_ties(fits)
+    bic0 = min(f[0] for f in fits)
     weights = np.exp(-0.5 * (np.array([f[0] for f in fits]) - bic0))
     weights /= weights.sum()
     table = [
@@ -719,6 +923,9 @@ def select_order(
     runner = fits[1] if len(fits) > 1 else None
     if runner is None:
         evidence = f"only {_describe(best[1], best[2])} could be fitted"
+    elif abs(runner[0] - best[0]) < TIE_BIC:
+        evidence = (f"BIC cannot tell {_describe(best[1], best[2])} from {_describe(runner[1], runner[2])} "
+                    f"(|ΔBIC| = {abs(runner[0] - best[0]):.1f} < {TIE_BIC:g}, a tie): the simpler is kept")
     else:
         evidence = (f"BIC prefers {_describe(best[1], best[2])} over "
                     f"{_describe(runner[1], runner[2])} by ΔBIC = {runner[0] - best[0]:.1f}")

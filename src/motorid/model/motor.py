@@ -540,6 +540,42 @@ class MotorModel:
 
         return step_response(self, time_s, step_volts)
 
+    def t63_s(self) -> float:
+        """Seconds from the step until the velocity first reaches 63.2 % of its final change.
+
+        The time a student reads off the scope (dead time included); for more than one pole it is
+        not the mean residence time :meth:`residence_time_s`.
+
+        Returns
+        -------
+        float
+            NaN for a velocity channel that does not settle (an unstable or integrating model).
+        """
+        fo = self.first_order()
+        dc = self.dc_gain()
+        if not (np.isfinite(dc) and dc != 0 and np.isfinite(fo.time_constant_s)) or np.any(np.real(self.poles()) >= 0):
+            return float("nan")
+        slowest = float(np.max(1.0 / np.abs(np.real(self.poles())))) if self.poles().size else 0.0
+        horizon = self.delay_s + 10.0 * max(abs(fo.time_constant_s), slowest)
+        t = np.linspace(0.0, horizon, 4001)
+        y = self.step_response(t, 1.0)["velocity"] / dc
+        above = np.flatnonzero(y >= 1.0 - np.exp(-1.0))
+        if above.size == 0 or above[0] == 0:
+            return float("nan")
+        i = int(above[0])
+        # linear interpolation between two samples 1/400 of the horizon apart
+        return float(t[i - 1] + (t[i] - t[i - 1]) * ((1.0 - np.exp(-1.0)) - y[i - 1]) / (y[i] - y[i - 1]))
+
+    def residence_time_s(self) -> float:
+        """Mean residence time of the velocity step response: τ by moments plus the dead time (s).
+
+        Returns
+        -------
+        float
+            ``first_order().time_constant_s + delay_s``.
+        """
+        return self.first_order().time_constant_s + self.delay_s
+
     def fit_nrmse(self, time_s: Any, measured: Any, channel: str = "velocity",
                   step_volts: float | None = None) -> float:
         """NRMSE of this model's step response against a measured one (see :func:`step_nrmse`).

@@ -93,7 +93,7 @@ def model_to_dict(model: MotorModel) -> dict[str, Any]:
         "velocity_tf": {"num": vnum.tolist(), "den": vden.tolist()},
         "position_tf": {"num": pnum.tolist(), "den": pden.tolist()},
         "first_order": {"dc_gain": fo.dc_gain, "time_constant": fo.time_constant_s,
-                        "k": fo.k, "p": fo.p},
+                        "k": fo.k, "p": fo.p, "t63_s": model.t63_s(), "residence_time_s": model.residence_time_s()},
         "poles": _complex_pairs(_roots(vden)),
         "zeros": _complex_pairs(_roots(vnum)),
         "fit": dict(model.fit),
@@ -106,7 +106,12 @@ def model_to_dict(model: MotorModel) -> dict[str, Any]:
         cnum, cden = _tf_coeffs(cur)
         data["current_tf"] = {"num": cnum.tolist(), "den": cden.tolist()}
     if model.uncertainty:
-        data["uncertainty"] = dict(model.uncertainty)
+        unc = dict(model.uncertainty)
+        # each channel's step instant and fitted shift: its own top-level key
+        timing = unc.pop("timing", None)
+        data["uncertainty"] = unc
+        if timing:
+            data["timing"] = timing
     if model.stages:
         data["stages"] = [st.to_dict() if hasattr(st, "to_dict") else dict(st) for st in model.stages]
     if model.delay_s > 0:
@@ -169,7 +174,7 @@ def model_from_dict(cls: type[MotorModel], data: Mapping[str, Any]) -> MotorMode
         fit={k: (float("nan") if v is None else v) for k, v in fit.items()},
         warnings=tuple(data.get("warnings") or ()),
         extras=data.get("extras") or {},
-        uncertainty=data.get("uncertainty") or {},
+        uncertainty={**(data.get("uncertainty") or {}), **({"timing": data["timing"]} if data.get("timing") else {})},
         stages=tuple(data.get("stages") or ()),
         delay_s=data.get("delay_s") or 0.0,
         static_nonlinearity=(None if data.get("static_nonlinearity") is None

@@ -76,8 +76,13 @@ def _uncertainty(u: Mapping[str, Any], gain_unit: str = "V/V") -> list[SummaryLi
     lines: list[SummaryLine] = []
     if not u:
         return lines
-    for key, label in (("dc_gain", f"dc gain ({gain_unit})"), ("time_constant", "τ (s)")):
-        item = u[key]
+    for key, label in (("dc_gain", f"dc gain ({gain_unit})"),
+                       ("time_constant", "τ (s; by moments: Σ1/|p| − Σ1/|z|)"),
+                       ("t63_s", "63 % time (s; what a scope read-off measures, dead time included)"),
+                       ("residence_time_s", "mean residence time τ + dead time (s)")):
+        item = u.get(key)
+        if not item or (key == "residence_time_s" and "delay" not in u):
+            continue
         lo, hi = item["ci95"]
         lines.append(_plain(f"{label}: {sig(item['value'])} ± {sig(1.96 * item['std'], 2)} "
                             f"(95 % interval [{sig(lo)}, {sig(hi)}])"))
@@ -85,8 +90,24 @@ def _uncertainty(u: Mapping[str, Any], gain_unit: str = "V/V") -> list[SummaryLi
         item = u["delay"]
         lines.append(_plain(f"delay: {sig(1e3 * item['value'])} ms ± {sig(1.96e3 * item['std'], 2)} ms (95 %; not in "
                             "the state-space model: add it as e^(-s·delay), e.g. control.pade)"))
+    for role, item in (u.get("timing") or {}).items():
+        if isinstance(item.get("shift_s"), (int, float)):
+            lo, hi = item["ci95"]
+            lines.append(_plain(f"{role} step instant {sig(item['edge_s'])} s ({item['step_instant']}): fitted "
+                                f"shift {sig(1e3 * item['shift_s'])} ms ± {sig(1.96e3 * item['std'], 2)} ms "
+                                f"(95 % interval [{sig(1e3 * lo)}, {sig(1e3 * hi)}] ms)"))
+    paired: set[int] = set()
+    for pair in u.get("pole_pairs", []):
+        i, j = pair["poles"]
+        paired.update((i, j))
+        wn, zeta = pair["natural_frequency"], pair["damping"]
+        lines.append(_plain(f"poles {i + 1} and {j + 1}: known as a pair only (each one's interval holds the "
+                            f"other): natural frequency {sig(wn['value'])} ± {sig(1.96 * wn['std'], 2)} rad/s, "
+                            f"damping {sig(zeta['value'])} ± {sig(1.96 * zeta['std'], 2)} (95 %)"))
     for name in ("poles", "zeros"):
         for i, item in enumerate(u.get(name, [])):
+            if name == "poles" and i in paired:
+                continue
             re_, im_ = item["value"]
             lines.append(_plain(f"{name[:-1]} {i + 1}: {complex_text(complex(re_, im_))} ± "
                                 f"{sig(1.96 * item['std'], 2)} (95 %)"))
