@@ -342,7 +342,8 @@ def _params(model: MotorModel) -> dict[str, ParameterEstimate]:
     u = model.uncertainty
     fo = model.first_order()
     params: dict[str, ParameterEstimate] = {}
-    for key, value in (("dc_gain", fo.dc_gain), ("time_constant", fo.time_constant_s)):
+    for key, value in (("dc_gain", fo.dc_gain), ("time_constant", fo.time_constant_s), ("t63_s", model.t63_s()),
+                       ("residence_time_s", model.residence_time_s())):
         params[key] = _estimate(u[key]) if key in u else ParameterEstimate(float(value))
     if "delay" in u:
         params["delay"] = _estimate(u["delay"])

@@ -114,6 +114,8 @@ def test_report_page_of_the_demo_shows_the_truth_against_the_interval(report_wit
 
     model, first = demo_run.result.identification.model, demo_run.truth["transfer_functions"]["first_order"]
     for key, words, _ in QUANTITIES:
+        if key not in first:  # the truth gives dc gain and τ by moments; the 63 % time is the classic's
+            continue
         lo, hi = model.uncertainty[key]["ci95"]
         inside = lo <= first[key] <= hi
         assert (f"lies inside the 95 % interval of the {words}" in summary) == inside, key

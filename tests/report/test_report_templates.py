@@ -40,7 +40,8 @@ def _texts(fig):
 
 def _fake_model(*, value=1.0, std=0.01, noise=None, delay=0.0):
     u = {"dc_gain": {"value": value, "std": std, "ci95": [value - 1.96 * std, value + 1.96 * std]},
-         "time_constant": {"value": 0.5, "std": 0.002, "ci95": [0.5 - 1.96 * 0.002, 0.5 + 1.96 * 0.002]}}
+         "time_constant": {"value": 0.5, "std": 0.002, "ci95": [0.5 - 1.96 * 0.002, 0.5 + 1.96 * 0.002]},
+         "t63_s": {"value": 0.5, "std": 0.002, "ci95": [0.5 - 1.96 * 0.002, 0.5 + 1.96 * 0.002]}}
     return SimpleNamespace(method="oe", uncertainty=u, extras={"noise": noise or {}}, delay_s=delay)
 
 
@@ -138,8 +139,10 @@ def test_without_truth_the_classic_estimate_is_the_reference():
     classic = SimpleNamespace(first_order=lambda: SimpleNamespace(dc_gain=0.97, time_constant_s=0.51))
     model = _fake_model(value=1.0, std=0.01)
     values, label = reference_values(model, None, classic)
-    assert label == CLASSIC_LABEL and values == {"dc_gain": 0.97, "time_constant": 0.51}
-    gain, tau = truth_checks(model, values, label)
+    assert label == CLASSIC_LABEL and values == {"dc_gain": 0.97, "t63_s": 0.51}
+    gain, t63 = truth_checks(model, values, label)  # the classic 63 % read-off against the model's 63 % time
+    assert t63.quantity == "63 % time"
+    tau = t63
     assert not gain.inside and "3 standard errors below" in gain.sentence and "classic estimate reads" in gain.sentence
     assert tau.z == pytest.approx((0.51 - 0.5) / 0.002)
     # the classic model compared with itself is no check

@@ -229,12 +229,15 @@ def summary_section(inp: ReportInputs) -> dict[str, Any]:
     gain_unit = model.dc_gain_unit
     rows: list[list[Any]] = [
         ["method", model.method], ["states (size of A)", model.order], ["step", f"{_cell(cond.step_volts)} V"],
-        ["dc gain", f"{_cell(fo.dc_gain)} {gain_unit}"], ["τ", f"{_cell(fo.time_constant_s)} s"],
+        ["dc gain", f"{_cell(fo.dc_gain)} {gain_unit}"], ["τ (by moments)", f"{_cell(fo.time_constant_s)} s"],
+        ["63 % time (dead time included)", f"{_cell(model.t63_s())} s"],
         ["k/(s+p)", f"{_cell(fo.k)}/(s + {_cell(fo.p)})"]]
     if u:
-        for key, label, unit in (("dc_gain", "dc gain 95 %", gain_unit), ("time_constant", "τ 95 %", "s")):
-            lo, hi = u[key]["ci95"]
-            rows.append([label, f"[{_cell(lo)}, {_cell(hi)}] {unit}"])
+        for key, label, unit in (("dc_gain", "dc gain 95 %", gain_unit), ("time_constant", "τ 95 %", "s"),
+                                 ("t63_s", "63 % time 95 %", "s"), ("residence_time_s", "τ + dead time 95 %", "s")):
+            if key in u and (key != "residence_time_s" or model.delay_s > 0):
+                lo, hi = u[key]["ci95"]
+                rows.append([label, f"[{_cell(lo)}, {_cell(hi)}] {unit}"])
     for channel, scale in model.scales.items():
         phys = physical_gain(fo.dc_gain, model.units, model.scales, channel)
         if phys is not None:
@@ -254,7 +257,9 @@ def summary_section(inp: ReportInputs) -> dict[str, Any]:
     label = ""
     if ref is not None:
         values, label = ref
-        rows.append([label, f"dc gain {_cell(values['dc_gain'])} {gain_unit}, τ {_cell(values['time_constant'])} s"])
+        times = ", ".join(f"{words} {_cell(values[key])} s" for key, words in
+                          (("time_constant", "τ"), ("t63_s", "63 % time")) if key in values)
+        rows.append([label, f"dc gain {_cell(values['dc_gain'])} {gain_unit}, {times}"])
         checks = truth_checks(model, values, label, truth=inp.truth, step_volts=cond.step_volts)
     interval_png = ""
     if checks:

@@ -21,7 +21,8 @@ __all__ = ["TruthCheck", "reference_values", "truth_checks"]
 Z95 = 1.96
 #: The headline quantities: (key in the uncertainty dict, words, unit); the gain's unit is the
 #: model's own (``rpm/V`` for data in rpm) when it has one.
-QUANTITIES: tuple[tuple[str, str, str], ...] = (("dc_gain", "dc gain", "V/V"), ("time_constant", "τ", "s"))
+QUANTITIES: tuple[tuple[str, str, str], ...] = (("dc_gain", "dc gain", "V/V"), ("time_constant", "τ", "s"),
+                                                ("t63_s", "63 % time", "s"))
 #: Label of the trainer's truth (the linearised plant: friction and dead-zones left out).
 TRUTH_LABEL = "the trainer's truth (linearised)"
 #: Label of the classic estimate (final value and 63 % time read off the record).
@@ -83,7 +84,8 @@ def reference_values(model: Any, truth: Mapping[str, Any] | None,
     Returns
     -------
     (dict, str) or None
-        ``{"dc_gain": …, "time_constant": …}`` and :data:`TRUTH_LABEL` or :data:`CLASSIC_LABEL`;
+        ``{"dc_gain": …, "time_constant": …}`` (the truth's τ by moments) and :data:`TRUTH_LABEL`, or
+        ``{"dc_gain": …, "t63_s": …}`` (the classic read-off's 63 % time) and :data:`CLASSIC_LABEL`;
         None when neither is available.
     """
     first = (truth or {}).get("transfer_functions", {}).get("first_order", {})
@@ -91,7 +93,8 @@ def reference_values(model: Any, truth: Mapping[str, Any] | None,
         return {"dc_gain": float(first["dc_gain"]), "time_constant": float(first["time_constant"])}, TRUTH_LABEL
     if classic is not None and getattr(model, "method", None) != "classic":
         fo = classic.first_order()
-        return {"dc_gain": float(fo.dc_gain), "time_constant": float(fo.time_constant_s)}, CLASSIC_LABEL
+        # the classic τ is a 63 % read-off: compared with the model's 63 % time, not its τ by moments
+        return {"dc_gain": float(fo.dc_gain), "t63_s": float(fo.time_constant_s)}, CLASSIC_LABEL
     return None
 
 
