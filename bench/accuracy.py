@@ -70,8 +70,10 @@ def electrical_7ms():
 def config_of(name: str):
     return electrical_7ms() if name == "electrical-7ms" else preset(name)
 
-METHODS = ("pinv", "markov", "markov-laguerre", "classic", "oe", "srivc", "auto", "peer:era", "peer:curve_fit",
-           "peer:n4sid")
+METHODS = ("pinv", "markov", "markov-laguerre", "classic", "oe", "srivc", "auto", "auto:velocity", "peer:era",
+           "peer:curve_fit", "peer:n4sid")
+#: ``METHOD:velocity`` runs METHOD on the velocity capture alone (the others left out): the
+#: reference for whether the other captures add bias.
 #: Bench method names that are ``motorid`` methods with settings: ``markov`` stays the paper's
 #: Taylor procedure as published; ``markov-laguerre`` is its Laguerre-basis form (issue 14).
 METHOD_SETTINGS = {"markov": {"method": "markov", "markov_basis": "taylor"},
@@ -199,6 +201,7 @@ def one_run(args):
         paper = ConditioningSettings(sample_interval_s=0.1)  # the paper's 100 ms, as published
         cond_paper = condition_experiment(caps, paper)
         cond_fine = condition_experiment(caps, ConditioningSettings(sample_interval_s=None))
+        cond_velocity = None
         for method in methods:
             t0 = time.perf_counter()
             try:
@@ -214,7 +217,12 @@ def one_run(args):
                 else:
                     order_opt = 2 if method == "pinv" else "auto"  # pinv as published: [θ, θ̇]
                     cond = cond_paper if method in ("pinv",) else cond_fine
-                    kw = METHOD_SETTINGS.get(method, {"method": method})
+                    if method.endswith(":velocity"):
+                        if cond_velocity is None:
+                            cond_velocity = condition_experiment({"velocity": caps["velocity"]},
+                                                                 ConditioningSettings(sample_interval_s=None))
+                        cond = cond_velocity
+                    kw = METHOD_SETTINGS.get(method, {"method": method.split(":")[0]})
                     m = identify_conditioned(cond, IdentifySettings(**kw, order=order_opt)).model
                     fo = m.first_order()
                     dc, tau = fo.dc_gain, fo.time_constant_s

@@ -121,7 +121,8 @@ def _noise_and_stages(model: Any) -> list[SummaryLine]:
         parts = []
         for role, nm in noise.items():
             use = "; scale only: its 8-bit codes are not dithered by noise" if nm.get("use") == "scale only" else ""
-            parts.append(f"{role} σ {sig(nm['sigma'])} V (AR order {nm['ar_order']}{use})")
+            unit = (model.units or {}).get(role, "V")  # the data's own unit (rpm on a rig log)
+            parts.append(f"{role} σ {sig(nm['sigma'])} {unit} (AR order {nm['ar_order']}{use})")
         lines.append(_plain("noise model of the output-error fit: " + ", ".join(parts)))
     for st in model.stages:
         desc = ", ".join(_stage_item(k, v) for k, v in st.items()
