@@ -40,7 +40,7 @@ import functools
 import math
 import warnings
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import control
@@ -253,7 +253,8 @@ class LaguerreResult:
                 "current_tf": (None if pol.current_tf is None
                                else {"num": [float(x) for x in pol.current_tf[0]],
                                      "den": [float(x) for x in pol.current_tf[1]]}),
-                "bic": pol.bic, "n_params": pol.n_params, "ar_order": dict(pol.ar_order)}
+                "bic": pol.bic, "n_params": pol.n_params, "ar_order": dict(pol.ar_order),
+                "shifts_s": dict(pol.shifts)}
         return model_from_velocity_tf(
             num, den, method="markov", step_volts=self.step_volts,
             settings={**asdict(self.settings), "basis": "laguerre", "pole_chosen": coeff.pole,
@@ -1055,6 +1056,9 @@ class LaguerrePolish:
         Per channel: order of the AR noise model the residual was whitened by (0: none).
     params : ndarray
         The fitted parameter vector (to resume from, :func:`laguerre_polish`'s ``start``).
+    shifts : dict
+        Per channel after the primary: its fitted trigger shift against the primary's step
+        instant (s, within one grid step), reported with the model (``extras.laguerre_polish``).
     """
 
     num: np.ndarray
@@ -1070,6 +1074,7 @@ class LaguerrePolish:
     residuals: dict[str, np.ndarray]
     ar_order: dict[str, int]
     params: np.ndarray
+    shifts: dict[str, float] = field(default_factory=dict)
 
     @property
     def n_samples(self) -> dict[str, int]:
@@ -1401,4 +1406,5 @@ def laguerre_polish(
                           position_scale=q["c"] if pm.free_scale else float("nan"), current_tf=cur,
                           bic=_polish_bic(n_samples, sigma, inflation, n_fitted), n_params=n_fitted,
                           residuals=raw, params=x,
-                          ar_order={ch: int(whiten[ch].size - 1) if ch in whiten else 0 for ch in channels})
+                          ar_order={ch: int(whiten[ch].size - 1) if ch in whiten else 0 for ch in channels},
+                          shifts={ch: float(v) for ch, v in zip(channels[1:], q["shifts"][1:], strict=False)})

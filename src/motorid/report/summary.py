@@ -147,6 +147,11 @@ def _stage_item(key: str, value: Any) -> str:
     return f"{metric_name(key)} {sig(value) if isinstance(value, float) else value}"
 
 
+def _polish_shifts(extras: Mapping[str, Any]) -> dict[str, float]:
+    """The Laguerre polish's trigger shift of each capture after the first (none before this was reported)."""
+    return dict((extras.get("laguerre_polish") or {}).get("shifts_s") or {})
+
+
 def _markov(extras: Mapping[str, Any]) -> list[SummaryLine]:
     ex = extras
     if ex.get("markov_basis") == "laguerre":
@@ -160,6 +165,8 @@ def _markov(extras: Mapping[str, Any]) -> list[SummaryLine]:
                    + ", ".join(sig(x) for x in ex["hankel_singular_values_scaled"])
                    + f"; noise floor {sig(ex['hankel_noise_floor'])}"),
             _plain(f"Markov settings: {ex.get('markov_choice', '')}"),
+            *[_plain(f"{ch} trigger shift against the first capture's step (fitted, within one grid step): "
+                     f"{sig(1e3 * v)} ms") for ch, v in _polish_shifts(ex).items()],
         ]
     if "hankel_singular_values_scaled" in ex:
         return [
