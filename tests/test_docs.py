@@ -14,6 +14,7 @@ import shlex
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
@@ -78,7 +79,9 @@ def test_tutorial_blocks_run_and_print_what_they_say(tmp_path, monkeypatch):
     assert lo <= exp.truth.time_constant_s <= hi
     assert namespace["again"].to_json() == best.model.to_json()
     # part 2: the designs do what they were asked, on the identified model
-    assert sorted(p.real for p in namespace["sf"].closed_loop_poles)[-1] == pytest.approx(-4.0, abs=1e-6)
+    # a double pole: the eigenvalues of A − BK split by ~√(rounding) about it; their mean is exact
+    slow = sorted(namespace["sf"].closed_loop_poles, key=lambda p: p.real)[-2:]
+    assert np.mean(slow).real == pytest.approx(-4.0, abs=1e-6) and abs(slow[0] - slow[1]) < 1e-3
     assert abs(namespace["run_i"].metrics.steady_state_error_v) < 0.01
     assert abs(namespace["run"].metrics.steady_state_error_v) > 10 * abs(namespace["run_i"].metrics.steady_state_error_v)
     # part 3: the synthetic log's truth is 240 rpm/V and 0.3 s

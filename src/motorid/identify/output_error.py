@@ -69,6 +69,11 @@ class OeSettings:
         scope samples the input's edge, which lies somewhere in the sample interval before the
         first sample at the new level, so that channel's shift (its sub-sample phase, about the
         interval's middle) is bounded by half a sample.
+    instant_std_s : float
+        Standard deviation (s) of the step instant of channels whose instant is fixed to within
+        their sample interval but not fitted (with a dead time, a sampled input's phase cannot be
+        told from it): added to the variance of the dead time, the residence time and the 63 %
+        time, which move one for one with it.
     current_direct : bool or None
         Let the current jump at the step (a biproper current TF, ``n_poles + 1`` numerator
         coefficients): what a model that leaves out an electrical pole faster than the
@@ -87,6 +92,7 @@ class OeSettings:
     current_direct: bool | None = None
     shift_groups: tuple[tuple[str, ...], ...] | None = None
     shift_limits: tuple[tuple[str, float], ...] = ()
+    instant_std_s: float = 0.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -784,7 +790,7 @@ class _OeProblem:
             warnings.append(f"parameters poorly determined (Fisher information condition number {cond:.2g}): "
                             "a lower order may do")
         cov = np.linalg.pinv(jtj) * s2
-        d0, std, ci = _delta_method(layout, th, cov, step_std / self.step_volts)
+        d0, std, ci = _delta_method(layout, th, cov, step_std / self.step_volts, self.settings.instant_std_s)
         q = layout.unpack(th)
         num = _vel_num(q["K"], q["tz"])
         den = np.array([1.0])
@@ -836,7 +842,7 @@ def _bounds(layout: _Layout, settings: OeSettings, tc: Mapping[str, np.ndarray])
     return lower, upper
 
 
-def _delta_method(layout: _Layout, th: np.ndarray, cov: np.ndarray, step_rel_std: float,
+def _delta_method(layout: _Layout, th: np.ndarray, cov: np.ndarray, step_rel_std: float, instant_std_s: float = 0.0,
                   ) -> tuple[dict[str, float], dict[str, float], dict[str, tuple[float, float]]]:
     """Derived quantities (gain, τ, poles, zeros...) with standard errors and 95 % intervals.
 
@@ -857,6 +863,10 @@ def _delta_method(layout: _Layout, th: np.ndarray, cov: np.ndarray, step_rel_std
     var = np.einsum("ij,jk,ik->i", grads, cov, grads)
     # the step level is measured, not known: its error scales the fitted gain
     var[keys.index("dc_gain")] += (d0["dc_gain"] * step_rel_std) ** 2
+    # a step instant known to within its sample interval moves every time after it one for one
+    for key in ("delay", "residence_time", "t63"):
+        if key in keys:
+            var[keys.index(key)] += instant_std_s**2
     std = {k: float(np.sqrt(max(v, 0.0))) for k, v in zip(keys, var, strict=False)}
     ci = {k: (d0[k] - 1.96 * std[k], d0[k] + 1.96 * std[k]) for k in keys}
     return d0, std, ci

@@ -134,7 +134,14 @@ def _srivc_data(cond: ConditionedExperiment, max_samples: int) -> tuple[np.ndarr
     """
     t = cond.full_time_s
     ratio = max(1, int(np.ceil(t.size / max_samples)))
-    return t[::ratio], {k: v[::ratio] for k, v in cond.full_outputs.items()}
+    outs = {}
+    for k, v in cond.full_outputs.items():
+        # a scope-sampled step happened about half a sample before its edge sample: the record is
+        # read on a grid that starts at that instant (where the response is still 0), so that the
+        # filters' step at t = 0 is the motor's
+        phase = _sampled_phase(cond.responses[k]) if k in cond.responses else 0.0
+        outs[k] = np.interp(t, np.r_[0.0, t + phase], np.r_[0.0, v]) if phase > 0 else v
+    return t[::ratio], {k: v[::ratio] for k, v in outs.items()}
 
 
 def _shift_bound(cond: ConditionedExperiment) -> float:
@@ -208,10 +215,20 @@ def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, dela
         sampled is bounded by half its sample interval about the interval's middle (the step
         happened between two samples, never outside them).
     """
+    sampled = [r.sample_interval_s for role, r in cond.responses.items()
+               if r.timing == "sampled" and role in cond.full_outputs]
+    groups = timing_groups(cond)
+    instant_std = 0.0
+    if delay and sampled:
+        # a sub-sample phase cannot be told from a dead time: with one, the sampled channels'
+        # instants stay at their intervals' middles (no ridge between the delay and the phases)
+        # and their uncertainty, dt/√12 each, averaged over the captures, goes into the intervals
+        groups = tuple(g for g in groups if cond.responses[g[0]].timing != "sampled")
+        instant_std = float(np.sqrt(np.mean(np.square(sampled)) / 12.0 / len(sampled)))
     limits = tuple((role, 0.5 * r.sample_interval_s) for role, r in cond.responses.items()
                    if r.timing == "sampled" and role in cond.full_outputs)
     return OeSettings(n_poles=structure[0], n_zeros=structure[1], delay=delay, shift_bound_s=_shift_bound(cond),
-                      shift_groups=timing_groups(cond), shift_limits=limits)
+                      shift_groups=groups, shift_limits=limits, instant_std_s=instant_std)
 
 
 @dataclass(frozen=True, slots=True)
@@ -443,7 +460,8 @@ def timing_json(res: OeResult, cond: ConditionedExperiment) -> dict[str, Any]:
         elif r.timing == "onset" and res.delay_s is not None:
             item["note"] = "its shift is the dead time (a step instant read off the response cannot be told from it)"
         elif r.timing == "sampled" and res.delay_s is not None and role not in res.shifts:
-            item["note"] = "its phase is in the dead time"
+            item["note"] = ("its phase cannot be told from the dead time: the step is taken at the middle of the "
+                            "sample interval, and dt/√12 is in the dead time's interval")
         out[role] = item
     return out
 

@@ -88,6 +88,20 @@ def _measure(
     return position_v(cfg, plant, offset, rng)
 
 
+def _simulate_between_samples(cfg: TrainerConfig, t: np.ndarray, step_t: float, step_volts: float) -> PlantResponse:
+    """The plant's response to a step at ``step_t``, which may fall between two samples of ``t``.
+
+    The plant holds its input over each integration step; simulated on its sub-step grid (one
+    sub-step per point), the step starts at the sub-step where the switch was thrown, not at the
+    next scope sample, and the states are kept at the scope's samples.
+    """
+    m = cfg.substeps
+    fine = t[0] + np.arange(t.size * m) * ((t[1] - t[0]) / m)
+    full = simulate_plant(cfg, fine, step_signal(fine, step_t - 1e-9 * (t[1] - t[0]), step_volts), substeps=1)
+    return PlantResponse(t, *(np.asarray(a)[::m] for a in (
+        full.amp_out_v, full.current_a, full.motor_speed_rad_s, full.motor_angle_rad, full.output_angle_rad)))
+
+
 def run_experiment(
     preset: str = "paper",
     *,
@@ -167,11 +181,13 @@ def run_experiment(
         settings = ScopeSettings(sec_per_div=sec_per_div, ch2_volts_per_div=VOLTS_PER_DIV[role])
         dt = settings.sample_interval_s
         trig = draw_trigger_index(settings, child)
-        # the scope triggers on the first sample after the CH1 edge
-        step_t = -float(child.uniform(0.0, 1.0)) * dt
+        # the scope triggers on the first sample after the CH1 edge; the switch is thrown at a
+        # random instant in the sample interval before it, which the motor sees (the plant runs
+        # on its integration sub-steps, so the step falls on one of them)
+        step_t = -float(child.integers(0, cfg.substeps)) * dt / cfg.substeps
         t = record_time(settings, trig)
         u = step_signal(t, step_t, step_volts)
-        plant = simulate_plant(cfg, t, u)
+        plant = _simulate_between_samples(cfg, t, step_t, step_volts)
         y, wraps = _measure(role, cfg, plant, child)
         u_meas = u + child.normal(0.0, cfg.noise_v, t.size)
         captures[role] = acquire(settings, trig, u_meas, y, role=role, source=f"<trainer:{role}>",
