@@ -68,6 +68,18 @@ def _parse_columns(spec: str | None) -> dict[str, str] | None:
     return mapping
 
 
+def _with_time_unit(columns: str | None, time_unit: str | None) -> str | None:
+    """``--time-unit`` travels with the column map to every reader (``time_unit=ms`` in it)."""
+    if time_unit is None:
+        return columns
+    return f"{columns},time_unit={time_unit}" if columns else f"time_unit={time_unit}"
+
+
+#: ``--time-unit``: declared once, used by every command that reads captures.
+TIME_UNIT_HELP = ("Unit of a plain CSV's time column: s, ms or us (default: from its name — t_ms, time [ms], "
+                  "micros — else seconds; whole numbers stepping by 1–100 are read as ms, with a note).")
+
+
 def _capture_paths(spec: str) -> str | list[str]:
     """``A.CSV+B.CSV`` names a CH1/CH2 pair; anything else is one file or folder."""
     if "+" in spec and not Path(spec).exists():
@@ -205,11 +217,13 @@ def inspect(
         help="Capture files or ALLnnnn folders; a CH1/CH2 pair as CH1.CSV+CH2.CSV.")],
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list (CONTRACT.md).")] = False,
     columns: Annotated[str | None, typer.Option(help="Plain CSV column map, e.g. time=t,input=u,velocity=rpm.")] = None,
+    time_unit: Annotated[str | None, typer.Option("--time-unit", help=TIME_UNIT_HELP)] = None,
     step_volts: Annotated[float | None, typer.Option(
         "--step-volts",
         help="Step level for captures without an input channel.")] = None,
 ) -> None:
     """Describe captures: format, sample interval, step time and level, role, encoder wraps."""
+    columns = _with_time_unit(columns, time_unit)
     from motorid.conditioning.inspect import describe_capture
     from motorid.io import read_capture
 
@@ -403,6 +417,7 @@ def identify(
              "(V1,V2,...).")] = None,
     t0: Annotated[float | None, typer.Option("--t0", help="Step instant on the files' time axis.")] = None,
     columns: Annotated[str | None, typer.Option(help="Plain CSV column map, e.g. time=t,input=u,velocity=rpm.")] = None,
+    time_unit: Annotated[str | None, typer.Option("--time-unit", help=TIME_UNIT_HELP)] = None,
     units: Annotated[list[str] | None, typer.Option(
         "--units",
         help="Unit of a channel's data, e.g. velocity=rpm (default: from a plain-CSV column name, else V).")] = None,
@@ -440,6 +455,7 @@ def identify(
     Several step levels (``--velocity`` repeated, ``--experiment`` or ``--dead-zone``) give a
     Hammerstein model: dead-zone, gain and rails in front of shared dynamics (issue 15).
     """
+    columns = _with_time_unit(columns, time_unit)
     from motorid.cli.levels import parse_levels
     from motorid.identify.pipeline import IdentifySettings, identify_experiment
     from motorid.io import atomic_outputs, check_writable
@@ -579,6 +595,7 @@ def validate(
         "--warmup",
         help="Seconds at the start simulated but not scored (default 0: the initial state is estimated).")] = 0.0,
     columns: Annotated[str | None, typer.Option(help="Plain CSV column map.")] = None,
+    time_unit: Annotated[str | None, typer.Option("--time-unit", help=TIME_UNIT_HELP)] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Drive a model with recorded inputs and report NRMSE / fit % per capture (paper §VI-B).
@@ -586,6 +603,7 @@ def validate(
     The initial state and an output offset are estimated by least squares over the whole
     record (reported); a position channel is unwrapped; the model's fitted delay is applied.
     """
+    columns = _with_time_unit(columns, time_unit)
     from motorid.model.serialize import load_model
     from motorid.model import CHANNELS
     from motorid.analysis.validation import validate_capture
@@ -657,6 +675,7 @@ def report(
         "--step-volts",
         help="Step level for captures without an input channel.")] = None,
     columns: Annotated[str | None, typer.Option(help="Plain CSV column map.")] = None,
+    time_unit: Annotated[str | None, typer.Option("--time-unit", help=TIME_UNIT_HELP)] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing report.")] = False,
     strict: Annotated[bool, typer.Option(
         "--strict",
@@ -666,6 +685,7 @@ def report(
         help="Keep a capture's role flag even when it looks like another role.")] = False,
 ) -> None:
     """Identify and write one self-contained HTML report of the experiment."""
+    columns = _with_time_unit(columns, time_unit)
     from motorid.identify.pipeline import IdentifySettings, identify_experiment
     from motorid.control.design_io import read_design_json as read_design
     from motorid.io import atomic_outputs, check_writable
@@ -717,6 +737,7 @@ def sweep(
         "--step-volts",
         help="Step level for captures without an input channel.")] = None,
     columns: Annotated[str | None, typer.Option(help="Plain CSV column map.")] = None,
+    time_unit: Annotated[str | None, typer.Option("--time-unit", help=TIME_UNIT_HELP)] = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the table as JSON here.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing JSON file.")] = False,
     force_role: Annotated[bool, typer.Option(
@@ -724,6 +745,7 @@ def sweep(
         help="Keep a capture's role flag even when it looks like another role.")] = False,
 ) -> None:
     """The paper's Tables 1-3: k and τ over record length × sample interval."""
+    columns = _with_time_unit(columns, time_unit)
     from motorid.conditioning.pipeline import ConditioningSettings
     from motorid.identify.pipeline import IdentifySettings
     from motorid.analysis.sweep import sensitivity_table

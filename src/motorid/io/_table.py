@@ -15,9 +15,9 @@ import numpy as np
 
 from motorid.capture import ROLES, Capture, ChannelInfo
 from motorid.errors import CaptureFormatError, OptionError
-from motorid.io._common import column_to_floats, parse_number, validate_rows
+from motorid.io._common import column_to_floats, parse_number, uniform_grid, validate_rows
 
-__all__ = ["COLUMN_KEYS", "capture_from_table", "check_role", "classify_name", "role_from_name"]
+__all__ = ["COLUMN_KEYS", "TIME_UNITS", "capture_from_table", "check_role", "classify_name", "role_from_name"]
 
 #: The keys a column mapping may use.
 COLUMN_KEYS: tuple[str, ...] = ("time", "input", "position", "velocity", "current", "output")
@@ -32,13 +32,22 @@ _KEYWORDS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "position": (("position", "angle", "theta", "encoder", "winkel"), ("pos", "phi", "enc", "deg")),
     "current": (("current", "strom"), ("ia", "amp", "amps", "ampere")),
     "output": (("output", "response"), ("y", "out", "ch2")),
-    "input": (("input", "voltage", "volt", "spannung", "step"), ("u", "vin", "ch1", "uin", "ua")),
+    "input": (("input", "voltage", "volt", "spannung", "step", "pwm", "duty", "power"),
+              ("u", "vin", "ch1", "uin", "ua")),
 }
 # Checked in this order: a setpoint is never the input; "tacho_voltage" is a velocity, not
 # the input; "time" first so that "t" is taken before the other categories look at it.
 _ORDER = ("time", "velocity", "position", "current", "output", "input")
 
 _TIME_SCALE = {"ms": 1e-3, "millis": 1e-3, "msec": 1e-3, "us": 1e-6, "micros": 1e-6, "usec": 1e-6}
+#: ``time_unit`` values (the ``--time-unit`` option, or ``time_unit`` in a column map): seconds per unit.
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
+#: An unlabelled time column of whole numbers stepping by this much or more is not in seconds (a
+#: motor logged once a second or slower shows nothing); up to :data:`MS_STEP_MAX` it is read as
+#: milliseconds (``millis()``), beyond it could be ms or µs and the user is asked.
+MS_STEP_MIN, MS_STEP_MAX = 1.0, 100.0
+#: ... and up to this step it could be ms or µs (larger steps are neither: the range check refuses).
+MS_TO_US_MAX = 1e4
 _UNITS = {"v": "V", "mv": "mV", "a": "A", "ma": "mA", "rpm": "rpm", "deg": "deg", "rad": "rad",
           "raw": "raw", "counts": "counts", "s": "s", "ms": "ms"}
 
@@ -106,12 +115,46 @@ def _units_from_name(name: str) -> str:
     return ""
 
 
-def _time_scale(name: str) -> float:
-    """Seconds per unit of a time column named in ms or µs (Arduino ``millis()`` logs)."""
-    for tok in _tokens(name):
+def _time_scale(name: str) -> float | None:
+    """Seconds per unit of a time column, from its name; None when the name does not say.
+
+    ms or µs: ``t_ms``, ``time [ms]``, ``(us)``, ``µs``, ``millis``; seconds: ``time_s``, ``t [s]``,
+    ``seconds``.
+    """
+    for tok in _tokens(name.replace("µ", "u").replace("μ", "u")):
         if tok in _TIME_SCALE:
             return _TIME_SCALE[tok]
-    return 1.0
+        if tok in ("s", "sec", "secs", "seconds"):
+            return 1.0
+    return None
+
+
+def _time_column(raw: np.ndarray, name: str, time_unit: str | None, file: str, where: str) -> tuple[np.ndarray, str]:
+    """The time column in seconds, and a note when its unit was inferred from its values.
+
+    An explicit ``time_unit`` wins; then the unit in the column's name; then a column of whole
+    numbers stepping by at least :data:`MS_STEP_MIN` is milliseconds when the step is at most
+    :data:`MS_STEP_MAX` (said in the note) and refused otherwise; anything else is seconds.
+    """
+    if time_unit is not None:
+        if time_unit not in TIME_UNITS:
+            raise OptionError(f"--time-unit (time_unit) must be one of {', '.join(TIME_UNITS)}, not {time_unit!r}")
+        return raw * TIME_UNITS[time_unit], ""
+    scale = _time_scale(name)
+    if scale is not None:
+        return raw * scale, ""
+    steps = np.diff(raw[: min(raw.size, 10_000)])
+    whole = raw.size > 1 and bool(np.all(np.isfinite(raw))) and bool(np.all(raw == np.round(raw)))
+    step = float(np.median(steps)) if steps.size else 0.0
+    if not (whole and MS_STEP_MIN <= step <= MS_TO_US_MAX):
+        return raw, ""
+    if step <= MS_STEP_MAX:
+        return raw * 1e-3, (f"{where} {name!r} holds whole numbers stepping by {step:g}, no unit in its name: "
+                            "read as milliseconds (a motor logged every second or slower would show nothing); give "
+                            "--time-unit s if they are seconds")
+    raise CaptureFormatError(
+        f"{where} {name!r} holds whole numbers stepping by {step:g} and its name gives no unit: milliseconds or "
+        "microseconds? Give --time-unit ms or --time-unit us (or name the column t_ms / t_us)", file=file)
 
 
 @dataclass(frozen=True, slots=True)
@@ -265,6 +308,8 @@ def capture_from_table(
     """
     check_role(role)
     names = [str(n).strip() for n in names]
+    columns = dict(columns or {})
+    time_unit = columns.pop("time_unit", None)
     mapping = _resolve_mapping(names, columns, file)
     # A column is numeric when its first cell is a number; then all of it must be (checked
     # when converting), else the column is text (a date, a comment) and is left out.
@@ -274,7 +319,7 @@ def capture_from_table(
     def values(j: int) -> np.ndarray:
         return column_to_floats(cells[j], rows, file=file, what=f"{where} {names[j]!r}", decimal_comma=decimal_comma)
 
-    time_s = values(asg.time) * _time_scale(names[asg.time])
+    time_s, time_note = _time_column(values(asg.time), names[asg.time], time_unit, file, where)
     output = values(asg.output)
     inp = None if asg.input is None else values(asg.input)
     checked = {names[asg.output]: output}
@@ -292,8 +337,11 @@ def capture_from_table(
             key += "_"
         extra[key] = values(j)
     validate_rows(time_s, {f"{where} {k!r}": v for k, v in checked.items()}, file=file, rows=rows,
-                  time_name=f"{where} {names[asg.time]!r}")
-    notes = list(warnings)
+                  time_name=f"{where} {names[asg.time]!r}", jitter_ok=True)
+    notes = list(warnings) + ([time_note] if time_note else [])
+    time_s, output, inp, extra, grid_note = uniform_grid(time_s, output, inp, extra, file=file)
+    if grid_note:
+        notes.append(grid_note)
     role_keys = set(asg.role_columns)
     for key, v in extra.items():
         if key in role_keys:
