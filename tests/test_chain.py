@@ -191,10 +191,10 @@ def test_design_with_integral_and_observer(name, models, run_cli, tmp_path):
         # pinv's 3rd-order model (an unstable pole, a nearly unreachable mode) needs gains ~1e7:
         # the design says so, and the 1 ms sampled loop with an observer cannot realise them
         assert any("far beyond" in w for w in data["warnings"])
-    elif any("SANITY CHECK FAILED" in w for w in m.warnings) and not np.isfinite(sim.metrics.steady_state_error_v):
-        # a model its own gate rejects (pinv's 3rd order: NRMSE 26 %, a pole at −0.002) needs gains of
-        # thousands, which the 1 ms sampled loop cannot realise: the simulation says it diverged
-        assert any("diverged" in w for w in sim.warnings)
+    elif any("sampled loop is unstable" in w for w in sim.warnings):
+        # gains the 1 ms sampled loop cannot realise (an observer slower than a fast plant pole, or a model
+        # its own gate rejects): the simulation says so before it diverges, and it does diverge
+        assert not abs(sim.metrics.steady_state_error_v) < 1e-3
     else:
         assert abs(sim.metrics.steady_state_error_v) < 1e-3, sim.metrics
 

@@ -64,16 +64,11 @@ class OeSettings:
         acquisition saw one step).  Channels in no group have a fixed step instant (a logged
         or sampled input gives it), so nothing can trade their lags for a time shift.
         ``None``: every channel has a shift of its own.
-    shift_limits : tuple of (str, float)
-        Channels whose shift is bounded by this many seconds instead of ``shift_bound_s``: a
-        scope samples the input's edge, which lies somewhere in the sample interval before the
-        first sample at the new level, so that channel's shift (its sub-sample phase, about the
-        interval's middle) is bounded by half a sample.
-    instant_std_s : float
-        Standard deviation (s) of the step instant of channels whose instant is fixed to within
-        their sample interval but not fitted (with a dead time, a sampled input's phase cannot be
-        told from it): added to the variance of the dead time, the residence time and the 63 %
-        time, which move one for one with it.
+    instant_std : tuple of (str, float)
+        Channels whose step instant is fixed to within their sample interval but not fitted (a
+        scope samples the input's edge: the step lies in the interval before the edge sample),
+        with that instant's standard deviation (s, ``dt/√12``).  Its effect on the parameters
+        (the fit's sensitivity to a shift of that channel's instant) is added to their covariance.
     current_direct : bool or None
         Let the current jump at the step (a biproper current TF, ``n_poles + 1`` numerator
         coefficients): what a model that leaves out an electrical pole faster than the
@@ -91,8 +86,7 @@ class OeSettings:
     shift_bound_s: float | None = None
     current_direct: bool | None = None
     shift_groups: tuple[tuple[str, ...], ...] | None = None
-    shift_limits: tuple[tuple[str, float], ...] = ()
-    instant_std_s: float = 0.0
+    instant_std: tuple[tuple[str, float], ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -773,6 +767,28 @@ class _OeProblem:
             rows.append(r_pre)
         return np.vstack(rows)
 
+    def _instant_covariance(self, th: np.ndarray, jac_m: np.ndarray, jtj: np.ndarray) -> np.ndarray:
+        """Parameter covariance from step instants known only to within their sample interval.
+
+        A channel's instant off by ``δ`` moves its residuals by ``j·δ`` (``j``: their derivative in
+        the instant, central differences); least squares then moves the parameters by
+        ``−(JᵀJ)⁻¹Jᵀj·δ``, of variance ``(JᵀJ)⁻¹Jᵀj jᵀJ(JᵀJ)⁻¹·σ_δ²``.
+        """
+        cov = np.zeros((th.size, th.size))
+        gain = None
+        for c, sd in self.settings.instant_std:
+            if c not in self.names or not sd > 0:
+                continue
+            h = 0.01 * sd
+            up, down = dict(self.tc), dict(self.tc)
+            up[c], down[c] = self.tc[c] + h, self.tc[c] - h
+            col = (self.residuals(th, up) - self.residuals(th, down)) / (2 * h)
+            if gain is None:
+                gain = np.linalg.pinv(jtj) @ jac_m.T
+            g = gain @ col
+            cov += np.outer(g, g) * sd**2
+        return cov
+
     def result(self, sol: Any, step_std: float, warnings: list[str]) -> OeResult:
         """Covariance (Gauss–Newton, scaled by the residual variance), delta-method intervals."""
         layout, names, n = self.layout, self.names, self.settings.n_poles
@@ -789,8 +805,8 @@ class _OeProblem:
         if not np.isfinite(cond) or cond > MAX_FISHER_CONDITION:
             warnings.append(f"parameters poorly determined (Fisher information condition number {cond:.2g}): "
                             "a lower order may do")
-        cov = np.linalg.pinv(jtj) * s2
-        d0, std, ci = _delta_method(layout, th, cov, step_std / self.step_volts, self.settings.instant_std_s)
+        cov = np.linalg.pinv(jtj) * s2 + self._instant_covariance(th, jac_m, jtj)
+        d0, std, ci = _delta_method(layout, th, cov, step_std / self.step_volts)
         q = layout.unpack(th)
         num = _vel_num(q["K"], q["tz"])
         den = np.array([1.0])
@@ -835,14 +851,13 @@ def _bounds(layout: _Layout, settings: OeSettings, tc: Mapping[str, np.ndarray])
         bound = settings.shift_bound_s
         if bound is None:
             bound = SHIFT_BOUND_SAMPLES * max(float(np.median(np.diff(v))) for v in tc.values())
-        limits = dict(settings.shift_limits)
         for c in layout.shifted:
-            lower[layout.idx[f"shift_{c}"]] = -limits.get(c, bound)
-            upper[layout.idx[f"shift_{c}"]] = limits.get(c, bound)
+            lower[layout.idx[f"shift_{c}"]] = -bound
+            upper[layout.idx[f"shift_{c}"]] = bound
     return lower, upper
 
 
-def _delta_method(layout: _Layout, th: np.ndarray, cov: np.ndarray, step_rel_std: float, instant_std_s: float = 0.0,
+def _delta_method(layout: _Layout, th: np.ndarray, cov: np.ndarray, step_rel_std: float,
                   ) -> tuple[dict[str, float], dict[str, float], dict[str, tuple[float, float]]]:
     """Derived quantities (gain, τ, poles, zeros...) with standard errors and 95 % intervals.
 
@@ -863,10 +878,6 @@ def _delta_method(layout: _Layout, th: np.ndarray, cov: np.ndarray, step_rel_std
     var = np.einsum("ij,jk,ik->i", grads, cov, grads)
     # the step level is measured, not known: its error scales the fitted gain
     var[keys.index("dc_gain")] += (d0["dc_gain"] * step_rel_std) ** 2
-    # a step instant known to within its sample interval moves every time after it one for one
-    for key in ("delay", "residence_time", "t63"):
-        if key in keys:
-            var[keys.index(key)] += instant_std_s**2
     std = {k: float(np.sqrt(max(v, 0.0))) for k, v in zip(keys, var, strict=False)}
     ci = {k: (d0[k] - 1.96 * std[k], d0[k] + 1.96 * std[k]) for k in keys}
     return d0, std, ci

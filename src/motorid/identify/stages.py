@@ -150,14 +150,12 @@ def _shift_bound(cond: ConditionedExperiment) -> float:
 
 
 def timing_groups(cond: ConditionedExperiment) -> tuple[tuple[str, ...], ...]:
-    """The channels whose step instant the fit refines, grouped by acquisition.
+    """The channels whose step instant was read off a response, grouped by acquisition.
 
-    Each group gets one fitted time shift in the output-error fit: the channels whose step
-    instant was read off a response (the channels of one scope acquisition share one onset, see
-    :func:`motorid.conditioning.pipeline.condition_experiment`), and each channel whose input a
-    scope sampled (its sub-sample phase, bounded to the sample interval before the edge sample:
-    see :func:`oe_settings`).  A channel whose step instant a logged input or ``--t0`` fixes gets
-    none, so nothing can trade its lags (a dead time, an electrical pole) for a shift.
+    Each group gets one fitted time shift in the output-error fit (the channels of one scope
+    acquisition share one onset, see :func:`motorid.conditioning.pipeline.condition_experiment`).
+    A channel whose step instant a recorded input or ``--t0`` fixes gets none, so nothing can
+    trade its lags (a dead time, an electrical pole) for a shift (see :func:`oe_settings`).
 
     Parameters
     ----------
@@ -171,10 +169,7 @@ def timing_groups(cond: ConditionedExperiment) -> tuple[tuple[str, ...], ...]:
     """
     groups: list[list[str]] = []
     for role, r in cond.responses.items():
-        if r.timing not in ("onset", "sampled") or role not in cond.full_outputs:
-            continue
-        if r.timing == "sampled":
-            groups.append([role])  # its own acquisition, its own sub-sample phase
+        if r.timing != "onset" or role not in cond.full_outputs:
             continue
         for g in groups:
             other = cond.responses[g[0]].time_s
@@ -189,9 +184,9 @@ def timing_groups(cond: ConditionedExperiment) -> tuple[tuple[str, ...], ...]:
 def _sampled_phase(r: Any) -> float:
     """Seconds from a channel's step instant to its edge sample: half a sample for a scope input.
 
-    A scope samples the input's edge: the step lies in the sample interval before the first
-    sample at the new level, so the fit starts from its middle and refines the phase within it
-    (:func:`oe_settings`).
+    A scope samples the input's edge: the step lies, uniformly, in the sample interval before
+    the first sample at the new level; its best estimate is the interval's middle (its standard
+    deviation ``dt/√12`` goes into the intervals, see :func:`oe_settings`).
     """
     return 0.5 * r.sample_interval_s if r.timing == "sampled" else 0.0
 
@@ -211,24 +206,17 @@ def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, dela
     Returns
     -------
     OeSettings
-        Shift groups from :func:`timing_groups`; the shift of a channel whose input a scope
-        sampled is bounded by half its sample interval about the interval's middle (the step
-        happened between two samples, never outside them).
+        Shift groups from :func:`timing_groups`; each channel whose input a scope sampled has
+        its instant at the middle of the interval before its edge sample, and that instant's
+        standard deviation ``dt/√12`` as ``instant_std``.
     """
-    sampled = [r.sample_interval_s for role, r in cond.responses.items()
-               if r.timing == "sampled" and role in cond.full_outputs]
-    groups = timing_groups(cond)
-    instant_std = 0.0
-    if delay and sampled:
-        # a sub-sample phase cannot be told from a dead time: with one, the sampled channels'
-        # instants stay at their intervals' middles (no ridge between the delay and the phases)
-        # and their uncertainty, dt/√12 each, averaged over the captures, goes into the intervals
-        groups = tuple(g for g in groups if cond.responses[g[0]].timing != "sampled")
-        instant_std = float(np.sqrt(np.mean(np.square(sampled)) / 12.0 / len(sampled)))
-    limits = tuple((role, 0.5 * r.sample_interval_s) for role, r in cond.responses.items()
-                   if r.timing == "sampled" and role in cond.full_outputs)
+    # a sub-sample phase cannot be told from the lags of the dynamics (an electrical pole, a
+    # dead time): fitted, it took them up and τ came out short; so it stays at the interval's
+    # middle (unbiased: the switch is thrown at any instant) and its uncertainty goes into the intervals
+    sampled = tuple((role, r.sample_interval_s / np.sqrt(12.0)) for role, r in cond.responses.items()
+                    if r.timing == "sampled" and role in cond.full_outputs)
     return OeSettings(n_poles=structure[0], n_zeros=structure[1], delay=delay, shift_bound_s=_shift_bound(cond),
-                      shift_groups=groups, shift_limits=limits, instant_std_s=instant_std)
+                      shift_groups=timing_groups(cond), instant_std=sampled)
 
 
 @dataclass(frozen=True, slots=True)
@@ -424,8 +412,8 @@ def unresolved_pairs(res: OeResult) -> list[int]:
 #: How each kind of step instant is described in the model JSON's ``uncertainty.timing``.
 TIMING_SOURCES = {
     "logged": "the logged input's change (exact)",
-    "sampled": "the scope's input edge: its phase in the sample interval before the first sample at the new "
-               "level is fitted (edge_s: the interval's middle)",
+    "sampled": "the scope's input edge: the middle of the sample interval before the first sample at the new "
+               "level (±dt/√12 in the intervals)",
     "onset": "read off the response (no input channel): its shift is fitted",
     "given": "--t0 (t0_s)",
 }
@@ -459,9 +447,6 @@ def timing_json(res: OeResult, cond: ConditionedExperiment) -> dict[str, Any]:
             item.update(shift_s=res.shifts[role], std=res.std.get(f"shift_{role}", float("nan")), ci95=[lo, hi])
         elif r.timing == "onset" and res.delay_s is not None:
             item["note"] = "its shift is the dead time (a step instant read off the response cannot be told from it)"
-        elif r.timing == "sampled" and res.delay_s is not None and role not in res.shifts:
-            item["note"] = ("its phase cannot be told from the dead time: the step is taken at the middle of the "
-                            "sample interval, and dt/√12 is in the dead time's interval")
         out[role] = item
     return out
 

@@ -360,6 +360,34 @@ def response_metrics(time_s: np.ndarray, output_v: np.ndarray, reference_v: np.n
                            rms, peak_u)
 
 
+def _sampled_loop_radius(phi: np.ndarray, gam: np.ndarray, c: np.ndarray, k: np.ndarray, ki: float | None,
+                         dt: float, observer: tuple[np.ndarray, np.ndarray] | None) -> float:
+    """Spectral radius of the linear sampled loop (plant, held control, observer fed the held output, integrator).
+
+    The design is continuous; the simulation samples it.  This is the loop the simulation runs,
+    without saturation: above 1 it diverges whatever the continuous poles say.
+    """
+    n = phi.shape[0]
+    g = gam[:, :1]
+    kz = np.array([[0.0 if ki is None else float(ki)]])
+    if observer is None:  # u = −K x − ki z
+        top = np.hstack([phi - g @ k, -g @ kz])
+        blocks = [top, np.hstack([dt * c, np.ones((1, 1))])]
+        m = np.vstack(blocks) if ki is not None else phi - g @ k
+    else:
+        phi_o, gam_o = observer
+        gu, gy = gam_o[:, :1], gam_o[:, 1:2]
+        rows = [np.hstack([phi, -g @ k, -g @ kz]),
+                np.hstack([gy @ c, phi_o - gu @ k, -gu @ kz]),
+                np.hstack([dt * c, np.zeros((1, n)), np.ones((1, 1))])]
+        m = np.vstack(rows)
+        if ki is None:
+            m = m[: 2 * n, : 2 * n]
+    with np.errstate(all="ignore"):
+        ev = np.linalg.eigvals(m) if np.all(np.isfinite(m)) else np.array([np.inf])
+    return float(np.max(np.abs(ev)))
+
+
 def _zoh(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     n, m = b.shape
     aug = np.zeros((n + m, n + m))
@@ -462,6 +490,11 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
                         f"({lag} step(s) of {s.dt_s:g} s)")
     if l_col is not None:  # (use_obs)
         phi_o, gam_o = _zoh(a - l_col @ c, np.hstack([b, l_col]), s.dt_s)
+    rho = _sampled_loop_radius(phi, gam, c, k, ki, s.dt_s, (phi_o, gam_o) if l_col is not None else None)
+    if rho > 1.0 + 1e-9 and s.plant != "trainer":
+        warnings.append(f"at dt = {s.dt_s:g} s the sampled loop is unstable (spectral radius {rho:.4g}) although the "
+                        "continuous design is stable: the controller or observer gains are too large for this rate "
+                        "(observer poles slower than a plant pole need such gains); use a smaller --dt, or other poles")
     nl = model.static_nonlinearity
     if s.dead_zone_compensation and nl is None:
         raise OptionError("dead-zone compensation needs a model with a static nonlinearity (identify several "
