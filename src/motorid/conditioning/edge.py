@@ -23,6 +23,7 @@ __all__ = [
     "StepEdge",
     "noise_level",
     "quantisation_step",
+    "ramp_onset",
     "response_onset",
     "step_edge",
 ]
@@ -269,6 +270,65 @@ def _refuse_a_response(
         "with --step-volts V (and --t0 T)",
         file=file,
     )
+
+
+def ramp_onset(time_s: np.ndarray, position_v: np.ndarray, first_guess: StepEdge) -> StepEdge:
+    """The onset of a position step response, from a model of the motion.
+
+    A position driven by a step is a delayed, lagged ramp: ``θ0`` before the onset ``t0``, then
+    ``θ0 + v·(t − t0 − τ(1 − e^{−(t−t0)/τ}))``.  A line through its early rise (the velocity's
+    onset rule) meets the baseline near ``t0 + τ``, a time constant late; this fits ``θ0``, ``v``,
+    ``τ`` and ``t0`` (``scipy.optimize.least_squares``) to the record, started from that read-off.
+
+    Parameters
+    ----------
+    time_s, position_v : ndarray
+        The record (an unwrapped position).
+    first_guess : StepEdge
+        :func:`response_onset`'s answer on the same record.
+
+    Returns
+    -------
+    StepEdge
+        ``method="onset"``, at the fitted ``t0`` (the read-off kept when the fit fails or leaves
+        the record).
+    """
+    import scipy.optimize
+
+    t = np.asarray(time_s, dtype=float)
+    y = np.asarray(position_v, dtype=float)
+    dt = float(np.median(np.diff(t)))
+    i0 = first_guess.index
+    tail = max(5, (t.size - i0) // 5)
+    slope = float(np.polyfit(t[-tail:], y[-tail:], 1)[0]) if t.size - i0 > 5 else 0.0
+    if slope == 0 or not np.isfinite(slope):
+        return first_guess
+    base = first_guess.baseline_v
+    # the read-off is where the asymptote meets the baseline: t0 + τ
+    t_hit = first_guess.time_s
+    quiet = np.flatnonzero(np.abs(y[:i0 + 1] - base) <= 4.0 * first_guess.noise_v + 1e-12)
+    t_quiet = float(t[quiet[-1]]) if quiet.size else float(t[0])
+    tau0 = max(t_hit - t_quiet, 2 * dt)
+
+    def model(p: np.ndarray) -> np.ndarray:
+        th0, v, tau, t0 = p
+        te = np.clip(t - t0, 0.0, None)
+        return th0 + v * (te - tau * (1.0 - np.exp(-te / max(tau, 1e-12))))
+
+    p0 = np.array([base, slope, tau0, max(t_hit - tau0, float(t[0]))])
+    lower = [-np.inf, -np.inf, 1e-9, float(t[0]) - dt]
+    upper = [np.inf, np.inf, float(t[-1] - t[0]), t_hit + dt]
+    p0 = np.clip(p0, np.array(lower) + 1e-12, np.array(upper) - 1e-12)
+    try:
+        fit = scipy.optimize.least_squares(lambda p: model(p) - y, p0, bounds=(lower, upper), x_scale="jac")
+    except (ValueError, np.linalg.LinAlgError):
+        return first_guess
+    t0 = float(fit.x[3])
+    if not (fit.success and np.isfinite(t0) and t[0] - dt <= t0 <= t_hit + dt):
+        return first_guess
+    idx = int(min(max(np.searchsorted(t, t0), 0), t.size - 1))
+    return StepEdge(index=idx, time_s=t0, baseline_v=float(fit.x[0]), level_v=first_guess.level_v,
+                    amplitude_v=first_guess.amplitude_v, noise_v=first_guess.noise_v, method="onset")
 
 
 def response_onset(

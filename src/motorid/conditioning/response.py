@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from motorid.capture import ROLES, Capture
-from motorid.conditioning.edge import StepEdge, response_onset, step_edge
+from motorid.conditioning.edge import StepEdge, ramp_onset, response_onset, step_edge
 from motorid.conditioning.unwrap import unwrap_position
 from motorid.errors import ConditioningError, OptionError, StepNotFoundError
 
@@ -143,10 +143,20 @@ def step_response(
             )
         amp = float(step_volts)
         edge = response_onset(t, y, file=capture.source)
+        if role == "position" and t0_s is None:
+            # a ramp: the line through its rise meets the baseline a time constant late
+            edge = ramp_onset(t, y, edge)
     if t0_s is not None:
         idx = int(np.searchsorted(t, t0_s))
-        if not 0 < idx < t.size:
-            raise ConditioningError(f"--t0 {t0_s:g} s is outside the record", file=capture.source)
+        dt_rec = float(t[1] - t[0])
+        if idx == 0 and t0_s >= t[0] - 0.5 * dt_rec:
+            # a log that starts at the step: its first sample is the baseline
+            warnings.append(f"--t0 {t0_s:g} s is the record's first sample: no samples before the step, the "
+                            "baseline is the first sample")
+            idx = 1 if t0_s > t[0] else 0
+        elif not 0 <= idx < t.size or (idx == 0 and t0_s < t[0]):
+            raise ConditioningError(f"--t0 {t0_s:g} s is outside the record ({t[0]:g} to {t[-1]:g} s)",
+                                    file=capture.source)
         edge = StepEdge(idx, float(t0_s), edge.baseline_v, edge.level_v, edge.amplitude_v, edge.noise_v, "given")
     if edge.method == "onset" or edge.method == "given":
         timing = edge.method

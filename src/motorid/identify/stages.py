@@ -899,7 +899,10 @@ def select_order(
                 models[structure] = model
                 fits.append((res.bic, structure, with_delay, res, model))
     if not fits:
-        raise IdentificationError("the output-error fit failed for every order: " + "; ".join(errors))
+        onsets = [f"{role} at {r.edge.time_s:.6g} s" for role, r in cond.responses.items() if r.timing == "onset"]
+        hint = ("; the step instant was read off the response itself (" + ", ".join(onsets) + "): if the motion "
+                "starts elsewhere, give it with --t0") if onsets else ""
+        raise IdentificationError("the output-error fit failed for every order: " + "; ".join(errors) + hint)
     fits.sort(key=lambda f: f[0])
     fits, _ = _simplest_of_ties(fits)
     bic0 = min(f[0] for f in fits)
