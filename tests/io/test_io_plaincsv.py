@@ -175,7 +175,7 @@ def test_unusable_tables(tmp_path, text, match):
 def test_one_late_stamp_is_jitter_resampled_with_a_note(tmp_path):
     """A stamp 5 ms late in a 10 ms log used to be refused as "gap or corrupt record"; it is jitter:
     the log is put on a uniform grid and the note says how."""
-    f, lines = _bad(tmp_path, 40, "0.385,6.0,1.0")
+    f, _ = _bad(tmp_path, 40, "0.385,6.0,1.0")
     cap = read_capture(f)
     assert np.allclose(np.diff(cap.time_s), np.diff(cap.time_s)[0], rtol=1e-9)
     assert any("the time stamps jitter" in w and "resampled" in w for w in cap.warnings)

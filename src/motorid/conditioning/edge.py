@@ -326,7 +326,7 @@ def ramp_onset(time_s: np.ndarray, position_v: np.ndarray, first_guess: StepEdge
     t0 = float(fit.x[3])
     if not (fit.success and np.isfinite(t0) and t[0] - dt <= t0 <= t_hit + dt):
         return first_guess
-    idx = int(min(max(np.searchsorted(t, t0), 0), t.size - 1))
+    idx = min(max(int(np.searchsorted(t, t0)), 0), t.size - 1)
     return StepEdge(index=idx, time_s=t0, baseline_v=float(fit.x[0]), level_v=first_guess.level_v,
                     amplitude_v=first_guess.amplitude_v, noise_v=first_guess.noise_v, method="onset")
 
