@@ -174,6 +174,12 @@ def _channel_system(model: MotorModel, channel: str) -> tuple[control.StateSpace
     return control.ss(a, b, c, np.zeros((1, 1))), (*model.states, "position (integral)")
 
 
+#: An input that varies by more than this (RMS, relative to its edge) after its edge is not a step
+#: (the identification's sanity gate uses the same figure: 8-bit codes and probe noise stay well
+#: under 1 %, a closed loop's control signal varies by 2–10 %).
+INPUT_RMS_REL = 0.02
+
+
 def _is_step(capture: Capture) -> bool:
     if capture.input_v is None:
         return False
@@ -279,9 +285,19 @@ def validate_capture(
         reference: Literal["final", "span"] = "span" if channel == "current" else "final"
         kind = "built step" if capture.input_v is None else "step"
         how = {"given": "given (--t0)", "onset": "the response's onset", "change-point": "CH1's edge"}
+        after = u[sr.time_s >= 0]
+        varies = float(np.sqrt(np.mean((after - sr.step_volts) ** 2)) / abs(sr.step_volts)) if after.size else 0.0
+        if capture.input_v is not None and varies > INPUT_RMS_REL:
+            # a closed loop's control signal has an edge too: the model is driven by it as recorded
+            kind = "recorded (not a step)"
+            warnings.append(f"the input recorded in {capture.source} varies by {100 * varies:.2g} % (RMS) of its "
+                            f"{sr.step_volts:.4g} V edge after it: not a step (a closed-loop record); the model is "
+                            "driven by the input as recorded, and the NRMSE is over the change from the "
+                            "pre-edge baseline")
         notes.append(f"step input: {kind} of {sr.step_volts:.4g} V at {step_time + 0.0:.6g} s "
-                     f"(from {how.get(sr.edge.method, sr.edge.method)}); scored on the increments "
-                     "from the pre-step baseline")
+                     f"(from {how.get(sr.edge.method, sr.edge.method)}); the model is driven by the input "
+                     f"{'as recorded' if capture.input_v is not None else 'built from --step-volts'}; scored on the "
+                     "increments from the pre-step baseline")
     else:
         if step_volts is not None:
             warnings.append("--step-volts ignored: the capture's CH1 gives the input")

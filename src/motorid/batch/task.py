@@ -208,8 +208,8 @@ def _steps_from_rest(capture: Any) -> bool:
 def assign_roles(captures: Mapping[tuple[str, ...], Any]) -> tuple[dict[str, tuple[str, ...]], list[tuple[str, ...]]]:
     """Give each capture of a folder without a roles file its role, from its signal.
 
-    A capture's own labels win (a plain-CSV log's column names: one file may hold several
-    roles); then confident guesses (:func:`motorid.conditioning.role.guess_role`); then
+    A capture's own labels win (a plain-CSV log's column names); each file takes one role, as on
+    the command line; then confident guesses (:func:`motorid.conditioning.role.guess_role`); then
     guesses that are not confident, for roles still free.
 
     Parameters
@@ -251,10 +251,9 @@ def assign_roles(captures: Mapping[tuple[str, ...], Any]) -> tuple[dict[str, tup
                 raise OptionError(f"{len(keys)} captures look like {role} ({', '.join(map(_label, keys))}): name "
                                   "the roles in an experiment.toml or manifest.csv in the folder")
             roles[role] = keys[0]
-    for key, cap in captures.items():  # further role columns of a plain-CSV log
-        for role in ROLES:
-            if role in cap.extra and role not in roles:
-                roles[role] = key
+    # a plain-CSV log's further role columns (a position beside the velocity) are not taken: the
+    # same file gives the same model as `motorid identify --velocity FILE` (its conditioning notes
+    # the column left out); an experiment.toml can name the file for both roles
     if "velocity" not in roles and "position" not in roles:
         seen = "; ".join(f"{_label(k)}: {g.role} ({g.reason})" for k, g in guesses.items()) or "no captures"
         raise OptionError(f"no capture looks like a velocity or position step response ({seen}): name the "

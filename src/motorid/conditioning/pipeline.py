@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from motorid.capture import Capture
+from motorid.capture import ROLES, Capture
 from motorid.conditioning.checks import check_step_responses
 from motorid.conditioning.denoise import fft_denoise
 from motorid.conditioning.resample import ratio_for_interval, sample_reduction
@@ -180,6 +180,12 @@ def condition_experiment(
     if t0_s is None:
         responses, shared = _shared_onsets(captures, responses, step_volts)
         notes.extend(shared)
+    for cap in captures.values():
+        # a log with more measured columns than the role it was given: say what is left out
+        unused = [r for r in ROLES if r in cap.extra and r not in captures]
+        if unused:
+            notes.append(f"{cap.source} also holds a {' and a '.join(unused)} column, not used: give the file as "
+                         + " and ".join(f"--{r}" for r in unused) + " too to fit it")
     warnings: list[str] = []
     for r in responses.values():
         warnings.extend(f"{r.source}: {w}" for w in r.warnings)

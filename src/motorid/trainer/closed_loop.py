@@ -16,6 +16,8 @@ from motorid.model import MotorModel
 from motorid.simulate.closed_loop import SimulationResult, SimulationSettings, simulate_closed_loop
 from motorid.trainer.plant import simulate_plant
 from motorid.trainer.presets import TrainerConfig, preset
+from motorid.trainer.truth import truth_of
+from motorid.errors import OptionError
 
 __all__ = ["TrainerLoop", "simulate_on_trainer"]
 
@@ -56,6 +58,7 @@ class TrainerLoop:
         """
         warnings: list[str] = []
         self.cfg = (preset(s.trainer_preset) if self._config is None else self._config).quiet()
+        warnings += _same_motor(model, self.cfg, s.trainer_preset)
         if s.saturation_v is None:
             self.cfg = self.cfg  # the trainer's own rails still act
         if self.cfg.amp_lag_s > 0:
@@ -113,6 +116,35 @@ class TrainerLoop:
         cfg = self.cfg if t < self.dist_start or self.brake_nm == 0 else replace(self.cfg, brake_nm=self.brake_nm)
         resp = simulate_plant(cfg, np.array([0.0, self.dt]), np.array([u, u]), initial=self.state)
         self.state = (float(resp.current_a[1]), float(resp.motor_speed_rad_s[1]), float(resp.motor_angle_rad[1]))
+
+
+#: A model is of the trainer's motor when its DC gain and mean residence time are within these
+#: fractions of the trainer's linearised ones (an identified model of the trainer lands well inside:
+#: its dead-zone and friction lower the gain by ~2 %, its lags move τ by a few %).
+SAME_MOTOR_GAIN_REL, SAME_MOTOR_TAU_REL = 0.25, 0.35
+
+
+def _same_motor(model: MotorModel, cfg: TrainerConfig, name: str) -> list[str]:
+    """Refuse a model of another motor on the trainer's plant; a note when they differ noticeably.
+
+    ``--plant trainer`` runs the trainer's own motor: a design made on another motor's model (a
+    rig logged in rpm) would be tried on a plant it was not designed for, and its numbers
+    (rise time ``nan``) would say nothing about that rig.
+    """
+    truth = truth_of(cfg)
+    fo = model.first_order()
+    units = {u for u in (model.units or {}).values() if u and u != "V"}
+    gain_rel = abs(fo.dc_gain - truth.dc_gain) / abs(truth.dc_gain)
+    tau_rel = abs(model.residence_time_s() - truth.time_constant_s) / truth.time_constant_s
+    what = (f"dc gain {fo.dc_gain:.4g} {model.dc_gain_unit} and τ + dead time {model.residence_time_s():.4g} s against "
+            f"the trainer's {truth.dc_gain:.4g} V/V and {truth.time_constant_s:.4g} s")
+    if units or not (gain_rel <= SAME_MOTOR_GAIN_REL and tau_rel <= SAME_MOTOR_TAU_REL):
+        raise OptionError(f"this model is not of the virtual trainer's motor (preset {name!r}): {what}; "
+                          "--plant trainer runs the trainer's own motor — use --plant linear to simulate on the "
+                          "model, or --preset for another trainer")
+    if max(gain_rel, tau_rel) > 0.1:
+        return [f"the model differs from the trainer preset {name!r} it runs on: {what}"]
+    return []
 
 
 def simulate_on_trainer(model: MotorModel, design: Design, settings: SimulationSettings, *,
