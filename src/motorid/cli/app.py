@@ -449,6 +449,9 @@ def identify(
     force_role: Annotated[bool, typer.Option(
         "--force-role",
         help="Keep a capture's role flag even when it looks like another role.")] = False,
+    segment: Annotated[int | None, typer.Option(
+        "--segment", help="A log with several input steps (a staircase, a pulse): identify step N alone (1-based); "
+        "without it every step goes through the several-levels path.")] = None,
 ) -> None:
     """Identify the motor model from step captures (paper sections III-VI).
 
@@ -494,6 +497,15 @@ def identify(
         markov_basis=markov_basis,
     )
     caps = _read_roles(position, velocity, current, columns, force_role=force_role)
+    found = _segments(caps, segment)
+    if found is not None and not found[1]:
+        # every step of the log, as the several-levels path's experiments
+        _identify_levels([], [], levels, columns, json_out=json_out, matlab_out=matlab_out, report_out=report_out,
+                         ignored=[f"--{r}" for r, v in (("position", position), ("current", current)) if v],
+                         captures=found[0])
+        return
+    if found is not None:
+        caps = {**caps, "velocity": found[0][0]}
     _check_against_captures(caps, record_length=record_length)
     checks = _validation_captures(validate, columns) if report_out is not None else {}
     if report_out is not None:
@@ -535,16 +547,50 @@ def _with_units(result, units: list[str] | None, scale: list[str] | None):  # ->
     return replace(result, model=model)
 
 
+def _segments(caps: dict, segment: int | None) -> tuple[list, bool] | None:
+    """A velocity log with several input steps: its segments (printed), or the one ``--segment`` picks.
+
+    Returns None for an ordinary step capture (``--segment 1`` is then the capture itself), else
+    the segment captures and whether they are one experiment (``--segment``, or a pulse whose
+    single moving level is its first step).
+    """
+    from motorid.conditioning.segment import cut_segment, find_steps
+
+    cap = caps.get("velocity")
+    steps = find_steps(cap) if cap is not None else ()
+    if segment is not None and not (1 <= segment <= max(1, len(steps))):
+        found = "; ".join(s.describe() for s in steps) or "one step"
+        raise OptionError(f"--segment {segment}: the velocity log has {max(1, len(steps))} step(s) ({found})")
+    if cap is None or len(steps) < 2:
+        return None
+    con = _console()
+    con.print(f"{cap.source}: {len(steps)} input steps found")
+    for s in steps:
+        con.print(f"  {s.describe()}" + (" ← identified" if segment == s.index else ""))
+    if segment is not None:
+        return [cut_segment(cap, steps[segment - 1])], True
+    span = max(abs(s.to_v) for s in steps)
+    moving = {round(s.to_v, 6) for s in steps if abs(s.to_v) > 0.05 * span}
+    if len(moving) < 2:
+        # a pulse (up, then back down): one level that moves the motor — a static characteristic
+        # needs two; the first step is the experiment
+        con.print(f"  one level moves the motor ({', '.join(f'{v:g} V' for v in sorted(moving))}): identified "
+                  "from segment 1 (--segment N for another)")
+        return [cut_segment(cap, steps[0])], True
+    return [cut_segment(cap, s) for s in steps], False
+
+
 def _identify_levels(velocities: list[str], experiments: list[str], levels: list[float] | None,
                      columns: str | None, *, json_out: Path | None, matlab_out: Path | None,
-                     report_out: Path | None, ignored: list[str]) -> None:
-    """The several-step-levels path of ``identify`` (issue 15)."""
+                     report_out: Path | None, ignored: list[str], captures: list | None = None) -> None:
+    """The several-step-levels path of ``identify``: captures given, or one log's segments."""
     from motorid.cli.levels import experiment_capture, identify_levels_cmd
     from motorid.io import atomic_outputs, read_capture
 
     colmap = _parse_columns(columns)
     caps = [read_capture(_capture_paths(v), columns=colmap, role="velocity") for v in velocities]
     caps += [experiment_capture(d) for d in experiments]
+    caps += list(captures or [])
     con = _console()
     result = identify_levels_cmd(con, caps, levels, ignored=ignored)
     model = result.model  # type: ignore[attr-defined]

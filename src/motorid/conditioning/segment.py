@@ -1,0 +1,135 @@
+"""One log with several steps (a staircase, a pulse) cut into step experiments.
+
+A rig's log often holds a whole test: the input stepped 0 → 2 → 4 → 6 → 8 V, a few seconds per
+level, or up and back down.  Every stage after this one models the response to one step, so the
+log is cut at its input's steps: each segment runs from the middle of the plateau before its
+step (the pre-step samples give its baseline) to the end of its own plateau, and is an ordinary
+step capture from a settled level (or from rest).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from itertools import pairwise
+
+import numpy as np
+
+from motorid.capture import Capture
+from motorid.conditioning.edge import noise_level
+
+__all__ = ["MIN_STEP_FRACTION", "StepSegment", "cut_segment", "find_steps"]
+
+#: A change of the input smaller than this fraction of its range is not a step (a logged command's
+#: dither, a PWM duty rounding).
+MIN_STEP_FRACTION = 0.05
+#: A plateau shorter than this many samples is an edge's ramp, not a level.
+MIN_PLATEAU_SAMPLES = 5
+#: The output has settled on a plateau when its last tenth and the tenth before differ by less
+#: than this fraction of the step's change of the output.
+SETTLED_REL = 0.02
+
+
+@dataclass(frozen=True, slots=True)
+class StepSegment:
+    """One step of a multi-step log.
+
+    Attributes
+    ----------
+    index : int
+        1-based, in time order (``--segment N``).
+    time_s : float
+        Time of the first sample at the new level, on the log's own axis.
+    edge : int
+        Its sample index.
+    start, stop : int
+        The samples of the cut, ``[start, stop)``: from the middle of the previous plateau to the
+        end of this one.
+    from_v, to_v : float
+        The input's level before and after (medians of the plateaus).
+    settled : bool
+        Whether the output settled before the next step (see :data:`SETTLED_REL`): a segment that
+        did not is still identified, but its final level is not its steady state.
+    """
+
+    index: int
+    time_s: float
+    edge: int
+    start: int
+    stop: int
+    from_v: float
+    to_v: float
+    settled: bool
+
+    def describe(self) -> str:
+        """One line for the printout."""
+        return (f"segment {self.index}: step at {self.time_s:.6g} s, {self.from_v:.4g} → {self.to_v:.4g} V"
+                + ("" if self.settled else " (the output had not settled before the next step)"))
+
+
+def find_steps(capture: Capture) -> tuple[StepSegment, ...]:
+    """The steps of a capture's recorded input, and where to cut the log for each.
+
+    Parameters
+    ----------
+    capture : Capture
+        A capture with an input channel (without one: no steps are found).
+
+    Returns
+    -------
+    tuple of StepSegment
+        In time order; empty or one step for an ordinary step capture.
+    """
+    if capture.input_v is None or capture.input_v.size < 3 * MIN_PLATEAU_SAMPLES:
+        return ()
+    u = np.asarray(capture.input_v, dtype=float)
+    span = float(np.ptp(u))
+    if span == 0:
+        return ()
+    jump = np.abs(np.diff(u))
+    threshold = max(MIN_STEP_FRACTION * span, 8.0 * noise_level(u))
+    changes = np.flatnonzero(jump > threshold) + 1  # first sample at the new level
+    # a change spread over a few samples (a slewing driver) is one step: keep its last sample
+    edges = [int(k) for i, k in enumerate(changes) if i + 1 == len(changes) or changes[i + 1] - k > 1]
+    bounds = [0, *edges, u.size]
+    plateaus = list(pairwise(bounds))
+    if any(b - a < MIN_PLATEAU_SAMPLES for a, b in plateaus):
+        return ()  # not a staircase of levels: a ramp, a sine, a noisy command
+    levels = [float(np.median(u[a:b])) for a, b in plateaus]
+    y = np.asarray(capture.output_v, dtype=float)
+    out: list[StepSegment] = []
+    for i, k in enumerate(edges):
+        (a, _), (_, stop) = plateaus[i], plateaus[i + 1]
+        start = (a + k) // 2 if i > 0 else 0
+        tail = max(2, (stop - k) // 10)
+        last, before = float(np.mean(y[stop - tail:stop])), float(np.mean(y[stop - 2 * tail:stop - tail]))
+        change = last - float(np.mean(y[max(start, k - tail):k]))
+        settled = abs(last - before) <= SETTLED_REL * abs(change) if change else True
+        out.append(StepSegment(i + 1, float(capture.time_s[k]), k, start, stop, levels[i], levels[i + 1],
+                               bool(settled)))
+    return tuple(out)
+
+
+def cut_segment(capture: Capture, segment: StepSegment) -> Capture:
+    """The part of a log that holds one of its steps, as a capture of its own.
+
+    Parameters
+    ----------
+    capture : Capture
+        The whole log.
+    segment : StepSegment
+        One of :func:`find_steps`'s answers for it.
+
+    Returns
+    -------
+    Capture
+        Same source, format and channels, samples ``[start, stop)``, a note naming the segment.
+    """
+    sl = slice(segment.start, segment.stop)
+    return replace(
+        capture,
+        time_s=capture.time_s[sl],
+        output_v=capture.output_v[sl],
+        input_v=None if capture.input_v is None else capture.input_v[sl],
+        extra={k: v[sl] for k, v in capture.extra.items()},
+        warnings=(*capture.warnings, f"{segment.describe()} of a log with several steps"),
+    )

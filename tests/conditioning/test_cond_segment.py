@@ -1,0 +1,86 @@
+"""A log with several input steps (a staircase, a pulse) cut into step experiments.
+
+Before: such a log was refused ("no step in the input channel (two-level fit residual …)") and the
+user had to cut it by hand.  The logs are simulated here with a zero-order hold (a logged
+command applies from its stamp): a 0.5 V dead-zone in front of 100 rpm/V, τ 0.15 + 0.02 s.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import control
+import numpy as np
+import pytest
+
+from motorid.capture import Capture, ChannelInfo
+from motorid.conditioning.segment import cut_segment, find_steps
+
+DT, PER, DEAD_ZONE, K = 0.01, 300, 0.5, 100.0
+_SYS = control.c2d(control.ss(control.tf([K], np.polymul([0.15, 1], [0.02, 1]))), DT, "zoh")
+
+
+def _log(levels: list[float], seed: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    u = np.repeat(levels, PER).astype(float)
+    t = np.arange(u.size) * DT
+    ueff = np.sign(u) * np.maximum(np.abs(u) - DEAD_ZONE, 0.0)
+    y = np.ravel(control.forced_response(_SYS, t, ueff).outputs) + rng.normal(0, 1.0, t.size)
+    return t, u, y
+
+
+def _write(path: Path, levels: list[float]) -> Path:
+    t, u, y = _log(levels)
+    path.write_text("time_s,voltage,speed_rpm\n"
+                    + "\n".join(f"{a:.2f},{b:.1f},{c:.3f}" for a, b, c in zip(t, u, y, strict=True)))
+    return path
+
+
+def test_the_steps_of_a_staircase_and_where_it_is_cut():
+    t, u, y = _log([0, 2, 4, 6, 8])
+    cap = Capture("<log>", "plain-csv", t, y, ChannelInfo("speed_rpm", "rpm"), input_v=u,
+                  input_info=ChannelInfo("voltage", "V"))
+    steps = find_steps(cap)
+    assert [(s.from_v, s.to_v) for s in steps] == [(0, 2), (2, 4), (4, 6), (6, 8)]
+    assert [s.time_s for s in steps] == pytest.approx([3.0, 6.0, 9.0, 12.0])
+    assert all(s.settled for s in steps)
+    seg = cut_segment(cap, steps[1])
+    assert seg.time_s[0] == pytest.approx(4.5) and seg.time_s[-1] == pytest.approx(8.99)
+    assert "segment 2" in seg.warnings[-1]
+    # an ordinary step, a sine: no staircase
+    one = Capture("<s>", "plain-csv", t[:600], y[:600], ChannelInfo("y"), input_v=u[:600])
+    assert len(find_steps(one)) <= 1
+    sine = Capture("<sine>", "plain-csv", t, y, ChannelInfo("y"), input_v=np.sin(t))
+    assert find_steps(sine) == ()
+
+
+def test_a_staircase_through_the_cli(tmp_path, run_cli):
+    f = _write(tmp_path / "stair.csv", [0, 2, 4, 6, 8])
+    out = tmp_path / "s2.json"
+    res = run_cli("identify", "--velocity", str(f), "--segment", "2", "--json", str(out))
+    assert res.code == 0, res.err
+    assert "segment 2: step at 6 s, 2 → 4 V ← identified" in res.out
+    m = json.loads(out.read_text())
+    assert m["first_order"]["dc_gain"] == pytest.approx(K, rel=0.01)  # between two moving levels: the linear gain
+    assert m["first_order"]["residence_time_s"] == pytest.approx(0.17, rel=0.02)
+    assert any("segment 2" in w for w in m["warnings"])
+    # every step: the several-levels path finds the dead-zone and the gain
+    out = tmp_path / "all.json"
+    res = run_cli("identify", "--velocity", str(f), "--json", str(out))
+    assert res.code == 0, res.err
+    static = json.loads(out.read_text())["static_nonlinearity"]
+    assert static["dead_zone"]["value"] == pytest.approx(DEAD_ZONE, abs=0.02)
+    assert static["gain"]["ci95"][0] <= K <= static["gain"]["ci95"][1]
+    res = run_cli("identify", "--velocity", str(f), "--segment", "9")
+    assert res.code == 2 and "4 step(s)" in res.err and len(res.err.strip().splitlines()) == 1
+
+
+def test_a_pulse_is_identified_from_its_first_step(tmp_path, run_cli):
+    f = _write(tmp_path / "pulse.csv", [0, 6, 0])
+    out = tmp_path / "p.json"
+    res = run_cli("identify", "--velocity", str(f), "--json", str(out))
+    assert res.code == 0, res.err
+    assert "identified from segment 1" in res.out
+    m = json.loads(out.read_text())
+    assert m["first_order"]["dc_gain"] == pytest.approx(K * (6 - DEAD_ZONE) / 6, rel=0.01)  # from rest
