@@ -1,4 +1,6 @@
-"""The real-setup presets (issue 11, "Also"): files as the real set-ups write them, honest truth.
+"""The scope and DAQ real-setup presets: files as the real set-ups write them, honest truth.
+
+(The hobby rigs' presets are checked in ``test_trainer_hobbyrigs.py``.)
 
 Truth values are checked against independent computations: the physical steady state of the
 nonlinear plant simulated long, python-control's ``dcgain``/``poles`` of the linearised TF,
@@ -23,7 +25,7 @@ from motorid.trainer.realsetups import (
     PWM_COUNTS_PER_REV,
     PWM_DT_S,
     PWM_EVERY,
-    REAL_SETUPS,
+    SCOPE_AND_DAQ_SETUPS,
     real_setup_config,
     write_real_setup,
 )
@@ -36,7 +38,7 @@ def recordings(tmp_path_factory):
     """Each preset written once (seed 2; seed 0 for the TBS1000 gives its 0.1 ms/pt scale)."""
     root = tmp_path_factory.mktemp("realsetups")
     return {name: write_real_setup(name, root / name, seed=0 if name == "fast-tbs1000" else 2)
-            for name in REAL_SETUPS}
+            for name in SCOPE_AND_DAQ_SETUPS}
 
 
 def _velocity_file(rec):
@@ -161,7 +163,7 @@ def _steady_speed(cfg, volts: float, seconds: float = 6.0) -> float:
     return float(plant.motor_speed_rad_s[-200:].mean())
 
 
-@pytest.mark.parametrize("name", REAL_SETUPS)
+@pytest.mark.parametrize("name", SCOPE_AND_DAQ_SETUPS)
 def test_truth_gain_is_the_steady_state_of_the_nonlinear_plant(name, recordings):
     """Independent: simulate the nonlinear plant long at constant input and read its level."""
     rec = recordings[name]
@@ -172,7 +174,7 @@ def test_truth_gain_is_the_steady_state_of_the_nonlinear_plant(name, recordings)
     assert measured_gain == pytest.approx(truth.dc_gain, rel=2e-3)
 
 
-@pytest.mark.parametrize("name", REAL_SETUPS)
+@pytest.mark.parametrize("name", SCOPE_AND_DAQ_SETUPS)
 def test_truth_tf_matches_physics(name, recordings):
     """python-control's dcgain and poles of the TF vs closed-form motor physics."""
     rec = recordings[name]
@@ -215,7 +217,7 @@ def _normalised(t, y, t_step):
     return (y - y0) / (y1 - y0)
 
 
-@pytest.mark.parametrize("name", REAL_SETUPS)
+@pytest.mark.parametrize("name", SCOPE_AND_DAQ_SETUPS)
 def test_file_rises_as_the_truth_tf_with_its_delay(name, recordings):
     """63 % time and first moment of the written file vs forced_response of truth TF + delay."""
     rec = recordings[name]
@@ -239,7 +241,7 @@ def test_file_rises_as_the_truth_tf_with_its_delay(name, recordings):
 
 
 def test_same_seed_same_files_and_other_seed_other_files(tmp_path):
-    for name in REAL_SETUPS:
+    for name in SCOPE_AND_DAQ_SETUPS:
         a = write_real_setup(name, tmp_path / "a" / name, seed=5)
         b = write_real_setup(name, tmp_path / "b" / name, seed=5)
         c = write_real_setup(name, tmp_path / "c" / name, seed=6)
@@ -261,7 +263,7 @@ def test_user_mistakes_raise_motorid_errors(tmp_path):
     write_real_setup("pwm-encoder", tmp_path, force=True)
 
 
-@pytest.mark.parametrize("name", REAL_SETUPS)
+@pytest.mark.parametrize("name", SCOPE_AND_DAQ_SETUPS)
 def test_default_identify_exits_0(name, recordings, run_cli, tmp_path):
     """The user's command with default options only; accuracy is the bench's job."""
     out = tmp_path / "model.json"

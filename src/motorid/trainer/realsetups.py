@@ -46,14 +46,19 @@ from motorid.trainer.truth import truth_of
 
 __all__ = [
     "REAL_SETUPS",
+    "SCOPE_AND_DAQ_SETUPS",
     "RealSetupRecording",
     "RealSetupTruth",
     "real_setup_config",
     "write_real_setup",
 ]
 
-#: Names accepted by :func:`write_real_setup`.
-REAL_SETUPS: tuple[str, ...] = ("fast-tbs1000", "pwm-encoder", "daq-deadtime")
+#: Names accepted by :func:`write_real_setup`: three scope and DAQ set-ups here, and the hobby and
+#: classroom rigs of :mod:`motorid.trainer.hobbyrigs`.
+REAL_SETUPS: tuple[str, ...] = ("fast-tbs1000", "pwm-encoder", "daq-deadtime", "l298n-rpm", "arduino-millis",
+                                "host-loop", "encoder-counts", "staircase", "ms-time")
+#: The scope and DAQ set-ups of this module (the rest are :mod:`motorid.trainer.hobbyrigs`').
+SCOPE_AND_DAQ_SETUPS: tuple[str, ...] = REAL_SETUPS[:3]
 
 #: fast-tbs1000: the supply level the user types as ``--step-volts``.
 FAST_STEP_V = 12.28
@@ -222,8 +227,12 @@ def real_setup_config(name: str) -> TrainerConfig:
         For an unknown name.
     """
     table = {"fast-tbs1000": _fast_tbs1000, "pwm-encoder": _pwm_encoder, "daq-deadtime": _daq_deadtime}
-    if name not in table:
+    if name not in REAL_SETUPS:
         raise OptionError(f"unknown real set-up {name!r}; use one of {', '.join(REAL_SETUPS)}")
+    if name not in SCOPE_AND_DAQ_SETUPS:
+        from motorid.trainer.hobbyrigs import hobby_rig_config
+
+        return hobby_rig_config(name)
     return table[name]()
 
 
@@ -401,8 +410,13 @@ def write_real_setup(name: str, folder: Path, *, seed: int = 0, force: bool = Fa
     """
     cfg = real_setup_config(name)
     rng = np.random.default_rng(seed)
-    writer = {"fast-tbs1000": _write_fast_tbs1000, "pwm-encoder": _write_pwm_encoder,
-              "daq-deadtime": _write_daq_deadtime}[name]
-    files, args, truth, dt = writer(Path(folder), cfg, rng, int(seed), force)
+    if name not in SCOPE_AND_DAQ_SETUPS:
+        from motorid.trainer.hobbyrigs import write_hobby_rig
+
+        files, args, truth, dt = write_hobby_rig(name, Path(folder), rng, force)
+    else:
+        writer = {"fast-tbs1000": _write_fast_tbs1000, "pwm-encoder": _write_pwm_encoder,
+                  "daq-deadtime": _write_daq_deadtime}[name]
+        files, args, truth, dt = writer(Path(folder), cfg, rng, int(seed), force)
     return RealSetupRecording(name=name, files=MappingProxyType(files), cli_args=tuple(args), truth=truth,
                               config=cfg, seed=int(seed), sample_interval_s=dt)

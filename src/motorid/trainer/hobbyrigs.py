@@ -1,0 +1,232 @@
+"""Virtual-trainer presets that record as hobby and classroom rigs do (beside :mod:`.realsetups`).
+
+Logs that no scope wrote: an Arduino or a PC loop stamps the samples with its own clock, logs
+what it commanded, and counts encoder edges.  Each preset runs the trainer's nonlinear plant and
+writes the file the rig writes:
+
+``l298n-rpm``
+    An L298N H-bridge (its ~1.4 V drop acts as a dead-zone) driving a gearmotor, a 30 ms
+    firmware dead time, ``time,voltage,rpm`` at 100 Hz (rpm from encoder counts per 10 ms).
+``arduino-millis``
+    A 10.24 ms Arduino loop stamped with ``millis()`` (whole ms: steps of 10 and 11), the
+    commanded volts and an encoder speed in rad/s.
+``host-loop``
+    A LEGO EV3 motor logged by a Python loop on a PC: stamps in seconds 4–22 ms apart, the
+    commanded volts, the position in whole degrees (no speed column).
+``encoder-counts``
+    A micromouse encoder: counts every 5 ms, no input column, the log starting a sample before
+    the step (the user gives ``--step-volts``).
+``staircase``
+    One log whose input steps 0 → 2 → 4 → 6 → 8 V, 3 s a level (tacho volts at 100 Hz); the user
+    identifies one step with ``--segment 2`` (2 → 4 V, between two moving levels).
+``ms-time``
+    A log whose time column is whole milliseconds named plain ``time``.
+
+The truth of each is that of :func:`motorid.trainer.realsetups.write_real_setup`: the
+incremental gain the identified step shows, the mean residence time (τ + dead time + sensor lag).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from motorid.io._common import check_writable
+from motorid.trainer.plant import simulate_plant
+from motorid.trainer.presets import TrainerConfig, _motor_from_targets
+from motorid.trainer.realsetups import RPM_PER_RAD_S, RealSetupTruth, _truth, _write_csv
+
+__all__ = ["HOBBY_RIGS", "hobby_rig_config", "write_hobby_rig"]
+
+#: The presets of this module.
+HOBBY_RIGS: tuple[str, ...] = ("l298n-rpm", "arduino-millis", "host-loop", "encoder-counts", "staircase", "ms-time")
+#: The fine grid the plant runs on before the rig samples it (s).
+FINE_S = 1e-4
+#: L298N rig: supply step, the bridge's drop, the firmware's dead time, encoder counts per output turn.
+L298N_STEP_V, L298N_DROP_V, L298N_DEAD_TIME_S, L298N_COUNTS = 6.0, 1.4, 0.03, 700
+#: Arduino loop period (``millis()`` reports it in whole ms: 10 or 11).
+ARDUINO_LOOP_S = 0.01024
+#: EV3: degrees per output turn are 360; its loop steps 4–22 ms.
+EV3_DT_RANGE_S = (0.004, 0.022)
+#: Micromouse: counts per wheel turn and the log interval.
+MOUSE_COUNTS, MOUSE_DT_S, MOUSE_STEP_V = 1440, 0.005, 6.0
+#: Staircase: the levels and the time per level.
+STAIR_LEVELS_V, STAIR_LEVEL_S = (0.0, 2.0, 4.0, 6.0, 8.0), 3.0
+
+Writer = tuple[dict[str, Path], tuple[str, ...], RealSetupTruth, float]
+
+
+def _gearmotor(dead_zone_v: float, *, tau_m: float, dc: float, noise: float = 0.0) -> TrainerConfig:
+    base = TrainerConfig(amp_gain=1.0, amp_dead_zone_v=dead_zone_v, amp_rail_v=12.0, tacho_v_per_rad_s=1.0,
+                         tacho_ripple=0.0, pwm_noise_v=0.0, pwm_spike_v=0.0, noise_v=noise, pot_glitch_max=0,
+                         substeps=1)
+    cfg = _motor_from_targets(base, dc_rad_s_per_v=dc, tau_m_s=tau_m, tau_e_s=0.001, ra_ohm=3.0)
+    return replace(cfg, coulomb_nm=0.02 * cfg.k_motor, static_nm=0.03 * cfg.k_motor)
+
+
+def hobby_rig_config(name: str) -> TrainerConfig:
+    """The simulated plant of a hobby rig (see the module's list).
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`HOBBY_RIGS`.
+
+    Returns
+    -------
+    TrainerConfig
+    """
+    if name == "l298n-rpm":
+        return _gearmotor(L298N_DROP_V, tau_m=0.08, dc=25.0)
+    if name in ("arduino-millis", "ms-time"):
+        return _gearmotor(0.3, tau_m=0.06, dc=20.0)
+    if name == "host-loop":
+        return _gearmotor(0.2, tau_m=0.1, dc=15.0)
+    if name == "encoder-counts":
+        return _gearmotor(0.1, tau_m=0.05, dc=30.0)
+    return replace(_gearmotor(0.5, tau_m=0.2, dc=10.0, noise=0.005), tacho_v_per_rad_s=0.05)  # staircase: tacho volts
+
+
+def _run(cfg: TrainerConfig, times: np.ndarray, u_of_t: Callable[[np.ndarray], np.ndarray]) -> dict[str, np.ndarray]:
+    """The plant on a fine grid from 1 s before the first sample, sampled at ``times`` (any instants)."""
+    t_fine = np.arange(times[0] - 1.0, times[-1] + 2 * FINE_S, FINE_S)
+    full = simulate_plant(cfg, t_fine, u_of_t(t_fine), substeps=1)
+    return {k: np.interp(times, t_fine, np.asarray(getattr(full, k)))
+            for k in ("motor_speed_rad_s", "motor_angle_rad", "output_angle_rad")}
+
+
+def _step(t_step: float, from_v: float, to_v: float, dead_time_s: float = 0.0) -> Callable[[np.ndarray], np.ndarray]:
+    return lambda t: np.where(t >= t_step + dead_time_s - 1e-12, to_v, from_v)
+
+
+def _write_l298n(folder: Path, cfg: TrainerConfig, rng: np.random.Generator, force: bool) -> Writer:
+    dt = 0.01
+    n = 400
+    t = np.arange(n) * dt
+    k = int(rng.integers(80, 121))
+    s = _run(cfg, t, _step(t[k], 0.0, L298N_STEP_V, L298N_DEAD_TIME_S))
+    # rpm from the encoder edges counted over each 10 ms loop: a moving average of one interval
+    counts = np.floor(s["motor_angle_rad"] / (2 * math.pi) * L298N_COUNTS + rng.uniform())
+    rpm = np.r_[0.0, np.diff(counts)] / L298N_COUNTS / dt * 60.0
+    u = np.where(np.arange(n) >= k, L298N_STEP_V, 0.0)
+    path = folder / "l298n_log.csv"
+    check_writable([path], force=force)
+    _write_csv(path, "time,voltage,rpm", [t, u, rpm], [".2f", ".1f", ".1f"])
+    truth = _truth(cfg, from_v=0.0, to_v=L298N_STEP_V, dead_time_s=L298N_DEAD_TIME_S, sensor_lag_s=dt / 2,
+                   step_time_s=float(t[k]), units="rpm")
+    return {"log": path}, ("--velocity", str(path)), _scaled(truth, RPM_PER_RAD_S), dt
+
+
+def _scaled(truth: RealSetupTruth, factor: float) -> RealSetupTruth:
+    """The truth of a sensor reading ``factor`` × the output shaft's rad/s (rpm: 60/2π)."""
+    return replace(truth, dc_gain=truth.dc_gain * factor, velocity_tf=truth.velocity_tf * factor)
+
+
+def _write_arduino(folder: Path, cfg: TrainerConfig, rng: np.random.Generator, force: bool, *,
+                   name: str) -> Writer:
+    n = 300
+    start = float(rng.uniform(1.0, 5.0))
+    true_t = start + np.arange(n) * ARDUINO_LOOP_S  # when the loop really ran
+    stamps = np.floor(true_t * 1e3).astype(int)  # what millis() says
+    k = int(rng.integers(60, 91))
+    s = _run(cfg, true_t, _step(true_t[k], 0.0, 6.0))
+    omega = s["motor_angle_rad"]
+    counts = np.floor(omega / (2 * math.pi) * 1200 + rng.uniform())
+    speed = np.r_[0.0, np.diff(counts)] / 1200 * 2 * math.pi / ARDUINO_LOOP_S
+    u = np.where(np.arange(n) >= k, 6.0, 0.0)
+    path = folder / ("arduino_log.csv" if name == "arduino-millis" else "ms_log.csv")
+    check_writable([path], force=force)
+    header = "millis,u_V,omega_rad_s" if name == "arduino-millis" else "time,voltage,speed"
+    if name == "ms-time":  # a steady 10 ms loop stamped in whole ms under a plain "time" header
+        stamps = (1000 + 10 * np.arange(n)).astype(int)
+        true_t = stamps / 1e3
+        s = _run(cfg, true_t, _step(true_t[k], 0.0, 6.0))
+        counts = np.floor(s["motor_angle_rad"] / (2 * math.pi) * 1200 + rng.uniform())
+        speed = np.r_[0.0, np.diff(counts)] / 1200 * 2 * math.pi / 0.01
+    _write_csv(path, header, [stamps, u, speed], [".0f", ".1f", ".3f"])
+    loop = ARDUINO_LOOP_S if name == "arduino-millis" else 0.01
+    truth = _truth(cfg, from_v=0.0, to_v=6.0, dead_time_s=0.0, sensor_lag_s=loop / 2, step_time_s=float(true_t[k]),
+                   units="rad/s")
+    return {"log": path}, ("--velocity", str(path)), truth, loop
+
+
+def _write_host_loop(folder: Path, cfg: TrainerConfig, rng: np.random.Generator, force: bool) -> Writer:
+    n = 300
+    t = 10.0 + np.r_[0.0, np.cumsum(rng.uniform(*EV3_DT_RANGE_S, n - 1))]
+    k = int(rng.integers(50, 81))
+    s = _run(cfg, t, _step(t[k], 0.0, 6.0))
+    degrees = np.floor(np.degrees(s["motor_angle_rad"]) + rng.uniform())
+    u = np.where(np.arange(n) >= k, 6.0, 0.0)
+    path = folder / "ev3_log.csv"
+    check_writable([path], force=force)
+    _write_csv(path, "time_s,voltage,position_deg", [t, u, degrees], [".4f", ".1f", ".0f"])
+    truth = _truth(cfg, from_v=0.0, to_v=6.0, dead_time_s=0.0, sensor_lag_s=0.0, step_time_s=float(t[k]),
+                   units="deg")
+    return {"log": path}, ("--position", str(path)), _scaled(truth, 180.0 / math.pi), float(np.mean(np.diff(t)))
+
+
+def _write_encoder_counts(folder: Path, cfg: TrainerConfig, rng: np.random.Generator, force: bool) -> Writer:
+    n = 400
+    t = np.arange(n) * MOUSE_DT_S
+    t_step = float(rng.uniform(0.0, MOUSE_DT_S))  # the motor is switched on just after the first sample
+    s = _run(cfg, t, _step(t_step, 0.0, MOUSE_STEP_V))
+    counts = np.floor(s["motor_angle_rad"] / (2 * math.pi) * MOUSE_COUNTS)
+    path = folder / "mouse_log.csv"
+    check_writable([path], force=force)
+    _write_csv(path, "time_s,encoder_counts", [t, counts], [".3f", ".0f"])
+    truth = _truth(cfg, from_v=0.0, to_v=MOUSE_STEP_V, dead_time_s=0.0, sensor_lag_s=0.0, step_time_s=t_step,
+                   units="counts")
+    args = ("--position", str(path), "--step-volts", f"{MOUSE_STEP_V:g}")
+    return {"log": path}, args, _scaled(truth, MOUSE_COUNTS / (2 * math.pi)), MOUSE_DT_S
+
+
+def _write_staircase(folder: Path, cfg: TrainerConfig, rng: np.random.Generator, force: bool) -> Writer:
+    dt = 0.01
+    per = round(STAIR_LEVEL_S / dt)
+    u = np.repeat(STAIR_LEVELS_V, per)
+    t = np.arange(u.size) * dt
+    s = _run(cfg, t, lambda tt: np.asarray(STAIR_LEVELS_V)[np.clip((tt // STAIR_LEVEL_S).astype(int), 0,
+                                                                   len(STAIR_LEVELS_V) - 1)] * (tt >= 0))
+    tacho = cfg.tacho_v_per_rad_s * s["motor_speed_rad_s"] + rng.normal(0.0, cfg.noise_v, t.size)
+    path = folder / "staircase_log.csv"
+    check_writable([path], force=force)
+    _write_csv(path, "time_s,voltage,tacho_V", [t, u, tacho], [".2f", ".1f", ".5f"])
+    # --segment 2: the step 2 → 4 V, between two levels that move the motor: the linear gain
+    truth = _truth(cfg, from_v=STAIR_LEVELS_V[1], to_v=STAIR_LEVELS_V[2], dead_time_s=0.0, sensor_lag_s=0.0,
+                   step_time_s=2 * STAIR_LEVEL_S, units="V")
+    return {"log": path}, ("--velocity", str(path), "--segment", "2"), truth, dt
+
+
+def write_hobby_rig(name: str, folder: Path, rng: np.random.Generator, force: bool) -> Writer:
+    """Write one hobby rig's log (the files, the user's arguments, the truth, the mean sample interval).
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`HOBBY_RIGS`.
+    folder : Path
+        Where the log goes.
+    rng : numpy.random.Generator
+        Draws the step instant, clock phases and noise.
+    force : bool
+        Overwrite an existing log.
+
+    Returns
+    -------
+    tuple
+        ``(files, cli_args, truth, sample_interval_s)``.
+    """
+    cfg = hobby_rig_config(name)
+    if name == "l298n-rpm":
+        return _write_l298n(folder, cfg, rng, force)
+    if name in ("arduino-millis", "ms-time"):
+        return _write_arduino(folder, cfg, rng, force, name=name)
+    if name == "host-loop":
+        return _write_host_loop(folder, cfg, rng, force)
+    if name == "encoder-counts":
+        return _write_encoder_counts(folder, cfg, rng, force)
+    return _write_staircase(folder, cfg, rng, force)

@@ -1,0 +1,89 @@
+"""The hobby-rig presets write what those rigs write, with an honest truth.
+
+Checked against the files themselves (independent of any identification): the stamps' clock
+(``millis()`` steps of 10 and 11 ms, a host loop's 4–22 ms, whole milliseconds under ``time``),
+integer counts, the staircase's levels, and each truth's gain against the steady level the file
+shows.  Identification accuracy is ``bench/real_setups.py``'s job.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from motorid.io import read_capture
+from motorid.trainer.hobbyrigs import HOBBY_RIGS, STAIR_LEVELS_V
+from motorid.trainer.realsetups import REAL_SETUPS, write_real_setup
+
+
+@pytest.fixture(scope="module")
+def rigs(tmp_path_factory):
+    root = tmp_path_factory.mktemp("rigs")
+    return {name: write_real_setup(name, root / name, seed=1) for name in HOBBY_RIGS}
+
+
+def _table(rec) -> np.ndarray:
+    return np.loadtxt(rec.files["log"], delimiter=",", skiprows=1)
+
+
+def test_every_hobby_rig_is_a_real_setup_and_reads_back(rigs):
+    assert set(HOBBY_RIGS) <= set(REAL_SETUPS)
+    for rec in rigs.values():
+        cap = read_capture(rec.files["log"])
+        assert cap.n_samples >= 250 and np.all(np.isfinite(cap.output_v))
+
+
+def test_the_clocks_are_the_rigs_clocks(rigs):
+    stamps = _table(rigs["arduino-millis"])[:, 0]
+    assert np.all(stamps == np.round(stamps)) and set(np.diff(stamps).astype(int)) == {10, 11}
+    host = np.diff(_table(rigs["host-loop"])[:, 0])
+    assert host.min() >= 0.004 - 1e-4 and host.max() <= 0.022 + 1e-4 and np.ptp(host) > 0.01
+    ms = _table(rigs["ms-time"])[:, 0]
+    assert np.all(np.diff(ms) == 10)
+    counts = _table(rigs["encoder-counts"])[:, 1]
+    assert np.all(counts == np.round(counts))
+
+
+def test_the_staircase_levels(rigs):
+    u = _table(rigs["staircase"])[:, 1]
+    assert sorted(set(u.tolist())) == list(STAIR_LEVELS_V)
+    assert rigs["staircase"].cli_args[-2:] == ("--segment", "2")
+
+
+@pytest.mark.parametrize("name, column", [("l298n-rpm", 2), ("arduino-millis", 2), ("ms-time", 2)])
+def test_each_truth_gain_is_the_steady_level_the_file_shows(rigs, name, column):
+    rec = rigs[name]
+    data = _table(rec)
+    final = float(np.mean(data[-60:, column]))  # settled: 10+ time constants after the step
+    assert final / rec.truth.step_volts == pytest.approx(rec.truth.dc_gain, rel=0.01)
+
+
+def test_the_position_rigs_ramp_at_the_truths_speed(rigs):
+    for name, column in (("host-loop", 2), ("encoder-counts", 1)):
+        rec = rigs[name]
+        data = _table(rec)
+        t, pos = data[:, 0], data[:, column]
+        tail = t > t[-1] - 0.5
+        slope = np.polyfit(t[tail], pos[tail], 1)[0]
+        assert slope / rec.truth.step_volts == pytest.approx(rec.truth.dc_gain, rel=0.01)
+
+
+@pytest.mark.parametrize("name", HOBBY_RIGS)
+def test_each_rig_through_the_cli_in_a_fresh_process(name, tmp_path):
+    """As a user runs it: ``python -m motorid identify <the rig's arguments>`` in a new process with
+    the default environment, default options; gain within 1 %, residence time within 5 %."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    rec = write_real_setup(name, tmp_path / name, seed=0)
+    out = tmp_path / "m.json"
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMP_", "OPENBLAS_NUM", "MKL_"))}
+    proc = subprocess.run([sys.executable, "-m", "motorid", "identify", *rec.cli_args, "--json", str(out)],
+                          capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    m = json.loads(out.read_text())
+    assert m["first_order"]["dc_gain"] == pytest.approx(rec.truth.dc_gain, rel=0.01)
+    residence = m["first_order"]["time_constant"] + (m.get("delay_s") or 0.0)
+    assert residence == pytest.approx(rec.truth.residence_time_s, rel=0.05)
