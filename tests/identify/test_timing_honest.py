@@ -125,6 +125,11 @@ def test_hslu_near_equal_poles_are_a_pair_and_a_tie_is_a_tie():
         wn = pair["natural_frequency"]
         assert wn["ci95"][0] > 0 and wn["ci95"][1] - wn["ci95"][0] < 0.5 * wn["value"]
     assert r.sanity.passed, r.sanity.failures
+    # a chosen model whose raw NRMSE is above one of its stages' says why
+    own = r.model.fit["velocity_nrmse"]
+    if any(isinstance(st.get("velocity_nrmse"), float) and st["velocity_nrmse"] < 0.98 * own
+           and st.get("stage") != "output-error" for st in r.model.stages):
+        assert any("is above the" in w and "because" in w for w in r.model.warnings)
     evidence = next(st["evidence"] for st in r.model.stages if "evidence" in st)
     if "ΔBIC = " in evidence:
         assert float(evidence.split("ΔBIC = ")[1].split()[0].rstrip(")")) >= 2

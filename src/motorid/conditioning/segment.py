@@ -61,7 +61,13 @@ class StepSegment:
     settled: bool
 
     def describe(self) -> str:
-        """One line for the printout."""
+        """One line for the printout.
+
+        Returns
+        -------
+        str
+            ``segment N: step at T s, A → B V`` (and whether the output settled).
+        """
         return (f"segment {self.index}: step at {self.time_s:.6g} s, {self.from_v:.4g} → {self.to_v:.4g} V"
                 + ("" if self.settled else " (the output had not settled before the next step)"))
 
