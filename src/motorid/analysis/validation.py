@@ -31,6 +31,7 @@ from motorid.conditioning.response import step_response
 from motorid.conditioning.unwrap import unwrap_position
 from motorid.errors import CaptureDataError, OptionError, StepNotFoundError
 from motorid.identify.metrics import fit_percent, nrmse
+from motorid.identify.sanity import TOLERANCES
 from motorid.model import CHANNELS, MotorModel
 
 __all__ = ["ValidationResult", "model_delay_s", "validate_capture"]
@@ -174,10 +175,10 @@ def _channel_system(model: MotorModel, channel: str) -> tuple[control.StateSpace
     return control.ss(a, b, c, np.zeros((1, 1))), (*model.states, "position (integral)")
 
 
-#: An input that varies by more than this (RMS, relative to its edge) after its edge is not a step
-#: (the identification's sanity gate uses the same figure: 8-bit codes and probe noise stay well
-#: under 1 %, a closed loop's control signal varies by 2–10 %).
-INPUT_RMS_REL = 0.02
+#: An input that varies by more than this (RMS, relative to its edge) after its edge is not a step:
+#: the identification's sanity gate's figure (8-bit codes and probe noise stay well under 1 %, a
+#: closed loop's control signal varies by 2–10 %).
+INPUT_RMS_REL = TOLERANCES["input_rms_rel"]
 
 
 def _is_step(capture: Capture) -> bool:
