@@ -185,7 +185,8 @@ def _resolve_mapping(
     for key, col in columns.items():
         if key not in COLUMN_KEYS:
             raise OptionError(
-                f"unknown column role {key!r}: use {', '.join(COLUMN_KEYS)} (columns: {available})",
+                f"unknown column role {key!r}: use {', '.join(COLUMN_KEYS)}, or time_unit=s|ms|us (columns: "
+                f"{available})",
                 file=file,
             )
         idx = [i for i, n in enumerate(names) if n == col]
