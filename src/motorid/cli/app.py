@@ -76,7 +76,7 @@ def _with_time_unit(columns: str | None, time_unit: str | None) -> str | None:
 
 
 #: ``--time-unit``: declared once, used by every command that reads captures.
-TIME_UNIT_HELP = ("Unit of a plain CSV's time column: s, ms or us (default: from its name — t_ms, time [ms], "
+TIME_UNIT_HELP = ("Unit of a plain CSV's time column: s, ms or us (default: from its name — t_ms, time (ms), "
                   "micros — else seconds; whole numbers stepping by 1–100 are read as ms, with a note).")
 
 
