@@ -87,7 +87,7 @@ __version__ = "0.1.0"
 
 #: Public names loaded on first use, and the module each lives in.
 _LAZY: dict[str, str] = {
-    "Capture": "motorid.capture",  # numpy: not for ``motorid --help`` (issue 16)
+    "Capture": "motorid.capture",  # numpy: not for ``motorid --help``
     "ChannelInfo": "motorid.capture",
     "ScopeInfo": "motorid.capture",
     "read_experiment": "motorid.frontdoor",

@@ -6,7 +6,7 @@ take 35 s instead of 0.1 s.  ``threadpoolctl`` limits only the libraries loaded 
 context is entered, and numpy and scipy each ship their own OpenBLAS (``libscipy_openblas``
 is loaded by ``scipy.linalg`` on first import): so the limit is entered here, after both are
 loaded, around each public entry point of the library — not once at CLI start-up, where
-scipy's copy was not loaded yet and ran two threads (issue 11, item 13).
+scipy's copy was not loaded yet and ran two threads.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ def single_blas_thread(func: Callable[P, R]) -> Callable[P, R]:
     is applied; nested calls are cheap (threadpoolctl only sets the count again).  With
     ``OPENBLAS_NUM_THREADS=1`` in the environment (the CLI sets it before anything loads) an
     OpenBLAS loaded later starts with one thread anyway, so scipy is not imported for
-    functions that do not use it (``motorid inspect``: issue 16, start-up).
+    functions that do not use it (``motorid inspect``: start-up).
 
     Parameters
     ----------

@@ -126,7 +126,7 @@ class IdentificationError(MotorIdError, ValueError):
     """
 
 
-# --- issue 18 ---
+# --- the local web page ---
 
 
 class UploadError(MotorIdError, ValueError):
@@ -137,7 +137,7 @@ class UploadError(MotorIdError, ValueError):
     """
 
 
-# --- issue 17 ---
+# --- live scope acquisition ---
 class InstrumentError(MotorIdError, OSError):
     """The oscilloscope cannot be reached.
 

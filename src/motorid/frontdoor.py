@@ -120,7 +120,7 @@ def identify_levels(
 ) -> MultiLevelResult:
     """Identify dead-zone, gain, rails and shared dynamics from steps at several levels.
 
-    ``motorid identify --velocity A --velocity B ...`` in Python (issue 15): a Hammerstein
+    ``motorid identify --velocity A --velocity B ...`` in Python: a Hammerstein
     model ``y = K·G(s)·f(u)``.
 
     Parameters

@@ -3,7 +3,7 @@
 One source for the terminal (:mod:`motorid.cli`) and the text summary
 (:mod:`motorid.report.summary`); the JSON files keep full precision and never pass through here.
 Python's ``format`` gives significant figures (``.4g``) but switches to exponents at 10⁴, keeps
-``-0`` and has no notion of a conjugate pair: the few lines below add exactly that (issue 16).
+``-0`` and has no notion of a conjugate pair: the few lines below add exactly that.
 No imports beyond the standard library, so the command line can use it before numpy loads.
 """
 

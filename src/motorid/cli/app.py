@@ -21,7 +21,7 @@ from rich.table import Table
 from motorid.errors import MotorIdError, OptionError
 from motorid.numfmt import sig
 
-# Everything else loads inside the command that needs it (issue 16): ``motorid --help`` imports
+# Everything else loads inside the command that needs it: ``motorid --help`` imports
 # typer and rich only, not numpy, scipy, python-control or matplotlib.
 
 app = typer.Typer(
@@ -456,7 +456,7 @@ def identify(
     """Identify the motor model from step captures (paper sections III-VI).
 
     Several step levels (``--velocity`` repeated, ``--experiment`` or ``--dead-zone``) give a
-    Hammerstein model: dead-zone, gain and rails in front of shared dynamics (issue 15).
+    Hammerstein model: dead-zone, gain and rails in front of shared dynamics.
     """
     columns = _with_time_unit(columns, time_unit)
     from motorid.cli.levels import parse_levels

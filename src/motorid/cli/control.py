@@ -1,4 +1,4 @@
-"""Command-line front end of controller design and closed-loop prediction (issue 5).
+"""Command-line front end of controller design and closed-loop prediction.
 
 Thin: parse, call :mod:`motorid.control` / :mod:`motorid.simulate`, print, write files.  User
 mistakes raise :class:`~motorid.errors.MotorIdError` subclasses; ``motorid.cli.main`` turns them
@@ -21,7 +21,7 @@ from motorid.numfmt import metric_name, roots_text, sig
 if TYPE_CHECKING:
     import numpy as np
 
-# numpy, the model/design loaders and the writers load inside each command (issue 16: ``motorid
+# numpy, the model/design loaders and the writers load inside each command (``motorid
 # --help`` imports none of them)
 
 __all__ = [

@@ -1,4 +1,4 @@
-"""``motorid identify`` with several step levels (issue 15): the Hammerstein path.
+"""``motorid identify`` with several step levels: the Hammerstein path.
 
 Called by :func:`motorid.cli.app.identify` when ``--velocity`` is given more than once,
 ``--experiment`` is used or ``--dead-zone`` is asked for; prints the static characteristic, the

@@ -1,4 +1,4 @@
-"""Progress bars of the command line (issue 16): rich, on stderr, only when someone watches.
+"""Progress bars of the command line: rich, on stderr, only when someone watches.
 
 The library never prints: a long function takes a ``progress`` callback (``progress(done,
 total)``, optionally with a ``label`` naming the step) and the command line passes the one

@@ -1,4 +1,4 @@
-"""Signal-level checks of step responses before identification (issue 12).
+"""Signal-level checks of step responses before identification.
 
 A file can be perfectly readable and still unable to give a motor model: the motor did not
 turn (stalled, brake on, power off, wrong channel saved), the trace ran off the scope screen

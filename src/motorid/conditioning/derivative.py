@@ -129,7 +129,7 @@ def savgol_derivative(y: np.ndarray, dt: float, *, window: int = 7, polyorder: i
     window = min(window, y.size if y.size % 2 else y.size - 1)
     if window <= polyorder:
         return central_derivative(y, dt)
-    from scipy.signal import savgol_filter  # scipy.signal loads on use (issue 16: start-up)
+    from scipy.signal import savgol_filter  # scipy.signal loads on use (start-up)
 
     return savgol_filter(y, window, polyorder, deriv=1, delta=dt, mode="interp")
 

@@ -59,7 +59,7 @@ class ConditioningSettings:
     step_tolerance: float = 0.03
 
     def __post_init__(self) -> None:
-        # settings validate themselves (issue 13): a wrong value fails here, naming the
+        # settings validate themselves: a wrong value fails here, naming the
         # parameter, not deep inside the pipeline
         import math
 
@@ -189,7 +189,7 @@ def condition_experiment(
     warnings: list[str] = []
     for r in responses.values():
         warnings.extend(f"{r.source}: {w}" for w in r.warnings)
-    warnings.extend(check_step_responses(captures, responses))  # stalled, clipped, no dynamics (issue 12)
+    warnings.extend(check_step_responses(captures, responses))  # stalled, clipped, no dynamics
     items = list(responses.values())
     for a in items:
         for b in items:
@@ -265,7 +265,7 @@ def _shared_onsets(
     Two channels of one scope acquisition (tacho and current shunt) saw the same step, but
     each one's onset read-off is late by its own lags: the armature current moves first
     (its rise starts with the full slope ``V/La``) while the tacho starts with zero slope,
-    so its tangent meets the baseline a few lags late (issue 11, item 2: 1.4–2.1 ms, τ
+    so its tangent meets the baseline a few lags late (1.4–2.1 ms, τ
     4–9 % short).  Captures on the same time axis therefore share the earliest onset.
     """
     groups: list[list[str]] = []

@@ -123,7 +123,7 @@ def sample_reduction(time_s: np.ndarray, values: np.ndarray, ratio: int, method:
     if t.size <= 3 * 20 * ratio + 1:
         red = sample_reduction(t, v, ratio, "block_mean")
         return Reduced(red.time_s, red.values, ratio, method)
-    from scipy.signal import decimate  # scipy.signal loads on use (issue 16: start-up)
+    from scipy.signal import decimate  # scipy.signal loads on use (start-up)
 
     out = decimate(v, ratio, ftype="fir", zero_phase=True, axis=-1)
     return Reduced(t[::ratio][: out.shape[-1]].copy(), out, ratio, method)

@@ -1,7 +1,7 @@
 """The time scales of a step response, read off the data.
 
 Every default of the pipeline that is a duration (sample reduction, record trimming, the dead time's
-starting value) comes from here rather than from the paper's bench (issue 11, item 1: the paper's
+starting value) comes from here rather than from the paper's bench (the paper's
 0.1 s left three samples of a 15 ms motor).
 
 Read-offs, not fits: the 63 % time and the apparent dead time of the smoothed response are
@@ -87,7 +87,7 @@ def response_times(time_s: np.ndarray, y: np.ndarray, *, pre: np.ndarray | None 
     z = v * np.sign(final) / abs(final)
     # a running median over a few samples takes ripple and spikes out without a phase lag
     width = int(min(max(3, n // 200 * 2 + 1), 31))
-    import scipy.ndimage  # loads on use (issue 16: start-up)
+    import scipy.ndimage  # loads on use (start-up)
 
     zs = scipy.ndimage.median_filter(z, size=width, mode="nearest")
     above = np.flatnonzero(zs >= 1.0 - np.exp(-1.0))

@@ -75,7 +75,7 @@ def _fit_span(t: np.ndarray, y: np.ndarray, w: np.ndarray, good: np.ndarray) -> 
     follow the 8-bit quantisation staircase and bias the span; too few cannot follow the
     acceleration of the motor.
     """
-    from scipy.interpolate import BSpline  # loads on use (issue 16: start-up)
+    from scipy.interpolate import BSpline  # loads on use (start-up)
 
     tg, yg, wg = t[good], y[good], w[good]
     best: tuple[float, float] | None = None

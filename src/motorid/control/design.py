@@ -166,7 +166,7 @@ class Design:
         ``T`` of ``states = T · model_states``; ``K @ T`` is the gain row on the model's states.
     dead_zone_v : float or None
         The model's dead-zone (a Hammerstein model from several step levels), offered for
-        compensation by inverse dead-zone feed-forward (``u + u₀·sign(u)``, issue 15).
+        compensation by inverse dead-zone feed-forward (``u + u₀·sign(u)``).
     """
 
     states: tuple[str, ...]

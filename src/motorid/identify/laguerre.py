@@ -1014,7 +1014,7 @@ def _simulate(a: np.ndarray, b: np.ndarray, t: np.ndarray, u: np.ndarray | None,
     return out
 
 
-# --- output-error polish of the low-order realisation (issue 14: "a starting point") ----------------------------
+# --- output-error polish of the low-order realisation ("a starting point") ----------------------------
 
 #: Channels the polish can use besides the primary one, and how they relate to the velocity TF ``G = n/d``:
 #: the position is ``c·G/s`` (the integrator known, the scale ``c`` fitted), the current ``n_c/d + D_c`` (the

@@ -512,7 +512,7 @@ def output_error_fit(
     init_delay_s : float
         Starting delay (with ``settings.delay``): the dead time read off the data.  From 0
         the fit cannot find a dead time: before the response starts its slope, hence the
-        delay's gradient, is zero (issue 11, item 6).
+        delay's gradient, is zero.
     settings : OeSettings
         Structure.
     pre : Mapping[str, ndarray], optional

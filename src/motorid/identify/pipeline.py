@@ -73,7 +73,7 @@ class IdentifySettings:
     """
 
     def __post_init__(self) -> None:
-        # settings validate themselves (issue 13), naming the Python parameter
+        # settings validate themselves, naming the Python parameter
         from motorid.conditioning.derivative import DERIVATIVE_METHODS
         from motorid.identify.pinv import PINV_STRUCTURES
 
@@ -146,7 +146,7 @@ def _velocity(cond: ConditionedExperiment, full: bool) -> tuple[np.ndarray, np.n
         return t, outs["velocity"], []
     dt = float(t[1] - t[0])
     # a 7-sample derivative of an 8-bit position is its quantisation steps: at full rate, smooth
-    # over the reduced interval (issue 14: position-only experiments failed the sanity gate)
+    # over the reduced interval (position-only experiments failed the sanity gate)
     window = max(7, 2 * (cond.ratio // 2) + 1) if full else 7
     v = savgol_derivative(outs["position"], dt, window=window, polyorder=2)
     return t, v, ["no velocity capture: velocity is the derivative of the position (position volts per second)"]
@@ -162,7 +162,7 @@ def _settled_warning(t: np.ndarray, v: np.ndarray) -> list[str]:
     drift = float(np.polyfit(tt, tail, 1)[0]) * (t[-1] - tt[0])
     # a drift is only real when it stands out of the ripple: the slope of ten block means
     # (ripple and noise average out in each) against its own standard error — a low-speed
-    # step whose ripple never goes away is not told to record longer (issue 11, item 7)
+    # step whose ripple never goes away is not told to record longer
     blocks = min(10, tail.size // 2)
     if blocks >= 4:
         cut = tail.size // blocks * blocks
@@ -246,7 +246,7 @@ def _pinv_states(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel
 LAGUERRE_SAMPLES = 5000
 #: Most samples the sanity gate looks at (an evenly sub-sampled record beyond).
 SANITY_SAMPLES = 20000
-#: Methods whose Markov stage polishes each order's realisation by least squares (issue 14):
+#: Methods whose Markov stage polishes each order's realisation by least squares:
 #: ``markov`` (it is the answer) and ``paper-auto``; ``auto``/``oe``/``srivc`` refine by their own
 #: output-error fit, so their Markov stage is the unpolished Laguerre–Hankel estimate (0.6 s less).
 MARKOV_POLISHED_FOR = ("markov", "paper-auto")
@@ -271,7 +271,7 @@ def _dynamic_part(cond: ConditionedExperiment, max_samples: int, time_s: np.ndar
 
 
 def _markov_laguerre(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
-    """Generalised Markov parameters on a Laguerre basis (issue 14).
+    """Generalised Markov parameters on a Laguerre basis.
 
     a, N and the dead time from the measured response time, by BIC; the order from the Hankel
     singular values above the coefficients' noise floor; the recorded input channel drives the
@@ -671,7 +671,7 @@ def identify_experiment(
     units = units_of(captures)
     if not units:
         return ident
-    # the data's units (a plain-CSV log in rpm): the gain reads rpm/V (issue 16)
+    # the data's units (a plain-CSV log in rpm): the gain reads rpm/V
     return replace(ident, model=ident.model.replace(units=units))
 
 

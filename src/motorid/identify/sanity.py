@@ -1,4 +1,4 @@
-"""The sanity gate every identified model passes before it is printed (issue 11, item 4).
+"""The sanity gate every identified model passes before it is printed.
 
 A model can be the optimum of its criterion and still be absurd: the paper's pinv at a 0.1 s
 interval on a 15 ms motor returns an unstable pole; an output-error fit of the wrong

@@ -238,7 +238,7 @@ class _ChannelData:
 
 #: The output-error fit uses at most this many 63 % times of record after the step: a
 #: 3000 s log of a 0.35 s motor was otherwise fitted as 1.2 s block means (longer than τ,
-#: interval ±0.64 s, issue 11 item 7); fifty time constants show the steady state to 1e-20.
+#: interval ±0.64 s); fifty time constants show the steady state to 1e-20.
 MAX_RECORD_TIME_CONSTANTS = 50.0
 
 

@@ -4,7 +4,7 @@ Every output of a command is first written to a temporary file in the target's o
 (same file system, so the final rename is atomic) and renamed over the target only when the
 whole command has succeeded.  On any failure — a bad ``--validate`` capture found after the
 model JSON was rendered, a full disk half-way through a report, Ctrl-C — the temporary files
-are removed and the targets are untouched (issue 12).
+are removed and the targets are untouched.
 
 Two helpers:
 

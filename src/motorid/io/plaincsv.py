@@ -173,7 +173,7 @@ def _comment_between(lines: Sequence[str], h: int, first: int) -> bool:
 
 
 def _read_fast(path: PathLike, file: str, columns: Mapping[str, str] | None, role: str | None) -> Capture:
-    """The common case with numpy's C parser: header, then numbers (issue 12: 16–20× faster)."""
+    """The common case with numpy's C parser: header, then numbers (16–20× faster)."""
     h, delim, names, first = _fast_layout(path, file)
     width = len(names)
     if not names[-1].strip() and len(first) == width and not first[-1].strip():

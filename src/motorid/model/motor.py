@@ -196,7 +196,7 @@ class MotorModel:
     static_nonlinearity : StaticNonlinearity or None
         A dead-zone (and rails) in front of the linear part (a Hammerstein model identified
         from several step levels): the linear model's input is ``f(u)``, not ``u``.  The JSON
-        carries it as the top-level ``static_nonlinearity`` (issue 15).
+        carries it as the top-level ``static_nonlinearity``.
     units : Mapping
         Unit of each channel's data (``{"velocity": "rpm"}``; ``input`` for the input);
         missing channels are volts.  Top-level ``units`` and ``dc_gain_unit`` in the JSON.

@@ -102,7 +102,7 @@ def _cancel_pairs(
     and the time constant it shapes).  With ``record_s`` (the length of the record the model
     was identified from) a pair whose pole the record resolves (``|p|·record ≥ 1``) is left
     in too, however slow against the other poles: the record shows its DC factor, so
-    cancelling it would change the gain the data show (issue 11: a pole at −35.4 and a zero
+    cancelling it would change the gain the data show (a pole at −35.4 and a zero
     at −40.2 beside a 6972 rad/s pole took 12 % off the DC gain).
     """
     zeros = list(_roots(num))

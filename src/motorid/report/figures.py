@@ -5,7 +5,7 @@ every figure is drawn inside its own style context (:func:`styled`): the report'
 sizes never leak into the caller's ``rcParams``.
 
 Every figure is as wide as the text of an A4 page, so that a printed figure keeps its fonts at
-their point size (≥ 11 pt, issue 16).  The figure numbers of Masoud 2019 that each one
+their point size (≥ 11 pt).  The figure numbers of Masoud 2019 that each one
 corresponds to are given in the docstrings.
 """
 

@@ -1,4 +1,4 @@
-"""The page of a multi-level identification (issue 15).
+"""The page of a multi-level identification.
 
 The static characteristic with its interval band, the per-level responses normalised and
 overlaid, and the Hammerstein model.

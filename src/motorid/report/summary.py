@@ -5,7 +5,7 @@ One source for the command line (which adds colour) and for
 ``(text, style)`` spans; ``style`` is a rich style name (``""``: none), so the command line
 can colour a line without the text passing through rich's markup parser.
 
-Numbers are written by :mod:`motorid.numfmt` (issue 16): four significant figures, a
+Numbers are written by :mod:`motorid.numfmt`: four significant figures, a
 conjugate pair once as ``-2.800 ± 1.150j``, keys in words; the JSON keeps full precision.
 """
 
@@ -139,7 +139,7 @@ def _velocity_poles(model: Any) -> int:
 
 
 def _stage_item(key: str, value: Any) -> str:
-    # one word per idea (issue 16): a stage's "order" is its model's number of states
+    # one word per idea: a stage's "order" is its model's number of states
     if key == "order":
         return f"states {value}"
     if key == "time_constant" and isinstance(value, float):

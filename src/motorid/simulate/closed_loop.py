@@ -105,7 +105,7 @@ class SimulationSettings:
     dead_zone_compensation : bool
         Add the model's dead-zone to the controller's command (inverse dead-zone
         feed-forward, :meth:`StaticNonlinearity.compensate`); needs a model with a static
-        nonlinearity (issue 15).
+        nonlinearity.
     """
 
     duration_s: float = 5.0

@@ -113,7 +113,7 @@ class ServoPlant:
     ``tau_s`` is the mechanical time constant that sets the default record length (the model's
     first-order approximation; None: the slowest non-zero open-loop pole).  ``dead_zone_v``
     (``dead_zone_negative_v``) is the model's dead-zone in front of the plant (a Hammerstein
-    model, issue 15): the loop drives the plant with ``u − u₀·sign(u)`` outside it, 0 inside.
+    model): the loop drives the plant with ``u − u₀·sign(u)`` outside it, 0 inside.
     """
 
     name: str

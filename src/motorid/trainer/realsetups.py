@@ -1,4 +1,4 @@
-"""Virtual-trainer presets that reproduce three real set-ups from other labs (issue 11).
+"""Virtual-trainer presets that reproduce three real set-ups from other labs.
 
 The paper's trainer (:mod:`.presets`) never produces what real recordings showed; these
 presets do, with the same nonlinear plant (:func:`~motorid.trainer.plant.simulate_plant`) and
