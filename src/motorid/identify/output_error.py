@@ -69,6 +69,12 @@ class OeSettings:
         scope samples the input's edge: the step lies in the interval before the edge sample),
         with that instant's standard deviation (s, ``dt/√12``).  Its effect on the parameters
         (the fit's sensitivity to a shift of that channel's instant) is added to their covariance.
+    phase_group : tuple of str
+        Channels of ``instant_std`` (separate scope acquisitions) whose sub-sample phases are
+        fitted *relative to each other* (they sum to zero): their differences are what makes the
+        captures disagree near the step, while their common part is what trades against the lags
+        of the dynamics, so it stays at the intervals' middles (its ``dt/√(12·n)`` in the
+        covariance).
     current_direct : bool or None
         Let the current jump at the step (a biproper current TF, ``n_poles + 1`` numerator
         coefficients): what a model that leaves out an electrical pole faster than the
@@ -87,6 +93,7 @@ class OeSettings:
     current_direct: bool | None = None
     shift_groups: tuple[tuple[str, ...], ...] | None = None
     instant_std: tuple[tuple[str, float], ...] = ()
+    phase_group: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -347,12 +354,26 @@ class _Layout:
         self.shift_of = self._shift_params(settings, channels)
         self.shifted = list(dict.fromkeys(self.shift_of.values()))
         names += [f"shift_{c}" for c in self.shifted]
+        # separately sampled captures: phases relative to each other (the last one is minus the
+        # sum of the others)
+        timed = [c for c in channels if not (c == "current" and self.current_jumps)]
+        self.phased = [c for c in settings.phase_group if c in timed and c not in self.shift_of]
+        if len(self.phased) < 2:
+            self.phased = []
+        names += [f"phase_{c}" for c in self.phased[:-1]]
         if wrapped and "position" in channels:
             names.append("span_position")
         self.names = tuple(names)
         self.channels = tuple(channels)
         self.n, self.m = n, m
         self.idx = {nm: i for i, nm in enumerate(names)}
+
+    def _phases(self, th: np.ndarray) -> dict[str, float]:
+        """Each phased channel's shift (the last is minus the sum of the others)."""
+        if not self.phased:
+            return {}
+        free = {c: float(th[self.idx[f"phase_{c}"]]) for c in self.phased[:-1]}
+        return {**free, self.phased[-1]: -sum(free.values())}
 
     def _shift_params(self, settings: OeSettings, channels: Sequence[str]) -> dict[str, str]:
         """Channel → the channel whose ``shift_`` parameter it uses."""
@@ -382,7 +403,7 @@ class _Layout:
             "delay": th[self.idx["delay"]] if "delay" in self.idx else 0.0,
             "c": th[self.idx["c"]] if "c" in self.idx else (1.0 if "position" in self.channels else None),
             "off": {k[4:]: th[i] for k, i in self.idx.items() if k.startswith("off_")},
-            "shift": {c: th[self.idx[f"shift_{g}"]] for c, g in self.shift_of.items()},
+            "shift": {**{c: th[self.idx[f"shift_{g}"]] for c, g in self.shift_of.items()}, **self._phases(th)},
             "cur": th[self.idx["cur_0"] : self.idx["cur_0"] + self.n_current] if "cur_0" in self.idx else None,
         }
         return out
@@ -471,8 +492,8 @@ def _derived(layout: _Layout, th: np.ndarray) -> dict[str, float]:
         d[f"zero_{j}"] = float(-1.0 / z)
     if "delay" in layout.idx:
         d["delay"] = float(q["delay"])
-    for c, g in layout.shift_of.items():
-        d[f"shift_{c}"] = float(th[layout.idx[f"shift_{g}"]])
+    for c, value in q["shift"].items():
+        d[f"shift_{c}"] = float(value)
     return d
 
 
@@ -678,7 +699,7 @@ class _OeProblem:
             coef, *_ = np.linalg.lstsq(a, raw["current"][: a.shape[0]], rcond=None)
             th0_list += list(coef)
         th0_list += [float(np.mean(self.pre_data[c])) if c in self.pre_data else 0.0 for c in names]
-        th0_list += [0.0] * len(self.layout.shifted)
+        th0_list += [0.0] * (len(self.layout.shifted) + max(len(self.layout.phased) - 1, 0))
         if self.wraps is not None:
             th0_list.append(0.0)
         return np.asarray(th0_list, dtype=float)
@@ -746,6 +767,11 @@ class _OeProblem:
             d[c][:, layout.idx[f"off_{c}"]] = 1.0
             if c in layout.shift_of:
                 d[c][:, layout.idx[f"shift_{layout.shift_of[c]}"]] = -slope[c]
+            if c in layout.phased[:-1]:
+                d[c][:, layout.idx[f"phase_{c}"]] = -slope[c]
+            elif layout.phased and c == layout.phased[-1]:
+                for other in layout.phased[:-1]:
+                    d[c][:, layout.idx[f"phase_{other}"]] = slope[c]
             if "delay" in layout.idx:
                 d[c][:, layout.idx["delay"]] = -slope[c]
         base = _predict(layout, th, tc, u, names)
@@ -776,12 +802,20 @@ class _OeProblem:
         """
         cov = np.zeros((th.size, th.size))
         gain = None
-        for c, sd in self.settings.instant_std:
-            if c not in self.names or not sd > 0:
-                continue
+        present = [(c, sd) for c, sd in self.settings.instant_std if c in self.names and sd > 0]
+        phased = set(self.layout.phased)
+        # phases fitted relative to each other: only their common part is unknown, the mean of
+        # n independent instants (dt/√(12·n))
+        common = [(c, sd) for c, sd in present if c in phased]
+        moves: list[tuple[tuple[str, ...], float]] = [((c,), sd) for c, sd in present if c not in phased]
+        if common:
+            moves.append((tuple(c for c, _ in common),
+                          float(np.sqrt(np.mean([sd**2 for _, sd in common]) / len(common)))))
+        for chans, sd in moves:
             h = 0.01 * sd
             up, down = dict(self.tc), dict(self.tc)
-            up[c], down[c] = self.tc[c] + h, self.tc[c] - h
+            for c in chans:
+                up[c], down[c] = self.tc[c] + h, self.tc[c] - h
             col = (self.residuals(th, up) - self.residuals(th, down)) / (2 * h)
             if gain is None:
                 gain = np.linalg.pinv(jtj) @ jac_m.T
@@ -854,6 +888,9 @@ def _bounds(layout: _Layout, settings: OeSettings, tc: Mapping[str, np.ndarray])
         for c in layout.shifted:
             lower[layout.idx[f"shift_{c}"]] = -bound
             upper[layout.idx[f"shift_{c}"]] = bound
+        for c in layout.phased[:-1]:
+            lower[layout.idx[f"phase_{c}"]] = -bound
+            upper[layout.idx[f"phase_{c}"]] = bound
     return lower, upper
 
 

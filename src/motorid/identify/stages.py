@@ -206,17 +206,21 @@ def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, dela
     Returns
     -------
     OeSettings
-        Shift groups from :func:`timing_groups`; each channel whose input a scope sampled has
-        its instant at the middle of the interval before its edge sample, and that instant's
-        standard deviation ``dt/√12`` as ``instant_std``.
+        Shift groups from :func:`timing_groups`; the channels whose input a scope sampled have
+        their common instant at the middle of the interval before their edge samples (each
+        one's ``dt/√12`` as ``instant_std``) and their phases relative to each other fitted
+        (``phase_group``).
     """
     # a sub-sample phase cannot be told from the lags of the dynamics (an electrical pole, a
-    # dead time): fitted, it took them up and τ came out short; so it stays at the interval's
-    # middle (unbiased: the switch is thrown at any instant) and its uncertainty goes into the intervals
+    # dead time): fitted, it took them up and τ came out short; so the captures' common instant
+    # stays at the intervals' middle (unbiased: the switch is thrown at any instant) with its
+    # uncertainty in the intervals, and only their phases relative to each other are fitted (left
+    # fixed, their disagreement near the step bought a spurious pole-zero pair)
     sampled = tuple((role, r.sample_interval_s / np.sqrt(12.0)) for role, r in cond.responses.items()
                     if r.timing == "sampled" and role in cond.full_outputs)
     return OeSettings(n_poles=structure[0], n_zeros=structure[1], delay=delay, shift_bound_s=_shift_bound(cond),
-                      shift_groups=timing_groups(cond), instant_std=sampled)
+                      shift_groups=timing_groups(cond), instant_std=sampled,
+                      phase_group=tuple(role for role, _ in sampled))
 
 
 @dataclass(frozen=True, slots=True)
@@ -412,8 +416,9 @@ def unresolved_pairs(res: OeResult) -> list[int]:
 #: How each kind of step instant is described in the model JSON's ``uncertainty.timing``.
 TIMING_SOURCES = {
     "logged": "the logged input's change (exact)",
-    "sampled": "the scope's input edge: the middle of the sample interval before the first sample at the new "
-               "level (±dt/√12 in the intervals)",
+    "sampled": "the scope's input edge, in the sample interval before the first sample at the new level: the "
+               "captures' phases relative to each other are fitted (shift_s), their common instant is the "
+               "interval's middle (±dt/√(12·n) in the intervals)",
     "onset": "read off the response (no input channel): its shift is fitted",
     "given": "--t0 (t0_s)",
 }
