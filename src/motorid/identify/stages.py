@@ -830,6 +830,56 @@ def dead_time_shows(cond: ConditionedExperiment) -> bool:
     return bool(dead >= DEAD_TIME_SAMPLES * dt_rec or (dead >= dt_rec and dead >= DEAD_TIME_FRACTION * t63))
 
 
+def _refit(cond: ConditionedExperiment, fit: Any, noise: NoiseModel) -> tuple[Any, NoiseModel]:
+    """A fit refitted under the noise model of its own residuals; the fit itself when that fails.
+
+    The preliminary two-pole fit may leave model error that the AR model took for noise.
+    """
+    refined = refine_noise(noise, fit[3])
+    try:
+        res, model = oe_stage(cond, fit[4], fit[1], noise=refined, delay=fit[2])
+    except IdentificationError:
+        return fit, refined
+    if np.isfinite(res.bic) and np.all(np.real(res.poles) < 0):
+        return (fit[0], fit[1], fit[2], res, model), refined
+    return fit, refined
+
+
+def resolved(res: OeResult) -> bool:
+    """Whether the data resolve every pole of a fit: alone, or as a pair (:func:`unresolved_pairs`).
+
+    A pole is resolved when its 95 % interval stays in the left half-plane and is narrower than
+    the pole itself.
+
+    Parameters
+    ----------
+    res : OeResult
+        An output-error result.
+
+    Returns
+    -------
+    bool
+    """
+    paired = {j for i in unresolved_pairs(res) for j in (i, i + 1)}
+    for i, p in enumerate(res.poles):
+        lo, hi = res.ci95.get(f"pole_{i}", (float("nan"), float("nan")))
+        if i in paired or not np.isfinite(lo + hi):
+            continue
+        if hi >= 0 or (hi - lo) / 2 > abs(float(np.real(p))):
+            return False
+    return True
+
+
+def _supported_first(fits: list[Any]) -> tuple[list[Any], str]:
+    """Fits with the best one whose poles the data resolve moved first, and what it replaced ('' if none)."""
+    if not fits or resolved(fits[0][3]):
+        return fits, ""
+    ok = next((f for f in fits if resolved(f[3])), None)
+    if ok is None:
+        return fits, ""
+    return [ok] + [f for f in fits if f is not ok], _describe(fits[0][1], fits[0][2])
+
+
 def select_order(
     cond: ConditionedExperiment,
     init: MotorModel,
@@ -910,6 +960,7 @@ def select_order(
         raise IdentificationError("the output-error fit failed for every order: " + "; ".join(errors) + hint)
     fits.sort(key=lambda f: f[0])
     fits, _ = _simplest_of_ties(fits)
+    fits, unsupported = _supported_first(fits)
     bic0 = min(f[0] for f in fits)
     weights = np.exp(-0.5 * (np.array([f[0] for f in fits]) - bic0))
     weights /= weights.sum()
@@ -919,16 +970,18 @@ def select_order(
          **({"delay_s": r.delay_s} if d else {})}
         for (b, s, d, r, _), wt in zip(fits, weights, strict=False)
     ]
-    best = fits[0]
-    # the noise model again, from the chosen structure's own residuals (the preliminary
-    # two-pole fit may leave model error that the AR model took for noise); refit from there
-    refined = refine_noise(noise, best[3])
-    try:
-        res, model = oe_stage(cond, best[4], best[1], noise=refined, delay=best[2])
-        if np.isfinite(res.bic) and np.all(np.real(res.poles) < 0):
-            best = (best[0], best[1], best[2], res, model)
-    except IdentificationError:
-        pass
+    best, refined = _refit(cond, fits[0], noise)
+    if not resolved(best[3]):
+        # refitted under its own noise model, the chosen structure no longer resolves a pole: the
+        # next structure the data support, refitted the same way
+        for alt in fits[1:]:
+            if resolved(alt[3]):
+                cand, cand_noise = _refit(cond, alt, noise)
+                if resolved(cand[3]):
+                    unsupported = unsupported or _describe(best[1], best[2])
+                    fits = [alt] + [f for f in fits if f is not alt]
+                    best, refined = cand, cand_noise
+                    break
     others = [(b, m) for b, _, _, _, m in fits[1:]]
     model = best[4].replace(uncertainty=structure_uncertainty(best[4], [(best[0], best[4]), *others]))
     runner = fits[1] if len(fits) > 1 else None
@@ -940,6 +993,9 @@ def select_order(
     else:
         evidence = (f"BIC prefers {_describe(best[1], best[2])} over "
                     f"{_describe(runner[1], runner[2])} by ΔBIC = {runner[0] - best[0]:.1f}")
+    if unsupported:
+        evidence += (f"; {unsupported} fits better but the data do not resolve its extra pole (its interval reaches "
+                     "the right half-plane or is wider than the pole): the structure the data support is kept")
     if len(variants) == 2:
         evidence += (f" (a dead time was tried: the data stay in their noise band for "
                      f"{1e3 * cond.dead_time_s:.3g} ms after the step)")
