@@ -510,6 +510,7 @@ def output_error_fit(
     init_delay_s: float = 0.0,
     pre: Mapping[str, np.ndarray] | None = None,
     step_std: float = 0.0,
+    level_rel_std: float = 0.0,
     block: Mapping[str, int] | None = None,
     whiten: Mapping[str, np.ndarray] | None = None,
     pre_sigma: Mapping[str, float] | None = None,
@@ -542,6 +543,10 @@ def output_error_fit(
     step_std : float
         Standard error of ``step_volts`` (it is measured on the noisy input channel): every
         gain scales with ``1/step``, so ``(K·step_std/step)²`` adds to the DC gain's variance.
+    level_rel_std : float
+        Relative systematic error of the velocity's recorded change (a quantiser's error that
+        the noise does not average out, :func:`~motorid.identify.stages.output_level_rel_std`):
+        ``(K·level_rel_std)²`` adds to the DC gain's variance.
     block : Mapping[str, int], optional
         Fit block means of this many consecutive samples of a channel (and of its pre-step
         samples) instead of every sample: the model is evaluated on every recorded time and
@@ -580,7 +585,7 @@ def output_error_fit(
                                            x_scale="jac", max_nfev=settings.max_nfev, method="trf")
     if not sol.success:
         warnings.append(f"output-error fit stopped early: {sol.message}")
-    return prob.result(sol, step_std, warnings)
+    return prob.result(sol, step_std, warnings, level_rel_std=level_rel_std)
 
 
 #: Relative step of the forward differences of the Jacobian (time constants and zeros).
@@ -823,7 +828,7 @@ class _OeProblem:
             cov += np.outer(g, g) * sd**2
         return cov
 
-    def result(self, sol: Any, step_std: float, warnings: list[str]) -> OeResult:
+    def result(self, sol: Any, step_std: float, warnings: list[str], *, level_rel_std: float = 0.0) -> OeResult:
         """Covariance (Gauss–Newton, scaled by the residual variance), delta-method intervals."""
         layout, names, n = self.layout, self.names, self.settings.n_poles
         n_par = len(layout.names)
@@ -840,7 +845,7 @@ class _OeProblem:
             warnings.append(f"parameters poorly determined (Fisher information condition number {cond:.2g}): "
                             "a lower order may do")
         cov = np.linalg.pinv(jtj) * s2 + self._instant_covariance(th, jac_m, jtj)
-        d0, std, ci = _delta_method(layout, th, cov, step_std / self.step_volts)
+        d0, std, ci = _delta_method(layout, th, cov, float(np.hypot(step_std / self.step_volts, level_rel_std)))
         q = layout.unpack(th)
         num = _vel_num(q["K"], q["tz"])
         den = np.array([1.0])
@@ -899,7 +904,8 @@ def _delta_method(layout: _Layout, th: np.ndarray, cov: np.ndarray, step_rel_std
     """Derived quantities (gain, τ, poles, zeros...) with standard errors and 95 % intervals.
 
     Central differences of :func:`_derived` give the gradients; the measured step level's
-    relative error adds ``(K·σ_u/u)²`` to the DC gain's variance (every gain scales with 1/u).
+    relative error adds ``(K·σ_u/u)²`` to the DC gain's variance (every gain scales with 1/u), and
+    so does the velocity level's (``step_rel_std`` holds both, in quadrature).
     """
     n_par = th.size
     d0 = _derived(layout, th)

@@ -38,6 +38,8 @@ __all__ = [
     "dead_time_shows",
     "noise_model",
     "oe_stage",
+    "output_level_rel_std",
+    "quantisation_bias_std",
     "refine_noise",
     "select_order",
     "srivc_stage",
@@ -90,13 +92,49 @@ def channel_sigma(cond: ConditionedExperiment, role: str, block: int = 1) -> flo
     return max(sd, _code_step(r) / np.sqrt(12.0 * block), 1e-9)
 
 
+def quantisation_bias_std(y: np.ndarray, quantum: float) -> float:
+    """RMS error of a quantised plateau's mean that no number of samples averages out.
+
+    A quantiser of step ``q`` returns, for a level ``x`` plus a dither, samples whose mean is off
+    by ``Σₖ (−1)ᵏ⁺¹ (q/πk)·φ(2πk/q)·sin(2πkx/q)``: the sawtooth error's Fourier series, each
+    harmonic smoothed by the dither's characteristic function ``φ``.  Gaussian noise makes
+    ``φ`` vanish once ``σ`` passes ``q/2``; a periodic ripple (a tacho's) only like
+    ``√(q/A)`` (``φ = J₀(2πkA/q)`` for a sinusoid of amplitude ``A``, whose square averages
+    ``q/(2π²kA)`` over its oscillation), and the samples do not tell the two apart, so the
+    ripple's is used, with ``A = √2·σ``.  Over a level at
+    an unknown place on the code grid the RMS is ``√(Σₖ (q/πk)²·φₖ²/2)``, ``q/√12`` for a
+    trace on one code.  ``σ²`` is the samples' variance less the quantiser's ``q²/12``.  A trace
+    that reads exactly 0 throughout is a sensor at rest on the zero code: its level is 0.
+    Written here because no library states a quantised mean's residual error.
+
+    Parameters
+    ----------
+    y : ndarray
+        The plateau's samples.
+    quantum : float
+        The quantiser's step (0: not quantised).
+
+    Returns
+    -------
+    float
+        The RMS error of the mean, in ``y``'s unit.
+    """
+    if quantum <= 0.0 or y.size < 2 or not np.any(y):
+        return 0.0
+    amplitude = np.sqrt(2.0 * max(float(np.var(y)) - quantum**2 / 12.0, 0.0))
+    k = np.arange(1, 33, dtype=float)
+    smooth2 = np.minimum(1.0, quantum / (2.0 * np.pi**2 * k * amplitude)) if amplitude > 0 else np.ones_like(k)
+    return float(np.sqrt(np.sum((quantum / (np.pi * k)) ** 2 * smooth2 / 2.0)))
+
+
 def step_level_std(cond: ConditionedExperiment) -> float:
     """Standard error of the experiment's step level.
 
     Each capture's step is the mean of its input channel after the edge minus the mean
-    before it (noise ``σ_u``, at least ``LSB/√12``): variance ``σ_u²(1/n_before + 1/n_after)``;
-    the level is the mean over the captures.  A step given by the user (no input channel)
-    counts as exact.
+    before it: the noise ``σ_u`` gives ``σ_u²(1/n_before + 1/n_after)``, averaged over the
+    captures; the quantiser's error of each mean (:func:`quantisation_bias_std`) does not
+    average out, neither over the samples nor over captures of the same level on the same
+    scale.  A step given by the user (no input channel) counts as exact.
 
     Parameters
     ----------
@@ -108,15 +146,57 @@ def step_level_std(cond: ConditionedExperiment) -> float:
     float
         The standard error in volts (0.0 for a step given by the user).
     """
-    var = []
+    random, systematic = [], []
     for r in cond.responses.values():
         u, before = r.input_v, r.time_s < 0
         if before.sum() < 2 or (~before).sum() < 2:
             continue
         quantum = quantisation_step(u, below=0.5 * abs(r.step_volts))
-        sd = max(float(np.std(u[before])), quantum / np.sqrt(12.0))
-        var.append(sd**2 * (1.0 / before.sum() + 1.0 / (~before).sum()))
-    return float(np.sqrt(np.sum(var)) / len(var)) if var else 0.0
+        random.append(float(np.var(u[before])) * (1.0 / before.sum() + 1.0 / (~before).sum()))
+        systematic.append(quantisation_bias_std(u[before], quantum) ** 2
+                          + quantisation_bias_std(u[~before], quantum) ** 2)
+    if not random:
+        return 0.0
+    return float(np.sqrt(np.sum(random) / len(random) ** 2 + np.mean(systematic)))
+
+
+#: The velocity's last part taken as its settled level (for the quantiser's error of the level).
+SETTLED_FRACTION = 0.25
+
+
+def output_level_rel_std(cond: ConditionedExperiment) -> float:
+    """Relative error of the velocity's recorded change that the quantiser leaves in any fit.
+
+    The pre-step level and the settled level (the last :data:`SETTLED_FRACTION` of the
+    record) each carry :func:`quantisation_bias_std`; relative to the change between them,
+    that is the DC gain's relative error that the fit's own covariance does not see (it treats
+    every sample's quantisation error as independent noise).  0 without a velocity capture or
+    when the trace is not quantised.
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+
+    Returns
+    -------
+    float
+        The relative standard error (dimensionless).
+    """
+    r = cond.responses.get("velocity")
+    if r is None:
+        return 0.0
+    y, before = r.output_v, r.time_s < 0
+    after = np.flatnonzero(~before)
+    settled = y[after[int((1.0 - SETTLED_FRACTION) * after.size):]]
+    if before.sum() < 2 or settled.size < 2:
+        return 0.0
+    change = float(np.mean(settled) - np.mean(y[before]))
+    quantum = quantisation_step(y, below=0.25 * abs(change)) if change else 0.0
+    if quantum == 0.0 or change == 0.0:
+        return 0.0
+    q = np.hypot(quantisation_bias_std(y[before], quantum), quantisation_bias_std(settled, quantum))
+    return float(q / abs(change))
 
 
 #: Structures tried, in turn, for the preliminary fit of the noise model.
@@ -641,7 +721,8 @@ def oe_stage(
     delay0 = init.delay_s if init.delay_s > 0 else cond.dead_time_s
     res = output_error_fit(data.time_s, cond.step_volts, fitted, noise.pre_sigma if white else noise.sigma,
                            taus, dc, settings, init_zeros=zeros, init_delay_s=delay0, pre=data.pre,
-                           step_std=step_level_std(cond), block=data.block,
+                           step_std=step_level_std(cond), level_rel_std=output_level_rel_std(cond),
+                           block=data.block,
                            whiten=None if white else noise.whiten, pre_sigma=noise.pre_sigma,
                            wrap_count=data.wrap_count)
     if "position" in noise.scale_only:
