@@ -45,7 +45,7 @@ import scipy.linalg
 import scipy.optimize
 
 from motorid.conditioning.pipeline import ConditioningSettings, condition_experiment
-from motorid.identify.pipeline import IdentifySettings, identify_conditioned
+from motorid.identification.pipeline import IdentifySettings, identify_conditioned
 from motorid.trainer import preset, run_experiment
 
 #: The true velocity-TF order of each preset (number of poles that matter).
@@ -273,7 +273,7 @@ def crlb(name: str, cond, sigma: float) -> tuple[float, float]:
     gets a direct term (the reduced model ``(Js + b)/(R(Js + b) + K²)`` of a negligible
     inductance), and, as in the estimator, no shift and no sample at the jump.
     """
-    from motorid.identify.output_error import OeSettings, _Layout, _predict
+    from motorid.identification.output_error import OeSettings, _Layout, _predict
     from motorid.trainer import truth_of
 
     tr = truth_of(replace(config_of(name).ideal(), noise_v=sigma))

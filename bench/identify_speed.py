@@ -21,7 +21,7 @@ import scipy.linalg
 
 from motorid.conditioning.pipeline import condition_experiment
 from motorid.cli.demo import run_demo
-from motorid.identify.pipeline import IdentifySettings, identify_conditioned, identify_experiment
+from motorid.identification.pipeline import IdentifySettings, identify_conditioned, identify_experiment
 from motorid.io import read_capture
 
 

@@ -1,7 +1,7 @@
 """Speed of the vectorised (Kp, Kv) modes map vs python-control's nonlinear simulation.
 
 Builds the lab report's model (Tsiolakis 2022) with the 3rd-order lag of ``motorid modes``, maps
-a 200×200 grid with :func:`motorid.simulate.modes.mode_map` (all 40 000 saturated loops stepped
+a 200×200 grid with :func:`motorid.simulation.modes.mode_map` (all 40 000 saturated loops stepped
 together in numpy), then simulates a random subsample of the same grid points one by one with
 ``control.nlsys`` + ``control.input_output_response`` (the same loop, the same record and output
 times), extrapolates that to the whole grid and prints the ratio (target ≥ 100×).  It also
@@ -20,8 +20,8 @@ import control
 import numpy as np
 
 from motorid.control.params import MotorParams, model_from_params
-from motorid.simulate.modes import MODES, ModeCriteria, _linearised_poles, classify_grid, mode_map, servo_plants
-from motorid.simulate.modes import _GridStats
+from motorid.simulation.modes import MODES, ModeCriteria, _linearised_poles, classify_grid, mode_map, servo_plants
+from motorid.simulation.modes import _GridStats
 
 
 def _stats_from_theta(theta: np.ndarray, r: float) -> _GridStats:

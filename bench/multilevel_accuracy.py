@@ -16,8 +16,8 @@ import time
 import numpy as np
 
 from motorid._threads import single_blas_thread
-from motorid.identify.hammerstein import level_response
-from motorid.identify.static import fit_static_characteristic
+from motorid.identification.hammerstein import level_response
+from motorid.identification.static import fit_static_characteristic
 from motorid.trainer.multilevel import MULTILEVEL_PRESETS, multilevel_experiment
 
 

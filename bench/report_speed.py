@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 from motorid.cli.demo import run_demo
-from motorid.identify.pipeline import identify_experiment
+from motorid.identification.pipeline import identify_experiment
 from motorid.io import read_capture
 from motorid.report.assemble import make_report
 

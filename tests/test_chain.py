@@ -23,7 +23,7 @@ from typer.testing import CliRunner
 from motorid.cli.app import app
 from motorid.control.design import LARGE_GAIN, Design, DesignSettings, design_controller
 from motorid.model import MotorModel
-from motorid.simulate.closed_loop import ReferenceSignal, SimulationSettings, simulate_closed_loop
+from motorid.simulation.closed_loop import ReferenceSignal, SimulationSettings, simulate_closed_loop
 
 runner = CliRunner()
 

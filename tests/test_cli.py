@@ -99,7 +99,7 @@ def test_every_user_error_is_a_motorid_error_and_its_builtin() -> None:
     import motorid.conditioning.edge as edge
     import motorid.control.feedback as feedback
     import motorid.errors as errors
-    import motorid.identify.result as result
+    import motorid.identification.result as result
     import motorid.io.atomic as atomic
     import motorid.model as model
 

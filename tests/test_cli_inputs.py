@@ -268,7 +268,7 @@ def test_sweep_exits_2_when_every_cell_fails(caps, run_cli, tmp_path):
 
 
 def test_strict_exits_3_after_writing_the_outputs(caps, run_cli, tmp_path, monkeypatch):
-    import motorid.identify.pipeline as ident
+    import motorid.identification.pipeline as ident
 
     real = ident.identify_experiment
 

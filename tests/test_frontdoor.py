@@ -68,13 +68,35 @@ def test_import_motorid_stays_light():
     assert out.strip() == ""
 
 
-def test_subpackages_named_like_the_front_door_still_import():
-    # mi.identify / mi.simulate share their names with the stage subpackages
-    code = ("import motorid as mi; import motorid.simulate.closed_loop as cl; import motorid.identify.pinv; "
-            "assert callable(mi.simulate) and callable(mi.identify); "
-            "assert mi.identify.pinv is motorid.identify.pinv; print(cl.__name__)")
+def test_front_door_functions_are_plain_functions_beside_their_stage_packages():
+    # the stage subpackages are motorid.identification / motorid.simulation: no name clash
+    code = ("import inspect, motorid as mi; import motorid.simulation.closed_loop as cl; "
+            "import motorid.identification.pinv; from motorid import frontdoor; "
+            "assert mi.identify is frontdoor.identify and mi.simulate is frontdoor.simulate; "
+            "assert inspect.isfunction(mi.identify); print(cl.__name__)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert out.strip() == "motorid.simulate.closed_loop"
+    assert out.strip() == "motorid.simulation.closed_loop"
+
+
+def _mypy(tmp_path, snippet: str) -> subprocess.CompletedProcess:
+    f = tmp_path / "snippet.py"
+    f.write_text(snippet)
+    return subprocess.run([sys.executable, "-m", "mypy", "--no-incremental", "--cache-dir", str(tmp_path / "c"),
+                           "--follow-imports", "silent", str(f)], capture_output=True, text=True)
+
+
+@pytest.mark.slow
+def test_type_checkers_see_the_front_door_signatures(tmp_path):
+    good = _mypy(tmp_path, "import motorid as mi\nexp = mi.read_experiment(velocity='v.csv')\n"
+                           "fit = mi.identify(exp, method='oe')\nreveal_type(mi.identify)\n"
+                           "reveal_type(fit.params)\n")
+    assert "def (experiment: motorid.frontdoor.Experiment" in good.stdout, good.stdout
+    assert "error" not in good.stdout.replace("note:", ""), good.stdout
+    bad = _mypy(tmp_path, "import motorid as mi\nexp = mi.read_experiment(velocity='v.csv')\n"
+                          "mi.identify(exp, methd='oe')\nmi.design(exp, overshot=5)\n")
+    assert bad.returncode == 1
+    assert 'Unexpected keyword argument "methd"' in bad.stdout, bad.stdout
+    assert 'Unexpected keyword argument "overshot"' in bad.stdout, bad.stdout
 
 
 def test_params_carry_value_stderr_and_interval(fit):

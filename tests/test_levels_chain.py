@@ -17,8 +17,8 @@ import pytest
 from motorid.control.design import Design, DesignSettings, design_controller
 from motorid.io import write_tds_capture
 from motorid.model import MotorModel
-from motorid.simulate.closed_loop import ReferenceSignal, SimulationSettings, simulate_closed_loop
-from motorid.simulate.modes import ModeCriteria, mode_map, servo_plants
+from motorid.simulation.closed_loop import ReferenceSignal, SimulationSettings, simulate_closed_loop
+from motorid.simulation.modes import ModeCriteria, mode_map, servo_plants
 from motorid.trainer.closed_loop import simulate_on_trainer
 from motorid.trainer.multilevel import multilevel_experiment
 
@@ -127,7 +127,7 @@ def test_compensation_needs_a_model_with_a_dead_zone(demo_run, run_cli, tmp_path
 
 def test_the_dead_zone_changes_the_mode_map(levels):
     exp, _ = levels
-    from motorid.identify.hammerstein import identify_levels
+    from motorid.identification.hammerstein import identify_levels
 
     model = identify_levels([c.capture for c in exp.captures]).model
     kp, kv = np.linspace(0.5, 20, 8), np.linspace(0, 3, 8)
@@ -141,7 +141,7 @@ def test_the_dead_zone_changes_the_mode_map(levels):
 
 def test_linear_design_in_python_on_the_identified_model(levels):
     exp, _ = levels
-    from motorid.identify.hammerstein import identify_levels
+    from motorid.identification.hammerstein import identify_levels
 
     model = identify_levels([c.capture for c in exp.captures]).model
     d = design_controller(model, DesignSettings(poles=(-4, -5, -30), observer_poles=(-40, -45, -50)))

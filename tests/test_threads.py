@@ -13,7 +13,7 @@ def test_identify_runs_with_one_blas_thread_in_a_fresh_interpreter() -> None:
     code = textwrap.dedent(
         """
         import json
-        import motorid.identify.pipeline as ident
+        import motorid.identification.pipeline as ident
         from motorid._threads import blas_threads
         from motorid.trainer.experiment import run_experiment
 

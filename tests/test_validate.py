@@ -16,7 +16,7 @@ import pytest
 from motorid.capture import Capture, ChannelInfo
 from motorid.errors import MotorIdError, OptionError
 from motorid.io import read_capture
-from motorid.identify.metrics import fit_percent, nrmse, response_change
+from motorid.identification.metrics import fit_percent, nrmse, response_change
 from motorid.model import MotorModel, model_from_velocity_tf, step_nrmse
 from motorid.analysis.validation import validate_capture
 
@@ -247,7 +247,7 @@ def test_bad_inputs_exit_2_with_one_line(demo, run_cli, tmp_path):
 
 def test_validation_section_of_the_report(demo):
     """The report's validation section uses the new result (and survives a bad capture)."""
-    from motorid.identify.pipeline import identify_experiment, IdentifySettings
+    from motorid.identification.pipeline import identify_experiment, IdentifySettings
     from motorid.report.assemble import make_report
 
     caps = {"velocity": read_capture(demo / "ALL0001")}

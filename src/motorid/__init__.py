@@ -49,8 +49,8 @@ Stages
 ======
 Data flows one way: :mod:`motorid.io` (read capture files) →
 :mod:`motorid.conditioning` (edge, sync, unwrap, reduce, differentiate, denoise) →
-:mod:`motorid.identify.pipeline` (the methods in :mod:`motorid.identify`) → :mod:`motorid.model` →
-:mod:`motorid.control` / :mod:`motorid.simulate` → :mod:`motorid.report`.
+:mod:`motorid.identification.pipeline` (the methods in :mod:`motorid.identification`) → :mod:`motorid.model` →
+:mod:`motorid.control` / :mod:`motorid.simulation` → :mod:`motorid.report`.
 :mod:`motorid.trainer` is the virtual servo trainer that stands in for the bench hardware.
 
 ``import motorid`` stays light: the front door and the result types load on first use.
@@ -59,11 +59,27 @@ Data flows one way: :mod:`motorid.io` (read capture files) →
 from __future__ import annotations
 
 import importlib
-import sys
-import types
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from motorid.errors import MotorIdError
+
+if TYPE_CHECKING:  # what type checkers see; at run time each name loads on first use (below)
+    from motorid.capture import Capture, ChannelInfo, ScopeInfo
+    from motorid.control.design import Design
+    from motorid.frontdoor import (
+        Experiment,
+        IdentificationResult,
+        Provenance,
+        design,
+        identify,
+        identify_levels,
+        read_experiment,
+        simulate,
+        write_report,
+    )
+    from motorid.identification.result import ParameterEstimate
+    from motorid.model import MotorModel
+    from motorid.simulation.closed_loop import SimulationResult
 
 __all__ = [
     "Capture",
@@ -79,6 +95,7 @@ __all__ = [
     "SimulationResult",
     "design",
     "identify",
+    "identify_levels",
     "read_experiment",
     "simulate",
     "write_report",
@@ -91,69 +108,19 @@ _LAZY: dict[str, str] = {
     "ChannelInfo": "motorid.capture",
     "ScopeInfo": "motorid.capture",
     "read_experiment": "motorid.frontdoor",
+    "identify": "motorid.frontdoor",
+    "simulate": "motorid.frontdoor",
     "identify_levels": "motorid.frontdoor",
     "design": "motorid.frontdoor",
     "write_report": "motorid.frontdoor",
     "Experiment": "motorid.frontdoor",
     "IdentificationResult": "motorid.frontdoor",
-    "ParameterEstimate": "motorid.identify.result",
+    "ParameterEstimate": "motorid.identification.result",
     "Provenance": "motorid.frontdoor",
     "MotorModel": "motorid.model",
     "Design": "motorid.control.design",
-    "SimulationResult": "motorid.simulate.closed_loop",
+    "SimulationResult": "motorid.simulation.closed_loop",
 }
-
-
-class _FrontDoorFunction:
-    """``mi.identify`` / ``mi.simulate``: the front-door function named like a stage subpackage.
-
-    The function shares its name with a stage subpackage (:mod:`motorid.identify`,
-    :mod:`motorid.simulate`).
-
-    Calling it calls :func:`motorid.frontdoor.identify` (resp. ``simulate``); any attribute
-    it does not have is the subpackage's, so ``motorid.identify.pinv`` and
-    ``import motorid.simulate.closed_loop as cl`` keep working.
-    """
-
-    def __init__(self, name: str, doc: str) -> None:
-        self.__name__ = self.__qualname__ = name
-        self.__module__ = "motorid"
-        self.__doc__ = doc
-
-    def _function(self) -> Any:
-        return getattr(importlib.import_module("motorid.frontdoor"), self.__name__)
-
-    def __call__(self, *args: Any, **kwargs: Any) -> Any:
-        return self._function()(*args, **kwargs)
-
-    def __getattr__(self, name: str) -> Any:
-        if name == "__wrapped__":  # inspect.signature / help() follow it to the real function
-            return self._function()
-        if name.startswith("__"):
-            raise AttributeError(name)
-        return getattr(importlib.import_module(f"motorid.{self.__name__}"), name)
-
-    def __repr__(self) -> str:
-        return f"<function motorid.{self.__name__}>"
-
-
-identify = _FrontDoorFunction(
-    "identify", "Identify the motor model of an experiment: see :func:`motorid.frontdoor.identify`.")
-simulate = _FrontDoorFunction(
-    "simulate", "Run a design in closed loop: see :func:`motorid.frontdoor.simulate`.")
-
-
-class _Package(types.ModuleType):
-    """The package module, which keeps the front-door functions.
-
-    Importing the ``identify``/``simulate`` subpackages (which sets them as attributes of their
-    parent) must not replace the front-door functions.
-    """
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        if name in ("identify", "simulate") and isinstance(value, types.ModuleType):
-            return
-        super().__setattr__(name, value)
 
 
 def __getattr__(name: str) -> Any:
@@ -168,5 +135,3 @@ def __getattr__(name: str) -> Any:
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(_LAZY))
 
-
-sys.modules[__name__].__class__ = _Package

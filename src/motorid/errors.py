@@ -6,7 +6,7 @@ code 2; any other exception is a bug (exit 1, traceback behind ``--debug``).  Ea
 also the matching built-in (``ValueError`` for bad values and data, ``FileExistsError`` and
 ``OSError`` for outputs), as python-control's ``ControlDimension(ValueError)``: a caller's
 ``except ValueError`` sees them.  The modules that raise them re-export them under their old
-names (``motorid.model.ModelFormatError``, ``motorid.identify.result.IdentificationError``…).
+names (``motorid.model.ModelFormatError``, ``motorid.identification.result.IdentificationError``…).
 """
 
 from __future__ import annotations

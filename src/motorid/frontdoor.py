@@ -9,8 +9,8 @@
 >>> mi.write_report("report.html", fit, design=des)
 
 Each function is a thin layer over the library (:func:`motorid.io.read_capture`,
-:func:`motorid.identify.pipeline.identify_experiment`, :func:`motorid.control.design.design_controller`,
-:func:`motorid.simulate.closed_loop.simulate_closed_loop`, :func:`motorid.report.assemble.make_report`):
+:func:`motorid.identification.pipeline.identify_experiment`, :func:`motorid.control.design.design_controller`,
+:func:`motorid.simulation.closed_loop.simulate_closed_loop`, :func:`motorid.report.assemble.make_report`):
 it checks the keyword options, naming the Python parameter in the one-line
 :class:`~motorid.errors.MotorIdError` it raises, and returns a frozen result.
 """
@@ -28,16 +28,16 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, Literal
 
 from motorid.capture import Capture
-from motorid.identify.result import ParameterEstimate
+from motorid.identification.result import ParameterEstimate
 from motorid.errors import OptionError
 
 if TYPE_CHECKING:
     from motorid.control.design import Design
-    from motorid.identify.hammerstein import MultiLevelResult
-    from motorid.identify.pipeline import Identification
-    from motorid.identify.sanity import SanityReport
+    from motorid.identification.hammerstein import MultiLevelResult
+    from motorid.identification.pipeline import Identification
+    from motorid.identification.sanity import SanityReport
     from motorid.model import MotorModel
-    from motorid.simulate.closed_loop import ReferenceSignal, SimulationResult
+    from motorid.simulation.closed_loop import ReferenceSignal, SimulationResult
 
 __all__ = [
     "Experiment",
@@ -143,7 +143,7 @@ def identify_levels(
     OptionError
         Fewer than two moving levels, or mismatched ``step_volts``.
     """
-    from motorid.identify.hammerstein import identify_levels as _identify_levels
+    from motorid.identification.hammerstein import identify_levels as _identify_levels
     from motorid.io import read_capture
 
     caps = []
@@ -436,7 +436,7 @@ def identify(
         Data that cannot give a model (the message names the file and what would fix it).
     """
     from motorid.conditioning.pipeline import ConditioningSettings
-    from motorid.identify.pipeline import IdentifySettings, identify_experiment
+    from motorid.identification.pipeline import IdentifySettings, identify_experiment
 
     if not isinstance(experiment, Experiment):
         raise OptionError(f"identify needs the Experiment of read_experiment(...), got {type(experiment).__name__}")
@@ -592,7 +592,7 @@ def simulate(
         Record length [s].
     reference : str or ReferenceSignal
         ``step``, ``sine``, ``triangle``, ``square`` (with ``level_v``), or a
-        :class:`motorid.simulate.ReferenceSignal` for every detail.
+        :class:`motorid.simulation.ReferenceSignal` for every detail.
     level_v : float
         Step level (or the mean of a periodic reference) [V] when ``reference`` is a name.
     saturation : float, optional
@@ -623,7 +623,7 @@ def simulate(
         Bad settings, or a design for other states than the model's.
     """
     from motorid.control.design import Design
-    from motorid.simulate.closed_loop import ReferenceSignal, SimulationSettings, simulate_closed_loop
+    from motorid.simulation.closed_loop import ReferenceSignal, SimulationSettings, simulate_closed_loop
 
     if not isinstance(design, Design):
         raise OptionError(f"design= must be the Design of mi.design(...), got {type(design).__name__}")

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from motorid.simulate.closed_loop import response_metrics
+from motorid.simulation.closed_loop import response_metrics
 
 
 def _old_metrics(t, y, r):

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from motorid.control.design import DesignSettings, design_controller
-from motorid.identify.pipeline import identify_experiment
-from motorid.simulate.closed_loop import SimulationSettings, simulate_closed_loop
+from motorid.identification.pipeline import identify_experiment
+from motorid.simulation.closed_loop import SimulationSettings, simulate_closed_loop
 from motorid.trainer.realsetups import write_real_setup
 
 

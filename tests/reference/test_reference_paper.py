@@ -6,7 +6,7 @@ import control
 import numpy as np
 import pytest
 
-from motorid.identify.markov import MarkovSettings, companion_realisation, markov_identify
+from motorid.identification.markov import MarkovSettings, companion_realisation, markov_identify
 from motorid.model import MotorModel
 
 

@@ -140,7 +140,7 @@ def test_a_load_disturbance_is_marked_on_the_closed_loop(demo_run, monkeypatch):
     from motorid.io import read_capture
     from motorid.report import figures
     from motorid.report.assemble import make_report
-    from motorid.simulate.closed_loop import SimulationSettings
+    from motorid.simulation.closed_loop import SimulationSettings
 
     kept = []
     real_png = figures.png

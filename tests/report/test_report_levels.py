@@ -13,7 +13,7 @@ from motorid.report import figures
 
 @pytest.fixture(scope="module")
 def levels_result():
-    from motorid.identify.hammerstein import identify_levels
+    from motorid.identification.hammerstein import identify_levels
     from motorid.trainer.multilevel import multilevel_experiment
 
     exp = multilevel_experiment("deadzone-rails", levels=(2.0, 4.0, 6.0, 10.0), repeats=1, seed=7)

@@ -127,7 +127,7 @@ def test_figures_leave_the_callers_matplotlib_backend_alone(tmp_path):
         matplotlib.use("pdf")
         from motorid.cli.demo import run_demo
         run_demo({str(tmp_path / 'D')!r}, seed=5)
-        from motorid.simulate.modes import ModeCriteria, mode_map, plot_mode_maps, servo_plants
+        from motorid.simulation.modes import ModeCriteria, mode_map, plot_mode_maps, servo_plants
         from motorid.model import MotorModel
         import json, numpy as np
         m = MotorModel.from_json(json.load(open({str(tmp_path / 'D' / 'model.json')!r})))

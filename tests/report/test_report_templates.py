@@ -189,7 +189,7 @@ def test_closed_loop_draws_the_rails_the_load_instant_and_the_metrics(drawn):
 
 
 def test_mode_maps_have_gain_units_and_mark_the_design(drawn):
-    from motorid.simulate.modes import ModeMap
+    from motorid.simulation.modes import ModeMap
 
     kp, kv = np.linspace(1, 20, 4), np.linspace(0, 4, 3)
     labels = np.arange(12, dtype=np.int8).reshape(3, 4) % 6

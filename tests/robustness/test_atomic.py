@@ -77,7 +77,7 @@ def test_cli_png_failure_removes_csv_and_json(tmp_path, monkeypatch, run_cli):
     design = tmp_path / "d.json"
     assert run_cli(*PARAMS, "--json", str(model)).code == 0
     assert run_cli("design", str(model), "--k2", "8.5", "--damping", "1", "--json", str(design)).code == 0
-    import motorid.simulate.closed_loop as cl
+    import motorid.simulation.closed_loop as cl
 
     def boom(*a, **k):
         raise OSError(errno.ENOSPC, "No space left on device")

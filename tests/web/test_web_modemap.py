@@ -9,7 +9,7 @@ from matplotlib.figure import Figure
 
 import motorid as mi
 from motorid.control.feedback import poles_from_damping
-from motorid.simulate.modes import MODES, servo_plants
+from motorid.simulation.modes import MODES, servo_plants
 from motorid.web.modemap import build_mode_maps, design_point, mark
 
 

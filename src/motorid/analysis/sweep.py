@@ -18,7 +18,7 @@ from motorid._threads import single_blas_thread
 from motorid.capture import Capture
 from motorid.conditioning.pipeline import condition_experiment
 from motorid.errors import ConditioningError, MotorIdError
-from motorid.identify.pipeline import IdentifySettings, identify_conditioned, with_conditioning
+from motorid.identification.pipeline import IdentifySettings, identify_conditioned, with_conditioning
 
 __all__ = ["PAPER_INTERVALS_S", "PAPER_LENGTHS_S", "SweepResult", "data_grid", "sensitivity_table"]
 

@@ -11,7 +11,7 @@ estimated with the score, by linear least squares (the output is linear in both)
 
 and reported.  A position channel is unwrapped (:func:`motorid.conditioning.unwrap.unwrap_position`);
 a step capture is scored as ``identify`` scores it: on the increments from the pre-step
-baseline, NRMSE over the steady-state change (:mod:`motorid.identify.metrics`).  The model's fitted
+baseline, NRMSE over the steady-state change (:mod:`motorid.identification.metrics`).  The model's fitted
 dead time (``delay_s``) delays the input.
 """
 
@@ -30,8 +30,8 @@ from motorid.conditioning.edge import step_edge
 from motorid.conditioning.response import step_response
 from motorid.conditioning.unwrap import unwrap_position
 from motorid.errors import CaptureDataError, OptionError, StepNotFoundError
-from motorid.identify.metrics import fit_percent, nrmse
-from motorid.identify.sanity import TOLERANCES
+from motorid.identification.metrics import fit_percent, nrmse
+from motorid.identification.sanity import TOLERANCES
 from motorid.model import CHANNELS, MotorModel
 
 __all__ = ["ValidationResult", "model_delay_s", "validate_capture"]
@@ -56,7 +56,7 @@ class ValidationResult:
         step, the increment from the pre-step baseline) and the model's output [V] with the
         estimated initial state and offset.
     nrmse : float
-        RMS(measured − simulated) / measured change of the response (:func:`motorid.identify.metrics.nrmse`
+        RMS(measured − simulated) / measured change of the response (:func:`motorid.identification.metrics.nrmse`
         with ``nrmse_reference``).
     fit_percent : float
         MATLAB ``compare``'s ``100·(1 − ‖y − ŷ‖/‖y − ȳ‖)``.

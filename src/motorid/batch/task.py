@@ -125,7 +125,7 @@ def _check_identify(o: Mapping[str, Any]) -> None:
     themselves naming the parameter: a bad option is one error, not one failure per experiment.
     """
     from motorid.conditioning.pipeline import ConditioningSettings
-    from motorid.identify.pipeline import IdentifySettings
+    from motorid.identification.pipeline import IdentifySettings
 
     IdentifySettings(
         method=o["method"], order=o["order"],
@@ -310,9 +310,9 @@ def _identify_one(spec: ExperimentSpec, settings: BatchSettings) -> ExperimentOu
     model = fit.model
     fit_pct = fit.fit.get("velocity_fit_percent", fit.fit.get("position_fit_percent"))
     row = {
-        "dc_gain": float(fit.params["dc_gain"].value),
+        "dc_gain": complex(fit.params["dc_gain"].value).real,
         "dc_gain_ci95": _interval(fit.params["dc_gain"]),
-        "time_constant": float(fit.params["time_constant"].value),
+        "time_constant": complex(fit.params["time_constant"].value).real,
         "time_constant_ci95": _interval(fit.params["time_constant"]),
         "order": len(model.poles()),
         "method": model.method,

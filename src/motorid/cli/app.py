@@ -142,7 +142,7 @@ def _check_options(
         One line naming the option, the value and what is allowed.
     """
     if method is not None:
-        from motorid.identify.pipeline import METHODS
+        from motorid.identification.pipeline import METHODS
 
         _choice("--method", method, METHODS)
     _choice("--order", order, ORDERS)
@@ -155,7 +155,7 @@ def _check_options(
 
         _choice("--derivative", derivative, DERIVATIVE_METHODS)
     if structure is not None:
-        from motorid.identify.pinv import PINV_STRUCTURES
+        from motorid.identification.pinv import PINV_STRUCTURES
 
         _choice("--structure", structure, PINV_STRUCTURES)
     if sync is not None:
@@ -179,7 +179,7 @@ def _check_options(
     _number("--markov-params", markov_params, at_least=3)
     _number("--markov-window", markov_window, above=0, unit=" s")
     if markov_basis is not None:
-        from motorid.identify.pipeline import MARKOV_BASES
+        from motorid.identification.pipeline import MARKOV_BASES
 
         _choice("--markov-basis", markov_basis, MARKOV_BASES)
 
@@ -460,7 +460,7 @@ def identify(
     """
     columns = _with_time_unit(columns, time_unit)
     from motorid.cli.levels import parse_levels
-    from motorid.identify.pipeline import IdentifySettings, identify_experiment
+    from motorid.identification.pipeline import IdentifySettings, identify_experiment
     from motorid.io import atomic_outputs, check_writable
 
     levels = parse_levels(step_volts)
@@ -732,7 +732,7 @@ def report(
 ) -> None:
     """Identify and write one self-contained HTML report of the experiment."""
     columns = _with_time_unit(columns, time_unit)
-    from motorid.identify.pipeline import IdentifySettings, identify_experiment
+    from motorid.identification.pipeline import IdentifySettings, identify_experiment
     from motorid.control.design_io import read_design_json as read_design
     from motorid.io import atomic_outputs, check_writable
     from motorid.report.assemble import make_report
@@ -793,7 +793,7 @@ def sweep(
     """The paper's Tables 1-3: k and τ over record length × sample interval."""
     columns = _with_time_unit(columns, time_unit)
     from motorid.conditioning.pipeline import ConditioningSettings
-    from motorid.identify.pipeline import IdentifySettings
+    from motorid.identification.pipeline import IdentifySettings
     from motorid.analysis.sweep import sensitivity_table
     from motorid.io import atomic_outputs, check_writable
 

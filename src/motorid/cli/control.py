@@ -1,6 +1,6 @@
 """Command-line front end of controller design and closed-loop prediction.
 
-Thin: parse, call :mod:`motorid.control` / :mod:`motorid.simulate`, print, write files.  User
+Thin: parse, call :mod:`motorid.control` / :mod:`motorid.simulation`, print, write files.  User
 mistakes raise :class:`~motorid.errors.MotorIdError` subclasses; ``motorid.cli.main`` turns them
 into one line and exit code 2.  Register everything on the main app with :func:`register`.
 """
@@ -275,7 +275,12 @@ def simulate(
     from motorid.control.design_io import load_design as _load_design
     from motorid.io import atomic_outputs
     from motorid.model.serialize import load_model
-    from motorid.simulate.closed_loop import ReferenceSignal, SimulationSettings, plot_simulation, simulate_closed_loop
+    from motorid.simulation.closed_loop import (
+        ReferenceSignal,
+        SimulationSettings,
+        plot_simulation,
+        simulate_closed_loop,
+    )
 
     _check_outputs([(csv_out, "--csv", None), (json_out, "--json", None), (png, "--png", ".png")], force)
     _check_numbers({"--level": level, "--initial-ref": initial_ref, "--amplitude": amplitude, "--start": start,
@@ -340,7 +345,7 @@ def modes(
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Map the six modes of the saturated position/velocity loop (Masoud 2019, Figs. 4, 11-13)."""
-    from motorid.simulate.modes import (
+    from motorid.simulation.modes import (
         MODES,
         ModeCriteria,
         mode_map,

@@ -155,7 +155,7 @@ def _write_demo(out: Path, exp: Any, *, preset: str, seed: int, step_volts: floa
     }
     truth_path.write_text(json.dumps(doc, indent=2, default=float) + "\n", encoding="utf-8")
     # the main job on what was written: identify from the files, as a user would
-    from motorid.identify.pipeline import identify_experiment
+    from motorid.identification.pipeline import identify_experiment
 
     read_back = {role: read_capture(out / f"ALL{CAPTURE_ORDER.index(role):04d}")
                  for role in ("position", "velocity", "current") if role in exp.captures}

@@ -91,7 +91,7 @@ def identify_levels_cmd(
     *,
     ignored: list[str],
 ) -> object:
-    """Identify, print and return the :class:`~motorid.identify.hammerstein.MultiLevelResult`.
+    """Identify, print and return the :class:`~motorid.identification.hammerstein.MultiLevelResult`.
 
     Parameters
     ----------
@@ -113,7 +113,7 @@ def identify_levels_cmd(
     OptionError
         Fewer than two moving levels, or a step-volts list of the wrong length.
     """
-    from motorid.identify.hammerstein import identify_levels
+    from motorid.identification.hammerstein import identify_levels
 
     levels: list[float | None] | None = None
     if step_volts is not None:

@@ -8,11 +8,11 @@ from typing import Any
 from motorid._threads import single_blas_thread
 from motorid.capture import Capture
 from motorid.errors import MotorIdError
-from motorid.identify.pipeline import Identification, IdentifySettings
+from motorid.identification.pipeline import Identification, IdentifySettings
 from motorid.report import ReportInputs, build_report
 from motorid.analysis.sweep import PAPER_LENGTHS_S, data_grid, sensitivity_table
-from motorid.simulate.closed_loop import SimulationSettings
-from motorid.simulate.modes import ModeCriteria
+from motorid.simulation.closed_loop import SimulationSettings
+from motorid.simulation.modes import ModeCriteria
 
 __all__ = ["MODE_MAP_KP", "MODE_MAP_KV", "REPORT_RAILS_V", "make_report"]
 
@@ -49,7 +49,7 @@ def make_report(
     Parameters
     ----------
     ident : Identification
-        The identification (:func:`motorid.identify.pipeline.identify_experiment`).
+        The identification (:func:`motorid.identification.pipeline.identify_experiment`).
     captures : Mapping[str, Capture]
         The captures it was identified from, keyed by role.
     validation : Mapping[str, Capture], optional
@@ -124,7 +124,7 @@ def _closed_loop_view(ident: Identification, des: Any, settings: SimulationSetti
     """The closed-loop run as the page shows it: columns, metrics, rails and load instants."""
     from dataclasses import asdict
 
-    from motorid.simulate.closed_loop import simulate_closed_loop
+    from motorid.simulation.closed_loop import simulate_closed_loop
 
     # a design in measurable coordinates (position, velocity, current…) is simulated on
     # the model re-expressed in them (simulate_closed_loop does the change of states)
@@ -144,7 +144,7 @@ def _mode_maps(ident: Identification) -> tuple[Any, ...]:
     """The mode maps of the 2nd- and 3rd-order servo plants on the report's grid."""
     import numpy as np
 
-    from motorid.simulate.modes import mode_map, servo_plants
+    from motorid.simulation.modes import mode_map, servo_plants
 
     kp, kv = np.linspace(*MODE_MAP_KP), np.linspace(*MODE_MAP_KV)
     return tuple(mode_map(pl, kp, kv, ModeCriteria()) for pl in servo_plants(ident.model))

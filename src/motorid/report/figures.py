@@ -78,7 +78,7 @@ _STYLE: dict[str, Any] = {
     "grid.alpha": 0.3,
     "savefig.dpi": DPI,
 }
-#: Colours of the six modes of the mode map (the order of :data:`motorid.simulate.modes.MODES`).
+#: Colours of the six modes of the mode map (the order of :data:`motorid.simulation.modes.MODES`).
 _MODE_COLOURS = ("#d62728", "#1f77b4", "#2ca02c", "#bcbd22", "#ff7f0e", "#9467bd")
 
 _P = ParamSpec("_P")
@@ -507,7 +507,7 @@ def mode_maps(maps: Sequence[Any], design_gains: tuple[float, float] | None = No
     Parameters
     ----------
     maps : sequence of ModeMap
-        From :func:`motorid.simulate.modes.mode_map`.
+        From :func:`motorid.simulation.modes.mode_map`.
     design_gains : (float, float), optional
         A design's own ``(Kp, Kv)``, marked on every map.
 
@@ -521,7 +521,7 @@ def mode_maps(maps: Sequence[Any], design_gains: tuple[float, float] | None = No
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    from motorid.simulate.modes import MODES
+    from motorid.simulation.modes import MODES
 
     cmap = ListedColormap(list(_MODE_COLOURS))
     fig, axes = _subplots(1, len(maps), figsize=(FULL_WIDTH_IN, 4.2), squeeze=False)

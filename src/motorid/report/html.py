@@ -24,7 +24,7 @@ import numpy as np
 from markupsafe import Markup
 
 from motorid.capture import Capture
-from motorid.identify.pipeline import Identification
+from motorid.identification.pipeline import Identification
 from motorid.model.notation import poly_text
 from motorid.model.units import physical_gain
 from motorid.numfmt import DIGITS, complex_text, metric_name, roots_text, sig
@@ -67,7 +67,7 @@ class ReportInputs:
     Attributes
     ----------
     identification : Identification
-        The result of :func:`motorid.identify.pipeline.identify_experiment`.
+        The result of :func:`motorid.identification.pipeline.identify_experiment`.
     captures : Mapping[str, Capture]
         The raw captures by role.
     validation : Mapping[str, Capture]
@@ -78,7 +78,7 @@ class ReportInputs:
         A design JSON (``motorid.design/1``) and, under ``"simulation"``, a closed-loop run
         ``{"time": [...], "series": {name: [...]}, "metrics": {...}}`` with optional
         ``"rails_v"`` (actuator rails ±V) and ``"disturbances_s"`` (load instants); under
-        ``"mode_maps"`` a tuple of :class:`motorid.simulate.modes.ModeMap` (or ``"modes_png"``:
+        ``"mode_maps"`` a tuple of :class:`motorid.simulation.modes.ModeMap` (or ``"modes_png"``:
         bytes of an image drawn elsewhere) and ``"design_gains"``: the design's own ``(Kp, Kv)``.
     truth : Mapping or None
         The trainer's ``truth.json`` (shown beside the model for the demo).

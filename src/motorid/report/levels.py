@@ -12,7 +12,7 @@ from typing import Any
 import matplotlib
 import numpy as np
 
-from motorid.identify.hammerstein import MultiLevelResult
+from motorid.identification.hammerstein import MultiLevelResult
 from motorid.model.notation import poly_text
 from motorid.report import figures
 from motorid.report.html import render_page, render_section

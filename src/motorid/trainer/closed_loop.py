@@ -1,7 +1,7 @@
 """The virtual trainer as the plant of a closed-loop run.
 
-:mod:`motorid.simulate.closed_loop` takes any
-:class:`~motorid.simulate.closed_loop.ClosedLoopPlant`; this is the trainer's.
+:mod:`motorid.simulation.closed_loop` takes any
+:class:`~motorid.simulation.closed_loop.ClosedLoopPlant`; this is the trainer's.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import numpy as np
 
 from motorid.control.design import Design
 from motorid.model import MotorModel
-from motorid.simulate.closed_loop import SimulationResult, SimulationSettings, simulate_closed_loop
+from motorid.simulation.closed_loop import SimulationResult, SimulationSettings, simulate_closed_loop
 from motorid.trainer.plant import simulate_plant
 from motorid.trainer.presets import TrainerConfig, preset
 from motorid.trainer.truth import truth_of

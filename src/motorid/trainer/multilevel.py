@@ -16,7 +16,7 @@ import numpy as np
 
 from motorid.capture import Capture
 from motorid.errors import OptionError
-from motorid.simulate.signals import step_signal
+from motorid.simulation.signals import step_signal
 from motorid.trainer.plant import PlantResponse, simulate_plant
 from motorid.trainer.presets import TrainerConfig, preset
 from motorid.trainer.scope import ScopeSettings, acquire, draw_trigger_index, record_time

@@ -1,7 +1,7 @@
 """The six-mode map of the design panel, with the design's (Kp, Kv) marked as the sliders move.
 
 The maps are drawn once per model and actuator limit by the library's own
-:func:`motorid.simulate.modes.plot_mode_maps` (as SVG).
+:func:`motorid.simulation.modes.plot_mode_maps` (as SVG).
 
 The marker is placed in the SVG's own coordinates: each map is an ``<image>`` element whose
 rectangle is the map's extent, so a gain pair maps linearly onto it.  Redrawing the maps for
@@ -21,7 +21,7 @@ import numpy as np
 from motorid.control.design import Design
 from motorid.control.feedback import place_gains, poles_from_damping
 from motorid.model import MotorModel
-from motorid.simulate.modes import MODES, ModeCriteria, ModeMap, mode_map, plot_mode_maps, servo_plants
+from motorid.simulation.modes import MODES, ModeCriteria, ModeMap, mode_map, plot_mode_maps, servo_plants
 
 __all__ = ["MapPanel", "Marker", "ModeMapView", "build_mode_maps", "design_point", "mark"]
 
@@ -49,7 +49,7 @@ class ModeMapView:
     Attributes
     ----------
     svg : bytes
-        The maps as :func:`~motorid.simulate.modes.plot_mode_maps` draws them.
+        The maps as :func:`~motorid.simulation.modes.plot_mode_maps` draws them.
     viewbox : tuple of float
         ``(width, height)`` of the SVG's view box.
     panels : tuple of MapPanel

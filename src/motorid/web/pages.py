@@ -47,7 +47,7 @@ def _tab(request: Request, tab_id: str) -> Tab:
 async def index(request: Request) -> HTMLResponse:
     """The page, with a new tab (its own temporary folder)."""
     from motorid import __version__
-    from motorid.identify.pipeline import METHODS
+    from motorid.identification.pipeline import METHODS
 
     tab = request.app.state.tabs.open()
     s = request.app.state.settings
@@ -79,7 +79,7 @@ async def upload(request: Request, tab_id: str) -> HTMLResponse:
 
 
 def _captures(request: Request, tab: Tab) -> HTMLResponse:
-    from motorid.identify.pipeline import METHODS
+    from motorid.identification.pipeline import METHODS
 
     return _render(request, "_captures.html", tab=tab, roles=PAGE_ROLES, methods=METHODS)
 

@@ -22,7 +22,7 @@ if TYPE_CHECKING:
     from motorid.control.design import Design
     from motorid.frontdoor import IdentificationResult
     from motorid.model import MotorModel
-    from motorid.simulate.closed_loop import SimulationResult
+    from motorid.simulation.closed_loop import SimulationResult
     from motorid.web.modemap import Marker, ModeMapView
     from motorid.web.uploads import CaptureFiles
 
@@ -373,7 +373,7 @@ def map_limits(model: MotorModel, ranges: SliderRanges) -> tuple[float, float]:
         ``kp_max``, ``kv_max`` (positive).
     """
     from motorid.control.feedback import place_gains, poles_from_damping
-    from motorid.simulate.modes import servo_plants
+    from motorid.simulation.modes import servo_plants
 
     second = servo_plants(model)[0]
     poles, _ = poles_from_damping(ranges.damping[1], ranges.wn[1], 2)

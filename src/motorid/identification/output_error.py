@@ -1,0 +1,979 @@
+"""Continuous-time output-error fit of a servo's step responses (beyond the paper).
+
+The paper fits an equation error (pseudo-inverse on numerically differentiated, sub-sampled
+states), which is biased when the regressors are noisy.  Here the transfer function itself —
+gain, real time constants, zeros, optionally a delay — is fitted to the *measured* step
+responses by nonlinear least squares (``scipy.optimize.least_squares``), every channel
+weighted by its own noise level, velocity and position tied together through the integrator
+(``P(s) = c·G(s)/s``) and the current sharing the poles.  Responses are evaluated in closed
+form (partial fractions: a few exponentials), so a fit on thousands of samples takes tens of
+milliseconds; the parameter covariance is the Gauss–Newton one, ``s²(JᵀJ)⁻¹``, and the
+uncertainty of derived quantities (DC gain, time constant, poles, zeros) follows by the delta
+method.  No library fits continuous-time models with shared poles across channels, hence
+this module.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+import scipy.linalg
+import scipy.optimize
+import scipy.signal
+
+from motorid.identification.result import IdentificationError
+
+__all__ = [
+    "FRACTION_63",
+    "OeResult",
+    "OeSettings",
+    "ar_noise_model",
+    "output_error_fit",
+    "position_closed_form",
+    "position_scale_fit",
+    "step_63_time",
+    "step_response_closed_form",
+]
+
+
+@dataclass(frozen=True, slots=True)
+class OeSettings:
+    """Structure of the fitted velocity transfer function.
+
+    Attributes
+    ----------
+    n_poles : int
+        Real poles ``-1/τ_i`` (1–3 for a servo).
+    n_zeros : int
+        Zeros ``-1/Tz_j`` (fewer than the poles).
+    delay : bool
+        Fit a pure delay too.
+    max_nfev : int
+        Most model evaluations of the optimiser.
+    shifts : bool
+        Fit time shifts (of the channels in ``shift_groups``).
+    shift_bound_s : float or None
+        Largest shift; 1.5 samples of the fitted grid when ``None``.
+    shift_groups : tuple of tuple of str, or None
+        Channels whose step instant is not known from a recorded input, grouped by
+        acquisition: each group shares one fitted shift (the channels of one scope
+        acquisition saw one step).  Channels in no group have a fixed step instant (a logged
+        or sampled input gives it), so nothing can trade their lags for a time shift.
+        ``None``: every channel has a shift of its own.
+    instant_std : tuple of (str, float)
+        Channels whose step instant is fixed to within their sample interval but not fitted (a
+        scope samples the input's edge: the step lies in the interval before the edge sample),
+        with that instant's standard deviation (s, ``dt/√12``).  Its effect on the parameters
+        (the fit's sensitivity to a shift of that channel's instant) is added to their covariance.
+    phase_group : tuple of str
+        Channels of ``instant_std`` (separate scope acquisitions) whose sub-sample phases are
+        fitted *relative to each other* (they sum to zero): their differences are what makes the
+        captures disagree near the step, while their common part is what trades against the lags
+        of the dynamics, so it stays at the intervals' middles (its ``dt/√(12·n)`` in the
+        covariance).
+    current_direct : bool or None
+        Let the current jump at the step (a biproper current TF, ``n_poles + 1`` numerator
+        coefficients): what a model that leaves out an electrical pole faster than the
+        sampling must do, since the current then follows the voltage at once
+        (``I/U = (Js + b)/(R(Js + b) + K²)``).  ``None``: only for a one-pole model (with more
+        poles the electrical one is in the model and the current is strictly proper; a jump
+        would also make the fit discontinuous in the capture's time shift).
+    """
+
+    n_poles: int = 2
+    n_zeros: int = 0
+    delay: bool = False
+    max_nfev: int = 200
+    shifts: bool = True
+    shift_bound_s: float | None = None
+    current_direct: bool | None = None
+    shift_groups: tuple[tuple[str, ...], ...] | None = None
+    instant_std: tuple[tuple[str, float], ...] = ()
+    phase_group: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class OeResult:
+    """An output-error fit.
+
+    Attributes
+    ----------
+    params, param_names, cov : the raw parameters (``K``, ``log_tau_i``, ``Tz_j``, ``delay``,
+        ``c``, ``cur_j``, ``off_<channel>`` (pre-step levels)) and their covariance.
+    velocity_num, velocity_den : ndarray
+        Velocity TF, highest power first, ``den[0] == 1``.
+    dc_gain, time_constant_s : float
+        DC gain and the mean residence time ``Στ_i − ΣTz_j``.
+    poles, zeros : ndarray
+        Of the velocity TF (poles slowest first).
+    delay_s : float or None
+        Fitted delay.
+    position_scale : float or None
+        ``c`` of ``P(s) = c·G(s)/s`` when a position channel was fitted.
+    current_num : ndarray or None
+        Numerator of the current TF (same denominator) when fitted.
+    std, ci95 : dict
+        Standard deviation and 95% interval of ``dc_gain``, ``time_constant``, ``pole_i``,
+        ``zero_j`` (real parts), ``delay`` and each fitted shift ``shift_<channel>``.
+    shifts : dict[str, float]
+        Fitted time shift of each channel that has one (s; positive: the response is later
+        than the step instant read off the data), keyed by channel; the channels of one
+        group share a value.
+    residual_rms, sigma : dict
+        Per channel: RMS residual (V) and the noise level used as weight.
+    n_samples, nfev : int
+    cost : float
+        Half the weighted residual sum of squares.
+    bic, aic : float
+        ``N ln(RSS_w/N) + p ln N`` and ``N ln(RSS_w/N) + 2p``.
+    settings : OeSettings
+    warnings : tuple of str
+    residuals : dict[str, ndarray]
+        Per channel: measured minus fitted (block means when the record was averaged),
+        before any whitening.
+    """
+
+    params: np.ndarray
+    param_names: tuple[str, ...]
+    cov: np.ndarray
+    velocity_num: np.ndarray
+    velocity_den: np.ndarray
+    dc_gain: float
+    time_constant_s: float
+    poles: np.ndarray
+    zeros: np.ndarray
+    delay_s: float | None
+    position_scale: float | None
+    current_num: np.ndarray | None
+    std: dict[str, float]
+    ci95: dict[str, tuple[float, float]]
+    residual_rms: dict[str, float]
+    sigma: dict[str, float]
+    n_samples: int
+    nfev: int
+    cost: float
+    bic: float
+    aic: float
+    settings: OeSettings
+    warnings: tuple[str, ...] = field(default=())
+    residuals: dict[str, np.ndarray] = field(default_factory=dict)
+    shifts: dict[str, float] = field(default_factory=dict)
+
+
+def _separate(taus: np.ndarray) -> np.ndarray:
+    """Nudge equal time constants apart: partial fractions need distinct poles.
+
+    The response is continuous in τ, so a 1e-6 relative split changes it by ~1e-6.
+    """
+    t = np.array(taus, dtype=float)
+    if t.size < 2:
+        return t
+    order = np.argsort(t)
+    ts = t[order]
+    close = np.diff(ts) < 1e-6 * ts[1:]
+    if np.any(close):
+        for j in np.flatnonzero(close):
+            ts[j + 1] = ts[j] * (1 + 2e-6)
+        t[order] = ts
+    return t
+
+
+def _residues(num: np.ndarray, taus: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Poles p_i, residues of N(s)/(s·D(s)) at p_i, and N(0), for D(s) = Π(1 + τ_i s)."""
+    taus = _separate(taus)
+    p = -1.0 / taus
+    m = 1.0 + np.outer(p, taus)  # m[i, k] = 1 + τ_k p_i
+    np.fill_diagonal(m, 1.0)
+    res = np.polyval(num, p) / (p * taus * np.prod(m, axis=1))
+    return p, res, float(np.polyval(num, 0.0))
+
+
+def step_response_closed_form(
+    time_s: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float
+) -> np.ndarray:
+    """Step response of ``N(s)/Π(1 + τ_i s)`` (strictly proper or biproper, distinct τ).
+
+    ``y(t) = step·[N(0) + Σ_i R_i e^{p_i t}]`` with ``R_i`` the residues of ``N(s)/(s D(s))``.
+    Zero for ``t < 0``.
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Times in s (the step at 0).
+    num : array_like
+        Numerator ``N(s)``, highest power first.
+    taus : array_like
+        Time constants τ_i of the denominator, distinct.
+    step_volts : float
+        Step level in volts.
+
+    Returns
+    -------
+    ndarray
+        The response at ``time_s``.
+    """
+    t = np.asarray(time_s, dtype=float)
+    num = np.atleast_1d(np.asarray(num, dtype=float))
+    taus = np.asarray(taus, dtype=float)
+    p, r, n0 = _residues(num, taus)
+    tt = np.clip(t, 0.0, None)
+    y = n0 + np.exp(np.outer(tt, p)) @ r
+    # a biproper numerator adds the direct term N_lead/Πτ at t = 0+ : already in the residues
+    return np.where(t >= 0, step_volts * y, 0.0)
+
+
+def _slope_closed_form(
+    time_s: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float
+) -> np.ndarray:
+    """Time derivative of :func:`step_response_closed_form` for ``t > 0``.
+
+    The impulse response times the step; a jump at ``t = 0`` is not included.
+    """
+    t = np.asarray(time_s, dtype=float)
+    p, r, _ = _residues(np.atleast_1d(np.asarray(num, dtype=float)), np.asarray(taus, dtype=float))
+    tt = np.clip(t, 0.0, None)
+    return np.where(t > 0, step_volts * (np.exp(np.outer(tt, p)) @ (r * p)), 0.0)
+
+
+def position_closed_form(
+    time_s: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float
+) -> np.ndarray:
+    """Integral from 0 of :func:`step_response_closed_form`: ``N(0)t + Σ R_i (e^{p_i t} − 1)/p_i``.
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Times in s (the step at 0).
+    num : array_like
+        Numerator ``N(s)``, highest power first.
+    taus : array_like
+        Time constants τ_i of the denominator, distinct.
+    step_volts : float
+        Step level in volts.
+
+    Returns
+    -------
+    ndarray
+        The position (integral of the response), zero for ``t < 0``.
+    """
+    t = np.asarray(time_s, dtype=float)
+    num = np.atleast_1d(np.asarray(num, dtype=float))
+    p, r, n0 = _residues(num, np.asarray(taus, dtype=float))
+    tt = np.clip(t, 0.0, None)
+    y = n0 * tt + (np.exp(np.outer(tt, p)) - 1.0) @ (r / p)
+    return np.where(t >= 0, step_volts * y, 0.0)
+
+
+def _block_mean(x: np.ndarray, ratio: int, *, from_end: bool = False) -> np.ndarray:
+    """Means of consecutive blocks of ``ratio`` samples.
+
+    A partial block is dropped: at the start of ``x`` when ``from_end``.
+    """
+    if ratio == 1:
+        return x
+    m = x.size // ratio
+    x = x[x.size - m * ratio :] if from_end else x[: m * ratio]
+    return x.reshape(m, ratio).mean(axis=1)
+
+
+def ar_noise_model(residual: np.ndarray, max_order: int = 12) -> tuple[np.ndarray, float]:
+    """Autoregressive model of a residual series, order by BIC (Yule–Walker).
+
+    Parameters
+    ----------
+    residual : ndarray
+        Residuals of a preliminary fit (one channel).
+    max_order : int
+        Highest order tried.
+
+    Returns
+    -------
+    (ndarray, float)
+        The whitening polynomial ``[1, a_1, …, a_p]`` (``e_k + Σ a_i e_{k−i}`` is white) and
+        the innovation standard deviation.  Order 0 (``[1.0]``) for white residuals.
+
+    Notes
+    -----
+    A few lines of Levinson–Durbin (``scipy.linalg.solve_toeplitz``) instead of an
+    econometrics dependency: only the polynomial and its innovation variance are needed.
+    """
+    x = np.asarray(residual, dtype=float)
+    x = x - x.mean()
+    n = x.size
+    top = int(min(max_order, max(0, n // 10)))
+    acov = np.array([x[: n - k] @ x[k:] / n for k in range(top + 1)])
+    best = (n * np.log(max(acov[0], 1e-300)), np.array([1.0]), float(acov[0]))
+    for p in range(1, top + 1):
+        phi = scipy.linalg.solve_toeplitz(acov[:p], acov[1 : p + 1])
+        var = float(acov[0] - phi @ acov[1 : p + 1])
+        if not np.isfinite(var) or var <= 0:
+            break
+        bic = n * np.log(var) + p * np.log(n)
+        if bic < best[0]:
+            best = (bic, np.r_[1.0, -phi], var)
+    return best[1], float(np.sqrt(best[2]))
+
+
+def _vel_num(k: float, tz: np.ndarray) -> np.ndarray:
+    num = np.array([k])
+    for z in tz:
+        num = np.polymul(num, [z, 1.0])
+    return num
+
+
+class _Layout:
+    """Where each parameter sits in the vector."""
+
+    def __init__(self, settings: OeSettings, channels: Sequence[str], *, wrapped: bool = False) -> None:
+        n, m = settings.n_poles, settings.n_zeros
+        names = ["K"] + [f"log_tau_{i}" for i in range(n)] + [f"Tz_{j}" for j in range(m)]
+        if settings.delay:
+            names.append("delay")
+        # without a velocity capture the velocity is the position's derivative (position volts
+        # per second): c = 1, not a parameter (K and c would only be known as a product)
+        if "position" in channels and "velocity" in channels:
+            names.append("c")
+        direct = settings.current_direct if settings.current_direct is not None else n == 1
+        self.n_current = n + 1 if direct else n
+        #: a current that jumps at the step carries no timing information (its sample at
+        #: the edge is left out of every fit): no shift for it
+        self.current_jumps = direct and "current" in channels
+        if "current" in channels:
+            names += [f"cur_{j}" for j in range(self.n_current)]  # current numerator, highest power first
+        # each channel's pre-step level is a nuisance parameter: subtracting the mean of the
+        # pre-step samples instead would add its error to every sample (and, read off a
+        # quantised noise-free record, up to half an LSB that shifts the position ramp)
+        names += [f"off_{c}" for c in channels]
+        # a capture whose step instant was read off its own response (no input channel) is
+        # known to a sample at best: its time shift is a nuisance parameter, or the read-off's
+        # error would leak into τ.  The channels of one acquisition share one shift.
+        self.shift_of = self._shift_params(settings, channels)
+        self.shifted = list(dict.fromkeys(self.shift_of.values()))
+        names += [f"shift_{c}" for c in self.shifted]
+        # separately sampled captures: phases relative to each other (the last one is minus the
+        # sum of the others)
+        timed = [c for c in channels if not (c == "current" and self.current_jumps)]
+        self.phased = [c for c in settings.phase_group if c in timed and c not in self.shift_of]
+        if len(self.phased) < 2:
+            self.phased = []
+        names += [f"phase_{c}" for c in self.phased[:-1]]
+        if wrapped and "position" in channels:
+            names.append("span_position")
+        self.names = tuple(names)
+        self.channels = tuple(channels)
+        self.n, self.m = n, m
+        self.idx = {nm: i for i, nm in enumerate(names)}
+
+    def _phases(self, th: np.ndarray) -> dict[str, float]:
+        """Each phased channel's shift (the last is minus the sum of the others)."""
+        if not self.phased:
+            return {}
+        free = {c: float(th[self.idx[f"phase_{c}"]]) for c in self.phased[:-1]}
+        return {**free, self.phased[-1]: -sum(free.values())}
+
+    def _shift_params(self, settings: OeSettings, channels: Sequence[str]) -> dict[str, str]:
+        """Channel → the channel whose ``shift_`` parameter it uses."""
+        if not settings.shifts:
+            return {}
+        timed = [c for c in channels if not (c == "current" and self.current_jumps)]
+        groups: list[tuple[str, ...]]
+        if settings.shift_groups is None:
+            groups = [(c,) for c in channels]
+        else:
+            groups = [tuple(c for c in g if c in channels) for g in settings.shift_groups]
+        groups = [tuple(c for c in g if c in timed) for g in groups]
+        groups = [g for g in groups if g]
+        free = {c for g in groups for c in g}
+        if settings.delay and groups and all(c in free for c in timed):
+            # no channel has a fixed step instant: the first group's shift is the delay (the others'
+            # are relative to it)
+            groups = groups[1:]
+        return {c: g[0] for g in groups for c in g}
+
+    def unpack(self, th: np.ndarray) -> dict[str, Any]:
+        n, m = self.n, self.m
+        out = {
+            "K": th[0],
+            "taus": np.exp(th[1 : 1 + n]),
+            "tz": th[1 + n : 1 + n + m],
+            "delay": th[self.idx["delay"]] if "delay" in self.idx else 0.0,
+            "c": th[self.idx["c"]] if "c" in self.idx else (1.0 if "position" in self.channels else None),
+            "off": {k[4:]: th[i] for k, i in self.idx.items() if k.startswith("off_")},
+            "shift": {**{c: th[self.idx[f"shift_{g}"]] for c, g in self.shift_of.items()}, **self._phases(th)},
+            "cur": th[self.idx["cur_0"] : self.idx["cur_0"] + self.n_current] if "cur_0" in self.idx else None,
+        }
+        return out
+
+
+def _predict(
+    layout: _Layout, th: np.ndarray, t: np.ndarray | Mapping[str, np.ndarray], step: float, channels: Sequence[str]
+) -> dict[str, np.ndarray]:
+    q = layout.unpack(th)
+    num = _vel_num(q["K"], q["tz"])
+    out = {}
+
+    def te(ch: str) -> np.ndarray:
+        grid = t[ch] if isinstance(t, Mapping) else t
+        return grid - q["delay"] - q["shift"].get(ch, 0.0)
+
+    if "velocity" in channels:
+        out["velocity"] = step_response_closed_form(te("velocity"), num, q["taus"], step)
+    if "position" in channels:
+        out["position"] = q["c"] * position_closed_form(te("position"), num, q["taus"], step)
+    if "current" in channels:
+        out["current"] = step_response_closed_form(te("current"), q["cur"], q["taus"], step)
+    return {c: y + q["off"].get(c, 0.0) for c, y in out.items()}
+
+
+#: The fraction of the final change that defines the 63 % time: ``1 − e⁻¹``.
+FRACTION_63 = 1.0 - np.exp(-1.0)
+
+
+def step_63_time(num: ArrayLike, taus: ArrayLike, delay_s: float = 0.0) -> float:
+    """Seconds from the step until ``N(s)/Π(1 + τ_i s)·e^{−s·delay}`` first reaches 63.2 % of its final change.
+
+    The classic read-off of a step response, here of the model: the "time constant" a student
+    reads off the scope, which for more than one pole (or a dead time) is not the mean residence
+    time ``Στ_i − ΣTz_j + delay``.
+
+    Parameters
+    ----------
+    num : array_like
+        Numerator ``N(s)``, highest power first.
+    taus : array_like
+        Time constants of the denominator.
+    delay_s : float
+        Dead time.
+
+    Returns
+    -------
+    float
+        The 63 % time (s); NaN for a zero DC gain or a response that never gets there.
+    """
+    taus = _separate(np.asarray(taus, dtype=float))
+    num = np.atleast_1d(np.asarray(num, dtype=float))
+    k = float(num[-1])
+    if k == 0 or not np.all(np.isfinite(taus)) or taus.size == 0:
+        return float("nan")
+    horizon = 10.0 * max(float(np.sum(np.abs(taus))), float(np.max(np.abs(taus))))
+    t = np.linspace(0.0, horizon, 1001)
+    y = step_response_closed_form(t, num, taus, 1.0) / k
+    above = np.flatnonzero(y >= FRACTION_63)
+    if above.size == 0 or above[0] == 0:
+        return float("nan")
+    i = int(above[0])
+
+    def gap(x: float) -> float:
+        return float(step_response_closed_form(np.array([x]), num, taus, 1.0)[0] / k - FRACTION_63)
+
+    return float(scipy.optimize.brentq(gap, t[i - 1], t[i], xtol=1e-12 * horizon)) + float(delay_s)
+
+
+def _derived(layout: _Layout, th: np.ndarray) -> dict[str, float]:
+    q = layout.unpack(th)
+    taus = np.sort(q["taus"])[::-1]
+    d = {"dc_gain": float(q["K"]), "time_constant": float(np.sum(q["taus"]) - np.sum(q["tz"]))}
+    d["residence_time"] = d["time_constant"] + float(q["delay"])
+    d["t63"] = step_63_time(_vel_num(q["K"], q["tz"]), q["taus"], float(q["delay"]))
+    for i, tau in enumerate(taus):
+        d[f"pole_{i}"] = float(-1.0 / tau)
+    # neighbouring poles as a pair: two nearly equal poles are known as a pair (their sum and
+    # product: natural frequency and damping) long before each one is
+    for i in range(taus.size - 1):
+        wn = float(1.0 / np.sqrt(taus[i] * taus[i + 1]))
+        d[f"pair_{i}_wn"] = wn
+        d[f"pair_{i}_zeta"] = float(0.5 * (1.0 / taus[i] + 1.0 / taus[i + 1]) / wn)
+    tz = [z for z in q["tz"] if abs(z) > 1e-12]
+    for j, z in enumerate(sorted(tz, key=abs, reverse=True)):
+        d[f"zero_{j}"] = float(-1.0 / z)
+    if "delay" in layout.idx:
+        d["delay"] = float(q["delay"])
+    for c, value in q["shift"].items():
+        d[f"shift_{c}"] = float(value)
+    return d
+
+
+def output_error_fit(
+    time_s: np.ndarray | Mapping[str, np.ndarray],
+    step_volts: float,
+    channels: Mapping[str, np.ndarray],
+    sigma: Mapping[str, float],
+    init_taus: Sequence[float],
+    init_dc_gain: float,
+    settings: OeSettings = OeSettings(),
+    *,
+    init_zeros: Sequence[float] = (),
+    init_delay_s: float = 0.0,
+    pre: Mapping[str, np.ndarray] | None = None,
+    step_std: float = 0.0,
+    level_rel_std: float = 0.0,
+    block: Mapping[str, int] | None = None,
+    whiten: Mapping[str, np.ndarray] | None = None,
+    pre_sigma: Mapping[str, float] | None = None,
+    wrap_count: Mapping[str, np.ndarray] | None = None,
+) -> OeResult:
+    """Fit the velocity TF (and the position scale, the current numerator) to step responses.
+
+    Parameters
+    ----------
+    time_s : ndarray or Mapping[str, ndarray]
+        Time from the step (t ≥ 0): one grid for every channel, or each channel's own (so
+        that every capture contributes all the samples it recorded after its step).
+    step_volts : float
+        Step level.
+    channels : Mapping[str, ndarray]
+        Measured increments: ``velocity`` and/or ``position`` (required), ``current``.
+    sigma : Mapping[str, float]
+        Noise standard deviation of each channel (weights).
+    init_taus, init_dc_gain, init_zeros :
+        Starting point (from a paper method).
+    init_delay_s : float
+        Starting delay (with ``settings.delay``): the dead time read off the data.  From 0
+        the fit cannot find a dead time: before the response starts its slope, hence the
+        delay's gradient, is zero.
+    settings : OeSettings
+        Structure.
+    pre : Mapping[str, ndarray], optional
+        Samples of each channel before the step (same baseline convention): they pin the
+        channel's offset, fitted with everything else.
+    step_std : float
+        Standard error of ``step_volts`` (it is measured on the noisy input channel): every
+        gain scales with ``1/step``, so ``(K·step_std/step)²`` adds to the DC gain's variance.
+    level_rel_std : float
+        Relative systematic error of the velocity's recorded change (a quantiser's error that
+        the noise does not average out, :func:`~motorid.identification.stages.output_level_rel_std`):
+        ``(K·level_rel_std)²`` adds to the DC gain's variance.
+    block : Mapping[str, int], optional
+        Fit block means of this many consecutive samples of a channel (and of its pre-step
+        samples) instead of every sample: the model is evaluated on every recorded time and
+        averaged the same way, so the averaging is exact even where the response jumps.
+    whiten : Mapping[str, ndarray], optional
+        AR polynomial ``[1, a_1, …, a_p]`` of a channel's noise (:func:`ar_noise_model`): its
+        residuals are filtered by it before weighting (generalised least squares for
+        coloured noise — tacho ripple, aliased PWM), and ``sigma`` is then the innovation
+        standard deviation.
+    pre_sigma : Mapping[str, float], optional
+        Noise level of the pre-step samples (default ``sigma``; they are not filtered).
+    wrap_count : Mapping[str, ndarray], optional
+        ``position``: turns the unwrapping added to each sample after the step.  An encoder
+        span estimated a little off leaves a step of ``wraps × error`` in the position; the
+        error is fitted as a nuisance parameter ``span_position``.
+
+    Returns
+    -------
+    OeResult
+
+    Raises
+    ------
+    IdentificationError
+        Impossible structure, no velocity/position channel, too few samples.
+    """
+    n, m = settings.n_poles, settings.n_zeros
+    if n < 1 or m < 0 or m >= n:
+        raise IdentificationError(f"output-error structure needs 1 ≤ zeros + 1 ≤ poles, got {n} poles and {m} zeros")
+    prob = _OeProblem.build(time_s, step_volts, channels, sigma, settings, pre=pre, block=block, whiten=whiten,
+                            pre_sigma=pre_sigma, wrap_count=wrap_count)
+    th0 = np.clip(prob.initial_parameters(init_taus, init_dc_gain, init_zeros, init_delay_s),
+                  prob.lower + 1e-9, prob.upper - 1e-9)
+    warnings: list[str] = []
+    with np.errstate(over="ignore", invalid="ignore"):
+        sol = scipy.optimize.least_squares(prob.residuals, th0, jac=prob.jacobian, bounds=(prob.lower, prob.upper),
+                                           x_scale="jac", max_nfev=settings.max_nfev, method="trf")
+    if not sol.success:
+        warnings.append(f"output-error fit stopped early: {sol.message}")
+    return prob.result(sol, step_std, warnings, level_rel_std=level_rel_std)
+
+
+#: Relative step of the forward differences of the Jacobian (time constants and zeros).
+JACOBIAN_STEP = 1e-7
+#: Relative step of the central differences of the delta method (derived quantities).
+DELTA_METHOD_STEP = 1e-6
+#: Fisher information worse conditioned than this: the parameters are poorly determined.
+MAX_FISHER_CONDITION = 1e14
+#: Time constants are searched between these bounds (s).
+TAU_BOUNDS_S = (1e-5, 1e3)
+#: A dead time is searched up to this fraction of the longest record.
+MAX_DELAY_FRACTION = 0.2
+#: Per-capture timing shifts are searched within this many sample intervals (default bound).
+SHIFT_BOUND_SAMPLES = 1.5
+
+
+@dataclass(slots=True)
+class _OeProblem:
+    """The least-squares problem of :func:`output_error_fit`: data, weights and the model.
+
+    Named steps: :meth:`build` (check and block-average the channels), :meth:`initial_parameters`,
+    :meth:`residuals` / :meth:`jacobian` (what scipy's ``least_squares`` calls) and
+    :meth:`result` (covariance, delta-method intervals, the :class:`OeResult`).
+    """
+
+    settings: OeSettings
+    layout: _Layout
+    names: list[str]
+    step_volts: float
+    tc: dict[str, np.ndarray]
+    raw: dict[str, np.ndarray]
+    data: dict[str, np.ndarray]
+    ratio: dict[str, int]
+    wraps: np.ndarray | None
+    pre_data: dict[str, np.ndarray]
+    sigma: Mapping[str, float]
+    w: dict[str, float]
+    w_pre: dict[str, float]
+    filt: dict[str, np.ndarray]
+    n_total: int
+    lower: np.ndarray
+    upper: np.ndarray
+
+    @classmethod
+    def build(cls, time_s: np.ndarray | Mapping[str, np.ndarray], step_volts: float,
+              channels: Mapping[str, np.ndarray], sigma: Mapping[str, float], settings: OeSettings, *,
+              pre: Mapping[str, np.ndarray] | None, block: Mapping[str, int] | None,
+              whiten: Mapping[str, np.ndarray] | None, pre_sigma: Mapping[str, float] | None,
+              wrap_count: Mapping[str, np.ndarray] | None) -> _OeProblem:
+        """Check the channels, drop the current's edge sample, block-average, set weights and bounds."""
+        names = [c for c in ("velocity", "position", "current") if c in channels]
+        if "velocity" not in names and "position" not in names:
+            raise IdentificationError("the output-error fit needs a velocity or a position capture")
+        tc = {c: np.asarray(time_s[c] if isinstance(time_s, Mapping) else time_s, dtype=float) for c in names}
+        raw = {c: np.asarray(channels[c], dtype=float) for c in names}
+        for c in names:
+            if tc[c].shape != raw[c].shape:
+                raise IdentificationError(f"{c}: {raw[c].size} samples on a grid of {tc[c].size} times")
+        wraps = None
+        if wrap_count is not None and "position" in wrap_count and "position" in names:
+            wraps = np.asarray(wrap_count["position"], dtype=float)
+            if wraps.shape != raw["position"].shape:
+                raise IdentificationError(f"position: {wraps.size} wrap counts for {raw['position'].size} samples")
+            if not np.any(wraps):
+                wraps = None
+        layout = _Layout(settings, names, wrapped=wraps is not None)
+        if "current" in names:
+            # the current's sample at the edge sees it mid-jump when the electrical pole is faster
+            # than the sampling (how far depends on where the step fell between samples): leave it
+            # out — for every structure, so that their fits (and BIC) see the same data
+            first = tc["current"] > 0.5 * float(np.median(np.diff(tc["current"])))
+            tc["current"], raw["current"] = tc["current"][first], raw["current"][first]
+        ratio = {c: max(1, int((block or {}).get(c, 1))) for c in names}
+        tc = {c: tc[c][: tc[c].size // ratio[c] * ratio[c]] for c in names}
+        if wraps is not None:
+            wraps = wraps[: tc["position"].size]
+        data = {c: _block_mean(raw[c], ratio[c]) for c in names}
+        n_par = len(layout.names)
+        shortest = min(v.size for v in data.values())
+        if shortest <= n_par + 2:
+            raise IdentificationError(f"only {shortest} samples for {n_par} parameters: record more after the step")
+        pre_data = {c: _block_mean(np.asarray(pre[c], dtype=float), ratio[c], from_end=True)
+                    for c in names if pre is not None and c in pre and len(pre[c]) >= ratio[c]}
+        n_total = sum(v.size for v in data.values()) + sum(v.size for v in pre_data.values())
+        w = {c: 1.0 / max(float(sigma.get(c, 1.0)), 1e-12) for c in names}
+        w_pre = {c: 1.0 / max(float((pre_sigma or sigma).get(c, 1.0)), 1e-12) for c in names}
+        filt = {c: np.asarray(whiten[c], dtype=float) for c in names if whiten is not None and c in whiten
+                and len(whiten[c]) > 1}
+        lower, upper = _bounds(layout, settings, tc)
+        return cls(settings, layout, names, step_volts, tc, raw, data, ratio, wraps, pre_data, sigma, w, w_pre, filt,
+                   n_total, lower, upper)
+
+    def initial_parameters(self, init_taus: Sequence[float], init_dc_gain: float, init_zeros: Sequence[float],
+                           init_delay_s: float) -> np.ndarray:
+        """The starting point: a paper method's gain, poles and zeros; the rest by least squares."""
+        n, m = self.settings.n_poles, self.settings.n_zeros
+        tc, raw, names, step_volts = self.tc, self.raw, self.names, self.step_volts
+        taus0 = list(init_taus)[:n]
+        while len(taus0) < n:
+            taus0.append((taus0[-1] if taus0 else 0.3) / 8.0)
+        tz0 = list(init_zeros)[:m] + [0.5 * taus0[min(1, n - 1)]] * (m - len(list(init_zeros)[:m]))
+        th0_list = [init_dc_gain, *list(np.log(np.maximum(taus0, 1e-06))), *list(tz0)]
+        if self.settings.delay:
+            th0_list.append(max(float(init_delay_s), 0.0))
+        if "c" in self.layout.idx:
+            # c by least squares given the initial velocity model
+            base = position_closed_form(tc["position"], _vel_num(init_dc_gain, np.array(tz0)), taus0, step_volts)
+            c0 = float(base @ raw["position"][: base.size] / max(base @ base, 1e-300))
+            th0_list.append(c0 if np.isfinite(c0) and c0 != 0 else 1.0)
+        if "current" in names:
+            # current numerator: linear least squares on the responses of s^j/D(s)
+            nc = self.layout.n_current
+            cols = [step_response_closed_form(tc["current"], np.r_[1.0, np.zeros(nc - 1 - j)], taus0, step_volts)
+                    for j in range(nc)]
+            a = np.column_stack(cols)
+            coef, *_ = np.linalg.lstsq(a, raw["current"][: a.shape[0]], rcond=None)
+            th0_list += list(coef)
+        th0_list += [float(np.mean(self.pre_data[c])) if c in self.pre_data else 0.0 for c in names]
+        th0_list += [0.0] * (len(self.layout.shifted) + max(len(self.layout.phased) - 1, 0))
+        if self.wraps is not None:
+            th0_list.append(0.0)
+        return np.asarray(th0_list, dtype=float)
+
+    def _white(self, c: str, e: np.ndarray) -> np.ndarray:
+        """The channel's FIR whitening from rest, along axis 0 (residuals or Jacobian columns).
+
+        A vector goes through np.convolve, which lfilter wraps in apply_along_axis.
+        """
+        if c not in self.filt:
+            return e
+        if e.ndim == 1:
+            return np.convolve(e, self.filt[c])[: e.size]
+        return scipy.signal.lfilter(self.filt[c], [1.0], e, axis=0)
+
+    def predict(self, th: np.ndarray, tc: Mapping[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+        """Every channel's model response (on its own sample times, or ``tc``) for the parameters ``th``."""
+        pred = _predict(self.layout, th, self.tc if tc is None else tc, self.step_volts, self.names)
+        if self.wraps is not None:
+            pred["position"] = pred["position"] + th[self.layout.idx["span_position"]] * self.wraps
+        return pred
+
+    def residuals(self, th: np.ndarray, tc: Mapping[str, np.ndarray] | None = None) -> np.ndarray:
+        """Whitened, weighted residuals of every channel and of the pre-step samples."""
+        pred = self.predict(th, tc)
+        idx = self.layout.idx
+        parts = [self._white(c, self.data[c] - _block_mean(pred[c], self.ratio[c])) * self.w[c] for c in self.names]
+        parts += [(self.pre_data[c] - th[idx[f"off_{c}"]]) * self.w_pre[c] for c in self.pre_data]
+        return np.concatenate(parts)
+
+    def jacobian(self, th: np.ndarray) -> np.ndarray:
+        """Jacobian of :meth:`residuals`.
+
+        Analytic in the gain, scale, current numerator, offsets, shifts, delay and span error (the
+        responses are linear in them, or shifted in time); forward differences of the closed form
+        for the time constants and zeros only — a third of the model evaluations of a
+        finite-difference Jacobian.
+        """
+        layout, names, tc, u = self.layout, self.names, self.tc, self.step_volts
+        n, m = self.settings.n_poles, self.settings.n_zeros
+        n_par = len(layout.names)
+        q = layout.unpack(th)
+        te = {c: tc[c] - q["delay"] - q["shift"].get(c, 0.0) for c in names}
+        num1 = _vel_num(1.0, q["tz"])
+        d = {c: np.zeros((tc[c].size, n_par)) for c in names}
+        slope: dict[str, np.ndarray] = {}
+        if "velocity" in names:
+            d["velocity"][:, 0] = step_response_closed_form(te["velocity"], num1, q["taus"], u)
+            slope["velocity"] = q["K"] * _slope_closed_form(te["velocity"], num1, q["taus"], u)
+        if "position" in names:
+            p1 = position_closed_form(te["position"], num1, q["taus"], u)
+            d["position"][:, 0] = q["c"] * p1
+            if "c" in layout.idx:
+                d["position"][:, layout.idx["c"]] = q["K"] * p1
+            slope["position"] = q["c"] * q["K"] * step_response_closed_form(te["position"], num1, q["taus"], u)
+            if self.wraps is not None:
+                d["position"][:, layout.idx["span_position"]] = self.wraps
+        if "current" in names:
+            nc = layout.n_current
+            for j in range(nc):
+                d["current"][:, layout.idx[f"cur_{j}"]] = step_response_closed_form(
+                    te["current"], np.eye(nc)[j], q["taus"], u)
+            slope["current"] = _slope_closed_form(te["current"], q["cur"], q["taus"], u)
+        for c in names:
+            d[c][:, layout.idx[f"off_{c}"]] = 1.0
+            if c in layout.shift_of:
+                d[c][:, layout.idx[f"shift_{layout.shift_of[c]}"]] = -slope[c]
+            if c in layout.phased[:-1]:
+                d[c][:, layout.idx[f"phase_{c}"]] = -slope[c]
+            elif layout.phased and c == layout.phased[-1]:
+                for other in layout.phased[:-1]:
+                    d[c][:, layout.idx[f"phase_{other}"]] = slope[c]
+            if "delay" in layout.idx:
+                d[c][:, layout.idx["delay"]] = -slope[c]
+        base = _predict(layout, th, tc, u, names)
+        fd_params = [layout.idx[f"log_tau_{i}"] for i in range(n)] + [layout.idx[f"Tz_{j}"] for j in range(m)]
+        for k in fd_params:
+            h = JACOBIAN_STEP * max(abs(th[k]), 1.0) if k <= n else JACOBIAN_STEP * max(abs(th[k]), 1e-3)
+            tp = th.copy()
+            tp[k] += h
+            moved = _predict(layout, tp, tc, u, names)
+            for c in names:
+                d[c][:, k] = (moved[c] - base[c]) / h
+        rows = []
+        for c in names:
+            block = d[c] if self.ratio[c] == 1 else d[c].reshape(-1, self.ratio[c], n_par).mean(axis=1)
+            rows.append(-self.w[c] * self._white(c, block))
+        for c in self.pre_data:
+            r_pre = np.zeros((self.pre_data[c].size, n_par))
+            r_pre[:, layout.idx[f"off_{c}"]] = -self.w_pre[c]
+            rows.append(r_pre)
+        return np.vstack(rows)
+
+    def _instant_covariance(self, th: np.ndarray, jac_m: np.ndarray, jtj: np.ndarray) -> np.ndarray:
+        """Parameter covariance from step instants known only to within their sample interval.
+
+        A channel's instant off by ``δ`` moves its residuals by ``j·δ`` (``j``: their derivative in
+        the instant, central differences); least squares then moves the parameters by
+        ``−(JᵀJ)⁻¹Jᵀj·δ``, of variance ``(JᵀJ)⁻¹Jᵀj jᵀJ(JᵀJ)⁻¹·σ_δ²``.
+        """
+        cov = np.zeros((th.size, th.size))
+        gain = None
+        present = [(c, sd) for c, sd in self.settings.instant_std if c in self.names and sd > 0]
+        phased = set(self.layout.phased)
+        # phases fitted relative to each other: only their common part is unknown, the mean of
+        # n independent instants (dt/√(12·n))
+        common = [(c, sd) for c, sd in present if c in phased]
+        moves: list[tuple[tuple[str, ...], float]] = [((c,), sd) for c, sd in present if c not in phased]
+        if common:
+            moves.append((tuple(c for c, _ in common),
+                          float(np.sqrt(np.mean([sd**2 for _, sd in common]) / len(common)))))
+        for chans, sd in moves:
+            h = 0.01 * sd
+            up, down = dict(self.tc), dict(self.tc)
+            for c in chans:
+                up[c], down[c] = self.tc[c] + h, self.tc[c] - h
+            col = (self.residuals(th, up) - self.residuals(th, down)) / (2 * h)
+            if gain is None:
+                gain = np.linalg.pinv(jtj) @ jac_m.T
+            g = gain @ col
+            cov += np.outer(g, g) * sd**2
+        return cov
+
+    def result(self, sol: Any, step_std: float, warnings: list[str], *, level_rel_std: float = 0.0) -> OeResult:
+        """Covariance (Gauss–Newton, scaled by the residual variance), delta-method intervals."""
+        layout, names, n = self.layout, self.names, self.settings.n_poles
+        n_par = len(layout.names)
+        n_total = self.n_total
+        th = sol.x
+        r = sol.fun
+        rss = float(r @ r)
+        dof = max(n_total - n_par, 1)
+        s2 = rss / dof
+        jac_m = sol.jac
+        jtj = jac_m.T @ jac_m
+        cond = np.linalg.cond(jtj) if np.all(np.isfinite(jtj)) else np.inf
+        if not np.isfinite(cond) or cond > MAX_FISHER_CONDITION:
+            warnings.append(f"parameters poorly determined (Fisher information condition number {cond:.2g}): "
+                            "a lower order may do")
+        cov = np.linalg.pinv(jtj) * s2 + self._instant_covariance(th, jac_m, jtj)
+        d0, std, ci = _delta_method(layout, th, cov, float(np.hypot(step_std / self.step_volts, level_rel_std)))
+        q = layout.unpack(th)
+        num = _vel_num(q["K"], q["tz"])
+        den = np.array([1.0])
+        for tau in q["taus"]:
+            den = np.polymul(den, [tau, 1.0])
+        lead = den[0]
+        pred = {c: _block_mean(v, self.ratio[c]) for c, v in self.predict(th).items()}
+        data = self.data
+        return OeResult(
+            params=th, param_names=layout.names, cov=cov,
+            velocity_num=num / lead, velocity_den=den / lead,
+            dc_gain=d0["dc_gain"], time_constant_s=d0["time_constant"],
+            poles=np.array([d0[f"pole_{i}"] for i in range(n)], dtype=complex),
+            zeros=np.array([d0[k] for k in d0 if k.startswith("zero_")], dtype=complex),
+            delay_s=float(q["delay"]) if self.settings.delay else None,
+            position_scale=None if q["c"] is None else float(q["c"]),
+            current_num=None if q["cur"] is None else np.asarray(q["cur"], dtype=float) / lead,
+            std=std, ci95=ci,
+            residual_rms={c: float(np.sqrt(np.mean((data[c] - pred[c]) ** 2))) for c in names},
+            sigma={c: float(self.sigma.get(c, 1.0)) for c in names},
+            n_samples=n_total, nfev=int(sol.nfev), cost=0.5 * rss,
+            bic=n_total * np.log(rss / n_total) + n_par * np.log(n_total),
+            aic=n_total * np.log(rss / n_total) + 2 * n_par,
+            settings=self.settings, warnings=tuple(warnings),
+            residuals={c: data[c] - pred[c] for c in names},
+            shifts={c: float(v) for c, v in q["shift"].items()},
+        )
+
+
+def _bounds(layout: _Layout, settings: OeSettings, tc: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of the parameters: time constants, the dead time and the per-capture shifts."""
+    n_par = len(layout.names)
+    n = settings.n_poles
+    lower = np.full(n_par, -np.inf)
+    upper = np.full(n_par, np.inf)
+    lower[1 : 1 + n] = np.log(TAU_BOUNDS_S[0])
+    upper[1 : 1 + n] = np.log(TAU_BOUNDS_S[1])
+    if settings.delay:
+        lower[layout.idx["delay"]] = 0.0
+        upper[layout.idx["delay"]] = MAX_DELAY_FRACTION * max(float(v[-1]) for v in tc.values())
+    if settings.shifts:
+        bound = settings.shift_bound_s
+        if bound is None:
+            bound = SHIFT_BOUND_SAMPLES * max(float(np.median(np.diff(v))) for v in tc.values())
+        for c in layout.shifted:
+            lower[layout.idx[f"shift_{c}"]] = -bound
+            upper[layout.idx[f"shift_{c}"]] = bound
+        for c in layout.phased[:-1]:
+            lower[layout.idx[f"phase_{c}"]] = -bound
+            upper[layout.idx[f"phase_{c}"]] = bound
+    return lower, upper
+
+
+def _delta_method(layout: _Layout, th: np.ndarray, cov: np.ndarray, step_rel_std: float,
+                  ) -> tuple[dict[str, float], dict[str, float], dict[str, tuple[float, float]]]:
+    """Derived quantities (gain, τ, poles, zeros...) with standard errors and 95 % intervals.
+
+    Central differences of :func:`_derived` give the gradients; the measured step level's
+    relative error adds ``(K·σ_u/u)²`` to the DC gain's variance (every gain scales with 1/u), and
+    so does the velocity level's (``step_rel_std`` holds both, in quadrature).
+    """
+    n_par = th.size
+    d0 = _derived(layout, th)
+    keys = list(d0)
+    grads = np.zeros((len(keys), n_par))
+    for i in range(n_par):
+        h = DELTA_METHOD_STEP * max(abs(th[i]), 1e-3)
+        tp, tm = th.copy(), th.copy()
+        tp[i] += h
+        tm[i] -= h
+        dp, dm = _derived(layout, tp), _derived(layout, tm)
+        grads[:, i] = [(dp.get(k, d0[k]) - dm.get(k, d0[k])) / (2 * h) for k in keys]
+    var = np.einsum("ij,jk,ik->i", grads, cov, grads)
+    # the step level is measured, not known: its error scales the fitted gain
+    var[keys.index("dc_gain")] += (d0["dc_gain"] * step_rel_std) ** 2
+    std = {k: float(np.sqrt(max(v, 0.0))) for k, v in zip(keys, var, strict=False)}
+    ci = {k: (d0[k] - 1.96 * std[k], d0[k] + 1.96 * std[k]) for k in keys}
+    return d0, std, ci
+
+
+def position_scale_fit(
+    res: OeResult,
+    time_s: np.ndarray,
+    position: np.ndarray,
+    step_volts: float,
+    *,
+    pre: np.ndarray | None = None,
+    wrap_count: np.ndarray | None = None,
+) -> float:
+    """Scale ``c`` of ``P(s) = c·G(s)/s`` for a velocity model fitted without the position.
+
+    Linear least squares of the position samples on the integrated velocity response, with
+    the position's pre-step level (pinned by its pre-step samples) and, for an unwrapped
+    record, a span error times the turns added, as nuisance columns.
+
+    Parameters
+    ----------
+    res : OeResult
+        The fit of the other channels (its velocity TF).
+    time_s, position : ndarray
+        Position samples from the step.
+    step_volts : float
+        Step level.
+    pre : ndarray, optional
+        Position samples before the step.
+    wrap_count : ndarray, optional
+        Turns added to each sample by the unwrapping.
+
+    Returns
+    -------
+    float
+        ``c``.
+    """
+    names = list(res.param_names)
+    n, m = res.settings.n_poles, res.settings.n_zeros
+    k = res.params[names.index("K")]
+    taus = np.exp(res.params[1 : 1 + n])
+    tz = res.params[1 + n : 1 + n + m]
+    t = np.asarray(time_s, dtype=float)
+    y = np.asarray(position, dtype=float)
+    cols = [position_closed_form(t, _vel_num(k, tz), taus, step_volts), np.ones(t.size)]
+    if wrap_count is not None and np.any(wrap_count):
+        cols.append(np.asarray(wrap_count, dtype=float))
+    a = np.column_stack(cols)
+    if pre is not None and len(pre):
+        rows = np.zeros((len(pre), a.shape[1]))
+        rows[:, 1] = 1.0
+        a = np.vstack([a, rows])
+        y = np.r_[y, np.asarray(pre, dtype=float)]
+    coef, *_ = np.linalg.lstsq(a, y, rcond=None)
+    return float(coef[0])

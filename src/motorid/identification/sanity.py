@@ -1,0 +1,322 @@
+"""The sanity gate every identified model passes before it is printed.
+
+A model can be the optimum of its criterion and still be absurd: the paper's pinv at a 0.1 s
+interval on a 15 ms motor returns an unstable pole; an output-error fit of the wrong
+structure lets its AR noise model absorb the misfit and doubles τ.  None of that shows in
+the fit's own numbers, so the model is checked against things it does not control:
+
+1. stability (every pole of the velocity TF in the left half-plane);
+2. the fit against a plain first-order-plus-dead-time step ``K·V·(1 − e^(−(t−θ)/τ))``
+   fitted to the same samples (``scipy.optimize.curve_fit``): a model with more
+   parameters that fits worse than that is wrong;
+3. the read-offs a student makes by hand: the final level (DC gain) and the 63 % time
+   of the measured response against the model's own step response;
+4. the headline numbers inside their own intervals;
+5. (output-error fits) the estimate with and without the AR whitening: when they disagree
+   by more than their uncertainty the noise model has taken structure for noise;
+6. the recorded input is a step: every method here models the response to one, so a
+   closed-loop record (the controller's output on CH1) gives the model of a step that did
+   not happen.
+
+A failed check is a warning with its explanation; ``--strict`` turns it into exit 3.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.optimize
+
+from motorid.identification.classic import first_crossing
+
+__all__ = ["TOLERANCES", "SanityCheck", "SanityReport", "first_order_baseline", "sanity_checks"]
+
+#: Tolerances of the gate, each with its reason.
+TOLERANCES: Mapping[str, float] = {
+    # a model may fit up to this factor worse than the 3-parameter first-order baseline
+    # (plus 0.5 % of the final level, for records where both fit to the noise) — never more
+    "baseline_ratio": 1.5,
+    "baseline_slack": 0.005,
+    # DC gain vs the measured final level / step: a settled record shows its gain to well
+    # under 5 % even with 8-bit codes and ripple
+    "dc_gain_rel": 0.05,
+    # model vs measured 63 % time: 15 % or two recorded samples, whichever is larger
+    "t63_rel": 0.15,
+    "t63_samples": 2.0,
+    # whitened vs unwhitened estimate: apart by more than 4 combined standard errors and 5 %
+    "white_sigmas": 4.0,
+    "white_rel": 0.05,
+    # an NRMSE above this is no model of the record at all
+    "max_nrmse": 0.25,
+    # RMS variation of the recorded input after its edge, relative to the step: 8-bit codes
+    # and probe noise stay well under 1 %; a closed loop's control signal varies by 2–10 %
+    "input_rms_rel": 0.02,
+}
+
+
+@dataclass(frozen=True, slots=True)
+class SanityCheck:
+    """One check: its name, whether it passed, and what it found (in words)."""
+
+    name: str
+    passed: bool
+    detail: str
+
+
+@dataclass(frozen=True, slots=True)
+class SanityReport:
+    """Every check of one model.
+
+    Attributes
+    ----------
+    checks : tuple of SanityCheck
+    """
+
+    checks: tuple[SanityCheck, ...] = field(default=())
+
+    @property
+    def passed(self) -> bool:
+        """True when every check passed."""
+        return all(c.passed for c in self.checks)
+
+    @property
+    def failures(self) -> tuple[str, ...]:
+        """The failed checks' explanations."""
+        return tuple(c.detail for c in self.checks if not c.passed)
+
+    def to_json(self) -> dict[str, object]:
+        """``{"passed": bool, "checks": [{"name", "passed", "detail"}, ...]}``.
+
+        Returns
+        -------
+        dict
+            JSON-able.
+        """
+        return {"passed": self.passed,
+                "checks": [{"name": c.name, "passed": c.passed, "detail": c.detail} for c in self.checks]}
+
+
+def first_order_baseline(time_s: np.ndarray, y: np.ndarray, step_volts: float) -> tuple[np.ndarray, dict[str, float]]:
+    """Least-squares first order plus dead time fitted to a velocity step response.
+
+    Parameters
+    ----------
+    time_s, y : ndarray
+        Times from the step (≥ 0) and the response increment.
+    step_volts : float
+        Step level.
+
+    Returns
+    -------
+    (ndarray, dict)
+        The fitted response on ``time_s`` and its ``dc_gain``, ``time_constant``, ``delay``.
+    """
+    t = np.asarray(time_s, dtype=float)
+    v = np.asarray(y, dtype=float)
+    n = v.size
+    final = float(np.mean(v[-max(2, n // 10):]))
+    span = float(t[-1] - t[0]) if n > 1 else 1.0
+    z = v * np.sign(final) if final else v
+    crossing = np.flatnonzero(z >= 0.632 * abs(final))
+    tau0 = float(t[crossing[0]]) if crossing.size and t[crossing[0]] > 0 else 0.2 * span
+
+    def f(tt: np.ndarray, k: float, tau: float, theta: float) -> np.ndarray:
+        te = np.maximum(tt - theta, 0.0)
+        return k * step_volts * -np.expm1(-te / tau)
+
+    p0 = [final / step_volts if step_volts else 1.0, max(tau0, 1e-6), 0.0]
+    try:
+        with np.errstate(over="ignore", invalid="ignore"):
+            p, _ = scipy.optimize.curve_fit(f, t, v, p0=p0,
+                                            bounds=([-np.inf, 1e-7, 0.0], [np.inf, 10 * span, 0.5 * span]),
+                                            maxfev=2000)
+    except (RuntimeError, ValueError):
+        p = np.asarray(p0, dtype=float)
+    return f(t, *p), {"dc_gain": float(p[0]), "time_constant": float(p[1]), "delay": float(p[2])}
+
+
+def _resolved_roots(u: Mapping[str, Any] | None) -> list[SanityCheck]:
+    """Every pole the data resolve (alone or as a pair); no right-half-plane zero they do not demand.
+
+    A pole whose 95 % interval reaches the imaginary axis, or is wider than the pole itself, is not
+    identified: the structure has a pole more than the record supports.  A right-half-plane zero
+    (an inverse response) is not physical for a DC motor's velocity; it passes only when its whole
+    interval lies in the right half-plane, i.e. the data demand it.
+    """
+    if not u:
+        return []
+    paired = {i for pair in u.get("pole_pairs", []) or [] for i in pair["poles"]}
+    loose = []
+    for i, item in enumerate(u.get("poles", []) or []):
+        lo, hi = item.get("ci95", (None, None))
+        re_ = float(item["value"][0])
+        if i in paired or lo is None or hi is None or not np.isfinite(lo + hi):
+            continue
+        if hi >= 0 or (hi - lo) / 2 > abs(re_):
+            loose.append(f"pole {i + 1} ({re_:.4g}, 95 % interval [{lo:.4g}, {hi:.4g}])")
+    checks = [SanityCheck(
+        "every pole resolved by the data", not loose,
+        "each pole's 95 % interval is narrower than the pole and stays in the left half-plane"
+        + (" (near-equal poles reported as a pair)" if paired else "") if not loose else
+        f"the data do not resolve {', '.join(loose)}: its interval reaches the right half-plane or is wider "
+        "than the pole — the structure has a pole more than the record supports (try --order with one pole "
+        "fewer, or record longer / with less noise)")]
+    for i, item in enumerate(u.get("zeros", []) or []):
+        lo, hi = item.get("ci95", (None, None))
+        re_ = float(item["value"][0])
+        if re_ <= 0 or lo is None:
+            continue
+        demanded = bool(lo > 0)
+        checks.append(SanityCheck(
+            "no unphysical right-half-plane zero", demanded,
+            f"zero {i + 1} at {re_:+.4g} (95 % interval [{lo:.4g}, {hi:.4g}]) is in the right half-plane: an inverse "
+            "response, which a DC motor's velocity does not have"
+            + ("; the data demand it (its whole interval is there): check the sensor and its filter" if demanded else
+               "; the data do not demand it (its interval reaches the left half-plane): a structure with fewer "
+               "zeros describes the record as well (try --order, or --method oe with fewer zeros)")))
+    return checks
+
+
+def _t63(t: np.ndarray, y: np.ndarray, final: float) -> float:
+    """63.2 % time of a response towards ``final`` (the classic read-off's crossing)."""
+    return first_crossing(t, y, (1.0 - np.exp(-1.0)) * final)[0]
+
+
+def sanity_checks(
+    model,  # MotorModel
+    time_s: np.ndarray,
+    velocity: np.ndarray,
+    step_volts: float,
+    *,
+    sample_interval_s: float,
+    measured_t63_s: float | None = None,
+    unwhitened: Mapping[str, float] | None = None,
+    input_v: Mapping[str, np.ndarray] | None = None,
+) -> SanityReport:
+    """Run the sanity gate on one model.
+
+    Parameters
+    ----------
+    model : MotorModel
+        The identified model (its ``velocity`` output; ``delay_s`` applied).
+    time_s, velocity : ndarray
+        The measured velocity step response at full rate, time 0 at the step.
+    step_volts : float
+        Step level.
+    sample_interval_s : float
+        Recorded sample interval (the 63 % time tolerance).
+    measured_t63_s : float, optional
+        The measured 63 % time (read off a smoothed record); computed from ``velocity``
+        when omitted.
+    unwhitened : Mapping, optional
+        ``dc_gain``, ``time_constant`` (+ ``delay``) of the same structure fitted without
+        the AR noise model, with ``dc_gain_std``/``time_constant_std`` of the whitened fit.
+    input_v : Mapping[str, ndarray], optional
+        Each capture's recorded input increment after its step (captures with an input
+        channel only), keyed by file.
+
+    Returns
+    -------
+    SanityReport
+    """
+    tol = TOLERANCES
+    t = np.asarray(time_s, dtype=float)
+    v = np.asarray(velocity, dtype=float)
+    keep = t >= 0
+    t, v = t[keep], v[keep]
+    checks: list[SanityCheck] = []
+    poles = model.poles()
+    unstable = poles[np.real(poles) >= 0]
+    if unstable.size:
+        where = ", ".join(f"{p.real:+.4g}" + (f"{p.imag:+.3g}j" if abs(p.imag) > 0 else "") for p in unstable)
+        checks.append(SanityCheck("stable", False,
+                                  f"UNSTABLE model: pole(s) at {where} — its step response grows without bound, "
+                                  "which a motor that settles does not do; the method could not fit this record "
+                                  "(too few samples per time constant, or the wrong state vector)"))
+    else:
+        checks.append(SanityCheck("stable", True, "every pole in the left half-plane"))
+    final = float(np.mean(v[-max(2, v.size // 10):]))
+    with np.errstate(over="ignore", invalid="ignore"):
+        yhat = np.asarray(model.step_response(t, step_volts)["velocity"], dtype=float)
+    finite = bool(np.all(np.isfinite(yhat)))
+    err = float(np.sqrt(np.mean((v - yhat) ** 2)) / abs(final)) if finite and final else float("inf")
+    base, bpar = first_order_baseline(t, v, step_volts)
+    base_err = float(np.sqrt(np.mean((v - base) ** 2)) / abs(final)) if final else float("inf")
+    limit = tol["baseline_ratio"] * base_err + tol["baseline_slack"]
+    checks.append(SanityCheck(
+        "better than a first-order baseline", err <= limit,
+        f"fit NRMSE {100 * err:.3g}% against {100 * base_err:.3g}% of a plain first order plus dead time "
+        f"(K {bpar['dc_gain']:.4g}, τ {bpar['time_constant']:.4g} s, θ {bpar['delay']:.3g} s) fitted to the "
+        "same samples" + ("" if err <= limit else ": the model explains the record worse than three "
+                          "parameters do — its structure or its data are wrong")))
+    if err > tol["max_nrmse"]:
+        checks.append(SanityCheck("fits the record", False,
+                                  f"fit NRMSE {100 * err:.3g}%: the model does not reproduce the measured step "
+                                  "response"))
+    # the model's level over the same last 10 % of the record (its DC gain × step once the
+    # record has settled; an unsettled record is compared where it ends, not at infinity)
+    dc = model.dc_gain()
+    tail = max(2, v.size // 10)
+    end_model = float(np.mean(yhat[-tail:])) / step_volts if finite and step_volts else float("nan")
+    dc_meas = final / step_volts if step_volts else float("nan")
+    rel = abs(end_model - dc_meas) / abs(dc_meas) if dc_meas else float("inf")
+    ok = bool(rel <= tol["dc_gain_rel"])
+    checks.append(SanityCheck(
+        "DC gain vs the final level", ok,
+        f"DC gain {dc:.4g}; the model's final level per volt {end_model:.4g} vs {dc_meas:.4g} read off the "
+        f"record ({100 * rel:.2g}% apart" + (")" if ok else f", more than {100 * tol['dc_gain_rel']:g}%): the "
+                                               "model's steady state is not the record's")))
+    if finite and final:
+        t63_meas = measured_t63_s if measured_t63_s is not None and np.isfinite(measured_t63_s) else _t63(t, v, final)
+        model_final = dc * step_volts
+        t63_model = _t63(t, yhat, model_final) if np.isfinite(model_final) and model_final else float("nan")
+        slack = max(tol["t63_rel"] * t63_meas, tol["t63_samples"] * sample_interval_s)
+        ok = bool(np.isfinite(t63_model) and abs(t63_model - t63_meas) <= slack)
+        checks.append(SanityCheck(
+            "63 % time vs the record", ok,
+            f"63 % time of the model {t63_model:.4g} s vs {t63_meas:.4g} s read off the record"
+            + ("" if ok else f" (apart by more than {slack:.3g} s): the model's speed of response is not the "
+               "record's")))
+    fo = model.first_order()
+    u = model.uncertainty
+    checks += _resolved_roots(u)
+    for key, label, value in (("dc_gain", "DC gain", fo.dc_gain), ("time_constant", "τ", fo.time_constant_s),
+                              ("residence_time_s", "mean residence time", model.residence_time_s())):
+        item = u.get(key) if u else None
+        if not item or "ci95" not in item:
+            continue
+        lo, hi = item["ci95"]
+        inside = bool(lo is not None and hi is not None and lo <= value <= hi)
+        checks.append(SanityCheck(
+            f"headline {label} inside its interval", inside,
+            f"headline {label} {value:.5g} " + ("inside" if inside else "OUTSIDE") + f" its 95 % interval "
+            f"[{lo:.5g}, {hi:.5g}]"))
+    if unwhitened:
+        for key, label in (("dc_gain", "DC gain"), ("time_constant", "τ + dead time")):
+            a = fo.dc_gain if key == "dc_gain" else fo.time_constant_s + model.delay_s
+            b = float(unwhitened[key])
+            sd = float(unwhitened.get(f"{key}_std", 0.0))
+            apart = abs(a - b)
+            ok = bool(apart <= max(tol["white_sigmas"] * sd, tol["white_rel"] * abs(a)))
+            checks.append(SanityCheck(
+                f"{label} with and without the noise model", ok,
+                f"{label} {a:.4g} with the AR noise model, {b:.4g} without" + ("" if ok else
+                 ": the noise model absorbed a misfit of the structure (try --order auto, or --delay when "
+                 "the drive has a dead time)")))
+    for source, u in (input_v or {}).items():
+        u = np.asarray(u, dtype=float)
+        if u.size < 5 or not step_volts:
+            continue
+        var = float(np.sqrt(np.mean((u - step_volts) ** 2)) / abs(step_volts))
+        ok = bool(var <= tol["input_rms_rel"])
+        checks.append(SanityCheck(
+            "the input is a step", ok,
+            f"the input recorded in {source} varies by {100 * var:.2g}% (RMS) of the {step_volts:.4g} V step "
+            "after its edge"
+            + ("" if ok else ": it is not a step (a closed-loop record, or a drive that sags), and every method here "
+               "models the response to a step — this is the model of a step that did not happen; identify from an "
+               "open-loop step, and score a model on this record with motorid validate")))
+    return SanityReport(tuple(checks))

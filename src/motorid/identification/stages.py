@@ -1,0 +1,1084 @@
+"""Beyond the paper: output-error refinement, SRIVC, order selection and uncertainty.
+
+Stage functions on a :class:`~motorid.conditioning.pipeline.ConditionedExperiment`: they take
+the full-rate synchronised step responses (no sample reduction, no numerical
+differentiation — the two sources of the paper's bias), weight each channel by its own noise
+level measured before the step, and start from a model of the paper's methods so that no
+user guess is needed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+import scipy.signal
+
+from motorid.conditioning.edge import noise_level, quantisation_step
+from motorid.conditioning.pipeline import ConditionedExperiment
+from motorid.identification.output_error import (  # _block_mean: the fit's own block averaging
+    OeResult,
+    _block_mean,
+    OeSettings,
+    ar_noise_model,
+    output_error_fit,
+    position_scale_fit,
+)
+from motorid.identification.result import IdentificationError
+from motorid.identification.srivc import SrivcSettings, srivc_fit
+from motorid.model import MotorModel
+
+__all__ = [
+    "STRUCTURES",
+    "NoiseModel",
+    "OrderSelection",
+    "channel_sigma",
+    "dead_time_shows",
+    "noise_model",
+    "oe_stage",
+    "output_level_rel_std",
+    "quantisation_bias_std",
+    "refine_noise",
+    "select_order",
+    "srivc_stage",
+    "step_level_std",
+    "uncertainty_json",
+]
+
+#: Model structures (velocity poles, zeros) tried for each order; the first is the default.
+STRUCTURES: Mapping[int, tuple[tuple[int, int], ...]] = {
+    1: ((1, 0),),
+    2: ((2, 0), (2, 1)),
+    3: ((3, 1), (3, 0)),
+}
+
+#: Longest record (per capture) handed to the nonlinear fit: longer ones are fitted as block
+#: means (the model averaged the same way) down to this many samples, so the fit time stays
+#: bounded.  A TDS1000/2000 record (2500 points) is fitted sample by sample: block means
+#: would hide a misfit of the first samples after the step, where a fast pole shows.
+MAX_FIT_SAMPLES = 2500
+
+
+def channel_sigma(cond: ConditionedExperiment, role: str, block: int = 1) -> float:
+    """Noise standard deviation of a channel, from its samples before the step.
+
+    The pre-step part of a capture holds only noise (the motor is at rest); samples
+    interpolated over wrap glitches are left out.  An 8-bit scope can show it as a constant
+    code; the quantisation noise ``LSB/√12`` (from the smallest step between codes) is then
+    the floor.  With ``block > 1``: of means of ``block`` samples, as the fit sees them.
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+    role : str
+        The channel (``velocity``, ``position`` or ``current``).
+    block : int
+        Block length of the means the fit sees (default 1).
+
+    Returns
+    -------
+    float
+        The standard deviation in volts.
+    """
+    r = cond.responses[role]
+    good = r.time_s < 0
+    if r.glitches is not None:
+        good[r.glitches] = False
+    means = _block_mean(r.output_v[good], block, from_end=True)
+    sd = float(np.std(means)) if means.size >= 5 else noise_level(r.output_v) / np.sqrt(block)
+    return max(sd, _code_step(r) / np.sqrt(12.0 * block), 1e-9)
+
+
+def quantisation_bias_std(y: np.ndarray, quantum: float) -> float:
+    """RMS error of a quantised plateau's mean that no number of samples averages out.
+
+    A quantiser of step ``q`` returns, for a level ``x`` plus a dither, samples whose mean is off
+    by ``Σₖ (−1)ᵏ⁺¹ (q/πk)·φ(2πk/q)·sin(2πkx/q)``: the sawtooth error's Fourier series, each
+    harmonic smoothed by the dither's characteristic function ``φ``.  Gaussian noise makes
+    ``φ`` vanish once ``σ`` passes ``q/2``; a periodic ripple (a tacho's) only like
+    ``√(q/A)`` (``φ = J₀(2πkA/q)`` for a sinusoid of amplitude ``A``, whose square averages
+    ``q/(2π²kA)`` over its oscillation), and the samples do not tell the two apart, so the
+    ripple's is used, with ``A = √2·σ``.  Over a level at
+    an unknown place on the code grid the RMS is ``√(Σₖ (q/πk)²·φₖ²/2)``, ``q/√12`` for a
+    trace on one code.  ``σ²`` is the samples' variance less the quantiser's ``q²/12``.  A trace
+    that reads exactly 0 throughout is a sensor at rest on the zero code: its level is 0.
+    Written here because no library states a quantised mean's residual error.
+
+    Parameters
+    ----------
+    y : ndarray
+        The plateau's samples.
+    quantum : float
+        The quantiser's step (0: not quantised).
+
+    Returns
+    -------
+    float
+        The RMS error of the mean, in ``y``'s unit.
+    """
+    if quantum <= 0.0 or y.size < 2 or not np.any(y):
+        return 0.0
+    amplitude = np.sqrt(2.0 * max(float(np.var(y)) - quantum**2 / 12.0, 0.0))
+    k = np.arange(1, 33, dtype=float)
+    smooth2 = np.minimum(1.0, quantum / (2.0 * np.pi**2 * k * amplitude)) if amplitude > 0 else np.ones_like(k)
+    return float(np.sqrt(np.sum((quantum / (np.pi * k)) ** 2 * smooth2 / 2.0)))
+
+
+def step_level_std(cond: ConditionedExperiment) -> float:
+    """Standard error of the experiment's step level.
+
+    Each capture's step is the mean of its input channel after the edge minus the mean
+    before it: the noise ``σ_u`` gives ``σ_u²(1/n_before + 1/n_after)``, averaged over the
+    captures; the quantiser's error of each mean (:func:`quantisation_bias_std`) does not
+    average out, neither over the samples nor over captures of the same level on the same
+    scale.  A step given by the user (no input channel) counts as exact.
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+
+    Returns
+    -------
+    float
+        The standard error in volts (0.0 for a step given by the user).
+    """
+    random, systematic = [], []
+    for r in cond.responses.values():
+        u, before = r.input_v, r.time_s < 0
+        if before.sum() < 2 or (~before).sum() < 2:
+            continue
+        quantum = quantisation_step(u, below=0.5 * abs(r.step_volts))
+        random.append(float(np.var(u[before])) * (1.0 / before.sum() + 1.0 / (~before).sum()))
+        systematic.append(quantisation_bias_std(u[before], quantum) ** 2
+                          + quantisation_bias_std(u[~before], quantum) ** 2)
+    if not random:
+        return 0.0
+    return float(np.sqrt(np.sum(random) / len(random) ** 2 + np.mean(systematic)))
+
+
+#: The velocity's last part taken as its settled level (for the quantiser's error of the level).
+SETTLED_FRACTION = 0.25
+
+
+def output_level_rel_std(cond: ConditionedExperiment) -> float:
+    """Relative error of the velocity's recorded change that the quantiser leaves in any fit.
+
+    The pre-step level and the settled level (the last :data:`SETTLED_FRACTION` of the
+    record) each carry :func:`quantisation_bias_std`; relative to the change between them,
+    that is the DC gain's relative error that the fit's own covariance does not see (it treats
+    every sample's quantisation error as independent noise).  0 without a velocity capture or
+    when the trace is not quantised.
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+
+    Returns
+    -------
+    float
+        The relative standard error (dimensionless).
+    """
+    r = cond.responses.get("velocity")
+    if r is None:
+        return 0.0
+    y, before = r.output_v, r.time_s < 0
+    after = np.flatnonzero(~before)
+    settled = y[after[int((1.0 - SETTLED_FRACTION) * after.size):]]
+    if before.sum() < 2 or settled.size < 2:
+        return 0.0
+    change = float(np.mean(settled) - np.mean(y[before]))
+    quantum = quantisation_step(y, below=0.25 * abs(change)) if change else 0.0
+    if quantum == 0.0 or change == 0.0:
+        return 0.0
+    q = np.hypot(quantisation_bias_std(y[before], quantum), quantisation_bias_std(settled, quantum))
+    return float(q / abs(change))
+
+
+#: Structures tried, in turn, for the preliminary fit of the noise model.
+PRELIMINARY: tuple[tuple[int, int], ...] = ((2, 0), (1, 0))
+
+#: SRIVC filters the data several times per iteration with ``lsim``: fewer samples suffice.
+SRIVC_SAMPLES = 1000
+
+
+def _srivc_data(cond: ConditionedExperiment, max_samples: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The synchronised record sub-sampled to at most ``max_samples``.
+
+    SRIVC simulates its filters from rest at ``t = 0``, so the grid stays anchored there (no block
+    centres).
+    """
+    t = cond.full_time_s
+    ratio = max(1, int(np.ceil(t.size / max_samples)))
+    outs = {}
+    for k, v in cond.full_outputs.items():
+        # a scope-sampled step happened about half a sample before its edge sample: the record is
+        # read on a grid that starts at that instant (where the response is still 0), so that the
+        # filters' step at t = 0 is the motor's
+        phase = _sampled_phase(cond.responses[k]) if k in cond.responses else 0.0
+        outs[k] = np.interp(t, np.r_[0.0, t + phase], np.r_[0.0, v]) if phase > 0 else v
+    return t[::ratio], {k: v[::ratio] for k, v in outs.items()}
+
+
+def _shift_bound(cond: ConditionedExperiment) -> float:
+    """How far a capture's time zero can be off: 1.5 recorded samples."""
+    return 1.5 * max(r.sample_interval_s for r in cond.responses.values())
+
+
+def timing_groups(cond: ConditionedExperiment) -> tuple[tuple[str, ...], ...]:
+    """The channels whose step instant was read off a response, grouped by acquisition.
+
+    Each group gets one fitted time shift in the output-error fit (the channels of one scope
+    acquisition share one onset, see :func:`motorid.conditioning.pipeline.condition_experiment`).
+    A channel whose step instant a recorded input or ``--t0`` fixes gets none, so nothing can
+    trade its lags (a dead time, an electrical pole) for a shift (see :func:`oe_settings`).
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+
+    Returns
+    -------
+    tuple of tuple of str
+        Channel groups, in the order of ``cond.responses``.
+    """
+    groups: list[list[str]] = []
+    for role, r in cond.responses.items():
+        if r.timing != "onset" or role not in cond.full_outputs:
+            continue
+        for g in groups:
+            other = cond.responses[g[0]].time_s
+            if other.shape == r.time_s.shape and np.array_equal(other, r.time_s):
+                g.append(role)
+                break
+        else:
+            groups.append([role])
+    return tuple(tuple(g) for g in groups)
+
+
+def _sampled_phase(r: Any) -> float:
+    """Seconds from a channel's step instant to its edge sample: half a sample for a scope input.
+
+    A scope samples the input's edge: the step lies, uniformly, in the sample interval before
+    the first sample at the new level; its best estimate is the interval's middle (its standard
+    deviation ``dt/√12`` goes into the intervals, see :func:`oe_settings`).
+    """
+    return 0.5 * r.sample_interval_s if r.timing == "sampled" else 0.0
+
+
+def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, delay: bool = False) -> OeSettings:
+    """The output-error settings of one structure on these captures: their timing.
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+    structure : tuple of int
+        ``(poles, zeros)`` of the velocity transfer function.
+    delay : bool
+        Fit a dead time.
+
+    Returns
+    -------
+    OeSettings
+        Shift groups from :func:`timing_groups`; the channels whose input a scope sampled have
+        their common instant at the middle of the interval before their edge samples (each
+        one's ``dt/√12`` as ``instant_std``) and their phases relative to each other fitted
+        (``phase_group``).
+    """
+    # a sub-sample phase cannot be told from the lags of the dynamics (an electrical pole, a
+    # dead time): fitted, it took them up and τ came out short; so the captures' common instant
+    # stays at the intervals' middle (unbiased: the switch is thrown at any instant) with its
+    # uncertainty in the intervals, and only their phases relative to each other are fitted (left
+    # fixed, their disagreement near the step bought a spurious pole-zero pair)
+    sampled = tuple((role, r.sample_interval_s / np.sqrt(12.0)) for role, r in cond.responses.items()
+                    if r.timing == "sampled" and role in cond.full_outputs)
+    return OeSettings(n_poles=structure[0], n_zeros=structure[1], delay=delay, shift_bound_s=_shift_bound(cond),
+                      shift_groups=timing_groups(cond), instant_std=sampled,
+                      phase_group=tuple(role for role, _ in sampled))
+
+
+@dataclass(frozen=True, slots=True)
+class _ChannelData:
+    """What the output-error fit sees of each capture.
+
+    Its own grid from its step (every sample it recorded after the step, not only the part common to
+    all captures), its pre-step samples, and the block length that keeps the fitted record at most
+    :data:`MAX_FIT_SAMPLES` long; for an unwrapped position, the turns added to each sample (samples
+    interpolated over wrap glitches are left out).
+    """
+
+    time_s: dict[str, np.ndarray]
+    outputs: dict[str, np.ndarray]
+    pre: dict[str, np.ndarray]
+    block: dict[str, int]
+    wrap_count: dict[str, np.ndarray]
+
+
+#: The output-error fit uses at most this many 63 % times of record after the step: a
+#: 3000 s log of a 0.35 s motor was otherwise fitted as 1.2 s block means (longer than τ,
+#: interval ±0.64 s); fifty time constants show the steady state to 1e-20.
+MAX_RECORD_TIME_CONSTANTS = 50.0
+
+
+def fit_record_length(cond: ConditionedExperiment) -> float | None:
+    """Seconds after the step the output-error fit uses (``None``: all of it)."""
+    length = cond.settings.record_length_s
+    t63 = cond.response_time_s
+    if np.isfinite(t63) and t63 > 0:
+        cap = MAX_RECORD_TIME_CONSTANTS * t63
+        if cap < float(cond.full_time_s[-1]):
+            length = cap if length is None else min(length, cap)
+    return length
+
+
+def _channel_data(cond: ConditionedExperiment, max_samples: int = MAX_FIT_SAMPLES) -> _ChannelData:
+    length = fit_record_length(cond)
+    times, outs, pre, block, wraps = {}, {}, {}, {}, {}
+    for role in cond.full_outputs:
+        r = cond.responses[role]
+        good = np.ones(r.time_s.size, dtype=bool)
+        if r.glitches is not None:
+            good[r.glitches] = False
+        after = good & (r.time_s >= -1e-9 * r.sample_interval_s)
+        if length is not None:
+            after &= r.time_s <= length + 0.5 * r.sample_interval_s
+        times[role], outs[role] = r.time_s[after] + _sampled_phase(r), r.output_v[after]
+        pre[role] = r.output_v[good & (r.time_s < 0)]
+        block[role] = max(1, int(np.ceil(times[role].size / max_samples)))
+        if r.wrap_count is not None:
+            wraps[role] = r.wrap_count[after]
+    return _ChannelData(times, outs, pre, block, wraps)
+
+
+def _init_from(model: MotorModel, n_poles: int, n_zeros: int) -> tuple[list[float], float, list[float]]:
+    """Time constants, DC gain and zero time constants of a model, padded to a structure."""
+    fo = model.first_order()
+    poles = [p for p in model.poles() if np.real(p) < 0]
+    taus = sorted((float(-1.0 / np.real(p)) for p in poles), reverse=True)
+    dc = fo.dc_gain if np.isfinite(fo.dc_gain) and fo.dc_gain != 0 else 1.0
+    tau1 = fo.time_constant_s if np.isfinite(fo.time_constant_s) and fo.time_constant_s > 0 else 0.3
+    taus = [t for t in taus if 1e-4 < t < 100.0]
+    if not taus:
+        taus = [tau1]
+    taus[0] = tau1 if len(taus) == 1 else taus[0]
+    while len(taus) < n_poles:
+        taus.append(taus[-1] / 8.0)  # faster poles start well separated from the dominant one
+    taus = taus[:n_poles]
+    zeros = [0.5 * taus[1]] * n_zeros if n_poles > 1 else []
+    return taus, float(dc), zeros[:n_zeros]
+
+
+def _oe_to_model(
+    res: OeResult, cond: ConditionedExperiment, structure: tuple[int, int], noise: NoiseModel | None = None
+) -> MotorModel:
+    num, den = np.asarray(res.velocity_num, float), np.asarray(res.velocity_den, float)
+    a, b, c, d = scipy.signal.tf2ss(num, den)
+    n = a.shape[0]
+    states = tuple(f"x{i + 1}" for i in range(n))
+    rows = [c[0]]
+    drows = [d[0, 0]]
+    outputs = ["velocity"]
+    if res.current_num is not None:
+        _, _, ci, di = scipy.signal.tf2ss(np.asarray(res.current_num, float), den)
+        rows.append(ci[0])
+        drows.append(di[0, 0])
+        outputs.append("current")
+    big_a, big_b = a, b
+    cmat = np.array(rows)
+    dmat = np.array(drows).reshape(-1, 1)
+    if res.position_scale is not None:
+        # position = c·∫velocity: an integrator state fed by the velocity row
+        big_a = np.zeros((n + 1, n + 1))
+        big_a[0, 1:] = res.position_scale * c[0]
+        big_a[1:, 1:] = a
+        big_b = np.vstack([[[res.position_scale * d[0, 0]]], b])
+        cmat = np.hstack([np.zeros((cmat.shape[0], 1)), cmat])
+        cmat = np.vstack([np.eye(1, n + 1), cmat])
+        dmat = np.vstack([[[0.0]], dmat])
+        states = ("position", *states)
+        outputs = ["position", *outputs]
+    return MotorModel(
+        A=big_a, B=big_b, C=cmat, D=dmat, states=states, outputs=tuple(outputs),
+        step_volts=cond.step_volts, method="oe",
+        settings={"n_poles": structure[0], "n_zeros": structure[1],
+                  "delay": res.delay_s is not None and res.delay_s > 0},
+        sample_interval_s=float(cond.full_time_s[1] - cond.full_time_s[0]),
+        warnings=tuple(res.warnings),
+        uncertainty={**uncertainty_json(res), "timing": timing_json(res, cond)},
+        extras={"bic": res.bic, "aic": res.aic, "sigma": dict(res.sigma), "delay_s": res.delay_s,
+                **({"noise": noise.to_json()} if noise is not None else {})},
+        delay_s=res.delay_s or 0.0,
+    )
+
+
+def uncertainty_json(res: OeResult) -> dict[str, Any]:
+    """The ``uncertainty`` object of the model JSON from an output-error result.
+
+    Parameters
+    ----------
+    res : OeResult
+        An output-error result.
+
+    Returns
+    -------
+    dict
+        Estimates, standard errors and 95 % intervals.
+    """
+    def item(key: str, value: Any) -> dict[str, Any]:
+        lo, hi = res.ci95.get(key, (float("nan"), float("nan")))
+        return {"value": value, "std": res.std.get(key, float("nan")), "ci95": [lo, hi]}
+
+    out: dict[str, Any] = {
+        "dc_gain": item("dc_gain", res.dc_gain),
+        "time_constant": item("time_constant", res.time_constant_s),
+        "residence_time_s": item("residence_time", res.time_constant_s + (res.delay_s or 0.0)),
+        "t63_s": item("t63", float(np.mean(res.ci95["t63"])) if "t63" in res.ci95 else float("nan")),
+        "poles": [item(f"pole_{i}", [float(np.real(p)), float(np.imag(p))]) for i, p in enumerate(res.poles)],
+        "zeros": [item(f"zero_{i}", [float(np.real(z)), float(np.imag(z))]) for i, z in enumerate(res.zeros)],
+        "method": "Gauss-Newton covariance of the output-error fit (delta method), 95% = ±1.96 std",
+    }
+    pairs = unresolved_pairs(res)
+    if pairs:
+        out["pole_pairs"] = [{"poles": [i, i + 1],
+                              "natural_frequency": item(f"pair_{i}_wn", res_value(res, f"pair_{i}_wn")),
+                              "damping": item(f"pair_{i}_zeta", res_value(res, f"pair_{i}_zeta"))} for i in pairs]
+    if res.delay_s is not None:
+        out["delay"] = item("delay", res.delay_s)
+    return out
+
+
+def res_value(res: OeResult, key: str) -> float:
+    """A derived quantity's estimate: the centre of its (symmetric) 95 % interval."""
+    lo, hi = res.ci95.get(key, (float("nan"), float("nan")))
+    return 0.5 * (lo + hi)
+
+
+def unresolved_pairs(res: OeResult) -> list[int]:
+    """Neighbouring poles ``i, i+1`` (slowest first) that the data know only as a pair.
+
+    Each pole's 95 % interval holds the other pole, while the pair's natural frequency is known
+    to better than its own size: report the pair (natural frequency, damping), not two poles of
+    ±(more than their value).
+
+    Parameters
+    ----------
+    res : OeResult
+        An output-error result.
+
+    Returns
+    -------
+    list of int
+        The index of each pair's first pole.
+    """
+    out: list[int] = []
+    n = res.poles.size
+    for i in range(n - 1):
+        if out and out[-1] == i - 1:
+            continue
+        a, b = f"pole_{i}", f"pole_{i + 1}"
+        if a not in res.ci95 or b not in res.ci95 or f"pair_{i}_wn" not in res.std:
+            continue
+        pa, pb = float(np.real(res.poles[i])), float(np.real(res.poles[i + 1]))
+        (lo_a, hi_a), (lo_b, hi_b) = res.ci95[a], res.ci95[b]
+        overlap = lo_a <= pb <= hi_a or lo_b <= pa <= hi_b
+        wn = res_value(res, f"pair_{i}_wn")
+        if overlap and 1.96 * res.std[f"pair_{i}_wn"] < abs(wn):
+            out.append(i)
+    return out
+
+
+#: How each kind of step instant is described in the model JSON's ``uncertainty.timing``.
+TIMING_SOURCES = {
+    "logged": "the logged input's change (exact)",
+    "sampled": "the scope's input edge, in the sample interval before the first sample at the new level: the "
+               "captures' phases relative to each other are fitted (shift_s), their common instant is the "
+               "interval's middle (±dt/√(12·n) in the intervals)",
+    "onset": "read off the response (no input channel): its shift is fitted",
+    "given": "--t0 (t0_s)",
+}
+
+
+def timing_json(res: OeResult, cond: ConditionedExperiment) -> dict[str, Any]:
+    """Per channel of the fit: where its step instant comes from, and its fitted shift with interval.
+
+    Parameters
+    ----------
+    res : OeResult
+        An output-error result.
+    cond : ConditionedExperiment
+        The captures it was fitted to.
+
+    Returns
+    -------
+    dict
+        Keyed by channel: ``step_instant`` (words), ``edge_s`` (the instant on the file's time
+        axis), and for a fitted shift ``shift_s``, ``std``, ``ci95`` (positive: the model's step is
+        that much later than the edge read off the data).
+    """
+    out: dict[str, Any] = {}
+    for role, r in cond.responses.items():
+        if role not in res.residuals:
+            continue
+        item: dict[str, Any] = {"step_instant": TIMING_SOURCES.get(r.timing, r.timing),
+                                "edge_s": float(r.edge.time_s) - _sampled_phase(r)}
+        if role in res.shifts:
+            lo, hi = res.ci95.get(f"shift_{role}", (float("nan"), float("nan")))
+            item.update(shift_s=res.shifts[role], std=res.std.get(f"shift_{role}", float("nan")), ci95=[lo, hi])
+        elif r.timing == "onset" and res.delay_s is not None:
+            item["note"] = "its shift is the dead time (a step instant read off the response cannot be told from it)"
+        out[role] = item
+    return out
+
+
+@dataclass(frozen=True, slots=True)
+class NoiseModel:
+    """What the output-error fit assumes about each channel's noise.
+
+    Attributes
+    ----------
+    sigma : dict[str, float]
+        Innovation standard deviation of the (whitened) post-step residuals.
+    whiten : dict[str, ndarray]
+        AR whitening polynomial ``[1, a_1, …, a_p]`` (``[1.0]``: white noise).
+    pre_sigma : dict[str, float]
+        Standard deviation of the pre-step samples (motor at rest).
+    scale_only : tuple of str
+        Channels fitted for their scale only, not for the dynamics (an undithered
+        quantised position, see :func:`noise_model`).
+    preliminary : MotorModel or None
+        The fit the noise model comes from (a starting point for the others).
+    """
+
+    sigma: dict[str, float]
+    whiten: dict[str, np.ndarray]
+    pre_sigma: dict[str, float]
+    scale_only: tuple[str, ...] = ()
+    preliminary: MotorModel | None = None
+
+    @property
+    def ar_order(self) -> dict[str, int]:
+        """AR order of each channel's noise model."""
+        return {k: len(v) - 1 for k, v in self.whiten.items()}
+
+    def to_json(self) -> dict[str, Any]:
+        """Per channel: innovation std, AR order, pre-step std and how it is used.
+
+        Returns
+        -------
+        dict
+            JSON-able, keyed by channel.
+        """
+        return {role: {"sigma": self.sigma[role], "ar_order": self.ar_order.get(role, 0),
+                       "pre_step_sigma": self.pre_sigma.get(role),
+                       "use": "scale only" if role in self.scale_only else "dynamics"}
+                for role in self.sigma}
+
+
+def _code_step(r: Any) -> float:
+    """Smallest code step of a capture (its 8-bit quantum), away from wraps and glitches.
+
+    An unwrapped or interpolated sample is no longer on the code grid.
+    """
+    ok = np.ones(r.output_v.size - 1, dtype=bool)
+    if r.wrap_count is not None:
+        ok &= np.diff(r.wrap_count) == 0
+    if r.glitches is not None:
+        bad = np.asarray(r.glitches, dtype=int)
+        ok[np.clip(np.r_[bad, bad - 1], 0, ok.size - 1)] = False
+    return quantisation_step(r.output_v, valid=ok)
+
+
+def _structure_of(res: OeResult) -> tuple[int, int]:
+    """(poles, zeros) of an output-error result."""
+    return res.settings.n_poles, res.settings.n_zeros
+
+
+def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
+    """Noise model of each channel for the output-error fit.
+
+    The pre-step samples (motor at rest) give each channel's level before the step, with
+    the quantisation ``LSB/√12`` as a floor.  After the step the noise is coloured (tacho
+    ripple at the commutation frequency, aliased PWM, quantisation that follows the
+    signal): the residuals of a first output-error fit (two poles) get an
+    autoregressive model (order by BIC), whose polynomial whitens the residuals of every
+    later fit and whose innovation variance weights them — generalised least squares, so
+    that ripple neither biases the weights nor makes the intervals too narrow.
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+    init : MotorModel
+        The model the fit starts from (a paper method's).
+
+    Returns
+    -------
+    NoiseModel
+        Per-channel noise levels and whitening filters.
+    """
+    data = _channel_data(cond)
+    pre_sigma = {role: channel_sigma(cond, role, data.block[role]) for role in data.outputs}
+    sigma = dict(pre_sigma)
+    white = {role: np.array([1.0]) for role in data.outputs}
+    res = None
+    # two poles (quick and robust from any paper model); one if that cannot be fitted.  Its
+    # residuals may hold some model error besides the noise: select_order re-estimates the
+    # noise model from the chosen structure's residuals and refits it
+    for structure in PRELIMINARY:
+        taus, dc, zeros = _init_from(init, *structure)
+        try:
+            res = output_error_fit(data.time_s, cond.step_volts, data.outputs, sigma, taus, dc,
+                                   oe_settings(cond, structure), pre=data.pre,
+                                   block=data.block, wrap_count=data.wrap_count, init_zeros=zeros)
+        except IdentificationError:
+            continue
+        if np.isfinite(res.cost) and np.all(np.real(res.poles) < 0):
+            break
+    if res is None:
+        return NoiseModel(sigma, white, pre_sigma)
+    # an 8-bit position whose noise is well under a code does not average its quantisation
+    # out: the error follows the motion (a slow sawtooth while the shaft speeds up, where
+    # the time constants show) and would pull them as if it were signal.  With a velocity
+    # capture to carry the dynamics, such a position is fitted for its scale only.
+    scale_only: tuple[str, ...] = ()
+    if "position" in res.residuals and "velocity" in res.residuals:
+        quantum = _code_step(cond.responses["position"])
+        spread = res.residual_rms["position"] * np.sqrt(data.block["position"])
+        if quantum > 0 and spread < 0.5 * quantum:
+            scale_only = ("position",)
+    first = NoiseModel(sigma, white, pre_sigma, scale_only, _oe_to_model(res, cond, _structure_of(res)))
+    return refine_noise(first, res)
+
+
+def refine_noise(noise: NoiseModel, res: OeResult) -> NoiseModel:
+    """The noise model re-estimated from the residuals of a fit.
+
+    Channels it did not fit keep theirs.
+
+    Parameters
+    ----------
+    noise : NoiseModel
+        The current noise model.
+    res : OeResult
+        An output-error fit whose residuals are used.
+
+    Returns
+    -------
+    NoiseModel
+        The updated noise model.
+    """
+    sigma, white = dict(noise.sigma), dict(noise.whiten)
+    for role, e in res.residuals.items():
+        white[role], sd = ar_noise_model(e)
+        sigma[role] = max(sd, 1e-9)
+    return replace(noise, sigma=sigma, whiten=white)
+
+
+def oe_stage(
+    cond: ConditionedExperiment,
+    init: MotorModel,
+    structure: tuple[int, int],
+    *,
+    delay: bool = False,
+    noise: NoiseModel | None = None,
+    white: bool = False,
+) -> tuple[OeResult, MotorModel]:
+    """Output-error fit of one structure, initialised from ``init``.
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+    init : MotorModel
+        The model the fit starts from (a paper method's).
+    structure : tuple of int
+        ``(poles, zeros)`` of the velocity transfer function.
+    delay : bool
+        Fit a dead time too, starting from ``init.delay_s`` when it has one, else from the
+        apparent dead time read off the data (``cond.dead_time_s``).
+    noise : NoiseModel, optional
+        Channel noise models (default: :func:`noise_model`).
+    white : bool
+        Leave the AR whitening out (weights: the pre-step noise levels): the sanity gate
+        compares the two estimates, since an AR model can absorb a structural misfit.
+
+    Returns
+    -------
+    (OeResult, MotorModel)
+        The raw result and the model (velocity, and position/current rows when captured).
+    """
+    data = _channel_data(cond)
+    noise = noise if noise is not None else noise_model(cond, init)
+    taus, dc, zeros = _init_from(init, *structure)
+    settings = oe_settings(cond, structure, delay=delay)
+    fitted = {role: y for role, y in data.outputs.items() if role not in noise.scale_only}
+    delay0 = init.delay_s if init.delay_s > 0 else cond.dead_time_s
+    res = output_error_fit(data.time_s, cond.step_volts, fitted, noise.pre_sigma if white else noise.sigma,
+                           taus, dc, settings, init_zeros=zeros, init_delay_s=delay0, pre=data.pre,
+                           step_std=step_level_std(cond), level_rel_std=output_level_rel_std(cond),
+                           block=data.block,
+                           whiten=None if white else noise.whiten, pre_sigma=noise.pre_sigma,
+                           wrap_count=data.wrap_count)
+    if "position" in noise.scale_only:
+        c = position_scale_fit(res, data.time_s["position"], data.outputs["position"], cond.step_volts,
+                               pre=data.pre["position"], wrap_count=data.wrap_count.get("position"))
+        res = replace(res, position_scale=c)
+    return res, _oe_to_model(res, cond, structure, noise)
+
+
+def srivc_stage(
+    cond: ConditionedExperiment, init: MotorModel, structure: tuple[int, int], *, max_samples: int = SRIVC_SAMPLES
+) -> MotorModel:
+    """SRIVC estimate of the velocity TF of one structure, initialised from ``init``.
+
+    ``max_samples`` bounds the record SRIVC filters (every iteration runs ``lsim`` on it);
+    ``auto`` uses 500 for its second opinion.
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+    init : MotorModel
+        The model the fit starts from (a paper method's).
+    structure : tuple of int
+        ``(poles, zeros)`` of the velocity transfer function.
+    max_samples : int
+        Largest number of samples SRIVC filters (default 1000).
+
+    Returns
+    -------
+    MotorModel
+        The SRIVC model.
+    """
+    t, outs = _srivc_data(cond, max_samples)
+    if "velocity" not in outs:
+        raise IdentificationError("SRIVC needs a velocity capture (--velocity)")
+    taus, _, _ = _init_from(init, *structure)
+    den0 = np.poly([-1.0 / x for x in taus])
+    u = np.full(t.size, cond.step_volts)
+    res = srivc_fit(t, u, outs["velocity"], SrivcSettings(n_poles=structure[0], n_zeros=structure[1]), init_den=den0)
+    from motorid.model import model_from_velocity_tf
+
+    not_converged = () if res.converged else (f"SRIVC did not converge in {res.iterations} iterations",)
+    warnings = tuple(res.warnings) + not_converged
+    return model_from_velocity_tf(
+        res.num, res.den, with_position=False, step_volts=cond.step_volts, method="srivc",
+        settings={"n_poles": structure[0], "n_zeros": structure[1], "iterations": res.iterations},
+        sample_interval_s=float(t[1] - t[0]), warnings=warnings,
+    )
+
+
+#: Apparent dead time, in recorded samples, from which ``auto`` also tries each structure
+#: with a fitted delay and lets BIC decide (the trainer's lags leave one or two quiet
+#: samples after the step; a drive's dead time leaves more).
+DEAD_TIME_SAMPLES = 3
+#: ... or, on a coarse grid (a 100 Hz DAQ), this fraction of the 63 % time.
+DEAD_TIME_FRACTION = 0.05
+
+
+@dataclass(frozen=True, slots=True)
+class OrderSelection:
+    """The order chosen by BIC on the output-error fits, with the evidence.
+
+    Attributes
+    ----------
+    structure : tuple of int
+        (poles, zeros) of the chosen velocity TF.
+    result : OeResult
+        Its fit.
+    model : MotorModel
+        Its model (``uncertainty`` widened by the structure uncertainty, see
+        :func:`structure_uncertainty`).
+    table : list of dict
+        Every structure tried: poles, zeros, delay, BIC, AIC, weighted RMS, BIC weight.
+    runner_up : tuple of int or None
+        The second-best structure.
+    evidence : str
+        The choice in words (ΔBIC to the runner-up).
+    delay : bool
+        Whether the chosen structure has a fitted dead time.
+    noise : NoiseModel or None
+        The noise model of the final fit.
+    """
+
+    structure: tuple[int, int]
+    result: OeResult
+    model: MotorModel
+    table: list[dict[str, Any]]
+    runner_up: tuple[int, int] | None
+    evidence: str
+    delay: bool = False
+    noise: NoiseModel | None = None
+
+
+def _describe(structure: tuple[int, int], delay: bool) -> str:
+    return f"{structure[0]} pole(s) and {structure[1]} zero(s)" + (" with a dead time" if delay else "")
+
+
+def structure_uncertainty(best: MotorModel, fits: list[tuple[float, MotorModel]]) -> dict[str, Any]:
+    """The chosen model's ``uncertainty`` widened by the spread between candidate structures.
+
+    The Gauss–Newton interval is conditional on the structure.  Each candidate gets its
+    BIC weight ``w_i ∝ exp(−ΔBIC_i/2)`` (an approximation of its posterior probability);
+    the variance of the DC gain and of the residence time ``τ + delay`` adds
+    ``Σ w_i (θ_i − θ_best)²`` to the chosen structure's own (the model-averaging variance
+    of Buckland et al. 1997 about the chosen estimate, so the interval stays centred on the
+    headline number).  With a clear winner (ΔBIC ≫ 10) nothing changes.
+
+    Parameters
+    ----------
+    best : MotorModel
+        The chosen fit (its ``uncertainty`` from the output-error fit).
+    fits : list of (bic, MotorModel)
+        Every candidate, the chosen one included.
+
+    Returns
+    -------
+    dict
+        The widened ``uncertainty`` object (same keys; ``structure_std`` added to
+        ``dc_gain``, ``time_constant``, ``residence_time_s`` and ``t63_s``).
+    """
+    u = {k: (dict(v) if isinstance(v, Mapping) else v) for k, v in best.uncertainty.items()}
+    if not u or len(fits) < 2:
+        return u
+    bics = np.array([b for b, _ in fits], dtype=float)
+    w = np.exp(-0.5 * (bics - bics.min()))
+    w /= w.sum()
+    fo_best = best.first_order()
+    def own(key: str) -> Any:
+        return lambda m: float((m.uncertainty.get(key) or {}).get("value", float("nan")))
+
+    for key, value_of in (("dc_gain", lambda m: m.first_order().dc_gain),
+                          ("time_constant", lambda m: m.first_order().time_constant_s + m.delay_s - best.delay_s),
+                          ("residence_time_s", own("residence_time_s")), ("t63_s", own("t63_s"))):
+        if key not in u:
+            continue
+        ref = {"dc_gain": fo_best.dc_gain, "time_constant": fo_best.time_constant_s}.get(key, u[key]["value"])
+        vals = np.array([value_of(m) for _, m in fits], dtype=float)
+        ok = np.isfinite(vals)
+        extra = float(np.sum(w[ok] * (vals[ok] - ref) ** 2))
+        std = float(np.hypot(u[key].get("std", 0.0), np.sqrt(extra)))
+        u[key] = {**u[key], "std": std, "ci95": [u[key]["value"] - 1.96 * std, u[key]["value"] + 1.96 * std],
+                  "structure_std": float(np.sqrt(extra))}
+    u["method"] = (str(u.get("method", "")) + "; widened by the BIC-weighted spread of the candidate "
+                   "structures (dc gain, τ + dead time)")
+    return u
+
+
+#: Structures whose BIC differ by less than this are a tie (Kass & Raftery 1995: "not worth
+#: more than a bare mention"): the one with fewer parameters is kept.
+TIE_BIC = 2.0
+
+
+def _simplest_of_ties(fits: list[Any]) -> tuple[list[Any], bool]:
+    """Fits sorted by BIC, with the simplest of those within :data:`TIE_BIC` of the best moved first.
+
+    A fit is ``(bic, (poles, zeros), delay, …)``; its size is poles + zeros + delay.  Returns the
+    list and whether a tie decided the first place.
+    """
+    ties = [f for f in fits if f[0] - fits[0][0] < TIE_BIC]
+    simplest = min(ties, key=lambda f: (f[1][0] + f[1][1] + int(f[2]), f[0]))
+    if simplest is fits[0]:
+        return fits, False
+    # the runner-up is then the best by BIC
+    return [simplest] + [f for f in fits if f is not simplest], True
+
+
+def dead_time_shows(cond: ConditionedExperiment) -> bool:
+    """Whether the data show an apparent dead time worth fitting.
+
+    At least :data:`DEAD_TIME_SAMPLES` recorded samples in the noise band after the step, or, on
+    a coarse grid, one sample and :data:`DEAD_TIME_FRACTION` of the 63 % time.
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+
+    Returns
+    -------
+    bool
+    """
+    dt_rec = min(r.sample_interval_s for r in cond.responses.values())
+    dead = cond.dead_time_s * (1 + 1e-9)
+    t63 = cond.response_time_s if np.isfinite(cond.response_time_s) else np.inf
+    return bool(dead >= DEAD_TIME_SAMPLES * dt_rec or (dead >= dt_rec and dead >= DEAD_TIME_FRACTION * t63))
+
+
+def _refit(cond: ConditionedExperiment, fit: Any, noise: NoiseModel) -> tuple[Any, NoiseModel]:
+    """A fit refitted under the noise model of its own residuals; the fit itself when that fails.
+
+    The preliminary two-pole fit may leave model error that the AR model took for noise.
+    """
+    refined = refine_noise(noise, fit[3])
+    try:
+        res, model = oe_stage(cond, fit[4], fit[1], noise=refined, delay=fit[2])
+    except IdentificationError:
+        return fit, refined
+    if np.isfinite(res.bic) and np.all(np.real(res.poles) < 0):
+        return (fit[0], fit[1], fit[2], res, model), refined
+    return fit, refined
+
+
+def resolved(res: OeResult) -> bool:
+    """Whether the data resolve every pole of a fit: alone, or as a pair (:func:`unresolved_pairs`).
+
+    A pole is resolved when its 95 % interval stays in the left half-plane and is narrower than
+    the pole itself.
+
+    Parameters
+    ----------
+    res : OeResult
+        An output-error result.
+
+    Returns
+    -------
+    bool
+    """
+    paired = {j for i in unresolved_pairs(res) for j in (i, i + 1)}
+    for i, p in enumerate(res.poles):
+        lo, hi = res.ci95.get(f"pole_{i}", (float("nan"), float("nan")))
+        if i in paired or not np.isfinite(lo + hi):
+            continue
+        if hi >= 0 or (hi - lo) / 2 > abs(float(np.real(p))):
+            return False
+    return True
+
+
+def _supported_first(fits: list[Any]) -> tuple[list[Any], str]:
+    """Fits with the best one whose poles the data resolve moved first, and what it replaced ('' if none)."""
+    if not fits or resolved(fits[0][3]):
+        return fits, ""
+    ok = next((f for f in fits if resolved(f[3])), None)
+    if ok is None:
+        return fits, ""
+    return [ok] + [f for f in fits if f is not ok], _describe(fits[0][1], fits[0][2])
+
+
+def select_order(
+    cond: ConditionedExperiment,
+    init: MotorModel,
+    orders: tuple[int, ...] = (1, 2, 3),
+    *,
+    delay: bool | None = False,
+) -> OrderSelection:
+    """Fit every structure of the given orders and keep the smallest BIC.
+
+    BIC (``N ln(RSS_w/N) + p ln N`` on the noise-weighted residuals) penalises each extra
+    parameter by ``ln N``; with thousands of samples a pole must explain a real part of the
+    response to be kept.
+
+    Parameters
+    ----------
+    cond : ConditionedExperiment
+        The conditioned captures.
+    init : MotorModel
+        The model the fit starts from (a paper method's).
+    orders : tuple of int
+        Numbers of poles to try (default 1, 2, 3).
+    delay : bool or None
+        ``True``: every structure with a fitted dead time; ``False``: none; ``None``: both
+        when the data show an apparent dead time of at least :data:`DEAD_TIME_SAMPLES`
+        samples (or :data:`DEAD_TIME_FRACTION` of the 63 % time), BIC deciding.
+
+    Returns
+    -------
+    OrderSelection
+        The chosen structure, its model and the table of every fit.
+
+    Raises
+    ------
+    IdentificationError
+        When no structure could be fitted.
+    """
+    errors: list[str] = []
+    noise = noise_model(cond, init)
+    # every structure starts from the preliminary fit (near its optimum already: a few
+    # iterations), except when that had fewer poles than the structure: three poles then
+    # start from the paper's model, whose third pole a two-pole fit cannot suggest
+    quick = noise.preliminary if noise.preliminary is not None else init
+    n_quick = int(quick.settings.get("n_poles", 0)) if noise.preliminary is not None else 0
+    dt_rec = min(r.sample_interval_s for r in cond.responses.values())
+    fastest = 2.0 / dt_rec
+    tried_delay = delay is None and dead_time_shows(cond)
+    variants = (False, True) if tried_delay else (bool(delay),)
+    fits: list[tuple[float, tuple[int, int], bool, OeResult, MotorModel]] = []
+    for with_delay in variants:
+        models: dict[tuple[int, int], MotorModel] = {}
+        for order in orders:
+            for structure in STRUCTURES[order]:
+                # a structure with a zero less starts from the same number of poles with it
+                start = models.get((structure[0], structure[1] + 1))
+                if start is None:
+                    start = quick if structure[0] <= n_quick and not with_delay else init
+                label = f"{structure}{' + delay' if with_delay else ''}"
+                try:
+                    res, model = oe_stage(cond, start, structure, noise=noise, delay=with_delay)
+                except IdentificationError as exc:
+                    errors.append(f"{label}: {exc.message}")
+                    continue
+                if not np.isfinite(res.bic) or np.any(np.real(res.poles) >= 0):
+                    errors.append(f"{label}: unstable or failed fit")
+                    continue
+                # a pole or zero faster than half a recorded sample is not seen by the data: the
+                # fit parked a superfluous parameter there (and its realisation is ill-conditioned)
+                roots = np.r_[res.poles, res.zeros]
+                if roots.size and np.max(np.abs(roots)) > fastest:
+                    errors.append(f"{label}: a pole or zero beyond the sampling rate")
+                    continue
+                models[structure] = model
+                fits.append((res.bic, structure, with_delay, res, model))
+    if not fits:
+        onsets = [f"{role} at {r.edge.time_s:.6g} s" for role, r in cond.responses.items() if r.timing == "onset"]
+        hint = ("; the step instant was read off the response itself (" + ", ".join(onsets) + "): if the motion "
+                "starts elsewhere, give it with --t0") if onsets else ""
+        raise IdentificationError("the output-error fit failed for every order: " + "; ".join(errors) + hint)
+    fits.sort(key=lambda f: f[0])
+    fits, _ = _simplest_of_ties(fits)
+    fits, unsupported = _supported_first(fits)
+    bic0 = min(f[0] for f in fits)
+    weights = np.exp(-0.5 * (np.array([f[0] for f in fits]) - bic0))
+    weights /= weights.sum()
+    table = [
+        {"poles": s[0], "zeros": s[1], "delay": d, "bic": b, "aic": r.aic,
+         "weighted_rms": float(np.sqrt(max(r.cost, 0.0) * 2 / max(r.n_samples, 1))), "bic_weight": float(wt),
+         **({"delay_s": r.delay_s} if d else {})}
+        for (b, s, d, r, _), wt in zip(fits, weights, strict=False)
+    ]
+    best, refined = _refit(cond, fits[0], noise)
+    if not resolved(best[3]):
+        # refitted under its own noise model, the chosen structure no longer resolves a pole: the
+        # next structure the data support, refitted the same way
+        for alt in fits[1:]:
+            if resolved(alt[3]):
+                cand, cand_noise = _refit(cond, alt, noise)
+                if resolved(cand[3]):
+                    unsupported = unsupported or _describe(best[1], best[2])
+                    fits = [alt] + [f for f in fits if f is not alt]
+                    best, refined = cand, cand_noise
+                    break
+    others = [(b, m) for b, _, _, _, m in fits[1:]]
+    model = best[4].replace(uncertainty=structure_uncertainty(best[4], [(best[0], best[4]), *others]))
+    runner = fits[1] if len(fits) > 1 else None
+    if runner is None:
+        evidence = f"only {_describe(best[1], best[2])} could be fitted"
+    elif abs(runner[0] - best[0]) < TIE_BIC:
+        evidence = (f"BIC cannot tell {_describe(best[1], best[2])} from {_describe(runner[1], runner[2])} "
+                    f"(|ΔBIC| = {abs(runner[0] - best[0]):.1f} < {TIE_BIC:g}, a tie): the simpler is kept")
+    else:
+        evidence = (f"BIC prefers {_describe(best[1], best[2])} over "
+                    f"{_describe(runner[1], runner[2])} by ΔBIC = {runner[0] - best[0]:.1f}")
+    if unsupported:
+        evidence += (f"; {unsupported} fits better but the data do not resolve its extra pole (its interval reaches "
+                     "the right half-plane or is wider than the pole): the structure the data support is kept")
+    if len(variants) == 2:
+        evidence += (f" (a dead time was tried: the data stay in their noise band for "
+                     f"{1e3 * cond.dead_time_s:.3g} ms after the step)")
+    return OrderSelection(best[1], best[3], model, table, None if runner is None else runner[1], evidence,
+                          best[2], refined)

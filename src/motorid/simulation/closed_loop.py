@@ -1,0 +1,650 @@
+"""Closed-loop simulation of a :class:`~motorid.control.Design` on a model or the virtual trainer.
+
+The loop is sampled: at each instant the controller reads the measured states (or the
+observer's estimate), computes ``u = −K x − ki z + kr r``, clips it to the actuator rails and
+holds it for one interval.  The linear plant is advanced with its exact ZOH discretisation
+(``expm`` of the augmented matrix, once); the trainer's nonlinear plant
+is passed in (:class:`ClosedLoopPlant`; :mod:`motorid.trainer.closed_loop`) and advanced one
+interval at a time.  ``ż = y − r`` (report eq. 40) is integrated exactly for a held ``y − r``.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
+
+import numpy as np
+import scipy.linalg
+
+from motorid._threads import single_blas_thread
+from motorid.control.design import Design, design_model, output_row
+from motorid.errors import OptionError
+from motorid.model import MotorModel
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+__all__ = [
+    "REFERENCE_KINDS",
+    "ReferenceSignal",
+    "ResponseMetrics",
+    "SimulationResult",
+    "SimulationSettings",
+    "plot_simulation",
+    "reference_values",
+    "response_metrics",
+    "simulate_closed_loop",
+    "simulation_figure",
+]
+
+#: Reference waveforms: a step (report §2.2.1), a sinusoid (§2.2.3) and the trainer's test signals.
+REFERENCE_KINDS: tuple[str, ...] = ("step", "sine", "triangle", "square")
+
+
+@dataclass(frozen=True, slots=True)
+class ReferenceSignal:
+    """The reference ``r(t)`` in output volts.
+
+    Attributes
+    ----------
+    kind : str
+        ``step``: ``initial_v`` before ``start_s``, ``level_v`` after; ``sine``/``triangle``/
+        ``square``: ``level_v + amplitude_v·wave(2π f t)`` (report: ``5 + 2 sin ωt``).
+    level_v, initial_v, amplitude_v, frequency_hz, start_s : float
+    """
+
+    kind: str = "step"
+    level_v: float = 5.0
+    initial_v: float = 0.0
+    amplitude_v: float = 2.0
+    frequency_hz: float = 0.25
+    start_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.kind not in REFERENCE_KINDS:
+            raise OptionError(f"--reference {self.kind!r}: use one of {', '.join(REFERENCE_KINDS)}")
+        for name in ("level_v", "initial_v", "amplitude_v", "frequency_hz", "start_s"):
+            if not math.isfinite(float(getattr(self, name))):
+                raise OptionError(f"reference {name} must be finite")
+        if self.kind != "step" and not self.frequency_hz > 0:
+            raise OptionError(f"--frequency must be > 0 Hz, got {self.frequency_hz!r}")
+
+
+@dataclass(frozen=True, slots=True)
+class SimulationSettings:
+    """Everything about a closed-loop run except the model and the design.
+
+    Attributes
+    ----------
+    duration_s, dt_s : float
+        Record length and control interval.
+    reference : ReferenceSignal
+    saturation_v : float or None
+        Actuator rails ±V (None: none).
+    disturbance_v : float
+        Load as an input-equivalent voltage opposing positive motion (the magnetic brake,
+        report §2.2.2), applied from ``disturbance_start_s``.  On the trainer it becomes the
+        brake torque ``disturbance_v · gain · k_motor / Ra`` (the stall torque of that voltage).
+    disturbance_start_s : float
+    x0 : tuple of float or None
+        Initial plant state (model states; on the trainer only ``position`` and ``velocity``
+        are used).  Default: zero.
+    z0 : float
+        Initial integrator state (report Fig. 8: ``z(0) = −2``).
+    xhat0 : tuple of float or None
+        Initial observer estimate (default: zero).
+    plant : str
+        ``linear`` (the model) or ``trainer``.
+    trainer_preset : str
+        Trainer preset for ``plant='trainer'`` (its noise-free ``quiet()`` variant is used).
+    dead_zone_compensation : bool
+        Add the model's dead-zone to the controller's command (inverse dead-zone
+        feed-forward, :meth:`StaticNonlinearity.compensate`); needs a model with a static
+        nonlinearity.
+    """
+
+    duration_s: float = 5.0
+    dt_s: float = 1e-3
+    reference: ReferenceSignal = ReferenceSignal()
+    saturation_v: float | None = None
+    disturbance_v: float = 0.0
+    disturbance_start_s: float = 0.0
+    x0: tuple[float, ...] | None = None
+    z0: float = 0.0
+    xhat0: tuple[float, ...] | None = None
+    plant: str = "linear"
+    trainer_preset: str = "lab-report"
+    dead_zone_compensation: bool = False
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.duration_s) and self.duration_s > 0):
+            raise OptionError(f"--duration must be > 0 s, got {self.duration_s!r}")
+        if not (math.isfinite(self.dt_s) and 0 < self.dt_s <= self.duration_s / 10):
+            raise OptionError(f"--dt must be > 0 and at most a tenth of the duration, got {self.dt_s!r}")
+        if self.duration_s / self.dt_s > 2_000_000:
+            raise OptionError("--duration/--dt asks for more than 2 million steps; raise --dt")
+        if self.saturation_v is not None and not (math.isfinite(self.saturation_v) and self.saturation_v > 0):
+            raise OptionError(f"--saturation must be > 0 V, got {self.saturation_v!r}")
+        for name in ("disturbance_v", "disturbance_start_s", "z0"):
+            if not math.isfinite(float(getattr(self, name))):
+                raise OptionError(f"{name} must be finite")
+        if self.plant not in ("linear", "trainer"):
+            raise OptionError(f"--plant {self.plant!r}: use linear or trainer")
+
+
+@dataclass(frozen=True, slots=True)
+class ResponseMetrics:
+    """Step-response metrics (NaN where undefined, e.g. for a sinusoidal reference).
+
+    Attributes
+    ----------
+    rise_time_s : float
+        10 % → 90 % of the step (first samples at or beyond each level).
+    settling_time_s : float
+        Time after the step of the first sample after the last one at or outside the ±2 % band
+        of the step around the final reference (``control.step_info``'s definition).
+    overshoot_pct : float
+        Peak beyond the final reference, % of the step.
+    steady_state_error_v : float
+        Final reference − mean output over the last 5 % of the record.
+    tracking_rms_v : float
+        RMS of ``r − y`` over the second half of the record.
+    peak_control_v : float
+        Largest ``|u|`` applied.
+    """
+
+    rise_time_s: float
+    settling_time_s: float
+    overshoot_pct: float
+    steady_state_error_v: float
+    tracking_rms_v: float
+    peak_control_v: float
+
+
+@dataclass(frozen=True, slots=True)
+class SimulationResult:
+    """Time series of a closed-loop run.
+
+    Attributes
+    ----------
+    time_s, reference_v, output_v, control_v, control_raw_v : ndarray
+        ``control_v`` is what the actuator applied (after saturation), ``control_raw_v`` what
+        the controller asked for.
+    states : ndarray, shape (N, n)
+        Plant states (measured ones on the trainer).
+    estimates : ndarray or None
+        Observer estimates.
+    integrator : ndarray or None
+        ``z``.
+    state_names : tuple of str
+    output : str
+    metrics : ResponseMetrics
+    warnings : tuple of str
+    """
+
+    time_s: np.ndarray
+    reference_v: np.ndarray
+    output_v: np.ndarray
+    control_v: np.ndarray
+    control_raw_v: np.ndarray
+    states: np.ndarray
+    estimates: np.ndarray | None
+    integrator: np.ndarray | None
+    state_names: tuple[str, ...]
+    output: str
+    metrics: ResponseMetrics
+    warnings: tuple[str, ...] = ()
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """Named columns (``time``, ``reference``, ``output``, ``u``, ``u_raw``, states, ``*_hat``, ``z``).
+
+        Returns
+        -------
+        dict of str to ndarray
+            The columns, all of the same length.
+        """
+        cols = {"time": self.time_s, "reference": self.reference_v, "output": self.output_v,
+                "u": self.control_v, "u_raw": self.control_raw_v}
+        for i, name in enumerate(self.state_names):
+            cols[name] = self.states[:, i]
+        if self.estimates is not None:
+            for i, name in enumerate(self.state_names):
+                cols[f"{name}_hat"] = self.estimates[:, i]
+        if self.integrator is not None:
+            cols["z"] = self.integrator
+        return cols
+
+    def to_csv_text(self) -> str:
+        """The time series as CSV with a header row.
+
+        Returns
+        -------
+        str
+            The CSV text.
+        """
+        cols = self.columns()
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(list(cols))
+        for row in zip(*cols.values(), strict=False):
+            w.writerow([f"{v:.9g}" for v in row])
+        return buf.getvalue()
+
+    def to_json(self) -> dict[str, Any]:
+        """Metrics, warnings and the time series as a JSON dict (NaN written as null).
+
+        Returns
+        -------
+        dict
+            JSON-able (schema ``motorid.simulation/1``).
+        """
+        clean = lambda v: None if not math.isfinite(v) else float(v)  # noqa: E731
+        m = self.metrics
+        return {
+            "schema": "motorid.simulation/1",
+            "output": self.output,
+            "metrics": {k: clean(getattr(m, k)) for k in m.__slots__},
+            "warnings": list(self.warnings),
+            "series": {k: [clean(x) for x in v] for k, v in self.columns().items()},
+        }
+
+    def to_json_text(self) -> str:
+        """The :meth:`to_json` dict as indented JSON text.
+
+        Returns
+        -------
+        str
+            The JSON text.
+        """
+        return json.dumps(self.to_json(), indent=1)
+
+    def plot(self, title: str = "") -> Figure:
+        """Output and reference, control input, and states against time.
+
+        Parameters
+        ----------
+        title : str
+            Figure title (none when empty).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            Three stacked axes; save it with ``fig.savefig(path)`` (see :func:`simulation_figure`).
+        """
+        return simulation_figure(self, title)
+
+
+def reference_values(ref: ReferenceSignal, time_s: np.ndarray) -> np.ndarray:
+    """``r(t)`` at the sample times.
+
+    Parameters
+    ----------
+    ref : ReferenceSignal
+        The reference signal.
+    time_s : ndarray
+        Sample times in s.
+
+    Returns
+    -------
+    ndarray
+        The reference in volts.
+    """
+    t = np.asarray(time_s, dtype=float)
+    if ref.kind == "step":
+        return np.where(t >= ref.start_s, ref.level_v, ref.initial_v)
+    from motorid.simulation.signals import test_signal
+
+    wave = test_signal(t - ref.start_s, ref.kind, amplitude_v=ref.amplitude_v, frequency_hz=ref.frequency_hz)
+    return ref.level_v + np.where(t >= ref.start_s, wave, 0.0)
+
+
+def response_metrics(time_s: np.ndarray, output_v: np.ndarray, reference_v: np.ndarray,
+                     control_v: np.ndarray, step: bool) -> ResponseMetrics:
+    """Rise/settling time, overshoot, steady-state error, tracking RMS and peak control.
+
+    For a step the change is measured from the output at the step (``y0``) to the final
+    reference ``r_f``; the settling band is ±2 % of ``|r_f − y0|``.
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Sample times in s.
+    output_v : ndarray
+        The controlled output in volts.
+    reference_v : ndarray
+        The reference in volts.
+    control_v : ndarray
+        The control input in volts.
+    step : bool
+        Whether the reference is a step (step metrics) or another signal (tracking metrics).
+
+    Returns
+    -------
+    ResponseMetrics
+        The metrics.
+    """
+    t, y, r = (np.asarray(v, dtype=float) for v in (time_s, output_v, reference_v))
+    n = t.size
+    half = slice(n // 2, None)
+    rms = float(np.sqrt(np.mean((r[half] - y[half]) ** 2)))
+    peak_u = float(np.max(np.abs(control_v)))
+    rf = float(r[-1])
+    ess = float(rf - np.mean(y[-max(1, n // 20):]))
+    nan = float("nan")
+    if not step or not np.all(np.isfinite(y)):
+        return ResponseMetrics(nan, nan, nan, ess if step else nan, rms, peak_u)
+    k0 = int(np.argmax(r == rf)) if np.any(r != r[0]) else 0
+    y0 = float(y[k0])
+    delta = rf - y0
+    if abs(delta) < 1e-12:
+        return ResponseMetrics(nan, nan, nan, ess, rms, peak_u)
+    frac = (y[k0:] - y0) / delta
+    if not np.any(frac >= 0.9):
+        # never reaches 90 %: no rise time, not settled, no overshoot (step_info would fail on
+        # the empty crossing; these are the values it gives a response that gets there late)
+        return ResponseMetrics(nan, nan, 0.0, ess, rms, peak_u)
+    import control
+
+    # python-control's step_info on the change since the step (its definitions are ours: rise
+    # 10 → 90 % of the step, settling = first sample after the last one outside ±2 % of it,
+    # overshoot = peak beyond the final value in % of the step), with the final *reference*
+    # as the final value, so a steady-state error shows as an unsettled response
+    info = control.step_info(y[k0:] - y0, T=t[k0:] - t[k0], yfinal=delta, SettlingTimeThreshold=0.02,
+                             RiseTimeLimits=(0.1, 0.9))
+    return ResponseMetrics(float(info["RiseTime"]), float(info["SettlingTime"]), float(info["Overshoot"]), ess,
+                           rms, peak_u)
+
+
+def _sampled_loop_radius(phi: np.ndarray, gam: np.ndarray, c: np.ndarray, k: np.ndarray, ki: float | None,
+                         dt: float, observer: tuple[np.ndarray, np.ndarray] | None) -> float:
+    """Spectral radius of the linear sampled loop (plant, held control, observer fed the held output, integrator).
+
+    The design is continuous; the simulation samples it.  This is the loop the simulation runs,
+    without saturation: above 1 it diverges whatever the continuous poles say.
+    """
+    n = phi.shape[0]
+    g = gam[:, :1]
+    kz = np.array([[0.0 if ki is None else float(ki)]])
+    if observer is None:  # u = −K x − ki z
+        top = np.hstack([phi - g @ k, -g @ kz])
+        blocks = [top, np.hstack([dt * c, np.ones((1, 1))])]
+        m = np.vstack(blocks) if ki is not None else phi - g @ k
+    else:
+        phi_o, gam_o = observer
+        gu, gy = gam_o[:, :1], gam_o[:, 1:2]
+        rows = [np.hstack([phi, -g @ k, -g @ kz]),
+                np.hstack([gy @ c, phi_o - gu @ k, -gu @ kz]),
+                np.hstack([dt * c, np.zeros((1, n)), np.ones((1, 1))])]
+        m = np.vstack(rows)
+        if ki is None:
+            m = m[: 2 * n, : 2 * n]
+    with np.errstate(all="ignore"):
+        ev = np.linalg.eigvals(m) if np.all(np.isfinite(m)) else np.array([np.inf])
+    return float(np.max(np.abs(ev)))
+
+
+def _zoh(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    n, m = b.shape
+    aug = np.zeros((n + m, n + m))
+    aug[:n, :n], aug[:n, n:] = a, b
+    e = scipy.linalg.expm(aug * dt)
+    return e[:n, :n], e[:n, n:]
+
+
+def _vector(values: tuple[float, ...] | None, n: int, option: str) -> np.ndarray:
+    if values is None:
+        return np.zeros(n)
+    v = np.asarray(values, dtype=float).ravel()
+    if v.size != n or not np.all(np.isfinite(v)):
+        raise OptionError(f"{option} needs {n} finite values (one per state), got {list(values)}")
+    return v
+
+
+class ClosedLoopPlant(Protocol):
+    """A plant other than the linear model, advanced one control interval at a time.
+
+    The virtual trainer's nonlinear plant (:class:`motorid.trainer.closed_loop.TrainerLoop`)
+    is one: it is passed in, so this module does not depend on the trainer.
+    """
+
+    def start(self, model: MotorModel, settings: SimulationSettings, x0: np.ndarray) -> list[str]:
+        """Start from the model-state vector ``x0``; return warnings about the run."""
+
+    def measured(self) -> np.ndarray:
+        """The measured states, in the model's state order."""
+
+    def output(self, name: str) -> float:
+        """The measured channel ``name`` (volts)."""
+
+    def advance(self, u: float, t: float) -> None:
+        """Hold ``u`` for one control interval starting at time ``t``."""
+
+
+@single_blas_thread
+def simulate_closed_loop(model: MotorModel, design: Design, settings: SimulationSettings, *,
+                         plant: ClosedLoopPlant | None = None) -> SimulationResult:
+    """Run the designed controller in closed loop.
+
+    Parameters
+    ----------
+    model : MotorModel
+        The plant for ``plant='linear'``; the observer's model in every case.  A design made
+        in measurable coordinates (:func:`motorid.control.design_controller`) runs on the
+        model re-expressed in them (:func:`motorid.control.design.design_model`), so the
+        states, ``x0`` and ``xhat0`` are the design's (position, velocity, …).
+    design : Design
+        Gains (``K``, ``kr`` or ``ki``, optional ``L``) for this model.
+    settings : SimulationSettings
+    plant : ClosedLoopPlant, optional
+        The plant of a ``plant='trainer'`` run (required then; see
+        :func:`motorid.trainer.closed_loop.simulate_on_trainer`, which passes it).
+
+    Returns
+    -------
+    SimulationResult
+
+    Raises
+    ------
+    OptionError
+        Mismatched design/model, bad initial conditions, or a trainer run whose controller
+        needs states the trainer does not measure (use an observer).
+
+    References
+    ----------
+    Tsiolakis 2022, §2.2 (step, brake, sinusoid), §3.2 (integral action, z(0)), §4.2 (observer).
+    """
+    s = settings
+    # a design in measurable coordinates runs on the model re-expressed in them
+    model = design_model(model, design)
+    a, b = model.A, model.B
+    n = a.shape[0]
+    if tuple(design.states) != tuple(model.states) or design.K.size != n:
+        raise OptionError(f"the design is for states {list(design.states)}, the model has {list(model.states)}")
+    _, c = output_row(model, design.output)
+    k = design.K.reshape(1, n)
+    ki = design.ki
+    kr = 0.0 if design.kr is None else float(design.kr)
+    use_obs = design.L is not None
+    l_col = None if design.L is None else design.L.reshape(n, 1)
+    steps = round(s.duration_s / s.dt_s)
+    t = np.arange(steps + 1) * s.dt_s
+    r = reference_values(s.reference, t)
+    d = np.where(t >= s.disturbance_start_s, -s.disturbance_v, 0.0)
+    x = _vector(s.x0, n, "--x0")
+    xh = _vector(s.xhat0, n, "--xhat0")
+    z = float(s.z0)
+    sat = math.inf if s.saturation_v is None else float(s.saturation_v)
+    warnings: list[str] = []
+
+    phi, gam = _zoh(a, b, s.dt_s)
+    # the identified dead time is part of the plant (not of the state-space matrices): the
+    # linear plant receives u delayed by whole control steps
+    lag = round(model.delay_s / s.dt_s) if s.plant != "trainer" else 0
+    if lag:
+        warnings.append(f"the model's dead time of {1e3 * model.delay_s:.3g} ms is applied to the plant input "
+                        f"({lag} step(s) of {s.dt_s:g} s)")
+    if l_col is not None:  # (use_obs)
+        phi_o, gam_o = _zoh(a - l_col @ c, np.hstack([b, l_col]), s.dt_s)
+    rho = _sampled_loop_radius(phi, gam, c, k, ki, s.dt_s, (phi_o, gam_o) if l_col is not None else None)
+    if rho > 1.0 + 1e-9 and s.plant != "trainer":
+        warnings.append(f"at dt = {s.dt_s:g} s the sampled loop is unstable (spectral radius {rho:.4g}) although the "
+                        "continuous design is stable: the controller or observer gains are too large for this rate "
+                        "(observer poles slower than a plant pole need such gains); use a smaller --dt, or other poles")
+    nl = model.static_nonlinearity
+    if s.dead_zone_compensation and nl is None:
+        raise OptionError("dead-zone compensation needs a model with a static nonlinearity (identify several "
+                          "step levels: --velocity once per level)")
+    if nl is not None and nl.dead_zone_v > 0:
+        warnings.append(f"the model's dead-zone of {nl.dead_zone_v:.3g} V acts on the plant input"
+                        + (" and is compensated by feed-forward" if s.dead_zone_compensation else ""))
+    trainer = None
+    if s.plant == "trainer":
+        if plant is None:
+            raise OptionError("plant='trainer' needs the trainer's loop: use "
+                              "motorid.trainer.closed_loop.simulate_on_trainer")
+        trainer = plant
+        warnings += plant.start(model, s, x)
+        if not use_obs and any(name not in ("position", "velocity") for name in model.states):
+            raise OptionError("the trainer measures only position and velocity; this model's states "
+                              f"{list(model.states)} need an observer (--observer-poles in the design)")
+
+    xs = np.empty((steps + 1, n))
+    xhs = np.empty((steps + 1, n)) if use_obs else None
+    zs = np.empty(steps + 1) if ki is not None else None
+    ys = np.empty(steps + 1)
+    us = np.empty(steps + 1)
+    uraw = np.empty(steps + 1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        for i in range(steps + 1):
+            meas = trainer.measured() if trainer is not None else x
+            y = float((c @ meas)[0]) if trainer is None else trainer.output(design.output)
+            xs[i], ys[i] = meas, y
+            fb = xh if use_obs else meas
+            u_req = float(-(k @ fb)[0]) + (-ki * z if ki is not None else kr * r[i])
+            if s.dead_zone_compensation and nl is not None and math.isfinite(u_req):
+                u_req = float(nl.compensate(u_req))
+            u = min(max(u_req, -sat), sat) if math.isfinite(u_req) else u_req
+            us[i], uraw[i] = u, u_req
+            if xhs is not None:  # (use_obs)
+                xhs[i] = xh
+            if zs is not None:
+                zs[i] = z
+            if i == steps:
+                break
+            if trainer is not None:
+                trainer.advance(u, t[i])
+            else:
+                u_plant = u if not lag else (us[i - lag] if i >= lag else 0.0)
+                if nl is not None:  # the dead-zone and rails in front of the linear part
+                    u_plant = float(nl.effective_input(u_plant))
+                x = phi @ x + gam[:, 0] * (u_plant + d[i])
+            if zs is not None:
+                z += s.dt_s * (y - r[i])  # exact: y − r is held over the interval
+            if use_obs:
+                u_obs = u if nl is None else float(nl.effective_input(u))
+                xh = phi_o @ xh + gam_o @ np.array([u_obs, y])
+    if not np.all(np.isfinite(ys)):
+        warnings.append("the response diverged (non-finite values): the closed loop is unstable")
+    elif (np.max(np.abs(ys))
+          > 1e3 * max(float(np.max(np.abs(r))), 1.0) + 1e3 * float(np.max(np.abs(xs[0]), initial=0.0))):
+        warnings.append("the response diverged (it grew a thousandfold beyond the reference): the closed loop is "
+                        "unstable")
+    if s.saturation_v is not None and np.any(np.abs(uraw) > sat):
+        warnings.append(f"the actuator saturated (|u| reached {np.nanmax(np.abs(uraw)):.3g} V > {sat:g} V)")
+    metrics = response_metrics(t, ys, r, us, s.reference.kind == "step")
+    return SimulationResult(t, r, ys, us, uraw, xs, xhs, zs, tuple(model.states), design.output, metrics,
+                            tuple(warnings))
+
+
+def simulation_figure(result: SimulationResult, title: str = "", *, rails_v: float | None = None,
+                      disturbance_s: float | None = None) -> Figure:
+    """Draw output and reference, control input, and true vs estimated states.
+
+    The figure is a :class:`matplotlib.figure.Figure` made without pyplot: no backend is
+    chosen and no global figure state is touched, so it shows in a notebook and saves anywhere.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A closed-loop run.
+    title : str
+        Figure title (none when empty).
+    rails_v : float, optional
+        Actuator rails ±V, drawn on the control axes.
+    disturbance_s : float, optional
+        When the load disturbance starts, marked on every axes.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Three stacked axes sharing the time axis; the headline metrics under the title.
+    """
+    from matplotlib.figure import Figure
+
+    t = result.time_s
+    fig = Figure(figsize=(8, 8))
+    axes = fig.subplots(3, 1, sharex=True)
+    ax = axes[0]
+    ax.plot(t, result.reference_v, "k--", label="reference r")
+    ax.plot(t, result.output_v, label=f"output y ({result.output})")
+    ax.set_ylabel("V")
+    ax.legend(loc="best")
+    ax = axes[1]
+    ax.plot(t, result.control_v, label="u applied")
+    if np.any(result.control_raw_v != result.control_v):
+        ax.plot(t, result.control_raw_v, ":", label="u requested")
+    if result.integrator is not None:
+        ax.plot(t, result.integrator, label="z")
+    ax.set_ylabel("V")
+    ax.legend(loc="best")
+    ax = axes[2]
+    for i, name in enumerate(result.state_names):
+        line, = ax.plot(t, result.states[:, i], label=name)
+        if result.estimates is not None:
+            ax.plot(t, result.estimates[:, i], "--", color=line.get_color(), label=f"{name} estimate")
+    ax.set_ylabel("states (V)")
+    ax.set_xlabel("time (s)")
+    ax.legend(loc="best")
+    if rails_v is not None:
+        for sign in (1, -1):
+            axes[1].axhline(sign * rails_v, color="0.4", ls="--", lw=0.8,
+                            label="actuator rails" if sign == 1 else None)
+        axes[1].legend(loc="best")
+    if disturbance_s is not None:
+        for a in axes:
+            a.axvline(disturbance_s, color="C3", ls=":", lw=1.0)
+        axes[0].annotate("load applied", (disturbance_s, 0.02), xycoords=("data", "axes fraction"), color="C3",
+                         fontsize=9)
+    m = result.metrics
+    settling = f"{m.settling_time_s:.3g} s" if math.isfinite(m.settling_time_s) else "not reached"
+    metrics = (f"rise {m.rise_time_s:.3g} s, settling (2 %) {settling}, overshoot "
+               f"{m.overshoot_pct:.3g} %, steady-state error {m.steady_state_error_v:.3g} V, peak |u| "
+               f"{m.peak_control_v:.3g} V")
+    fig.suptitle(f"{title}\n{metrics}" if title else metrics, fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def plot_simulation(result: SimulationResult, path: str | Path, title: str = "", *, rails_v: float | None = None,
+                    disturbance_s: float | None = None) -> None:
+    """Write a PNG of :func:`simulation_figure` (output, control input, states).
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A closed-loop run.
+    path : str or Path
+        PNG file to write (overwritten; the caller checks ``--force``).
+    title : str
+        Figure title (none when empty).
+    rails_v : float, optional
+        Actuator rails ±V, drawn on the control axes.
+    disturbance_s : float, optional
+        When the load disturbance starts, marked on every axes.
+    """
+    simulation_figure(result, title, rails_v=rails_v, disturbance_s=disturbance_s).savefig(str(path), dpi=100)
