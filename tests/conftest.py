@@ -67,3 +67,14 @@ def demo_run(tmp_path_factory) -> DemoRun:
     result = run_demo(out, seed=0)
     return DemoRun(out, result, json.loads(result.truth_path.read_text()))
 
+
+
+def pytest_collection_modifyitems(config, items):
+    """Markers from what a test uses: ``corpus`` for the real recordings, ``browser`` for a
+    real browser (``pytest -m "not corpus"`` / ``-m "not browser"`` select without them)."""
+    for item in items:
+        path = str(item.fspath)
+        if "real_dir" in getattr(item, "fixturenames", ()) or "/robustness/" in path:
+            item.add_marker(pytest.mark.corpus)
+        if path.endswith("_browser.py"):
+            item.add_marker(pytest.mark.browser)

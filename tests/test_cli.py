@@ -1,4 +1,4 @@
-"""The command line: exit codes, one-line errors, inspect JSON per CONTRACT.md, demo round trip."""
+"""The command line: exit codes, one-line errors, inspect JSON per docs/formats.md, demo round trip."""
 
 from __future__ import annotations
 

@@ -7,7 +7,7 @@ import pytest
 
 
 def check_contract_model(doc):
-    """The model JSON of CONTRACT.md: keys, types, shapes, den[0] == 1."""
+    """The model JSON of docs/formats.md: keys, types, shapes, den[0] == 1."""
     assert doc["schema"] == "motorid.model/1"
     assert isinstance(doc["method"], str) and isinstance(doc["order"], int)
     assert isinstance(doc["step_volts"], float)

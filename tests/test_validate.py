@@ -46,7 +46,7 @@ def test_nrmse_by_hand():
 
 
 def test_nrmse_final_is_the_contract_definition_of_identify():
-    """``reference="final"`` is CONTRACT.md's fit.velocity_nrmse (model.step_nrmse)."""
+    """``reference="final"`` is docs/formats.md's fit.velocity_nrmse (model.step_nrmse)."""
     k, tau, step = 0.9, 0.43, 5.92
     model = model_from_velocity_tf([k / tau], [1.0, 1 / tau], step_volts=step)
     t = np.linspace(0, 3, 751)

@@ -307,7 +307,7 @@ class IdentificationResult:
         return "\n".join([*model_summary(self.model, "identified model"), f"choice: {self.reason}"])
 
     def to_json(self) -> dict[str, Any]:
-        """The model JSON (CONTRACT.md "Model JSON"), the dict ``motorid identify --json`` writes.
+        """The model JSON (docs/formats.md "Model JSON"), the dict ``motorid identify --json`` writes.
 
         Returns
         -------
@@ -546,7 +546,7 @@ def design(
     -------
     Design
         Gains ``K``, ``kr`` or ``ki``, observer ``L``, closed-loop poles, warnings
-        (``design.to_json()`` is CONTRACT.md "Design JSON").
+        (``design.to_json()`` is docs/formats.md "Design JSON").
 
     Raises
     ------

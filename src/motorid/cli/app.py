@@ -1,6 +1,6 @@
 """The ``motorid`` command line: thin — parse, call the library, print, map errors to exit codes.
 
-Exit codes (CONTRACT.md): 0 success, 2 bad input (one line naming the file and what would fix
+Exit codes (docs/formats.md): 0 success, 2 bad input (one line naming the file and what would fix
 it), 1 internal error (traceback behind ``--debug``).
 """
 
@@ -215,7 +215,7 @@ def _strict_exit(result, strict: bool) -> None:
 def inspect(
     captures: Annotated[list[str], typer.Argument(
         help="Capture files or ALLnnnn folders; a CH1/CH2 pair as CH1.CSV+CH2.CSV.")],
-    as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list (CONTRACT.md).")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list (docs/formats.md).")] = False,
     columns: Annotated[str | None, typer.Option(help="Plain CSV column map, e.g. time=t,input=u,velocity=rpm.")] = None,
     time_unit: Annotated[str | None, typer.Option("--time-unit", help=TIME_UNIT_HELP)] = None,
     step_volts: Annotated[float | None, typer.Option(
@@ -433,7 +433,8 @@ def identify(
         "--dead-zone",
         help="Identify the dead-zone, gain and rails from several step levels (implied by several --velocity "
              "or --experiment).")] = False,
-    json_out: Annotated[Path | None, typer.Option("--json", help="Write the model JSON (CONTRACT.md) here.")] = None,
+    json_out: Annotated[Path | None, typer.Option(
+        "--json", help="Write the model JSON (docs/formats.md) here.")] = None,
     matlab_out: Annotated[Path | None, typer.Option(
         "--matlab",
         help="Write a MATLAB/Octave script defining A, B, C, D.")] = None,

@@ -340,7 +340,7 @@ def response_onset(
 ) -> StepEdge:
     """Find the instant a step response starts, for captures without an input channel.
 
-    The trigger point is often not the step instant (CONTRACT.md), so the onset is found
+    The trigger point is often not the step instant (docs/formats.md), so the onset is found
     from the response: the change point of the record gives its rise; the baseline is the
     mean before it and the onset is where a straight line through the early rise (10–30% of
     the amplitude) meets the baseline — exact for a first-order response, a little late

@@ -21,7 +21,7 @@ __all__ = ["CaptureSummary", "describe_capture"]
 
 @dataclass(frozen=True, slots=True)
 class CaptureSummary:
-    """The facts ``motorid inspect`` reports for one capture (CONTRACT.md, Inspect JSON).
+    """The facts ``motorid inspect`` reports for one capture (docs/formats.md, Inspect JSON).
 
     Attributes
     ----------
@@ -58,7 +58,7 @@ class CaptureSummary:
     warnings: tuple[str, ...]
 
     def to_json(self) -> dict[str, Any]:
-        """The CONTRACT.md ``inspect --json`` object (extra keys are additions).
+        """The docs/formats.md ``inspect --json`` object (extra keys are additions).
 
         Returns
         -------

@@ -1,7 +1,7 @@
 """One controller design on a :class:`~motorid.model.MotorModel`: the ``motorid design`` job.
 
 Combines state feedback (:mod:`.feedback`), integral action (:mod:`.integral`) and an observer
-(:mod:`.observer`) into a frozen :class:`Design` written as CONTRACT.md "Design JSON".  The
+(:mod:`.observer`) into a frozen :class:`Design` written as docs/formats.md "Design JSON".  The
 design is done in measurable coordinates (:mod:`.coordinates`), so ``K`` has one gain per
 sensor; the row on the identified model's own states is kept as ``K_model``.
 """
@@ -132,7 +132,7 @@ def _pairs(values: np.ndarray | None) -> list[list[float]] | None:
 
 @dataclass(frozen=True, slots=True)
 class Design:
-    """A designed controller (CONTRACT.md "Design JSON").
+    """A designed controller (docs/formats.md "Design JSON").
 
     Attributes
     ----------
@@ -207,7 +207,7 @@ class Design:
         return [(name, float(k), sensor_unit(name)) for name, k in zip(self.states, self.K, strict=False)]
 
     def to_json(self) -> dict[str, Any]:
-        """The CONTRACT.md "Design JSON" dict (schema ``motorid.design/1``) plus extras.
+        """The docs/formats.md "Design JSON" dict (schema ``motorid.design/1``) plus extras.
 
         The extras: ``output``, ``output_feedback_poles``, ``gains`` (per sensor) and, for a design
         in measurable coordinates, ``model_states``, ``transform``, ``K_model`` and ``L_model``.

@@ -5,7 +5,7 @@ NRMSE (normalised root-mean-square error)
     response* ``Δy``.
 
     - ``reference="final"`` (a step response whose pre-step baseline has been removed): ``Δy``
-      is the steady-state change, ``|mean of the last 10 % of y|`` — the CONTRACT.md
+      is the steady-state change, ``|mean of the last 10 % of y|`` — the docs/formats.md
       definition of ``fit.velocity_nrmse``.
     - ``reference="span"`` (any other input: sine, triangle, square, …, and the step response
       of a current, which returns towards 0): ``Δy`` is the range
@@ -92,7 +92,7 @@ def nrmse(
         Equally long records [V].
     reference : {"final", "span"} or float
         How ``Δy`` is taken (:func:`response_change`): ``"final"`` for a step response from
-        its baseline (CONTRACT.md ``fit.velocity_nrmse``), ``"span"`` for other inputs, or
+        its baseline (docs/formats.md ``fit.velocity_nrmse``), ``"span"`` for other inputs, or
         ``Δy`` itself as a positive number.
 
     Returns

@@ -373,7 +373,7 @@ _RUNNERS: dict[str, Callable[[ConditionedExperiment, IdentifySettings], MotorMod
 def _with_fit(model: MotorModel, cond: ConditionedExperiment) -> MotorModel:
     """The model with its fit on the full-rate record.
 
-    NRMSE (CONTRACT.md: RMS error over the measured steady-state change) of velocity and position,
+    NRMSE (docs/formats.md: RMS error over the measured steady-state change) of velocity and position,
     and MATLAB compare's fit % of every channel it predicts, all from one step response with the
     model's dead time applied.
     """

@@ -2,7 +2,7 @@
 
 :mod:`.motor` the model itself (state space with named states and outputs, its transfer
 functions), :mod:`.simplify` pole-zero cancellation, reduction and the dominant first order,
-:mod:`.response` step responses and their NRMSE, :mod:`.serialize` the CONTRACT.md JSON and
+:mod:`.response` step responses and their NRMSE, :mod:`.serialize` the docs/formats.md JSON and
 the MATLAB script, :mod:`.notation` polynomials written as the paper writes them.
 """
 

@@ -192,7 +192,7 @@ class MotorModel:
     delay_s : float
         Dead time between the input and every output, seconds (0: none).  Not part of the
         state-space matrices (a delay has no finite realisation): responses and fits apply
-        it, and the JSON carries it as the top-level ``delay_s`` (CONTRACT.md).
+        it, and the JSON carries it as the top-level ``delay_s`` (docs/formats.md).
     static_nonlinearity : StaticNonlinearity or None
         A dead-zone (and rails) in front of the linear part (a Hammerstein model identified
         from several step levels): the linear model's input is ``f(u)``, not ``u``.  The JSON
@@ -602,7 +602,7 @@ class MotorModel:
 
     # ----------------------------------------------------------------- export
     def to_json(self) -> dict[str, Any]:
-        """The model as the CONTRACT.md "Model JSON" dict (schema ``motorid.model/1``).
+        """The model as the docs/formats.md "Model JSON" dict (schema ``motorid.model/1``).
 
         See :func:`motorid.model.serialize.model_to_dict`.
 

@@ -122,7 +122,7 @@ def step_nrmse(
     Returns
     -------
     float
-        ``sqrt(mean((y − ŷ)²)) / |mean of the last 10 % of y|`` (CONTRACT.md,
+        ``sqrt(mean((y − ŷ)²)) / |mean of the last 10 % of y|`` (docs/formats.md,
         ``fit.velocity_nrmse``).
 
     Raises

@@ -1,6 +1,6 @@
 """Serialising a :class:`~motorid.model.motor.MotorModel`.
 
-The CONTRACT.md model JSON (both ways) and the Octave/MATLAB script.  JSON is a serialisation at the
+The docs/formats.md model JSON (both ways) and the Octave/MATLAB script.  JSON is a serialisation at the
 edge: the model itself holds numpy arrays and python-control objects.
 """
 
@@ -54,7 +54,7 @@ def _complex_pairs(values: np.ndarray) -> list[list[float]]:
 
 
 def model_to_dict(model: MotorModel) -> dict[str, Any]:
-    """``model`` as the CONTRACT.md "Model JSON" dict (schema ``motorid.model/1``).
+    """``model`` as the docs/formats.md "Model JSON" dict (schema ``motorid.model/1``).
 
     ``state_space.C``/``D`` are the velocity row (the paper's ``C = [0 1 0]``); every
     output row is kept in ``state_space.outputs``.  Extra keys: ``outputs``,

@@ -1,7 +1,7 @@
 """Physical units of a model's channels: what the volts mean.
 
 A scope records volts; a plain-CSV log may record rpm (``speed_rpm``), rad/s or amperes. The
-model stays in the units of the data (volts in, data units out: CONTRACT.md's model), and
+model stays in the units of the data (volts in, data units out: docs/formats.md's model), and
 carries two things beside it:
 
 - ``units``: the unit of each channel's data (``{"velocity": "rpm"}``), from the column name

@@ -502,7 +502,7 @@ def mode_map(plant: ServoPlant, kp: np.ndarray, kv: np.ndarray, criteria: ModeCr
 
 
 def modes_json(maps: tuple[ModeMap, ...], criteria: ModeCriteria) -> dict[str, Any]:
-    """CONTRACT.md "Modes JSON".
+    """docs/formats.md "Modes JSON".
 
     ``kp``, ``kv``, ``modes`` (of the first map: the 2nd-order one), ``criteria``, plus ``maps``
     with every plant's modes and counts.

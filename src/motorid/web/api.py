@@ -1,6 +1,6 @@
 """The JSON API for scripts and graders: ``POST /api/identify``, ``/api/design``, ``/api/simulate``.
 
-Each returns the CONTRACT.md JSON of the matching command; a user error is HTTP 422 with
+Each returns the docs/formats.md JSON of the matching command; a user error is HTTP 422 with
 ``{"detail": "motorid: error: <the CLI's one line>"}`` (see :mod:`motorid.web.app`).
 """
 
@@ -64,7 +64,7 @@ async def api_identify(request: Request) -> dict[str, Any]:
     Returns
     -------
     dict
-        The model JSON (CONTRACT.md).
+        The model JSON (docs/formats.md).
     """
     settings = request.app.state.settings
     folder = request.app.state.tabs.root / f"api-{secrets.token_hex(8)}"
@@ -113,7 +113,7 @@ async def api_design(request: Request) -> dict[str, Any]:
     Returns
     -------
     dict
-        The design JSON (CONTRACT.md).
+        The design JSON (docs/formats.md).
     """
     import motorid as mi
 
