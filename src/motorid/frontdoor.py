@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any, Literal
 from motorid.capture import Capture
 from motorid.identification.result import ParameterEstimate
 from motorid.errors import OptionError
+from motorid.options import speaks_as_called
 
 if TYPE_CHECKING:
     from motorid.control.design import Design
@@ -154,6 +155,7 @@ def identify_levels(
     return _identify_levels(caps, step_volts=None if step_volts is None else list(step_volts))
 
 
+@speaks_as_called("read_experiment")
 def read_experiment(
     *,
     position: CapturePath | None = None,
@@ -369,6 +371,7 @@ def _package_version() -> str:
         return __version__
 
 
+@speaks_as_called("identify")
 def identify(
     experiment: Experiment,
     *,
@@ -499,6 +502,7 @@ def _poles(param: str, values: Any) -> tuple[complex, ...] | None:
         raise OptionError(f"{param}={values!r}: give a sequence of numbers (complex for a pair)") from None
 
 
+@speaks_as_called("design")
 def design(
     model: MotorModel | IdentificationResult,
     *,
@@ -563,6 +567,7 @@ def design(
     return design_controller(_model_of(model), settings)
 
 
+@speaks_as_called("simulate")
 def simulate(
     model: MotorModel | IdentificationResult,
     design: Design,

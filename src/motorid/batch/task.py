@@ -19,17 +19,14 @@ from typing import Any
 
 from motorid.batch.discover import ExperimentSpec, _reduce_frozen
 from motorid.errors import MotorIdError, OptionError
+from motorid.options import IDENTIFY, defaults
 
 __all__ = ["BatchSettings", "ExperimentOutcome", "assign_roles", "run_experiment_task"]
 
 #: The outcome of an experiment: identified cleanly, identified with warnings, or not at all.
 STATUSES = ("ok", "warning", "failed")
 #: Identify options the batch passes to :func:`motorid.identify`, with its defaults.
-IDENTIFY_OPTIONS: dict[str, Any] = {
-    "method": "auto", "order": "auto", "sample_interval": "auto", "delay": None, "markov_basis": "laguerre",
-    "markov_params": None, "markov_window_s": None, "ratio": None, "record_length_s": None,
-    "reduction": "subsample", "derivative": "five_point", "structure": "free", "sync": "interp",
-}
+IDENTIFY_OPTIONS: dict[str, Any] = defaults(IDENTIFY)
 
 
 @dataclass(frozen=True, slots=True)

@@ -11,7 +11,9 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
+from motorid import options
 from motorid.errors import OptionError
+from motorid.options import names
 
 __all__ = [
     "DESIGN_OPTIONS",
@@ -24,22 +26,13 @@ __all__ = [
 ]
 
 #: Form fields of ``POST /api/identify`` that go to :func:`motorid.read_experiment`.
-READ_OPTIONS: tuple[str, ...] = ("step_volts", "t0", "columns", "force_role")
+READ_OPTIONS: tuple[str, ...] = names(options.READ)
 #: Form fields of ``POST /api/identify`` that go to :func:`motorid.identify`.
-IDENTIFY_OPTIONS: tuple[str, ...] = (
-    "method", "order", "sample_interval", "delay", "markov_basis", "markov_params", "markov_window_s", "ratio",
-    "record_length_s", "reduction", "derivative", "structure", "sync",
-)
+IDENTIFY_OPTIONS: tuple[str, ...] = names(options.IDENTIFY)
 #: Keys of the ``POST /api/design`` body besides ``model``.
-DESIGN_OPTIONS: tuple[str, ...] = (
-    "poles", "damping", "wn", "k2", "settling_time", "overshoot", "integral", "ki", "integral_pole",
-    "observer_poles", "output",
-)
+DESIGN_OPTIONS: tuple[str, ...] = names(options.DESIGN)
 #: Keys of the ``POST /api/simulate`` body besides ``model`` and ``design``.
-SIMULATE_OPTIONS: tuple[str, ...] = (
-    "duration_s", "reference", "level_v", "saturation", "disturbance", "disturbance_start_s", "plant", "dt_s",
-    "x0", "z0", "xhat0", "trainer_preset",
-)
+SIMULATE_OPTIONS: tuple[str, ...] = names(options.SIMULATE)
 
 
 def _unknown(given: Mapping[str, Any], allowed: tuple[str, ...], where: str) -> None:

@@ -1,0 +1,227 @@
+"""The options of the front door's functions, declared once: name, command-line flag, default, unit.
+
+The front door (:mod:`motorid.frontdoor`) takes them as keyword arguments; the web page's form
+fields are the same names (:mod:`motorid.web.options`); the batch settings take the identify
+options by these names with these defaults (:mod:`motorid.batch.task`); the command line
+spells them as :attr:`OptionSpec.flag`.  The library's messages name an option by its flag
+(they were written for the command line); :func:`in_callers_words` turns the flags of a
+message into the names a Python or web caller used, so ``mi.design(m, overshoot=120)`` says
+``overshoot must be …``, and ``motorid design --overshoot 120`` says ``--overshoot must be …``.
+"""
+
+from __future__ import annotations
+
+import functools
+import re
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any, ParamSpec, TypeVar
+
+from motorid.errors import MotorIdError
+
+__all__ = [
+    "COMMANDS",
+    "DESIGN",
+    "IDENTIFY",
+    "READ",
+    "SIMULATE",
+    "OptionSpec",
+    "callers_words",
+    "defaults",
+    "in_callers_words",
+    "names",
+    "speaks_as_called",
+]
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+
+
+@dataclass(frozen=True, slots=True)
+class OptionSpec:
+    """One option of a front-door function.
+
+    Attributes
+    ----------
+    name : str
+        The keyword argument (and the web form field / JSON key).
+    flag : str
+        The command-line flag.
+    default : Any
+        The default value (the front door's, the batch's and the web page's).
+    unit : str
+        The value's unit (``""`` for none).
+    help : str
+        One line for help texts.
+    """
+
+    name: str
+    flag: str
+    default: Any = None
+    unit: str = ""
+    help: str = ""
+
+
+#: :func:`motorid.read_experiment`'s options.
+READ: tuple[OptionSpec, ...] = (
+    OptionSpec("step_volts", "--step-volts", None, "V", "step level for captures without an input channel"),
+    OptionSpec("t0", "--t0", None, "s", "the step instant on the captures' time axis"),
+    OptionSpec("columns", "--columns", None, "", "plain-CSV column map, e.g. time=t,input=u,velocity=rpm"),
+    OptionSpec("force_role", "--force-role", False, "", "keep the given roles even when a capture looks like another"),
+)
+
+#: :func:`motorid.identify`'s options.
+IDENTIFY: tuple[OptionSpec, ...] = (
+    OptionSpec("method", "--method", "auto", "", "auto, pinv, markov, classic, oe, srivc or paper-auto"),
+    OptionSpec("order", "--order", "auto", "", "auto or 1-3"),
+    OptionSpec("sample_interval", "--sample-interval", "auto", "s", "sample interval after reduction"),
+    OptionSpec("delay", "--delay", None, "", "fit a dead time (default: when the data show one)"),
+    OptionSpec("markov_basis", "--markov-basis", "laguerre", "", "laguerre or taylor"),
+    OptionSpec("markov_params", "--markov-params", None, "", "number of Markov parameters"),
+    OptionSpec("markov_window_s", "--markov-window", None, "s", "Markov window Tε"),
+    OptionSpec("ratio", "--ratio", None, "", "keep every n-th sample"),
+    OptionSpec("record_length_s", "--record-length", None, "s", "seconds kept after the step"),
+    OptionSpec("reduction", "--reduction", "subsample", "", "subsample or mean"),
+    OptionSpec("derivative", "--derivative", "five_point", "", "the velocity from the position: five_point, ..."),
+    OptionSpec("structure", "--structure", "free", "", "pinv's A-matrix structure"),
+    OptionSpec("sync", "--sync", "interp", "", "how captures are put on one time axis"),
+)
+
+#: :func:`motorid.design`'s options.
+DESIGN: tuple[OptionSpec, ...] = (
+    OptionSpec("poles", "--poles", None, "rad/s", "closed-loop poles"),
+    OptionSpec("damping", "--damping", None, "", "damping ratio ζ"),
+    OptionSpec("wn", "--wn", None, "rad/s", "natural frequency"),
+    OptionSpec("k2", "--k2", None, "", "velocity gain (the lab report's design)"),
+    OptionSpec("settling_time", "--settling-time", None, "s", "2 % settling time"),
+    OptionSpec("overshoot", "--overshoot", None, "%", "percent overshoot"),
+    OptionSpec("integral", "--integral", False, "", "integral action"),
+    OptionSpec("ki", "--ki", None, "", "integral gain"),
+    OptionSpec("integral_pole", "--integral-pole", None, "rad/s", "the integrator's extra pole"),
+    OptionSpec("observer_poles", "--observer-poles", None, "rad/s", "Luenberger observer poles"),
+    OptionSpec("output", "--output", None, "", "measured channel"),
+)
+
+#: :func:`motorid.simulate`'s options.
+SIMULATE: tuple[OptionSpec, ...] = (
+    OptionSpec("duration_s", "--duration", 3.0, "s", "record length"),
+    OptionSpec("reference", "--reference", "step", "", "step, sine, triangle or square"),
+    OptionSpec("level_v", "--level", 5.0, "V", "step level"),
+    OptionSpec("saturation", "--saturation", None, "V", "actuator rails ±"),
+    OptionSpec("disturbance", "--disturbance", None, "V", "load as an input-equivalent voltage"),
+    OptionSpec("disturbance_start_s", "--disturbance-start", 0.0, "s", "load applied from"),
+    OptionSpec("plant", "--plant", "linear", "", "linear (the model) or trainer"),
+    OptionSpec("dt_s", "--dt", None, "s", "control interval"),
+    OptionSpec("x0", "--x0", None, "", "initial state"),
+    OptionSpec("z0", "--z0", 0.0, "", "initial integrator state"),
+    OptionSpec("xhat0", "--xhat0", None, "", "initial observer estimate"),
+    OptionSpec("trainer_preset", "--preset", "lab-report", "", "trainer preset for plant=trainer"),
+)
+
+#: Each front-door function's options, by the command's name.
+COMMANDS: dict[str, tuple[OptionSpec, ...]] = {
+    "read_experiment": READ, "identify": READ + IDENTIFY, "design": DESIGN, "simulate": SIMULATE,
+}
+
+_FLAG = re.compile(r"(?<![\w-])--[A-Za-z][\w-]*")
+
+
+def names(specs: tuple[OptionSpec, ...]) -> tuple[str, ...]:
+    """The keyword names of ``specs``, in order.
+
+    Parameters
+    ----------
+    specs : tuple of OptionSpec
+        E.g. :data:`IDENTIFY`.
+
+    Returns
+    -------
+    tuple of str
+        The names.
+    """
+    return tuple(o.name for o in specs)
+
+
+def defaults(specs: tuple[OptionSpec, ...]) -> dict[str, Any]:
+    """``{name: default}`` of ``specs``.
+
+    Parameters
+    ----------
+    specs : tuple of OptionSpec
+        E.g. :data:`IDENTIFY`.
+
+    Returns
+    -------
+    dict
+        The defaults by name.
+    """
+    return {o.name: o.default for o in specs}
+
+
+def in_callers_words(message: str, command: str) -> str:
+    """``message`` with the command-line flags of ``command``'s options replaced by their names.
+
+    Parameters
+    ----------
+    message : str
+        A message written for the command line (``--overshoot must be …``).
+    command : str
+        A key of :data:`COMMANDS`.
+
+    Returns
+    -------
+    str
+        The message as a Python or web caller reads it (``overshoot must be …``); flags of
+        other commands' options are left as they are.
+    """
+    table = {o.flag: o.name for o in COMMANDS[command]}
+    return _FLAG.sub(lambda m: table.get(m.group(0), m.group(0)), message)
+
+
+@contextmanager
+def callers_words(command: str) -> Iterator[None]:
+    """Re-raise a :class:`~motorid.errors.MotorIdError` with its message :func:`in_callers_words`.
+
+    Parameters
+    ----------
+    command : str
+        A key of :data:`COMMANDS`.
+
+    Yields
+    ------
+    None
+        The body runs inside.
+    """
+    try:
+        yield
+    except MotorIdError as exc:
+        said = in_callers_words(exc.message, command)
+        if said == exc.message:
+            raise
+        raise type(exc)(said, file=exc.file, row=exc.row) from exc
+
+
+def speaks_as_called(command: str) -> Callable[[Callable[_P, _R]], Callable[_P, _R]]:
+    """Decorate a front-door function so that its errors name options as its caller did.
+
+    Parameters
+    ----------
+    command : str
+        A key of :data:`COMMANDS`.
+
+    Returns
+    -------
+    callable
+        The decorator; the decorated function keeps its signature (for type checkers too).
+    """
+
+    def decorate(func: Callable[_P, _R]) -> Callable[_P, _R]:
+        @functools.wraps(func)
+        def inner(*args: _P.args, **kwargs: _P.kwargs) -> _R:
+            with callers_words(command):
+                return func(*args, **kwargs)
+
+        return inner
+
+    return decorate
