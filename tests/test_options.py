@@ -16,21 +16,20 @@ from motorid.web import options as web_options
 @pytest.mark.parametrize("command", sorted(options.COMMANDS))
 def test_the_front_door_signature_is_the_declared_options(command):
     params = inspect.signature(getattr(mi, command)).parameters
-    declared = options.COMMANDS[command]
-    if command == "identify":  # the read options are read_experiment's; identify takes the experiment
-        declared = options.IDENTIFY
-    keyword = {n: p for n, p in params.items()
-               if p.kind is inspect.Parameter.KEYWORD_ONLY and n not in ("position", "velocity", "current")}
+    # identify takes read_experiment's Experiment; the captures and the progress hook are no options
+    declared = {"identify": options.IDENTIFY, "read_experiment": options.READ}.get(command, options.COMMANDS[command])
+    hooks = (*options.names(options.ROLES), "progress")
+    keyword = {n: p for n, p in params.items() if p.kind is inspect.Parameter.KEYWORD_ONLY and n not in hooks}
     assert list(keyword) == list(options.names(declared))
     for spec in declared:
         assert keyword[spec.name].default == spec.default, spec.name
 
 
 def test_the_web_page_and_the_batch_take_the_declared_options():
-    assert web_options.IDENTIFY_OPTIONS == options.names(options.IDENTIFY)
-    assert web_options.DESIGN_OPTIONS == options.names(options.DESIGN)
-    assert web_options.SIMULATE_OPTIONS == options.names(options.SIMULATE)
-    assert IDENTIFY_OPTIONS == options.defaults(options.IDENTIFY)
+    assert options.names(options.IDENTIFY) == web_options.IDENTIFY_OPTIONS
+    assert options.names(options.DESIGN) == web_options.DESIGN_OPTIONS
+    assert options.names(options.SIMULATE) == web_options.SIMULATE_OPTIONS
+    assert options.defaults(options.IDENTIFY) == IDENTIFY_OPTIONS
 
 
 @pytest.mark.parametrize(("command", "specs"), [("identify", options.READ + options.IDENTIFY),
@@ -53,7 +52,7 @@ def test_a_python_caller_reads_the_names_it_used(demo_run):
     assert str(err.value) == "overshoot must be a percentage in [0, 100), got 120"
     with pytest.raises(mi.MotorIdError, match=r"^settling_time and overshoot go together$"):
         mi.design(m, settling_time=1.0)
-    with pytest.raises(mi.MotorIdError, match="^step_volts"):
+    with pytest.raises(mi.MotorIdError, match=r"^step_volts"):
         mi.read_experiment(velocity=demo_run.folder / "ALL0001", step_volts=0)
 
 

@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import hashlib
 import math
-from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass, field, replace
 from importlib.metadata import PackageNotFoundError, version
 from os import PathLike
 from pathlib import Path
@@ -38,6 +38,7 @@ if TYPE_CHECKING:
     from motorid.identification.pipeline import Identification
     from motorid.identification.sanity import SanityReport
     from motorid.model import MotorModel
+    from motorid.model.units import ChannelScale
     from motorid.simulation.closed_loop import ReferenceSignal, SimulationResult
 
 __all__ = [
@@ -78,6 +79,11 @@ class Experiment:
         The file(s) or folder each role was read from.
     sha256 : Mapping[str, str]
         SHA-256 (hex) of every input file, keyed by path (a folder gives each of its files).
+    units : Mapping[str, str]
+        Each channel's unit as the user declared it (``{"velocity": "rpm"}``); the files'
+        own labels otherwise.
+    scales : Mapping[str, ChannelScale]
+        Sensor constants (volts per physical unit) the user gave.
     """
 
     captures: Mapping[str, Capture]
@@ -85,11 +91,12 @@ class Experiment:
     t0_s: float | None = None
     sources: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
     sha256: Mapping[str, str] = field(default_factory=dict)
+    units: Mapping[str, str] = field(default_factory=dict)
+    scales: Mapping[str, ChannelScale] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "captures", MappingProxyType(dict(self.captures)))
-        object.__setattr__(self, "sources", MappingProxyType(dict(self.sources)))
-        object.__setattr__(self, "sha256", MappingProxyType(dict(self.sha256)))
+        for name in ("captures", "sources", "sha256", "units", "scales"):
+            object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
 
 
 def _paths(spec: CapturePath) -> list[Path]:
@@ -165,6 +172,9 @@ def read_experiment(
     t0: float | None = None,
     columns: Mapping[str, str] | None = None,
     force_role: bool = False,
+    time_unit: Literal["s", "ms", "us"] | None = None,
+    units: Mapping[str, str] | None = None,
+    scale: Mapping[str, str | ChannelScale] | None = None,
 ) -> Experiment:
     """Read the captures of one step experiment, one per role.
 
@@ -182,6 +192,12 @@ def read_experiment(
         Column map of plain tables, e.g. ``{"time": "t", "input": "u", "velocity": "rpm"}``.
     force_role : bool
         Keep a role even when the capture confidently looks like another one.
+    time_unit : {"s", "ms", "us"}, optional
+        Unit of a plain table's time column (default: from its name, or whole milliseconds).
+    units : Mapping[str, str], optional
+        Each channel's unit, e.g. ``{"velocity": "rpm"}`` (default: from the files).
+    scale : Mapping[str, str or ChannelScale], optional
+        Sensor constants, e.g. ``{"velocity": "0.1504V/(rad/s)", "current": "0.47ohm"}``.
 
     Returns
     -------
@@ -199,16 +215,24 @@ def read_experiment(
     from motorid.conditioning.role import role_conflict
     from motorid.io import read_capture
 
+    from motorid.model.units import parse_scales, parse_units
+
     named = {"position": position, "velocity": velocity, "current": current}
     given = {role: spec for role, spec in named.items() if spec is not None}
     if "velocity" not in given and "position" not in given:
-        raise OptionError("read_experiment needs velocity= or position= (a capture file or ALLnnnn folder)")
+        raise OptionError("give at least --velocity or --position (a capture file or ALLnnnn folder)")
     if step_volts is not None and not (isinstance(step_volts, (int, float)) and math.isfinite(step_volts)
                                        and step_volts != 0):
-        raise OptionError(f"step_volts={step_volts!r}: give a finite, non-zero number of volts "
+        raise OptionError(f"--step-volts {step_volts!r}: give a finite, non-zero number of volts "
                           "(a negative value is a step down)")
     if t0 is not None and not (isinstance(t0, (int, float)) and math.isfinite(t0)):
-        raise OptionError(f"t0={t0!r}: give a finite time in seconds")
+        raise OptionError(f"--t0 {t0!r}: give a finite time in seconds")
+    declared = parse_units(f"{k}={v}" for k, v in (units or {}).items())
+    given_scales = dict(scale or {})
+    scales = {k: v for k, v in given_scales.items() if not isinstance(v, str)}
+    scales.update(parse_scales(f"{k}={v}" for k, v in given_scales.items() if isinstance(v, str)))
+    if time_unit is not None:
+        columns = {**(columns or {}), "time_unit": time_unit}
     captures: dict[str, Capture] = {}
     sources: dict[str, tuple[str, ...]] = {}
     digests: dict[str, str] = {}
@@ -219,14 +243,14 @@ def read_experiment(
         if not force_role:
             looks = role_conflict(cap, role)
             if looks is not None:
-                raise OptionError(f"given as {role}= but looks like a {looks.role} capture ({looks.reason}); "
-                                  f"pass it as {looks.role}=, or force_role=True to keep {role}=",
+                raise OptionError(f"given as --{role} but looks like a {looks.role} capture ({looks.reason}); "
+                                  f"give it as --{looks.role}, or --force-role to keep --{role}",
                                   file=str(paths[0]))
         captures[role] = cap
         sources[role] = tuple(str(p) for p in paths)
         digests.update(_file_digests(paths))
     return Experiment(captures, None if step_volts is None else float(step_volts),
-                      None if t0 is None else float(t0), sources, digests)
+                      None if t0 is None else float(t0), sources, digests, declared, scales)
 
 
 # ------------------------------------------------------------------------------ identification
@@ -388,6 +412,7 @@ def identify(
     derivative: str = "five_point",
     structure: str = "free",
     sync: str = "interp",
+    progress: Callable[[int, int, str], None] | None = None,
 ) -> IdentificationResult:
     """Identify the motor model of an experiment (``motorid identify`` in Python).
 
@@ -424,6 +449,9 @@ def identify(
         pinv: ``free`` or ``known``.
     sync : str
         ``interp`` or ``index`` (the paper's).
+    progress : callable, optional
+        ``progress(done, total, label)`` before each stage (the command line draws its bar
+        with it); not an option of the model: it changes nothing in the result.
 
     Returns
     -------
@@ -459,7 +487,10 @@ def identify(
         markov_basis=markov_basis,
     )
     ident = identify_experiment(experiment.captures, settings, step_volts=experiment.step_volts,
-                                t0_s=experiment.t0_s)
+                                t0_s=experiment.t0_s, progress=progress)
+    if experiment.units or experiment.scales:  # the maths stays in the data's units; the labels travel
+        ident = replace(ident, model=ident.model.replace(units={**ident.model.units, **experiment.units},
+                                                         scales=dict(experiment.scales)))
     model = ident.model
     provenance = Provenance(
         version=_package_version(),

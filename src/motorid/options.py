@@ -15,6 +15,7 @@ import functools
 import re
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 from typing import Any, ParamSpec, TypeVar
 
@@ -28,6 +29,7 @@ __all__ = [
     "SIMULATE",
     "OptionSpec",
     "callers_words",
+    "command_line_words",
     "defaults",
     "in_callers_words",
     "names",
@@ -63,12 +65,22 @@ class OptionSpec:
     help: str = ""
 
 
+#: :func:`motorid.read_experiment`'s captures, one per role (the web page's file fields).
+ROLES: tuple[OptionSpec, ...] = (
+    OptionSpec("position", "--position", None, "", "the position capture"),
+    OptionSpec("velocity", "--velocity", None, "", "the velocity capture"),
+    OptionSpec("current", "--current", None, "", "the armature-current capture"),
+)
+
 #: :func:`motorid.read_experiment`'s options.
 READ: tuple[OptionSpec, ...] = (
     OptionSpec("step_volts", "--step-volts", None, "V", "step level for captures without an input channel"),
     OptionSpec("t0", "--t0", None, "s", "the step instant on the captures' time axis"),
     OptionSpec("columns", "--columns", None, "", "plain-CSV column map, e.g. time=t,input=u,velocity=rpm"),
     OptionSpec("force_role", "--force-role", False, "", "keep the given roles even when a capture looks like another"),
+    OptionSpec("time_unit", "--time-unit", None, "", "a plain CSV's time column unit: s, ms or us"),
+    OptionSpec("units", "--units", None, "", "each channel's unit, e.g. velocity=rpm"),
+    OptionSpec("scale", "--scale", None, "", "sensor constants, e.g. velocity=0.1504V/(rad/s)"),
 )
 
 #: :func:`motorid.identify`'s options.
@@ -121,10 +133,13 @@ SIMULATE: tuple[OptionSpec, ...] = (
 
 #: Each front-door function's options, by the command's name.
 COMMANDS: dict[str, tuple[OptionSpec, ...]] = {
-    "read_experiment": READ, "identify": READ + IDENTIFY, "design": DESIGN, "simulate": SIMULATE,
+    "read_experiment": ROLES + READ, "identify": ROLES + READ + IDENTIFY, "design": DESIGN, "simulate": SIMULATE,
 }
 
 _FLAG = re.compile(r"(?<![\w-])--[A-Za-z][\w-]*")
+
+#: True while the command line calls the front door: its messages keep their flags.
+_COMMAND_LINE: ContextVar[bool] = ContextVar("motorid_command_line_words", default=False)
 
 
 def names(specs: tuple[OptionSpec, ...]) -> tuple[str, ...]:
@@ -159,6 +174,16 @@ def defaults(specs: tuple[OptionSpec, ...]) -> dict[str, Any]:
     return {o.name: o.default for o in specs}
 
 
+def _in_python(spec: OptionSpec) -> str:
+    """How a Python caller writes ``spec``: ``force_role=True`` for a switch, ``velocity=`` for a
+    capture, the bare name for a value (``overshoot must be …``)."""
+    if spec.default is False:
+        return f"{spec.name}=True"
+    if spec in ROLES:
+        return f"{spec.name}="
+    return spec.name
+
+
 def in_callers_words(message: str, command: str) -> str:
     """``message`` with the command-line flags of ``command``'s options replaced by their names.
 
@@ -172,10 +197,10 @@ def in_callers_words(message: str, command: str) -> str:
     Returns
     -------
     str
-        The message as a Python or web caller reads it (``overshoot must be …``); flags of
-        other commands' options are left as they are.
+        The message as a Python or web caller reads it (``overshoot must be …``,
+        ``force_role=True``, ``velocity=``); flags of other commands' options are left as they are.
     """
-    table = {o.flag: o.name for o in COMMANDS[command]}
+    table = {o.flag: _in_python(o) for o in COMMANDS[command]}
     return _FLAG.sub(lambda m: table.get(m.group(0), m.group(0)), message)
 
 
@@ -196,6 +221,8 @@ def callers_words(command: str) -> Iterator[None]:
     try:
         yield
     except MotorIdError as exc:
+        if _COMMAND_LINE.get():
+            raise
         said = in_callers_words(exc.message, command)
         if said == exc.message:
             raise
@@ -225,3 +252,19 @@ def speaks_as_called(command: str) -> Callable[[Callable[_P, _R]], Callable[_P, 
         return inner
 
     return decorate
+
+
+@contextmanager
+def command_line_words() -> Iterator[None]:
+    """Inside, the front door's messages keep the command-line flags (the CLI calls it so).
+
+    Yields
+    ------
+    None
+        The body runs inside.
+    """
+    token = _COMMAND_LINE.set(True)
+    try:
+        yield
+    finally:
+        _COMMAND_LINE.reset(token)

@@ -282,8 +282,9 @@ def _identify_one(spec: ExperimentSpec, settings: BatchSettings) -> ExperimentOu
         caps = {key: read_capture(_paths_arg(folder, key), columns=colmap) for key in spec.captures}
         roles, others = assign_roles(caps)
         roles_from = "guessed"
+    paths = {role: _paths_arg(folder, p) for role, p in roles.items()}
     exp = mi.read_experiment(
-        **{role: _paths_arg(folder, paths) for role, paths in roles.items()},
+        position=paths.get("position"), velocity=paths.get("velocity"), current=paths.get("current"),
         step_volts=spec.step_volts if spec.step_volts is not None else settings.step_volts,
         t0=spec.t0 if spec.t0 is not None else settings.t0,
         columns=colmap,

@@ -11,6 +11,7 @@ import math
 import sys
 import traceback
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
@@ -461,7 +462,6 @@ def identify(
     """
     columns = _with_time_unit(columns, time_unit)
     from motorid.cli.levels import parse_levels
-    from motorid.identification.pipeline import IdentifySettings, identify_experiment
     from motorid.io import atomic_outputs, check_writable
 
     levels = parse_levels(step_volts)
@@ -485,20 +485,17 @@ def identify(
                    create_parents=False)
     if (validate or design) and report_out is None:
         raise OptionError("--validate and --design go into the report: add --report OUT.html")
-    _one_per_role(position, velocity, current)
-    settings = IdentifySettings(
-        method=method,
-        order=order if order == "auto" else int(order),
-        conditioning=_conditioning(ratio, sample_interval, record_length, reduction, sync),
-        derivative=derivative,
-        structure=structure,
-        markov_params=markov_params,
-        markov_window_s=markov_window,
-        delay=delay,
-        markov_basis=markov_basis,
+    from motorid import frontdoor
+    from motorid.model.units import parse_scales, parse_units
+
+    given = _one_per_role(position, velocity, current)
+    declared, scales = parse_units(units), parse_scales(scale)  # refused before any file is read
+    exp = frontdoor.read_experiment(
+        **{role: _capture_paths(spec) for role, spec in given.items() if spec},  # type: ignore[arg-type]
+        step_volts=step_volts_v, t0=t0, columns=_parse_columns(columns), force_role=force_role,
+        units=declared, scale=scales,
     )
-    caps = _read_roles(position, velocity, current, columns, force_role=force_role)
-    found = _segments(caps, segment)
+    found = _segments(dict(exp.captures), segment)
     if found is not None and not found[1]:
         # every step of the log, as the several-levels path's experiments
         _identify_levels([], [], levels, columns, json_out=json_out, matlab_out=matlab_out, report_out=report_out,
@@ -506,7 +503,8 @@ def identify(
                          captures=found[0])
         return
     if found is not None:
-        caps = {**caps, "velocity": found[0][0]}
+        exp = replace(exp, captures={**exp.captures, "velocity": found[0][0]})
+    caps = dict(exp.captures)
     _check_against_captures(caps, record_length=record_length)
     checks = _validation_captures(validate, columns) if report_out is not None else {}
     if report_out is not None:
@@ -514,8 +512,14 @@ def identify(
 
         doc = read_design(design) if design is not None else None
     with _bar(f"identifying (method {method})") as progress:
-        result = identify_experiment(caps, settings, step_volts=step_volts_v, t0_s=t0, progress=progress)
-    result = _with_units(result, units, scale)
+        fit = frontdoor.identify(
+            exp, method=method, order=order if order == "auto" else int(order),  # type: ignore[arg-type]
+            sample_interval="auto" if sample_interval is None else sample_interval, delay=delay,
+            markov_basis=markov_basis, markov_params=markov_params,  # type: ignore[arg-type]
+            markov_window_s=markov_window, ratio=ratio, record_length_s=record_length, reduction=reduction,
+            derivative=derivative, structure=structure, sync=sync, progress=progress,
+        )
+    result = fit.identification
     con = _console()
     _print_model(con, result.model, "identified model")
     con.print(f"choice: {result.reason}")
@@ -533,19 +537,6 @@ def identify(
         if path is not None:
             con.print(f"{label}: {path}")
     _strict_exit(result, strict)
-
-
-def _with_units(result, units: list[str] | None, scale: list[str] | None):  # -> Identification
-    """``--units``/``--scale`` attached to the identified model (the maths stays in data units)."""
-    from dataclasses import replace
-
-    from motorid.model.units import parse_scales, parse_units
-
-    declared, scales = parse_units(units), parse_scales(scale)
-    if not declared and not scales:
-        return result
-    model = result.model.replace(units={**result.model.units, **declared}, scales=scales)
-    return replace(result, model=model)
 
 
 def _segments(caps: dict, segment: int | None) -> tuple[list, bool] | None:
@@ -875,8 +866,11 @@ def main() -> None:
     # later and reads the variable when it starts (a user's own setting is kept).
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     threadpool_limits(limits=1, user_api="blas")
+    from motorid.options import command_line_words
+
     try:
-        app(standalone_mode=False)
+        with command_line_words():  # the front door's messages keep their flags here
+            app(standalone_mode=False)
     except MotorIdError as exc:
         print(f"motorid: error: {exc}", file=sys.stderr)
         raise SystemExit(2) from None

@@ -108,6 +108,11 @@ def identify_options(fields: Mapping[str, tuple[str, ...]], *, ignore: tuple[str
                 raise OptionError(f"columns: {part!r} is not ROLE=COLUMN (e.g. time=t,input=u,velocity=rpm)")
             mapping[key.strip()] = value.strip()
         read["columns"] = mapping
+    for name in ("units", "scale"):
+        if one.get(name, "").strip():
+            read[name] = _pairs(name, one[name])
+    if one.get("time_unit", "").strip():
+        read["time_unit"] = one["time_unit"].strip()
     for name in ("method", "markov_basis", "reduction", "derivative", "structure", "sync"):
         if one.get(name, "").strip():
             ident[name] = one[name].strip()
@@ -123,6 +128,17 @@ def identify_options(fields: Mapping[str, tuple[str, ...]], *, ignore: tuple[str
         if name in one and (v := _text_number(name, one[name], kind)) is not None:
             ident[name] = v
     return read, ident
+
+
+def _pairs(name: str, text: str) -> dict[str, str]:
+    """``velocity=rpm,current=A`` (``;`` also separates) → ``{"velocity": "rpm", "current": "A"}``."""
+    out = {}
+    for part in text.replace(";", ",").split(","):
+        key, sep, value = part.partition("=")
+        if not sep or not key.strip() or not value.strip():
+            raise OptionError(f"{name}: {part!r} is not CHANNEL=VALUE (e.g. velocity=rpm)")
+        out[key.strip()] = value.strip()
+    return out
 
 
 def _json_number(name: str, value: Any, *, optional: bool = True) -> float | None:
