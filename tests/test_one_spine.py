@@ -1,0 +1,111 @@
+"""One way in: the same captures through the command line, ``mi.identify``, ``POST /api/identify``
+and ``motorid batch`` give the same model JSON (apart from where the files were read from).
+
+Every front end calls the front door; a drift between them (an option defaulted differently,
+a capture read differently, a role added by one of them) shows here as a key that differs.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import re
+import shutil
+import sys
+from pathlib import Path
+
+import pytest
+
+import motorid as mi
+from motorid.trainer.realsetups import write_real_setup
+
+#: The rigs whose files the trainer writes as those rigs do, plus the demo's scope folders.
+CASES = ("demo", "l298n-rpm", "arduino-millis", "host-loop", "encoder-counts", "pwm-encoder", "daq-deadtime",
+         "ms-time", "fast-tbs1000")
+
+
+def _cli(*args: object) -> None:
+    from motorid.cli.app import main
+
+    argv, err = sys.argv, io.StringIO()
+    sys.argv = ["motorid", *map(str, args)]
+    code = 0
+    try:
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+            main()
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    finally:
+        sys.argv = argv
+    assert code == 0, f"motorid {' '.join(map(str, args))}: {err.getvalue()[-500:]}"
+
+
+def _without_provenance(doc: dict, files: list[Path]) -> dict:
+    """The document with every path to an input file cut to the file's name (the front ends read
+    the same bytes from different folders: an upload folder, a batch tree)."""
+    text = json.dumps(doc, sort_keys=True)
+    for name in {f.name for f in files}:
+        text = re.sub(r'(?:/[^"/\s]+)+/' + re.escape(name), name, text)
+    return json.loads(text)
+
+
+def _captures(case: str, demo_run, tmp_path: Path) -> tuple[dict[str, list[Path]], dict[str, float]]:
+    """Each role's file(s) and the read options (a step level for captures without an input)."""
+    if case == "demo":
+        d = demo_run.folder
+        return {role: sorted((d / f"ALL000{i}").glob("*.CSV"))
+                for i, role in enumerate(("position", "velocity", "current"))}, {}
+    rec = write_real_setup(case, tmp_path / case, seed=0)
+    args = list(rec.cli_args)
+    roles = {args[i][2:]: [Path(args[i + 1])] for i in range(0, len(args), 2)
+             if args[i] in ("--position", "--velocity", "--current")}
+    opts = {"step_volts": float(args[args.index("--step-volts") + 1])} if "--step-volts" in args else {}
+    return roles, opts
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", CASES)
+def test_cli_python_web_and_batch_give_the_same_model(case, demo_run, tmp_path):
+    roles, opts = _captures(case, demo_run, tmp_path)
+    files = [f for fs in roles.values() for f in fs]
+
+    def spec(fs: list[Path]) -> str:
+        return "+".join(map(str, fs)) if len(fs) > 1 else str(fs[0])
+
+    # the command line
+    flags = [x for role, fs in roles.items() for x in (f"--{role}", spec(fs))]
+    flags += [x for k, v in opts.items() for x in (f"--{k.replace('_', '-')}", str(v))]
+    _cli("identify", *flags, "--json", tmp_path / "cli.json")
+    by_cli = _without_provenance(json.loads((tmp_path / "cli.json").read_text()), files)
+
+    # Python
+    exp = mi.read_experiment(**{role: fs if len(fs) > 1 else fs[0] for role, fs in roles.items()}, **opts)
+    assert _without_provenance(mi.identify(exp).model.to_json(), files) == by_cli
+
+    # the web page's API
+    pytest.importorskip("fastapi", reason="the web extra is not installed")
+    from fastapi.testclient import TestClient
+
+    from motorid.web import WebSettings, create_app
+
+    (tmp_path / "web").mkdir()
+    with TestClient(create_app(WebSettings(temp_root=tmp_path / "web"))) as client:
+        upload = [(role, (f.name, f.read_bytes(), "text/csv")) for role, fs in roles.items() for f in fs]
+        res = client.post("/api/identify", files=upload, data={k: str(v) for k, v in opts.items()})
+    assert res.status_code == 200, res.text
+    assert _without_provenance(res.json(), files) == by_cli
+
+    # a batch of one experiment, its roles named in experiment.toml
+    folder = tmp_path / "class" / "alice"
+    folder.mkdir(parents=True)
+    toml = []
+    for role, fs in roles.items():
+        for f in fs:
+            shutil.copy(f, folder / f.name)
+        toml.append(f'{role} = "{"+".join(f.name for f in fs)}"')
+    toml += [f"{k} = {v!r}" for k, v in opts.items()]
+    (folder / "experiment.toml").write_text("\n".join(toml) + "\n")
+    _cli("batch", tmp_path / "class", "--out", tmp_path / "out", "--jobs", "1")
+    by_batch = json.loads((tmp_path / "out" / "alice" / "model.json").read_text())
+    assert _without_provenance(by_batch, files) == by_cli
