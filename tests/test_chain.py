@@ -25,6 +25,9 @@ from motorid.control.design import LARGE_GAIN, Design, DesignSettings, design_co
 from motorid.model import MotorModel
 from motorid.simulation.closed_loop import ReferenceSignal, SimulationSettings, simulate_closed_loop
 
+#: Slow: left out by ``pytest -m "not slow"``; ``.ci/run`` runs it.
+pytestmark = pytest.mark.slow
+
 runner = CliRunner()
 
 CAPS = {"position": "ALL0000", "velocity": "ALL0001", "current": "ALL0002"}

@@ -175,8 +175,11 @@ def defaults(specs: tuple[OptionSpec, ...]) -> dict[str, Any]:
 
 
 def _in_python(spec: OptionSpec) -> str:
-    """How a Python caller writes ``spec``: ``force_role=True`` for a switch, ``velocity=`` for a
-    capture, the bare name for a value (``overshoot must be …``)."""
+    """How a Python caller writes ``spec``.
+
+    ``force_role=True`` for a switch, ``velocity=`` for a capture, the bare name for a value
+    (``overshoot must be …``).
+    """
     if spec.default is False:
         return f"{spec.name}=True"
     if spec in ROLES:

@@ -19,6 +19,9 @@ import pytest
 
 from motorid.batch import BatchSettings, run_batch
 
+#: Slow: left out by ``pytest -m "not slow"``; ``.ci/run`` runs it.
+pytestmark = pytest.mark.slow
+
 #: The good experiments of the class (conftest.make_class); "bad" has a corrupt velocity file.
 GOOD = ("s00", "s01", "s02", "s03/run1")
 NO_REPORT = BatchSettings(report=False)

@@ -10,7 +10,12 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 from motorid.cli.progress import progress_bar, wanted
+
+#: Slow: left out by ``pytest -m "not slow"``; ``.ci/run`` runs it.
+pytestmark = pytest.mark.slow
 
 
 def test_disabled_bar_ignores_every_call(capsys) -> None:

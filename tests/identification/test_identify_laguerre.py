@@ -25,6 +25,9 @@ from motorid.identification.laguerre import (
 )
 from motorid.identification.markov import MarkovSettings, markov_identify
 
+#: Slow: left out by ``pytest -m "not slow"``; ``.ci/run`` runs it.
+pytestmark = pytest.mark.slow
+
 
 def _coeffs(tf: control.TransferFunction) -> tuple[np.ndarray, np.ndarray]:
     num = np.trim_zeros(np.asarray(tf.num[0][0], float), "f")

@@ -27,6 +27,9 @@ from motorid.identification.pipeline import IdentifySettings, identify_condition
 from motorid.identification.stages import noise_model, oe_stage, step_level_std
 from motorid.trainer import preset, run_experiment
 
+#: Slow: left out by ``pytest -m "not slow"``; ``.ci/run`` runs it.
+pytestmark = pytest.mark.slow
+
 STEP_V = 5.92
 DT_S = 0.004
 

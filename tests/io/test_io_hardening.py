@@ -25,6 +25,9 @@ from motorid.io import read_capture, read_tds_capture
 
 from iohelpers import TDS2012B, native_lines, need, write_lines
 
+#: Slow: left out by ``pytest -m "not slow"``; ``.ci/run`` runs it.
+pytestmark = pytest.mark.slow
+
 REPO = Path(__file__).resolve().parents[2]
 GIB = 1 << 30
 

@@ -22,7 +22,7 @@ from motorid.io import read_capture, read_plain_csv, read_tds_channel, read_xlsx
 from mutations import OPS, REAL, mutate, real_files
 
 FILES = real_files()
-pytestmark = pytest.mark.skipif(not FILES, reason=f"real recordings not found at {REAL.resolve()}")
+pytestmark = [pytest.mark.slow, pytest.mark.skipif(not FILES, reason=f"real recordings not found at {REAL.resolve()}")]
 _SETTINGS = settings(max_examples=300, deadline=None, derandomize=True,
                      suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 _TEK = [f for f in FILES if f.suffix == ".CSV"]

@@ -17,6 +17,9 @@ import pytest
 
 from motorid.report import SECTIONS
 
+#: Slow: left out by ``pytest -m "not slow"``; ``.ci/run`` runs it.
+pytestmark = pytest.mark.slow
+
 ARTEFACTS = Path(__file__).resolve().parents[1] / "artefacts"
 #: A4 in PostScript points (1/72 in): 210 × 297 mm.
 A4_PT = (595.3, 841.9)

@@ -8,6 +8,9 @@ import pytest
 
 from motorid.report import SECTIONS
 
+#: Slow: left out by ``pytest -m "not slow"``; ``.ci/run`` runs it.
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def demo(demo_run):

@@ -22,6 +22,9 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import corpus
 
+#: Slow: left out by ``pytest -m "not slow"``; ``.ci/run`` runs it.
+pytestmark = pytest.mark.slow
+
 CASES = corpus.all_cases()
 RUNNER = Path(__file__).resolve().parent / "runner.py"
 #: Address-space limit of every subprocess.

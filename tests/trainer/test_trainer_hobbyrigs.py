@@ -15,6 +15,9 @@ from motorid.io import read_capture
 from motorid.trainer.hobbyrigs import HOBBY_RIGS, STAIR_LEVELS_V
 from motorid.trainer.realsetups import REAL_SETUPS, write_real_setup
 
+#: Slow: left out by ``pytest -m "not slow"``; ``.ci/run`` runs it.
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def rigs(tmp_path_factory):

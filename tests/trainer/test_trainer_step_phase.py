@@ -14,6 +14,9 @@ import pytest
 
 from motorid.trainer import preset, run_experiment
 
+#: Slow: left out by ``pytest -m "not slow"``; ``.ci/run`` runs it.
+pytestmark = pytest.mark.slow
+
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
 def test_the_response_starts_at_the_true_step_instant(seed):

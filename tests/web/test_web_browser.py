@@ -15,6 +15,9 @@ from webhelpers import ARTEFACTS
 
 from motorid.report import SECTIONS
 
+#: Slow: left out by ``pytest -m "not slow"``; ``.ci/run`` runs it.
+pytestmark = pytest.mark.slow
+
 CHROMIUM = Path("/usr/bin/chromium")
 
 

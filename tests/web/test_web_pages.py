@@ -15,6 +15,9 @@ import motorid as mi
 from motorid.cli.demo import CAPTURE_ORDER
 from motorid.report import SECTIONS
 
+#: Slow: left out by ``pytest -m "not slow"``; ``.ci/run`` runs it.
+pytestmark = pytest.mark.slow
+
 ROLES = {"c0": "position", "c1": "velocity", "c2": "current", "c3": "validation", "c4": "validation",
          "c5": "validation"}
 

@@ -237,19 +237,20 @@ def design(
         typer.echo(f"design JSON: {json_out}")
 
 
-#: The simulation metrics printed, in order, with their units.
+#: The simulation metrics printed, in order, with their units (``output``: the output channel's).
 _METRIC_UNITS: tuple[tuple[str, str], ...] = (
-    ("rise_time_s", "s"), ("settling_time_s", "s"), ("overshoot_pct", "%"), ("steady_state_error_v", "V"),
-    ("tracking_rms_v", "V"), ("peak_control_v", "V"))
+    ("rise_time_s", "s"), ("settling_time_s", "s"), ("overshoot_pct", "%"), ("steady_state_error_v", "output"),
+    ("tracking_rms_v", "output"), ("peak_control_v", "V"))
 
 
 def simulate(
     model_file: Annotated[Path, typer.Argument(help="Model JSON.")],
     design_file: Annotated[Path, typer.Argument(help="Design JSON (motorid design --json).")],
     reference: Annotated[str, typer.Option(help="step, sine, triangle or square.")] = "step",
-    level: Annotated[float, typer.Option(help="Step level / sinusoid offset, V (report: 5).")] = 5.0,
-    initial_ref: Annotated[float, typer.Option("--initial-ref", help="Reference before --start, V.")] = 0.0,
-    amplitude: Annotated[float, typer.Option(help="Wave amplitude, V (report: 2).")] = 2.0,
+    level: Annotated[float, typer.Option(
+        help="Step level / sinusoid offset, in the output's unit (V for scope volts; report: 5).")] = 5.0,
+    initial_ref: Annotated[float, typer.Option("--initial-ref", help="Reference before --start, output's unit.")] = 0.0,
+    amplitude: Annotated[float, typer.Option(help="Wave amplitude, output's unit (report: 2).")] = 2.0,
     frequency: Annotated[float, typer.Option(help="Wave frequency, Hz (report: ω = π/2 → 0.25).")] = 0.25,
     start: Annotated[float, typer.Option(help="Reference start time, s.")] = 0.0,
     duration: Annotated[float, typer.Option(help="Record length, s.")] = 5.0,
@@ -314,7 +315,8 @@ def simulate(
     except OptionError as exc:
         raise exc.with_file(str(design_file)) from None
     m = res.metrics
-    typer.echo(", ".join(f"{metric_name(key)} {sig(getattr(m, key))} {unit}" for key, unit in _METRIC_UNITS))
+    typer.echo(", ".join(f"{metric_name(key)} {sig(getattr(m, key))} "
+                         f"{res.output_unit if unit == 'output' else unit}" for key, unit in _METRIC_UNITS))
     for w in res.warnings:
         typer.echo(f"warning: {w}")
     with atomic_outputs() as outs:  # the CSV, JSON and plot appear together, or none

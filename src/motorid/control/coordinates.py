@@ -17,6 +17,7 @@ realisation, so the test does not depend on the units of the states).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,6 +28,7 @@ from motorid.model import MotorModel
 __all__ = [
     "CONDITION_MAX",
     "INDEPENDENCE_MIN",
+    "SENSORS",
     "SENSOR_UNITS",
     "MeasurableRealisation",
     "measurable_realisation",
@@ -46,7 +48,15 @@ INDEPENDENCE_MIN = 1e-6
 #: the design then stays on the model's own states, with a warning.
 CONDITION_MAX = 1e8
 
-#: What one volt (or V/s, V/s²) of each measurable state is, for printing gains per sensor.
+#: The sensor behind each measurable state, for printing gains per sensor.
+SENSORS: dict[str, tuple[str, str, int]] = {  # state: (channel, sensor, derivative order)
+    "position": ("position", "the potentiometer", 0),
+    "velocity": ("velocity", "the tacho", 0),
+    "current": ("current", "the current shunt", 0),
+    "acceleration": ("velocity", "the tacho's derivative", 1),
+    "jerk": ("velocity", "the tacho's second derivative", 2),
+}
+#: The same phrases for scope volts (what :func:`sensor_unit` says without units).
 SENSOR_UNITS: dict[str, str] = {
     "position": "per V of the potentiometer",
     "velocity": "per V of the tacho",
@@ -56,23 +66,29 @@ SENSOR_UNITS: dict[str, str] = {
 }
 
 
-def sensor_unit(state: str) -> str:
-    """How a gain on ``state`` is read (``per V of the tacho``); generic for other names.
+def sensor_unit(state: str, units: Mapping[str, str] | None = None) -> str:
+    """How a gain on ``state`` is read (``per V of the tacho``, ``per rpm of the tacho``).
 
     Parameters
     ----------
     state : str
         A state name (``position``, ``velocity``, ``current``, ...).
+    units : Mapping[str, str], optional
+        The model's channel units (default: scope volts).
 
     Returns
     -------
     str
-        The unit phrase, e.g. ``per V of the tacho``.
+        The unit phrase, e.g. ``per V of the tacho``, ``per rpm/s of the tacho's derivative``.
     """
-    if state in SENSOR_UNITS:
-        return SENSOR_UNITS[state]
+    units = units or {}
+    per_time = ("", "/s", "/s²")
+    if state in SENSORS:
+        channel, sensor, order = SENSORS[state]
+        return f"per {units.get(channel) or 'V'}{per_time[order]} of {sensor}"
     if state.startswith("velocity_d"):
-        return f"per V/s^{state[len('velocity_d'):]} of the tacho's derivative of that order"
+        return (f"per {units.get('velocity') or 'V'}/s^{state[len('velocity_d'):]} of the tacho's derivative "
+                "of that order")
     return f"per unit of the model state {state}"
 
 

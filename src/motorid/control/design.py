@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, cast
 
@@ -167,6 +168,8 @@ class Design:
     dead_zone_v : float or None
         The model's dead-zone (a Hammerstein model from several step levels), offered for
         compensation by inverse dead-zone feed-forward (``u + u₀·sign(u)``).
+    units : Mapping[str, str]
+        The model's channel units (``{"velocity": "rpm"}``): a gain on the velocity is per rpm.
     """
 
     states: tuple[str, ...]
@@ -183,6 +186,7 @@ class Design:
     model_states: tuple[str, ...] | None = None
     transform: np.ndarray | None = None
     dead_zone_v: float | None = None
+    units: Mapping[str, str] = field(default_factory=dict)
 
     @property
     def K_model(self) -> np.ndarray:
@@ -204,7 +208,7 @@ class Design:
         list of (str, float, str)
             One ``(state, gain, unit)`` per state of ``K``.
         """
-        return [(name, float(k), sensor_unit(name)) for name, k in zip(self.states, self.K, strict=False)]
+        return [(name, float(k), sensor_unit(name, self.units)) for name, k in zip(self.states, self.K, strict=False)]
 
     def to_json(self) -> dict[str, Any]:
         """The docs/formats.md "Design JSON" dict (schema ``motorid.design/1``) plus extras.
@@ -239,7 +243,8 @@ class Design:
             "output_feedback_poles": _pairs(self.output_feedback_poles),
             "routh": list(self.routh),
             "warnings": list(self.warnings),
-        } | ({} if self.dead_zone_v is None else {"dead_zone": self.dead_zone_info()})
+        } | ({} if self.dead_zone_v is None else {"dead_zone": self.dead_zone_info()}) | (
+            {"units": dict(self.units)} if self.units else {})
 
     def dead_zone_info(self) -> dict[str, Any]:
         """The dead-zone and the steady-state error it leaves, with and without compensation.
@@ -362,7 +367,14 @@ class Design:
         return cls(states, out, k, kr, ki, l_vec,
                    cl_poles if cl_poles is not None else np.zeros(0, complex),
                    poles("observer_poles"), poles("output_feedback_poles"), strings("routh"), strings("warnings"),
-                   model_states, transform, number_of(data.get("dead_zone")))
+                   model_states, transform, number_of(data.get("dead_zone")), _units(data.get("units")))
+
+
+def _units(entry: Any) -> dict[str, str]:
+    """A design JSON's ``units`` (channel → unit); an absent or malformed entry is scope volts."""
+    if not isinstance(entry, dict):
+        return {}
+    return {str(k): str(v) for k, v in entry.items() if isinstance(v, str) and v}
 
 
 def number_of(entry: Any) -> float | None:
@@ -593,7 +605,7 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
     nl = model.static_nonlinearity
     return Design(tuple(work.states), out_name, k_row, kr, ki, l_col, cl, obs, ofb, tuple(routh),
                   tuple(warnings), mr.source_states if changed else None, mr.transform if changed else None,
-                  None if nl is None else nl.dead_zone_v)
+                  None if nl is None else nl.dead_zone_v, dict(model.units))
 
 
 def _requested_poles(s: DesignSettings, a: np.ndarray, b: np.ndarray, n: int, n_pair: int,

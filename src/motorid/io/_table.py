@@ -105,10 +105,16 @@ def check_role(role: str | None) -> str | None:
     return role
 
 
+#: Column names that are a unit and nothing else (a log's ``rpm`` column is in rpm).
+_UNIT_NAMES = {"rpm": "rpm", "counts": "counts", "deg": "deg", "degrees": "deg", "rad": "rad", "radians": "rad"}
+
+
 def _units_from_name(name: str) -> str:
     bracket = re.search(r"[\[(]\s*([^\])]+?)\s*[\])]\s*$", name)
     if bracket:
         return bracket.group(1)
+    if name.strip().lower() in _UNIT_NAMES:
+        return _UNIT_NAMES[name.strip().lower()]
     toks = re.split(r"[_\s]+", name.strip())
     if len(toks) > 1 and toks[-1].lower() in _UNITS:
         return _UNITS[toks[-1].lower()]

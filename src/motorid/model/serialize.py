@@ -18,7 +18,7 @@ from pathlib import Path
 from motorid.errors import ModelFormatError
 from motorid.io.jsonfile import read_json
 from motorid.model.nonlinearity import StaticNonlinearity
-from motorid.model.units import ChannelScale
+from motorid.model.units import ChannelScale, channel_unit
 from motorid.model.simplify import _roots, _tf_coeffs
 
 if TYPE_CHECKING:
@@ -218,7 +218,8 @@ def model_to_matlab(model: MotorModel, name: str = "motor") -> str:
         f"% {name}: DC servo-motor model identified by motorid (method: {model.method})",
         f"% states x = [{', '.join(model.states)}]; input u = amplifier volts"
         + ("" if model.step_volts is None else f" (step {model.step_volts:g} V)"),
-        "% outputs: " + ", ".join(model.outputs) + " (volts); C, D give the velocity channel",
+        "% outputs: " + ", ".join(f"{ch} ({channel_unit(model.units, ch)})" for ch in model.outputs)
+        + "; C, D give the velocity channel",
         f"A = {mat(model.A)};",
         f"B = {mat(model.B)};",
         f"C = {mat(cv)};",

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 from motorid.errors import OptionError
 
-__all__ = ["ChannelScale", "dc_gain_unit", "parse_scales", "parse_units", "physical_gain", "units_of"]
+__all__ = ["ChannelScale", "channel_unit", "dc_gain_unit", "parse_scales", "parse_units", "physical_gain", "units_of"]
 
 CHANNELS = ("position", "velocity", "current")
 #: Shunt: ``0.47ohm`` means 0.47 V per A.
@@ -129,6 +129,24 @@ def parse_scales(texts: Iterable[str] | None) -> dict[str, ChannelScale]:
             raise OptionError(f"--scale {name}={value}: the constant must be a non-zero number")
         out[name] = ChannelScale(v, unit)
     return out
+
+
+def channel_unit(units: Mapping[str, str], channel: str) -> str:
+    """The unit a channel's values are in: the data's (``rpm``), else the scope's volts.
+
+    Parameters
+    ----------
+    units : Mapping[str, str]
+        A model's or capture's units by channel.
+    channel : str
+        ``position``, ``velocity`` or ``current``.
+
+    Returns
+    -------
+    str
+        The unit (``"V"`` when the data did not name one).
+    """
+    return units.get(channel) or "V"
 
 
 def dc_gain_unit(units: Mapping[str, str], channel: str = "velocity") -> str:

@@ -14,7 +14,8 @@ import csv
 import io
 import json
 import math
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -185,6 +186,9 @@ class SimulationResult:
     output : str
     metrics : ResponseMetrics
     warnings : tuple of str
+    units : Mapping[str, str]
+        The model's channel units: the output, the reference and the errors are in
+        :attr:`output_unit`; ``u`` is in volts.
     """
 
     time_s: np.ndarray
@@ -199,6 +203,12 @@ class SimulationResult:
     output: str
     metrics: ResponseMetrics
     warnings: tuple[str, ...] = ()
+    units: Mapping[str, str] = field(default_factory=dict)
+
+    @property
+    def output_unit(self) -> str:
+        """The unit of the output, the reference and the errors (the model's, e.g. ``rpm``; else ``V``)."""
+        return self.units.get(self.output) or "V"
 
     def columns(self) -> dict[str, np.ndarray]:
         """Named columns (``time``, ``reference``, ``output``, ``u``, ``u_raw``, states, ``*_hat``, ``z``).
@@ -248,6 +258,7 @@ class SimulationResult:
         return {
             "schema": "motorid.simulation/1",
             "output": self.output,
+            "output_unit": self.output_unit,
             "metrics": {k: clean(getattr(m, k)) for k in m.__slots__},
             "warnings": list(self.warnings),
             "series": {k: [clean(x) for x in v] for k, v in self.columns().items()},
@@ -558,7 +569,7 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
         warnings.append(f"the actuator saturated (|u| reached {np.nanmax(np.abs(uraw)):.3g} V > {sat:g} V)")
     metrics = response_metrics(t, ys, r, us, s.reference.kind == "step")
     return SimulationResult(t, r, ys, us, uraw, xs, xhs, zs, tuple(model.states), design.output, metrics,
-                            tuple(warnings))
+                            tuple(warnings), dict(model.units))
 
 
 def simulation_figure(result: SimulationResult, title: str = "", *, rails_v: float | None = None,
@@ -592,7 +603,7 @@ def simulation_figure(result: SimulationResult, title: str = "", *, rails_v: flo
     ax = axes[0]
     ax.plot(t, result.reference_v, "k--", label="reference r")
     ax.plot(t, result.output_v, label=f"output y ({result.output})")
-    ax.set_ylabel("V")
+    ax.set_ylabel(result.output_unit)
     ax.legend(loc="best")
     ax = axes[1]
     ax.plot(t, result.control_v, label="u applied")
@@ -607,7 +618,7 @@ def simulation_figure(result: SimulationResult, title: str = "", *, rails_v: flo
         line, = ax.plot(t, result.states[:, i], label=name)
         if result.estimates is not None:
             ax.plot(t, result.estimates[:, i], "--", color=line.get_color(), label=f"{name} estimate")
-    ax.set_ylabel("states (V)")
+    ax.set_ylabel("states" if result.units else "states (V)")
     ax.set_xlabel("time (s)")
     ax.legend(loc="best")
     if rails_v is not None:
@@ -623,7 +634,8 @@ def simulation_figure(result: SimulationResult, title: str = "", *, rails_v: flo
     m = result.metrics
     settling = f"{m.settling_time_s:.3g} s" if math.isfinite(m.settling_time_s) else "not reached"
     metrics = (f"rise {m.rise_time_s:.3g} s, settling (2 %) {settling}, overshoot "
-               f"{m.overshoot_pct:.3g} %, steady-state error {m.steady_state_error_v:.3g} V, peak |u| "
+               f"{m.overshoot_pct:.3g} %, steady-state error {m.steady_state_error_v:.3g} {result.output_unit}, "
+               "peak |u| "
                f"{m.peak_control_v:.3g} V")
     fig.suptitle(f"{title}\n{metrics}" if title else metrics, fontsize=10)
     fig.tight_layout()
