@@ -215,7 +215,7 @@ def read_experiment(
     from motorid.conditioning.role import role_conflict
     from motorid.io import read_capture
 
-    from motorid.model.units import parse_scales, parse_units
+    from motorid.model.units import parse_scales, parse_units, units_of
 
     named = {"position": position, "velocity": velocity, "current": current}
     given = {role: spec for role, spec in named.items() if spec is not None}
@@ -249,6 +249,12 @@ def read_experiment(
         captures[role] = cap
         sources[role] = tuple(str(p) for p in paths)
         digests.update(_file_digests(paths))
+    data_units = units_of(captures, declared)
+    for channel, sc in scales.items():
+        if (data_units.get(channel) or "V") != "V":
+            raise OptionError(f"--scale {channel}: the {channel} data are already in {data_units[channel]}, not volts "
+                              f"(a sensor constant turns volts into {sc.unit}); leave --scale {channel} out, or "
+                              f"declare --units {channel}=V if the column is volts")
     return Experiment(captures, None if step_volts is None else float(step_volts),
                       None if t0 is None else float(t0), sources, digests, declared, scales)
 
@@ -383,7 +389,9 @@ def _params(model: MotorModel) -> dict[str, ParameterEstimate]:
         else:
             for i, root in enumerate(_roots_by_size(roots)):
                 params[f"{name}_{i + 1}"] = ParameterEstimate(root)
-    return params
+    # each carries its unit: the gain the data's (rpm/V on a log in rpm), times s, poles 1/s
+    return {k: replace(p, unit=model.dc_gain_unit if k == "dc_gain" else "1/s" if k.startswith(("pole_", "zero_"))
+                       else "s") for k, p in params.items()}
 
 
 def _package_version() -> str:

@@ -33,9 +33,10 @@ def _png(fig: Figure) -> str:
     return f'<img alt="class distribution" src="{data_uri(buf.getvalue())}">'
 
 
-def _distribution_figure(rows: Sequence[SummaryRow]) -> str | None:
-    """Histograms of gain and τ and their scatter (with 95 % intervals); outliers in red."""
-    ok = [r for r in rows if r.status != "failed" and r.dc_gain is not None and r.time_constant is not None]
+def _distribution_figure(rows: Sequence[SummaryRow], unit: str) -> str | None:
+    """Histograms of gain (in ``unit``) and τ and their scatter (with 95 % intervals); outliers in red."""
+    ok = [r for r in rows if r.status != "failed" and r.dc_gain is not None and r.time_constant is not None
+          and r.dc_gain_unit == unit]
     if not ok:
         return None
     gain = np.array([r.dc_gain for r in ok])
@@ -45,7 +46,7 @@ def _distribution_figure(rows: Sequence[SummaryRow]) -> str | None:
     fig = Figure(figsize=(12, 3.6))
     ax_g, ax_t, ax_s = fig.subplots(1, 3)
     bins = max(5, min(30, int(np.ceil(np.sqrt(len(ok)))) * 2))
-    for ax, x, flag, label in ((ax_g, gain, out_g, "DC gain (V/V)"), (ax_t, tau, out_t, "τ (s)")):
+    for ax, x, flag, label in ((ax_g, gain, out_g, f"DC gain ({unit})"), (ax_t, tau, out_t, "τ (s)")):
         ax.hist([x[~flag], x[flag]], bins=bins, stacked=True, color=["#4878a8", "#c03030"],
                 label=["", "outlier"])
         ax.set_xlabel(label)
@@ -60,7 +61,7 @@ def _distribution_figure(rows: Sequence[SummaryRow]) -> str | None:
     ax_s.scatter(tau[~either], gain[~either], s=14, color="#4878a8")
     ax_s.scatter(tau[either], gain[either], s=24, color="#c03030", label=f"outlier (|z| > {OUTLIER_Z:g})")
     ax_s.set_xlabel("τ (s)")
-    ax_s.set_ylabel("DC gain (V/V)")
+    ax_s.set_ylabel(f"DC gain ({unit})")
     if either.any():
         ax_s.legend(fontsize="small")
     fig.tight_layout()
@@ -94,7 +95,7 @@ def summary_html(rows: Sequence[SummaryRow], *, title: str = "motorid batch summ
     """
     esc = html.escape
     counts = {s: sum(r.status == s for r in rows) for s in ("ok", "warning", "failed")}
-    head = ["experiment", "status", "DC gain (V/V) [95 %]", "τ (s) [95 %]", "order", "method", "fit %",
+    head = ["experiment", "status", "DC gain [95 %]", "τ (s) [95 %]", "order", "method", "fit %",
             "z gain", "z τ", "warnings"]
     table = ["<table><tr>" + "".join(f'<th{" class=l" if i in (0, 9) else ""}>{esc(h)}</th>'
                                      for i, h in enumerate(head)) + "</tr>"]
@@ -106,20 +107,27 @@ def summary_html(rows: Sequence[SummaryRow], *, title: str = "motorid batch summ
         flag = f' <span class=flag>outlier: {esc(r.outlier)}</span>' if r.outlier else ""
         table.append(
             f'<tr class="{cls}"><td class=l>{link}{flag}</td><td>{esc(r.status)}</td>'
-            f"<td>{_with_ci(r.dc_gain, r.dc_gain_ci)}</td><td>{_with_ci(r.time_constant, r.time_constant_ci)}</td>"
+            f"<td>{_with_ci(r.dc_gain, r.dc_gain_ci)}{'' if r.dc_gain is None else ' ' + esc(r.dc_gain_unit)}</td>"
+            f"<td>{_with_ci(r.time_constant, r.time_constant_ci)}</td>"
             f"<td>{'—' if r.order is None else r.order}</td><td>{esc(r.method)}</td>"
             f"<td>{_num(r.fit_percent, '.1f')}</td>"
             f"<td>{_num(r.gain_z, '.2f')}</td><td>{_num(r.tau_z, '.2f')}</td><td class=l>{what}</td></tr>"
         )
     table.append("</table>")
     ok = [r for r in rows if r.status != "failed"]
+    units = sorted({r.dc_gain_unit for r in ok})
     stats = ""
     if ok:
-        g = np.array([r.dc_gain for r in ok])
         t = np.array([r.time_constant for r in ok])
-        stats = (f"<p>Class median DC gain {np.median(g):.4g} V/V (range {g.min():.4g}–{g.max():.4g}), "
+        gains = []
+        for unit in units:  # experiments in different units never share a median or a histogram
+            g = np.array([r.dc_gain for r in ok if r.dc_gain_unit == unit])
+            gains.append(f"DC gain {np.median(g):.4g} {esc(unit)} (range {g.min():.4g}–{g.max():.4g}, "
+                         f"{g.size} experiment{'s' if g.size > 1 else ''})")
+        stats = (f"<p>Class median {'; '.join(gains)}; "
                  f"median τ {np.median(t):.4g} s (range {t.min():.4g}–{t.max():.4g} s).</p>")
-    figure = _distribution_figure(rows) or "<p>No identified experiment to plot.</p>"
+    figures = [f for unit in units if (f := _distribution_figure(rows, unit)) is not None]
+    figure = "\n".join(figures) or "<p>No identified experiment to plot.</p>"
     outliers = [r for r in rows if r.outlier]
     out_html = ("<ul>" + "".join(
         f"<li>{esc(r.experiment)}: {esc(r.outlier)} (z gain {_num(r.gain_z, '.2f')}, z τ {_num(r.tau_z, '.2f')})</li>"

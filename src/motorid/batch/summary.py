@@ -33,7 +33,7 @@ MAD_FLOOR_REL = 0.01
 SUMMARY_COLUMNS: tuple[str, ...] = (
     "experiment", "status", "dc_gain", "dc_gain_ci_low", "dc_gain_ci_high", "time_constant",
     "time_constant_ci_low", "time_constant_ci_high", "order", "method", "fit_percent", "velocity_nrmse",
-    "gain_z", "tau_z", "outlier", "warnings", "error", "report",
+    "gain_z", "tau_z", "outlier", "warnings", "error", "report", "dc_gain_unit",
 )
 
 
@@ -48,7 +48,7 @@ class SummaryRow:
     status : str
         ``ok``, ``warning`` or ``failed``.
     dc_gain, time_constant : float or None
-        DC gain [V/V] and dominant time constant [s].
+        DC gain [:attr:`dc_gain_unit`] and dominant time constant [s].
     dc_gain_ci, time_constant_ci : tuple of float or None
         Their 95 % intervals.
     order : int or None
@@ -67,6 +67,9 @@ class SummaryRow:
         Why it failed (one line).
     report : str
         The report's path relative to the batch folder (empty without one).
+    dc_gain_unit : str
+        The gain's unit (``V/V`` for scope volts, ``rpm/V`` for a log in rpm): gains in
+        different units are scored, summarised and plotted apart.
     """
 
     experiment: str
@@ -85,6 +88,7 @@ class SummaryRow:
     warnings: tuple[str, ...]
     error: str
     report: str
+    dc_gain_unit: str = "V/V"
 
 
 def robust_z(values: Sequence[float], *, floor_rel: float = MAD_FLOOR_REL) -> np.ndarray:
@@ -131,9 +135,13 @@ def summary_rows(records: Sequence[Mapping[str, Any]]) -> list[SummaryRow]:
     """
     recs = sorted(records, key=lambda r: r["experiment"])
     ok = [i for i, r in enumerate(recs) if r["status"] != "failed"]
-    gz = robust_z([recs[i]["row"]["dc_gain"] for i in ok])
     tz = robust_z([recs[i]["row"]["time_constant"] for i in ok])
-    zs = {i: (float(g), float(t)) for i, g, t in zip(ok, gz, tz, strict=True)}
+    # a gain in rpm/V and one in V/V are not one distribution: each unit is scored on its own
+    gain_z: dict[int, float] = {}
+    for unit in sorted({_gain_unit(recs[i]) for i in ok}):
+        group = [i for i in ok if _gain_unit(recs[i]) == unit]
+        gain_z.update(zip(group, map(float, robust_z([recs[i]["row"]["dc_gain"] for i in group])), strict=True))
+    zs = {i: (gain_z[i], float(t)) for i, t in zip(ok, tz, strict=True)}
     rows = []
     for i, r in enumerate(recs):
         v = r.get("row", {})
@@ -149,8 +157,13 @@ def summary_rows(records: Sequence[Mapping[str, Any]]) -> list[SummaryRow]:
             velocity_nrmse=_opt(v.get("velocity_nrmse")), gain_z=g, tau_z=t, outlier="+".join(flags),
             warnings=tuple(v.get("warnings", ())), error=r.get("error", ""),
             report=f"{r['experiment']}/{r['files']['report']}" if "report" in r.get("files", {}) else "",
+            dc_gain_unit=_gain_unit(r),
         ))
     return rows
+
+
+def _gain_unit(record: Mapping[str, Any]) -> str:
+    return str(record.get("row", {}).get("dc_gain_unit") or "V/V")
 
 
 def _num(x: float | None, digits: int = 10) -> str:
@@ -182,6 +195,6 @@ def summary_csv(rows: Sequence[SummaryRow]) -> str:
             r.experiment, r.status, _num(r.dc_gain), _num(gci[0]), _num(gci[1]), _num(r.time_constant),
             _num(tci[0]), _num(tci[1]), "" if r.order is None else r.order, r.method, _num(r.fit_percent),
             _num(r.velocity_nrmse), _num(r.gain_z, 4), _num(r.tau_z, 4), r.outlier, " | ".join(r.warnings),
-            r.error, r.report,
+            r.error, r.report, r.dc_gain_unit,
         ])
     return buf.getvalue()

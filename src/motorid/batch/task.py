@@ -314,6 +314,7 @@ def _identify_one(spec: ExperimentSpec, settings: BatchSettings) -> ExperimentOu
         "time_constant_ci95": _interval(fit.params["time_constant"]),
         "order": len(model.poles()),
         "method": model.method,
+        "dc_gain_unit": model.dc_gain_unit,
         "fit_percent": None if fit_pct is None else float(fit_pct),
         "velocity_nrmse": fit.fit.get("velocity_nrmse"),
         "warnings": warnings,

@@ -24,11 +24,15 @@ class ParameterEstimate:
     ci95 : tuple of (float, float) or None
         95 % interval (``None`` when the method gives none); for a complex pole or zero,
         the interval of its real part.
+    unit : str
+        The unit of ``value``, ``stderr`` and ``ci95`` (``rpm/V``, ``V/V``, ``s``, ``1/s``; empty
+        when not set).
     """
 
     value: float | complex
     stderr: float = float("nan")
     ci95: tuple[float, float] | None = None
+    unit: str = ""
 
 
 

@@ -444,7 +444,7 @@ def stages_section(inp: ReportInputs) -> dict[str, Any]:
              st.get("time_constant", ""),
              "" if st.get("velocity_nrmse") is None else f"{100 * st['velocity_nrmse']:.2f} %",
              st.get("evidence", st.get("failed", ""))] for st in model.stages]
-    return {"rows": rows, "method": model.method}
+    return {"rows": rows, "method": model.method, "gain_unit": model.dc_gain_unit}
 
 
 def sensitivity_section(inp: ReportInputs) -> dict[str, Any]:
@@ -534,7 +534,7 @@ def design_section(inp: ReportInputs) -> dict[str, Any]:
     gain_rows += [[words, _value_text(d.get(key))] for key, words in _DESIGN_ROWS if d.get(key) is not None]
     view: dict[str, Any] = {"given": True, "gain_rows": gain_rows, "routh": [str(x) for x in d.get("routh") or []],
                             "closed_loop_png": "", "caption": "", "metric_rows": [], "note": str(d.get("note") or ""),
-                            "modes_png": "", "modes_marker": ""}
+                            "modes_png": "", "modes_marker": "", **gain_units(inp.identification.model.units)}
     sim = d.get("simulation")
     if sim:
         metrics = sim.get("metrics") or {}
@@ -592,4 +592,27 @@ def build_report(inp: ReportInputs) -> str:
     sections = [render_section(sid, title, functools.partial(make, inp)) for sid, title, make in SECTION_BUILDERS]
     ref = _reference(inp)
     return render_page("report.html", inp.title, sections, has_reference=ref is not None,
-                       reference_label=ref[1] if ref else "")
+                       reference_label=ref[1] if ref else "", **gain_units(inp.identification.model.units))
+
+
+def gain_units(units: Mapping[str, str]) -> dict[str, str]:
+    """The units of the mode map's Kp and Kv, and a sentence on the channels' units, for the page.
+
+    Parameters
+    ----------
+    units : Mapping[str, str]
+        The model's channel units (empty for scope volts).
+
+    Returns
+    -------
+    dict
+        ``kp_unit``, ``kv_unit`` and ``units_sentence``.
+    """
+    pos = units.get("position")
+    if not units:
+        return {"kp_unit": "V/V", "kv_unit": "V/(V/s)",
+                "units_sentence": "Voltages are as recorded on the scope (V)"}
+    per = f"V/{pos}" if pos else "V per unit of position"
+    listed = ", ".join(f"{ch} in {u}" for ch, u in units.items() if ch != "input")
+    return {"kp_unit": per, "kv_unit": f"V/({pos}/s)" if pos else "V per unit of position per second",
+            "units_sentence": f"The channels are in the data's units ({listed}; the input in V)"}

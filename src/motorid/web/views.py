@@ -125,7 +125,7 @@ def model_view(fit: IdentificationResult) -> dict[str, Any]:
     params = []
     for name, est in fit.params.items():
         ci = "—" if est.ci95 is None else f"[{est.ci95[0]:.5g}, {est.ci95[1]:.5g}]"
-        params.append((name, _fmt(est.value), _fmt(est.stderr), ci))
+        params.append((name, _fmt(est.value), _fmt(est.stderr), ci, est.unit))
     fit_rows = [(k, f"{v:.2f} %" if k.endswith("_fit_percent") else f"{100 * v:.2f} %") for k, v in fit.fit.items()]
     figs: dict[str, str] = {}
     errors: list[str] = []
@@ -153,7 +153,8 @@ def model_view(fit: IdentificationResult) -> dict[str, Any]:
                          enumerate(zip(ex["laguerre_coefficients"], ex["laguerre_coefficients_std"], strict=False))],
                 "note": str(ex.get("markov_choice", "")),
             }
-    stages = [(st.get("stage", ""), st.get("method", ""), st.get("order", ""), _fmt(st.get("dc_gain", "")),
+    stages = [(st.get("stage", ""), st.get("method", ""), st.get("order", ""),
+               f"{_fmt(st.get('dc_gain', ''))} {model.dc_gain_unit}" if st.get("dc_gain") is not None else "",
                _fmt(st.get("time_constant", "")),
                "" if st.get("velocity_nrmse") is None else f"{100 * st['velocity_nrmse']:.2f} %",
                st.get("evidence", st.get("failed", ""))) for st in fit.stages]
