@@ -39,7 +39,7 @@ if TYPE_CHECKING:
     from motorid.identification.sanity import SanityReport
     from motorid.model import MotorModel
     from motorid.model.units import ChannelScale
-    from motorid.simulation.closed_loop import ReferenceSignal, SimulationResult
+    from motorid.simulation.closed_loop import ReferenceSignal, SimulationResult, SimulationSettings
 
 __all__ = [
     "Experiment",
@@ -667,12 +667,41 @@ def simulate(
         Bad settings, or a design for other states than the model's.
     """
     from motorid.control.design import Design
-    from motorid.simulation.closed_loop import ReferenceSignal, SimulationSettings, simulate_closed_loop
+    from motorid.simulation.closed_loop import simulate_closed_loop
 
     if not isinstance(design, Design):
         raise OptionError(f"design= must be the Design of mi.design(...), got {type(design).__name__}")
+    settings = _simulation_settings(
+        duration_s=duration_s, reference=reference, level_v=level_v, saturation=saturation, disturbance=disturbance,
+        disturbance_start_s=disturbance_start_s, plant=plant, dt_s=dt_s, x0=x0, z0=z0, xhat0=xhat0,
+        trainer_preset=trainer_preset)
+    if plant == "trainer":
+        from motorid.trainer.closed_loop import simulate_on_trainer
+
+        return simulate_on_trainer(_model_of(model), design, settings)
+    return simulate_closed_loop(_model_of(model), design, settings)
+
+
+def _simulation_settings(
+    *,
+    duration_s: float = 3.0,
+    reference: str | ReferenceSignal = "step",
+    level_v: float = 5.0,
+    saturation: float | None = None,
+    disturbance: float | None = None,
+    disturbance_start_s: float = 0.0,
+    plant: str = "linear",
+    dt_s: float | None = None,
+    x0: Sequence[float] | None = None,
+    z0: float = 0.0,
+    xhat0: Sequence[float] | None = None,
+    trainer_preset: str = "lab-report",
+) -> SimulationSettings:
+    """:func:`simulate`'s keyword options as the simulator's settings (the report takes the same)."""
+    from motorid.simulation.closed_loop import ReferenceSignal, SimulationSettings
+
     ref = reference if isinstance(reference, ReferenceSignal) else ReferenceSignal(kind=reference, level_v=level_v)
-    settings = SimulationSettings(
+    return SimulationSettings(
         duration_s=duration_s,
         dt_s=dt_s if dt_s is not None else (2e-3 if plant == "trainer" else 1e-3),
         reference=ref,
@@ -685,11 +714,6 @@ def simulate(
         plant=plant,
         trainer_preset=trainer_preset,
     )
-    if plant == "trainer":
-        from motorid.trainer.closed_loop import simulate_on_trainer
-
-        return simulate_on_trainer(_model_of(model), design, settings)
-    return simulate_closed_loop(_model_of(model), design, settings)
 
 
 # -------------------------------------------------------------------------------------- report
@@ -713,6 +737,7 @@ def write_report(
     design: Design | Mapping[str, Any] | None = None,
     validation: Sequence[str | PathLike[str] | Capture] = (),
     overwrite: bool = True,
+    simulation: Mapping[str, Any] | None = None,
 ) -> Path:
     """Write the self-contained HTML report of an identification (``motorid report``).
 
@@ -728,6 +753,10 @@ def write_report(
         Captures of other inputs (sine, triangle, square…) to validate the model on.
     overwrite : bool
         Replace an existing file (``False``: refuse, as the command line without ``--force``).
+    simulation : Mapping, optional
+        :func:`simulate`'s options for the design's closed loop (``duration_s``, ``level_v``,
+        ``saturation``…): the report then shows the run the caller saw (default: the report's
+        5 s step of 5 V with ±10 V rails).
 
     Returns
     -------
@@ -749,8 +778,9 @@ def write_report(
     out = Path(path)
     check_writable({"path": out}, force=overwrite, create_parents=False)
     doc = design.to_json() if isinstance(design, Design) else (None if design is None else dict(design))
+    run = None if simulation is None else _simulation_settings(**simulation)
     page = make_report(fit.identification, fit.experiment.captures, validation=_validation_captures(validation),
-                       design=doc)
+                       design=doc, simulation=run)
     with atomic_outputs() as outs:
         outs.write_text(out, page)
     return out

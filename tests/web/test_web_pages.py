@@ -109,6 +109,16 @@ def test_identify_design_and_downloads_match_the_front_door(client, demo_files, 
                       level_v=5.0, saturation=10.0)
     shown = re.search(r"overshoot</td><td>([^ ]+) %", res.text).group(1)
     assert float(shown) == pytest.approx(sim.metrics.overshoot_pct, rel=1e-2, abs=1e-3)
+    # the report downloaded now shows the run the page showed (its horizon, level and rails: the
+    # report's own 5 s step of 5 V with ±10 V rails gives another overshoot for this design)
+    res = client.post(f"/tab/{tab}/design", data={"damping": "0.4", "wn": "3", "saturation": "2", "level": "4",
+                                                  "duration": "1.5"})
+    shown = re.search(r"overshoot</td><td>([^ ]+) %", res.text).group(1)
+    in_report = re.search(r"overshoot</td><td>([^ ]+) %", client.get(f"/tab/{tab}/download/report.html").text)
+    assert float(in_report.group(1)) == pytest.approx(float(shown), rel=1e-3), (in_report.group(1), shown)
+    default = mi.simulate(demo_fit.model, mi.design(demo_fit.model, damping=0.4, wn=3.0), duration_s=5.0,
+                          level_v=5.0, saturation=10.0)
+    assert abs(default.metrics.overshoot_pct - float(shown)) > 1.0  # the check can fail
     # the mode map: the library's SVG plus one marker per map, its mode read off the map
     assert res.text.count('<circle class="marker') == 2
     assert re.search(r"on the 2nd order map", res.text)

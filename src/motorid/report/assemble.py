@@ -135,6 +135,7 @@ def _closed_loop_view(ident: Identification, des: Any, settings: SimulationSetti
         "series": {"reference": cols["reference"].tolist(), "output": cols["output"].tolist(),
                    "u (control)": cols["u"].tolist()},
         "metrics": asdict(sim.metrics),
+        "output_unit": sim.output_unit,
         "rails_v": settings.saturation_v,
         "disturbances_s": [settings.disturbance_start_s] if settings.disturbance_v != 0 else [],
     }

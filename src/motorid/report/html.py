@@ -504,11 +504,13 @@ def validation_section(inp: ReportInputs) -> dict[str, Any]:
     return {"rows": rows, "overlays": overlays}
 
 
-def _metric_rows(metrics: Mapping[str, Any]) -> list[list[str]]:
-    """Metrics in words with units (:data:`METRIC_UNITS`); an undefined one (NaN) as a dash."""
+def _metric_rows(metrics: Mapping[str, Any], output_unit: str = "V") -> list[list[str]]:
+    """Metrics in words with units (:data:`METRIC_UNITS`; the errors in the output's unit); NaN as a dash."""
     rows = []
     for key, val in metrics.items():
         words, unit = metric_name(key), METRIC_UNITS.get(key, "")
+        if key in ("steady_state_error_v", "tracking_rms_v"):
+            unit = output_unit
         undefined = isinstance(val, float) and not np.isfinite(val)
         rows.append([words, "—" if undefined else f"{_cell(val)} {unit}".strip()])
     return rows
@@ -538,8 +540,9 @@ def design_section(inp: ReportInputs) -> dict[str, Any]:
     sim = d.get("simulation")
     if sim:
         metrics = sim.get("metrics") or {}
-        metric_rows = _metric_rows(metrics)
-        headline = _metric_rows({k: metrics[k] for k in _HEADLINE_METRICS if k in metrics})
+        out_unit = str(sim.get("output_unit") or "V")
+        metric_rows = _metric_rows(metrics, out_unit)
+        headline = _metric_rows({k: metrics[k] for k in _HEADLINE_METRICS if k in metrics}, out_unit)
         rails, disturbances = sim.get("rails_v"), tuple(sim.get("disturbances_s") or ())
         png = figures.closed_loop(np.asarray(sim["time"]), {k: np.asarray(v) for k, v in sim["series"].items()},
                                   "closed-loop step response on the identified model", rails_v=rails,

@@ -95,6 +95,7 @@ async def clear(request: Request, tab_id: str) -> HTMLResponse:
         tab.ignored.clear()
         tab.roles.clear()
         tab.fit = tab.design = None
+        tab.simulation = {}
         tab.mode_maps.clear()
     return _captures(request, tab)
 
@@ -133,7 +134,7 @@ async def identify(request: Request, tab_id: str) -> HTMLResponse:
         tab.roles.update(roles)
     fit = await run_in_threadpool(_identify, tab, chosen, read_kw, ident_kw)
     with tab.lock:
-        tab.fit, tab.design = fit, None
+        tab.fit, tab.design, tab.simulation = fit, None, {}
         tab.mode_maps.clear()
     return _render(request, "_model.html", tab=tab, view=await run_in_threadpool(model_view, fit),
                    ranges=slider_ranges(fit.model))
@@ -184,7 +185,7 @@ def _design(tab: Tab, dform: Any) -> tuple[Any, Any]:
             tab.mode_maps[key] = maps
     view = design_update(model, dform, maps if not isinstance(maps, str) else None)
     with tab.lock:
-        tab.design = view.design
+        tab.design, tab.simulation = view.design, dform.simulate_options()
     return view, maps
 
 
@@ -219,7 +220,8 @@ def _report(tab: Tab, path: Any) -> None:
     checks = [read_capture(e.files.reader_argument()) for e in tab.captures
               if tab.roles.get(e.cid) == "validation" and e.summary is not None]
     try:
-        mi.write_report(path, tab.fit, design=tab.design, validation=checks)
+        # the report's closed loop is the run the page showed (its horizon, level and rails)
+        mi.write_report(path, tab.fit, design=tab.design, validation=checks, simulation=tab.simulation or None)
     except MotorIdError as exc:
         raise as_uploaded(exc, tab.folder) from None
 

@@ -68,6 +68,7 @@ class Tab:
     roles: dict[str, str] = field(default_factory=dict)
     fit: IdentificationResult | None = None
     design: Design | None = None
+    simulation: dict[str, Any] = field(default_factory=dict)
     mode_maps: dict[tuple[Any, ...], Any] = field(default_factory=dict)
     uploads: int = 0
     last_seen: float = field(default_factory=time.monotonic)

@@ -250,6 +250,16 @@ class DesignForm:
     level_v: float = 5.0
     duration_s: float = 3.0
 
+    def simulate_options(self) -> dict[str, Any]:
+        """The :func:`motorid.simulate` options of this form (the report simulates the same run).
+
+        Returns
+        -------
+        dict
+            ``duration_s``, ``level_v``, ``saturation``.
+        """
+        return {"duration_s": self.duration_s, "level_v": self.level_v, "saturation": self.saturation_v}
+
     @classmethod
     def from_fields(cls, fields: Mapping[str, str]) -> DesignForm:
         """Read the form fields.
@@ -346,7 +356,7 @@ def design_update(model: MotorModel, form: DesignForm, maps: ModeMapView | None)
     if form.observer_poles:
         observer = [complex(p) for p in parse_poles(form.observer_poles, "observer poles")]
     des = mi.design(model, damping=form.damping, wn=form.wn, integral=form.integral, observer_poles=observer)
-    sim = mi.simulate(model, des, duration_s=form.duration_s, level_v=form.level_v, saturation=form.saturation_v)
+    sim = mi.simulate(model, des, **form.simulate_options())
     cols = sim.columns()
     series = {"reference": cols["reference"], f"output ({sim.output})": cols["output"], "u (control)": cols["u"]}
     sat = f", rails ±{form.saturation_v:g} V" if form.saturation_v else ""
