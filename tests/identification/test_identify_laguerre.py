@@ -225,7 +225,7 @@ def _fine_grid_response(a, b, c, d, h, u, delay, k=200):
 
 @pytest.mark.parametrize("delay", [0.0, 0.0137, 0.05])
 def test_delayed_response_is_exact_for_fractional_delays(delay: float) -> None:
-    from motorid.identification.laguerre import _delayed_response
+    from motorid.identification.laguerre_refine import _delayed_response
 
     a = np.array([[0.0, 1.0], [-6.0, -5.0]])
     b = np.array([[0.0], [1.0]])
@@ -240,7 +240,7 @@ def test_delayed_response_is_exact_for_fractional_delays(delay: float) -> None:
 
 
 def test_polish_recovers_shared_poles_scale_current_and_delay_from_a_rough_start() -> None:
-    from motorid.identification.laguerre import _delayed_response, laguerre_polish
+    from motorid.identification.laguerre_refine import _delayed_response, laguerre_polish
 
     # velocity G = 9/((s + 2)(s + 15)), position 0.4·G/s, current (2s² + 40s + 10)/((s + 2)(s + 15)): a direct
     # term and shared poles; 3.3 ms dead time; exact noiseless samples from the independent fine-grid simulator
@@ -321,7 +321,7 @@ def test_third_order_needs_the_current_channel_velocity_hankel_cannot_resolve_it
 
 
 def _polish_of(sigma: float, inflation: float, n_params: int):
-    from motorid.identification.laguerre import LaguerrePolish, _polish_bic
+    from motorid.identification.laguerre_refine import LaguerrePolish, _polish_bic
 
     n = {"velocity": 2000, "current": 2000}
     sig = {"velocity": sigma, "current": 3 * sigma}
@@ -338,7 +338,7 @@ def test_orders_compare_on_one_effective_sample_size(unit: float) -> None:
     # Two fits with the same residual levels, the larger one's velocity residual 0.35 % less correlated: on its
     # own inflation it would count 7 more samples, worth ~55 BIC units at log(σ²) ≈ −7.8 (the third pole the
     # polish accepted in 4–13 % of white-noise runs); on the shared inflation only the parameter penalty remains.
-    from motorid.identification.laguerre import _on_common_inflation
+    from motorid.identification.laguerre_refine import _on_common_inflation
 
     small, large = _polish_of(0.02 * unit, 1.0168, 5), _polish_of(0.02 * unit, 1.0133, 7)
     own = large.bic - small.bic
