@@ -673,61 +673,14 @@ def laguerre_identify(
     integrate = output == "position"
     fixed_order = None if settings.order == "auto" else int(settings.order)
     want = fixed_order if fixed_order is not None else settings.max_order
-    n = t.size
+    grid = _Grid(t, yy, u, float(step_volts), integrate, fixed_order, want, bool(extras) and settings.polish)
     candidates: list[_Candidate] = []
     errors: list[str] = []
-    tried = 0
     for a in poles:
-        # N ≲ a·T/2: the k-th Laguerre function lives until about (2k + 1)/a; later ones are not
-        # pinned down by the record and trade off against each other
-        cap = int(min(MAX_TERMS, max(2, math.floor(a * record / 2))))
-        n_list = [settings.n_terms] if settings.n_terms is not None else list(range(min(2 * want, cap), cap + 1))
         for delay in delays:
-            try:
-                phi = laguerre_regressors(t, a, max(n_list), input_v=u, step_volts=step_volts,
-                                          delay_s=delay, integrate=integrate)
-            except (IdentificationError, OptionError) as exc:
-                errors.append(exc.message)
-                continue
-            best: LaguerreCoefficients | None = None
-            for k in n_list:
-                # the network is lower triangular: the first k columns are the k-term regressors
-                try:
-                    fit = _coefficients(phi[:, :k], yy, a, delay)
-                except IdentificationError as exc:
-                    errors.append(exc.message)
-                    continue
-                if settings.n_terms is None and fit.condition > MAX_CONDITION:
-                    continue
-                tried += 1
-                if best is None or fit.bic < best.bic:
-                    best = fit
-            if best is None:
-                continue
-            sv, floor = _hankel_order_evidence(best.values, best.covariance, settings)
-            above = int(np.count_nonzero(sv > floor))
-            top = min(settings.max_order, best.values.size // 2)
-            # orders past the velocity's Hankel count only where other channels (shared poles) can decide
-            reach = top if (extras and settings.polish) else min(above, top)
-            orders = [fixed_order] if fixed_order is not None else list(range(1, max(1, reach) + 1))
-            for m in orders:
-                if m > best.values.size // 2:
-                    errors.append(f"order {m} needs at least {2 * m} Laguerre terms, {best.values.size} fitted")
-                    continue
-                try:
-                    a_c, b_c, c_c = laguerre_realisation(best.values, a, m)
-                except IdentificationError as exc:
-                    errors.append(exc.message)
-                    continue
-                stable = bool(np.all(np.real(np.linalg.eigvals(a_c)) < 0))
-                if not stable and m > above and extras and settings.polish:
-                    a_c, c_c = _mirrored(a_c, c_c)  # only a starting point for the polish
-                    stable = True
-                if not stable and fixed_order is None:
-                    continue
-                b_c, rss = _refit_input_gains(a_c, c_c, t, yy, u, step_volts, delay, integrate)
-                score = n * math.log(max(rss, 1e-300) / n) + (2 * m + (delay > 0)) * math.log(n)
-                candidates.append(_Candidate(score, best, sv, floor, above, m, a_c, b_c, c_c, stable))
+            best = _best_coefficients(grid, a, delay, settings, errors)
+            if best is not None:
+                candidates += _realised_orders(grid, best, settings, errors)
     if not candidates:
         raise IdentificationError("no stable realisation of the Laguerre coefficients for any pole, number of "
                                   "terms or order" + (f" ({errors[0]})" if errors else ""))
@@ -753,11 +706,100 @@ def laguerre_identify(
     if dc_std > 0 and abs(model_dc - dc) > 4 * dc_std + 0.02 * abs(dc):
         warnings.append(f"the order-{m} model's DC gain {model_dc:.4g} differs from the Laguerre coefficients' "
                         f"{dc:.4g} ± {dc_std:.2g}: the order may be too low")
+    choice = _choice_text(chosen, len(candidates), tau, settings, polish, polished, pre_step)
+    return LaguerreResult(
+        A=a_f, B=b_f, C=c_f, order=m, coefficients=coeff, hankel_sv=sv, noise_floor=floor,
+        dc_gain=dc, dc_gain_std=dc_std, model_dc_gain=model_dc, step_volts=float(step_volts), output=output,
+        choice=choice, settings=settings, warnings=tuple(warnings), polish=polish,
+    )
+
+
+
+@dataclass(frozen=True)
+class _Grid:
+    """What every grid point of :func:`laguerre_identify` fits: the samples and the order rules."""
+
+    t: np.ndarray
+    y: np.ndarray
+    u: np.ndarray | None
+    step_volts: float
+    integrate: bool
+    fixed_order: int | None
+    want: int
+    #: other channels will be polished with shared poles: orders past the velocity's Hankel count
+    shared: bool
+
+
+def _best_coefficients(grid: _Grid, a: float, delay: float, settings: LaguerreSettings,
+                       errors: list[str]) -> LaguerreCoefficients | None:
+    """The Laguerre coefficients of least BIC over the number of terms, for one pole and dead time."""
+    record = float(grid.t[-1])
+    # N ≲ a·T/2: the k-th Laguerre function lives until about (2k + 1)/a; later ones are not
+    # pinned down by the record and trade off against each other
+    cap = int(min(MAX_TERMS, max(2, math.floor(a * record / 2))))
+    n_list = [settings.n_terms] if settings.n_terms is not None else list(range(min(2 * grid.want, cap), cap + 1))
+    try:
+        phi = laguerre_regressors(grid.t, a, max(n_list), input_v=grid.u, step_volts=grid.step_volts,
+                                  delay_s=delay, integrate=grid.integrate)
+    except (IdentificationError, OptionError) as exc:
+        errors.append(exc.message)
+        return None
+    best: LaguerreCoefficients | None = None
+    for k in n_list:
+        # the network is lower triangular: the first k columns are the k-term regressors
+        try:
+            fit = _coefficients(phi[:, :k], grid.y, a, delay)
+        except IdentificationError as exc:
+            errors.append(exc.message)
+            continue
+        if settings.n_terms is None and fit.condition > MAX_CONDITION:
+            continue
+        if best is None or fit.bic < best.bic:
+            best = fit
+    return best
+
+
+def _realised_orders(grid: _Grid, best: LaguerreCoefficients, settings: LaguerreSettings,
+                     errors: list[str]) -> list[_Candidate]:
+    """Each order's realisation of ``best`` (up to the Hankel count), scored by BIC on the samples."""
+    sv, floor = _hankel_order_evidence(best.values, best.covariance, settings)
+    above = int(np.count_nonzero(sv > floor))
+    top = min(settings.max_order, best.values.size // 2)
+    # orders past the velocity's Hankel count only where other channels (shared poles) can decide
+    reach = top if grid.shared else min(above, top)
+    orders = [grid.fixed_order] if grid.fixed_order is not None else list(range(1, max(1, reach) + 1))
+    n, delay = grid.t.size, best.delay_s
+    out = []
+    for m in orders:
+        if m > best.values.size // 2:
+            errors.append(f"order {m} needs at least {2 * m} Laguerre terms, {best.values.size} fitted")
+            continue
+        try:
+            a_c, b_c, c_c = laguerre_realisation(best.values, best.pole, m)
+        except IdentificationError as exc:
+            errors.append(exc.message)
+            continue
+        stable = bool(np.all(np.real(np.linalg.eigvals(a_c)) < 0))
+        if not stable and m > above and grid.shared:
+            a_c, c_c = _mirrored(a_c, c_c)  # only a starting point for the polish
+            stable = True
+        if not stable and grid.fixed_order is None:
+            continue
+        b_c, rss = _refit_input_gains(a_c, c_c, grid.t, grid.y, grid.u, grid.step_volts, delay, grid.integrate)
+        score = n * math.log(max(rss, 1e-300) / n) + (2 * m + (delay > 0)) * math.log(n)
+        out.append(_Candidate(score, best, sv, floor, above, m, a_c, b_c, c_c, stable))
+    return out
+
+
+def _choice_text(chosen: _Candidate, n_candidates: int, tau: float, settings: LaguerreSettings,
+                 polish: LaguerrePolish | None, polished: list[Any], pre_step: Any) -> str:
+    """The sentence that says how the basis, the terms, the dead time and the order were chosen."""
+    coeff, sv, floor, above, m = chosen.coefficients, chosen.sv, chosen.floor, chosen.above, chosen.order
     n_sig = ", ".join(f"{x / sv[0]:.3g}" for x in sv[: min(sv.size, 5)])
     pole_grid = "/".join(f"{f:g}" for f in POLE_FACTORS) + " × 1/τ" if settings.pole is None else "fixed"
     choice = (f"Laguerre basis a = {coeff.pole:.4g} 1/s, N = {coeff.values.size} terms (least BIC of the coefficient "
               f"fit, N ≤ a·T/2), dead time {1e3 * coeff.delay_s:.3g} ms, order {m}: least BIC of the realised model "
-              f"among {len(candidates)} (a = {pole_grid}"
+              f"among {n_candidates} (a = {pole_grid}"
               f", τ = {tau:.4g} s from the measured 63 % time; orders up to the Hankel count); "
               f"Hankel σ/σ₁ {n_sig}: {above} above the noise floor {floor / sv[0]:.2g}")
     if coeff.inflation > 1.5:
@@ -773,12 +815,7 @@ def laguerre_identify(
         choice += (f"; realisation polished by output-error least squares on {', '.join(polish.channels)}{offsets} "
                    f"(dead time {1e3 * polish.delay_s:.3g} ms){noise}, order {m} by the polished fits' BIC "
                    f"on one effective sample size per channel ({others})")
-    return LaguerreResult(
-        A=a_f, B=b_f, C=c_f, order=m, coefficients=coeff, hankel_sv=sv, noise_floor=floor,
-        dc_gain=dc, dc_gain_std=dc_std, model_dc_gain=model_dc, step_volts=float(step_volts), output=output,
-        choice=choice, settings=settings, warnings=tuple(warnings), polish=polish,
-    )
-
+    return choice
 
 def _mirrored(a_c: np.ndarray, c_c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The realisation with its right-half-plane poles mirrored into the left (``B`` is refitted after)."""
