@@ -114,7 +114,11 @@ def test_the_front_door_writes_what_the_schema_says(demo_run):
 
     d = demo_run.folder
     fit = mi.identify(mi.read_experiment(position=d / "ALL0000", velocity=d / "ALL0001"), method="markov")
-    _valid("model", json.loads(json.dumps(fit.model.to_json())))
+    _valid("model", json.loads(json.dumps(fit.to_dict())))
+    assert fit.to_dict() == fit.to_json() == fit.model.to_dict()  # to_json: the older name
+    des = mi.design(fit.model, damping=0.9, wn=4.0)
+    _valid("design", json.loads(json.dumps(des.to_dict())))
+    _valid("simulation", json.loads(json.dumps(mi.simulate(fit.model, des, duration_s=0.5).to_dict())))
 
 
 def test_docs_formats_specifies_every_schema_and_its_required_keys():

@@ -338,6 +338,16 @@ class IdentificationResult:
 
         return "\n".join([*model_summary(self.model, "identified model"), f"choice: {self.reason}"])
 
+    def to_dict(self) -> dict[str, Any]:
+        """The model JSON as a dict (:meth:`to_json` is the older name of the same).
+
+        Returns
+        -------
+        dict
+            ``self.model.to_dict()``.
+        """
+        return self.model.to_dict()
+
     def to_json(self) -> dict[str, Any]:
         """The model JSON (docs/formats.md "Model JSON"), the dict ``motorid identify --json`` writes.
 

@@ -210,6 +210,16 @@ class Design:
         """
         return [(name, float(k), sensor_unit(name, self.units)) for name, k in zip(self.states, self.K, strict=False)]
 
+    def to_dict(self) -> dict[str, Any]:
+        """The design JSON as a dict (:meth:`to_json` is the older name of the same).
+
+        Returns
+        -------
+        dict
+            JSON-able.
+        """
+        return self.to_json()
+
     def to_json(self) -> dict[str, Any]:
         """The docs/formats.md "Design JSON" dict (schema ``motorid.design/1``) plus extras.
 

@@ -613,6 +613,16 @@ class MotorModel:
         """
         return model_to_dict(self)
 
+    def to_dict(self) -> dict[str, Any]:
+        """The model JSON as a dict (:meth:`to_json` is the older name of the same).
+
+        Returns
+        -------
+        dict
+            JSON-able; :meth:`to_json_text` is its text.
+        """
+        return self.to_json()
+
     def to_json_text(self) -> str:
         """:meth:`to_json` as indented JSON text (non-finite numbers written as null).
 

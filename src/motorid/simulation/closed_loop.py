@@ -245,6 +245,16 @@ class SimulationResult:
             w.writerow([f"{v:.9g}" for v in row])
         return buf.getvalue()
 
+    def to_dict(self) -> dict[str, Any]:
+        """The simulation JSON as a dict (:meth:`to_json` is the older name of the same).
+
+        Returns
+        -------
+        dict
+            JSON-able (schema ``motorid.simulation/1``).
+        """
+        return self.to_json()
+
     def to_json(self) -> dict[str, Any]:
         """Metrics, warnings and the time series as a JSON dict (NaN written as null).
 
