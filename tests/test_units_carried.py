@@ -129,3 +129,16 @@ def test_a_batch_never_puts_rpm_and_volts_in_one_distribution(rig, demo_run):
     page = (rig / "out" / "summary.html").read_text()
     assert page.count('alt="class distribution"') == 2  # one figure per unit
     assert re.search(r"median DC gain \S+ V/V .*; DC gain \S+ rpm/V|median DC gain \S+ rpm/V", _visible(page))
+
+
+def test_a_unit_is_a_unit(rig):
+    import motorid as mi
+    from motorid.model.units import check_unit
+
+    for unit in ("rpm", "rad/s", "V/(rad/s)", "counts", "deg", "m/s^2", "mA", "µA", "rev/min"):
+        assert check_unit(unit, "--units", "velocity") == unit
+    for bad in ("<script>alert(1)</script>", "rpm; rm -rf /", "two words", "javascript:x"):
+        with pytest.raises(mi.MotorIdError, match="not a unit"):
+            check_unit(bad, "--units", "velocity")
+    with pytest.raises(mi.MotorIdError, match="not a unit"):
+        mi.read_experiment(velocity=rig / "rig" / "l298n_log.csv", units={"velocity": "<b>rpm</b>"})

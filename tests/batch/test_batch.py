@@ -141,7 +141,7 @@ def test_cli_reports_links_validation_and_progress(class_root, run_cli, tmp_path
     assert "failed bad: ALL0001/F0001CH2.CSV:41" in res.out
     assert "failed 1" in res.err and "2/2" in res.err  # the progress bar's last state
     page = (out / "summary.html").read_text(encoding="utf-8")
-    assert 'href="s02/report.html"' in page
+    assert 'href="./s02/report.html"' in page
     report = (out / "s02" / "report.html").read_text(encoding="utf-8")
     assert "ALL0003" in report  # the manifest's validation capture is in the report
 

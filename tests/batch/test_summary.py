@@ -58,7 +58,7 @@ def test_outliers_are_flagged_and_failures_kept_with_their_reason():
     assert by["s2"]["warnings"] == "a warning, with a comma" and by["s2"]["status"] == "warning"
     assert float(by["s5"]["dc_gain"]) == 1.8 and by["s5"]["report"] == "s5/report.html"
     page = summary_html(rows)
-    assert 'href="s5/report.html"' in page and "outlier: gain" in page
+    assert 'href="./s5/report.html"' in page and "outlier: gain" in page
     assert "broken: ALL0001/F0001CH2.CSV:41: cannot read &#x27;x&#x27; as a number" in page
     assert "7 experiments: 5 ok, 1 with warnings, 1 failed" in page
     assert page.count('src="data:image/png;base64,') == 1

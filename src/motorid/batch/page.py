@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import html
 import io
+from urllib.parse import quote
 from collections.abc import Sequence
 
 import numpy as np
@@ -68,6 +69,15 @@ def _distribution_figure(rows: Sequence[SummaryRow], unit: str) -> str | None:
     return _png(fig)
 
 
+def _relative_href(path: str) -> str:
+    """A link to one of the batch's own files, relative and percent-encoded.
+
+    ``./`` first and each segment encoded, so that a folder a student named ``javascript:…`` is a
+    path, never a scheme.
+    """
+    return "./" + "/".join(quote(part, safe="") for part in path.split("/"))
+
+
 def _num(x: float | None, fmt: str = ".4g") -> str:
     return "—" if x is None else format(x, fmt)
 
@@ -101,7 +111,7 @@ def summary_html(rows: Sequence[SummaryRow], *, title: str = "motorid batch summ
                                      for i, h in enumerate(head)) + "</tr>"]
     for r in rows:
         name = esc(r.experiment)
-        link = f'<a href="{esc(r.report)}">{name}</a>' if r.report else name
+        link = f'<a href="{esc(_relative_href(r.report))}">{name}</a>' if r.report else name
         cls = r.status + (" outlier" if r.outlier else "")
         what = esc(r.error) if r.status == "failed" else "<br>".join(esc(w) for w in r.warnings)
         flag = f' <span class=flag>outlier: {esc(r.outlier)}</span>' if r.outlier else ""

@@ -172,6 +172,15 @@ def _num(x: float | None, digits: int = 10) -> str:
     return f"{x:.{digits}g}"
 
 
+#: A cell starting with one of these is run as a formula by a spreadsheet (OWASP, CSV injection).
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
+
+
+def _text(cell: str) -> str:
+    """A text cell as a spreadsheet shows it, never runs it: a leading ``'`` before a formula start."""
+    return "'" + cell if cell.startswith(FORMULA_STARTS) else cell
+
+
 def summary_csv(rows: Sequence[SummaryRow]) -> str:
     """``summary.csv``: :data:`SUMMARY_COLUMNS`, numbers to 10 significant digits.
 
@@ -183,7 +192,8 @@ def summary_csv(rows: Sequence[SummaryRow]) -> str:
     Returns
     -------
     str
-        The CSV text (warnings joined with `` | ``).
+        The CSV text (warnings joined with `` | ``); text cells that a spreadsheet would run as a
+        formula (a student's folder named ``=HYPERLINK(…)``) start with ``'``.
     """
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
@@ -192,9 +202,9 @@ def summary_csv(rows: Sequence[SummaryRow]) -> str:
         gci = r.dc_gain_ci or (None, None)
         tci = r.time_constant_ci or (None, None)
         w.writerow([
-            r.experiment, r.status, _num(r.dc_gain), _num(gci[0]), _num(gci[1]), _num(r.time_constant),
+            _text(r.experiment), r.status, _num(r.dc_gain), _num(gci[0]), _num(gci[1]), _num(r.time_constant),
             _num(tci[0]), _num(tci[1]), "" if r.order is None else r.order, r.method, _num(r.fit_percent),
-            _num(r.velocity_nrmse), _num(r.gain_z, 4), _num(r.tau_z, 4), r.outlier, " | ".join(r.warnings),
-            r.error, r.report, r.dc_gain_unit,
+            _num(r.velocity_nrmse), _num(r.gain_z, 4), _num(r.tau_z, 4), r.outlier, _text(" | ".join(r.warnings)),
+            _text(r.error), _text(r.report), r.dc_gain_unit,
         ])
     return buf.getvalue()

@@ -870,14 +870,19 @@ def main() -> None:
 
     try:
         with command_line_words():  # the front door's messages keep their flags here
-            app(standalone_mode=False)
+            code = app(standalone_mode=False)
+        # without standalone mode click returns the exit code of an interrupt (130) instead of exiting
+        if isinstance(code, int) and code != 0:
+            if code == 130:
+                print("motorid: interrupted", file=sys.stderr)
+            raise SystemExit(code)
     except MotorIdError as exc:
         print(f"motorid: error: {exc}", file=sys.stderr)
         raise SystemExit(2) from None
     except typer.Exit as exc:  # --help and explicit exits
         raise SystemExit(exc.exit_code) from None
     except (typer.Abort, KeyboardInterrupt):
-        print("motorid: aborted", file=sys.stderr)
+        print("motorid: interrupted", file=sys.stderr)
         raise SystemExit(130) from None
     except SystemExit:
         raise

@@ -21,7 +21,17 @@ from dataclasses import dataclass
 
 from motorid.errors import OptionError
 
-__all__ = ["ChannelScale", "channel_unit", "dc_gain_unit", "parse_scales", "parse_units", "physical_gain", "units_of"]
+__all__ = [
+    "UNIT_GRAMMAR",
+    "ChannelScale",
+    "channel_unit",
+    "check_unit",
+    "dc_gain_unit",
+    "parse_scales",
+    "parse_units",
+    "physical_gain",
+    "units_of",
+]
 
 CHANNELS = ("position", "velocity", "current")
 #: Shunt: ``0.47ohm`` means 0.47 V per A.
@@ -71,6 +81,44 @@ def _pairs(texts: Iterable[str], option: str) -> list[tuple[str, str]]:
     return out
 
 
+#: One unit word with an optional power (``rpm``, ``rad``, ``s^2``, ``m²``, ``µA``, ``Ω``, ``°``, ``%``).
+_FACTOR = r"[A-Za-zµΩ°%]+(?:\^-?\d+|[²³])?"
+#: A unit: words joined by ``/``, ``*`` or ``·``, one level of parentheses (``V/(rad/s)``).
+UNIT_GRAMMAR = re.compile(
+    rf"^(?:{_FACTOR}|\({_FACTOR}(?:[*/·]{_FACTOR})*\))(?:\s*[*/·]\s*(?:{_FACTOR}|\({_FACTOR}(?:[*/·]{_FACTOR})*\)))*$")
+#: Longest unit text accepted.
+UNIT_MAX_CHARS = 24
+
+
+def check_unit(text: str, option: str, channel: str) -> str:
+    """``text`` if it reads as a unit (:data:`UNIT_GRAMMAR`), else a one-line refusal.
+
+    Parameters
+    ----------
+    text : str
+        The unit as given (``rpm``, ``rad/s``, ``V/(rad/s)``, ``counts``).
+    option : str
+        The option that gave it, for the message.
+    channel : str
+        The channel it is for.
+
+    Returns
+    -------
+    str
+        ``text``, stripped.
+
+    Raises
+    ------
+    OptionError
+        When ``text`` is not a unit (markup, spaces between words, symbols).
+    """
+    unit = text.strip()
+    if len(unit) > UNIT_MAX_CHARS or not UNIT_GRAMMAR.match(unit):
+        raise OptionError(f"{option} {channel}={text!r}: not a unit; write one such as rpm, rad/s, deg, counts, "
+                          "V, mA (words joined by / or *, one level of parentheses)")
+    return unit
+
+
 def parse_units(texts: Iterable[str] | None) -> dict[str, str]:
     """``--units velocity=rpm,current=A``: the unit of each channel's data.
 
@@ -92,7 +140,7 @@ def parse_units(texts: Iterable[str] | None) -> dict[str, str]:
     for name, value in _pairs(texts or (), "--units"):
         if not value:
             raise OptionError(f"--units {name}=: give a unit, e.g. {name}=rpm")
-        out[name] = value
+        out[name] = check_unit(value, "--units", name)
     return out
 
 

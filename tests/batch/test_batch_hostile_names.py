@@ -1,0 +1,35 @@
+"""A class's folders are named by students: the summary never runs what a name says."""
+
+from __future__ import annotations
+
+import csv
+import io
+
+from motorid.batch.page import summary_html
+from motorid.batch.summary import SummaryRow, summary_csv
+
+
+def _row(name: str, **kw) -> SummaryRow:
+    base = dict(experiment=name, status="ok", dc_gain=0.9, dc_gain_ci=(0.89, 0.91), time_constant=0.43,
+                time_constant_ci=(0.42, 0.44), order=2, method="oe", fit_percent=95.0, velocity_nrmse=0.01,
+                gain_z=0.0, tau_z=0.0, outlier="", warnings=(), error="", report=f"{name}/report.html")
+    return SummaryRow(**(base | kw))
+
+
+def test_a_folder_named_like_a_formula_is_text_in_summary_csv():
+    rows = [_row('=HYPERLINK("http://evil.example","x")'), _row("+cmd"), _row("@sum"), _row("-2+3"),
+            _row("alice", warnings=("=1+1 looks odd",))]
+    got = list(csv.DictReader(io.StringIO(summary_csv(rows))))
+    for r in got:
+        for key in ("experiment", "warnings", "report", "error"):
+            assert not r[key].startswith(("=", "+", "-", "@")), (key, r[key])
+    assert got[0]["experiment"] == """'=HYPERLINK("http://evil.example","x")"""
+    assert got[4]["experiment"] == "alice" and got[4]["warnings"] == "'=1+1 looks odd"
+    assert float(got[0]["dc_gain"]) == 0.9  # numbers stay numbers
+
+
+def test_a_folder_named_like_a_url_scheme_links_to_its_own_report():
+    page = summary_html([_row("javascript:alert(1)"), _row("data:text/html,x"), _row("bob")])
+    assert 'href="javascript:' not in page and 'href="data:' not in page
+    assert 'href="./javascript%3Aalert%281%29/report.html"' in page
+    assert 'href="./bob/report.html"' in page
