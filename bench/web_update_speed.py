@@ -46,7 +46,7 @@ def main() -> None:
         files = sorted(demo.glob("ALL000[0-5]/F000[0-5]CH[12].CSV"))
         root = Path(tmp) / "root"
         root.mkdir()
-        with TestClient(create_app(WebSettings(temp_root=root))) as client:
+        with TestClient(create_app(WebSettings(temp_root=root)), base_url="http://127.0.0.1") as client:
             tab = re.search(r'data-tab="([0-9a-f]{32})"', client.get("/").text).group(1)
             res = client.post(f"/tab/{tab}/upload", files=[("files", (p.name, p.read_bytes(), "text/csv"))
                                                            for p in files])

@@ -90,7 +90,7 @@ def test_cli_python_web_and_batch_give_the_same_model(case, demo_run, tmp_path):
     from motorid.web import WebSettings, create_app
 
     (tmp_path / "web").mkdir()
-    with TestClient(create_app(WebSettings(temp_root=tmp_path / "web"))) as client:
+    with TestClient(create_app(WebSettings(temp_root=tmp_path / "web")), base_url="http://127.0.0.1") as client:
         upload = [(role, (f.name, f.read_bytes(), "text/csv")) for role, fs in roles.items() for f in fs]
         res = client.post("/api/identify", files=upload, data={k: str(v) for k, v in opts.items()})
     assert res.status_code == 200, res.text

@@ -25,7 +25,7 @@ def make_client(web_root: Path):
     clients = []
 
     def make(**kw) -> TestClient:
-        client = TestClient(create_app(WebSettings(temp_root=web_root, **kw)))
+        client = TestClient(create_app(WebSettings(temp_root=web_root, **kw)), base_url="http://127.0.0.1")
         client.__enter__()
         clients.append(client)
         return client

@@ -145,3 +145,82 @@ def test_lab_page_in_headless_chromium(chromium, live_server, demo_files):
         browser.close()
     assert console == [], console[:5]
     assert foreign == []
+
+
+EVIL_PAGE = """<!DOCTYPE html><html><body><script>
+const target = "%(target)s";
+async function attack() {
+  const tries = [
+    fetch(target + "/", {mode: "no-cors", credentials: "include"}),
+    fetch(target + "/api/design", {method: "POST", mode: "no-cors", credentials: "include",
+          headers: {"Content-Type": "text/plain"}, body: '{"model": {}, "damping": 0.7, "wn": 5}'}),
+    fetch(target + "/api/identify", {method: "POST", mode: "no-cors", credentials: "include",
+          body: new FormData()}),
+  ];
+  await Promise.allSettled(tries);
+  document.title = "done";
+}
+attack();
+</script></body></html>"""
+
+
+def test_a_page_from_another_origin_gets_nothing_while_the_real_page_works(chromium, tmp_path):
+    """The server with its token; a page served from another origin (another port: another site to
+    the browser) tries the requests a hostile page would; each is refused, and the real page,
+    opened at the address serve prints, works in the same browser."""
+    import functools
+    import http.server
+
+    import uvicorn
+    from playwright.sync_api import sync_playwright
+
+    from motorid.web import WebSettings, create_app
+
+    root = tmp_path / "root"
+    root.mkdir()
+    token = "t0ken-for-the-test"
+    app = create_app(WebSettings(temp_root=root, token=token))
+    ports = []
+    for _ in range(2):
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", 0))
+            ports.append(s.getsockname()[1])
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=ports[0], log_level="warning"))
+    threading.Thread(target=server.run, daemon=True).start()
+    evil_dir = tmp_path / "evil"
+    evil_dir.mkdir()
+    target = f"http://127.0.0.1:{ports[0]}"
+    (evil_dir / "index.html").write_text(EVIL_PAGE % {"target": target})
+    handler = functools.partial(http.server.SimpleHTTPRequestHandler, directory=str(evil_dir))
+    evil = http.server.ThreadingHTTPServer(("127.0.0.1", ports[1]), handler)
+    threading.Thread(target=evil.serve_forever, daemon=True).start()
+    deadline = time.monotonic() + 30
+    while not server.started:
+        assert time.monotonic() < deadline, "uvicorn did not start"
+        time.sleep(0.02)
+    try:
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
+            context = browser.new_context()
+            # the user's own page first: the token cookie is in the browser when the evil page runs
+            real = context.new_page()
+            assert real.goto(f"{target}/?token={token}").status == 200
+            assert len(app.state.tabs) == 1
+            seen: list[tuple[str, int]] = []
+            page = context.new_page()
+            page.on("response", lambda r: seen.append((r.url, r.status)) if r.url.startswith(target) else None)
+            page.goto(f"http://localhost:{ports[1]}/index.html")
+            page.wait_for_function("document.title === 'done'", timeout=30_000)
+            page.wait_for_timeout(300)
+            statuses = dict(seen)
+            # the SameSite=Strict cookie stays home: the page is not served, no tab is opened
+            assert statuses.get(f"{target}/") == 403, statuses
+            assert len(app.state.tabs) == 1
+            assert statuses.get(f"{target}/api/design") == 403, statuses
+            assert statuses.get(f"{target}/api/identify") == 403, statuses
+            # the real page still works after the attempt
+            assert real.reload().status == 200
+            browser.close()
+    finally:
+        server.should_exit = True
+        evil.shutdown()

@@ -52,6 +52,10 @@ def serve(
     port: Annotated[int, typer.Option(help="Port to listen on.")] = 8765,
     max_upload_mb: Annotated[float, typer.Option("--max-upload-mb", help="Largest upload, MB.")] = 50.0,
     open_browser: Annotated[bool, typer.Option("--open/--no-open", help="Open the page in a browser.")] = False,
+    token: Annotated[bool, typer.Option(
+        "--token/--no-token",
+        help="Require the random token printed on the first line (as Jupyter does); --no-token only for "
+             "scripts on a machine you trust.")] = True,
 ) -> None:
     """Start the local web page: drop captures, identify, tune the controller with sliders."""
     try:
@@ -61,14 +65,26 @@ def serve(
     except ImportError as exc:
         raise OptionError(f"motorid serve needs the web extra ({exc.name} is missing): "
                           "pip install 'motorid[web]'") from None
-    settings = WebSettings(max_upload_mb=max_upload_mb)
+    import secrets
+
+    from motorid.web.guard import LOCAL_HOSTS
+
+    secret = secrets.token_urlsafe(24) if token else None
+    bound = host.strip("[]")
+    hosts = LOCAL_HOSTS + (() if bound in ("0.0.0.0", "::") or bound in LOCAL_HOSTS else (bound,))
+    settings = WebSettings(max_upload_mb=max_upload_mb, token=secret, hosts=hosts)
     _check_port(host, port)
+    if secret is None:
+        print("motorid: warning: --no-token: any program or web page on this computer that finds the port can "
+              "use the server", file=sys.stderr)
     if not is_loopback(host):
         print(f"motorid: warning: listening on {host}: anyone who can reach this computer on port {port} can "
               "use the page and upload files (there is no password); use --host 127.0.0.1 to keep it local",
               file=sys.stderr)
     shown = "localhost" if host in ("0.0.0.0", "::") else host  # a name the browser can open
     url = f"http://{shown if ':' not in shown else '[' + shown + ']'}:{port}/"
+    if secret is not None:
+        url += f"?token={secret}"
     typer.echo(f"motorid serve: {url}  (Ctrl+C stops it; uploads are deleted when it stops)")
     if open_browser:
         import threading

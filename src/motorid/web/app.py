@@ -24,6 +24,7 @@ from fastapi.staticfiles import StaticFiles
 from fastapi.templating import Jinja2Templates
 
 from motorid.errors import MotorIdError, OptionError
+from motorid.web.guard import LOCAL_HOSTS, LocalOnly
 from motorid.web.tabs import TabStore
 from motorid.web.uploads import UploadLimits
 
@@ -46,12 +47,19 @@ class WebSettings:
         Browser tabs kept open at once (the least recently used is closed).
     temp_root : Path or None
         Parent of the server's temporary folder (default: the system's).
+    token : str or None
+        The secret each request must carry (``?token=``, the page's cookie or ``Authorization:
+        Bearer``); None: none (``motorid serve --no-token``, tests).
+    hosts : tuple of str
+        The ``Host`` names answered (:data:`motorid.web.guard.LOCAL_HOSTS` and the bound address).
     """
 
     max_upload_mb: float = 50.0
     max_files: int = 200
     max_tabs: int = 16
     temp_root: Path | None = None
+    token: str | None = None
+    hosts: tuple[str, ...] = LOCAL_HOSTS
 
     def __post_init__(self) -> None:
         if not (self.max_upload_mb > 0 and self.max_upload_mb <= 4096):
@@ -140,4 +148,5 @@ def create_app(settings: WebSettings | None = None) -> FastAPI:
 
     app.include_router(api.router)
     app.include_router(pages.router)
+    app.add_middleware(LocalOnly, token=settings.token, hosts=settings.hosts)
     return app
