@@ -17,6 +17,8 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
+from dataclasses import replace
+
 import numpy as np
 
 from motorid.capture import Capture, ChannelInfo
@@ -24,10 +26,12 @@ from motorid.conditioning.response import StepResponse
 from motorid.errors import ConditioningError
 
 __all__ = [
+    "BACK_TO_REST",
     "SCREEN_HALF_DIVISIONS",
     "VOLTS_PER_DIV",
     "check_step_responses",
     "clipping",
+    "falls_back_to_rest",
     "fitting_volts_per_div",
     "no_dynamics",
     "stalled_response",
@@ -242,7 +246,57 @@ def no_dynamics(resp: StepResponse, quantum: float = 0.0) -> str | None:
     return None
 
 
-def check_step_responses(captures: Mapping[str, Capture], responses: Mapping[str, StepResponse]) -> list[str]:
+#: A velocity whose last tenth is within this fraction of its peak change from its pre-step level
+#: has fallen back to rest.
+BACK_TO_REST = 0.2
+
+
+def falls_back_to_rest(resp: StepResponse, record_length_s: float | None = None) -> str | None:
+    """A velocity that rises after the step and falls back to its pre-step level before the record ends.
+
+    The motor stopped (an end stop, a brake, the drive switched off): a step model of the whole
+    record is wrong, its first part is a step response.
+
+    Parameters
+    ----------
+    resp : StepResponse
+        A velocity step response.
+    record_length_s : float, optional
+        The seconds after the step the identification keeps (``--record-length``).
+
+    Returns
+    -------
+    str or None
+        The warning (with the ``--record-length`` that keeps the step part), or None.
+    """
+    t, y = resp.time_s, resp.output_v
+    if record_length_s is not None:
+        t, y = t[t <= record_length_s], y[t <= record_length_s]
+        resp = replace(resp, time_s=t, output_v=y, input_v=np.asarray(resp.input_v)[: t.size])
+    before, after = t < 0, t >= 0
+    if before.sum() < 2 or after.sum() < 20:
+        return None
+    base = float(np.median(y[before]))
+    change = y[after] - base
+    peak = float(change[np.argmax(np.abs(change))])
+    n_tail = max(2, int(after.sum()) // 10)
+    tail = change[-n_tail:]
+    if peak == 0 or abs(float(np.median(tail))) > BACK_TO_REST * abs(peak):
+        return None
+    u = np.asarray(resp.input_v, dtype=float)
+    if u.size == y.size and abs(float(np.median(u[-n_tail:]) - np.median(u[before]))) < 0.5 * abs(resp.step_volts):
+        return None  # the input went back too (a pulse): the motor did what it was told
+    ta, ya = t[after], change
+    i_peak = int(np.argmax(np.abs(ya)))
+    falling = np.flatnonzero(np.abs(ya[i_peak:]) < 0.5 * abs(peak))
+    t_stop = float(ta[i_peak + falling[0]]) if falling.size else float(ta[-1])
+    return (f"the velocity falls back to its pre-step level {t_stop:.3g} s after the step (the motor stopped: an "
+            f"end stop, a brake or the drive switched off); a step model of the whole record is wrong: keep the "
+            f"step part with --record-length {0.9 * t_stop:.3g}")
+
+
+def check_step_responses(captures: Mapping[str, Capture], responses: Mapping[str, StepResponse], *,
+                         record_length_s: float | None = None) -> list[str]:
     """Refuse responses that cannot give a model; return warnings about doubtful ones.
 
     Parameters
@@ -251,6 +305,8 @@ def check_step_responses(captures: Mapping[str, Capture], responses: Mapping[str
         The captures keyed by role.
     responses : Mapping[str, StepResponse]
         Their step responses (same keys).
+    record_length_s : float, optional
+        The seconds after the step the identification keeps.
 
     Returns
     -------
@@ -287,4 +343,7 @@ def check_step_responses(captures: Mapping[str, Capture], responses: Mapping[str
         jump = no_dynamics(resp, q)
         if jump is not None:
             raise ConditioningError(jump, file=resp.source)
+        stop = falls_back_to_rest(resp, record_length_s) if role == "velocity" else None
+        if stop is not None:
+            warnings.append(f"{resp.source}: {stop}")
     return warnings

@@ -189,7 +189,8 @@ def condition_experiment(
     warnings: list[str] = []
     for r in responses.values():
         warnings.extend(f"{r.source}: {w}" for w in r.warnings)
-    warnings.extend(check_step_responses(captures, responses))  # stalled, clipped, no dynamics
+    # stalled, clipped, no dynamics, back to rest (within the record the user keeps)
+    warnings.extend(check_step_responses(captures, responses, record_length_s=settings.record_length_s))
     items = list(responses.values())
     for a in items:
         for b in items:

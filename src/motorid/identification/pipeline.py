@@ -188,15 +188,18 @@ def _pinv(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
         # on the reduced grid, which a fast armature rarely gives at 100 ms)
         best: MotorModel | None = None
         tried = []
+        why: list[str] = []
         for order in (1, 2, 3):
             try:
                 m = _with_fit(_pinv(cond, replace(s, order=order)), cond)
-            except (IdentificationError, OptionError):
+            except (IdentificationError, OptionError) as exc:
+                why.append(f"order {order}: {exc.message}")
                 continue
             tried.append(f"order {order} {100 * m.fit['velocity_nrmse']:.2f}%")
             if best is None or m.fit["velocity_nrmse"] < best.fit["velocity_nrmse"]:
                 best = m
-        assert best is not None  # order 1 needs only the velocity, which is present
+        if best is None:  # e.g. a velocity that falls back to zero (an end stop, the supply switched off)
+            raise IdentificationError("pinv found no model of any order: " + "; ".join(why))
         return best.replace(extras={**dict(best.extras), "pinv_orders": "; ".join(tried)})
     return _pinv_states(cond, s)
 
