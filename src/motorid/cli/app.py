@@ -471,7 +471,8 @@ def identify(
                        create_parents=False)
         _identify_levels(velocities, experiment or [], levels, columns, json_out=json_out, matlab_out=matlab_out,
                          report_out=report_out,
-                         ignored=[f"--{r}" for r, v in (("position", position), ("current", current)) if v])
+                         ignored=[f"--{r}" for r, v in (("position", position), ("current", current)) if v],
+                         force=force)
         return
     if levels is not None and len(levels) > 1:
         raise OptionError(f"--step-volts gives {len(levels)} levels for one step experiment; several levels go "
@@ -500,6 +501,7 @@ def identify(
         # every step of the log, as the several-levels path's experiments
         _identify_levels([], [], levels, columns, json_out=json_out, matlab_out=matlab_out, report_out=report_out,
                          ignored=[f"--{r}" for r, v in (("position", position), ("current", current)) if v],
+                         force=force,
                          captures=found[0])
         return
     if found is not None:
@@ -523,7 +525,9 @@ def identify(
     con = _console()
     _print_model(con, result.model, "identified model")
     con.print(f"choice: {result.reason}")
-    with atomic_outputs() as outs:  # all outputs appear together, or none (a failing report leaves no JSON)
+    # all outputs appear together, or none (a failing report leaves no JSON); without --force the
+    # commit itself refuses a file another run wrote since the check
+    with atomic_outputs(exclusive=not force) as outs:
         if json_out is not None:
             outs.write_text(json_out, result.model.to_json_text())
         if matlab_out is not None:
@@ -574,7 +578,8 @@ def _segments(caps: dict, segment: int | None) -> tuple[list, bool] | None:
 
 def _identify_levels(velocities: list[str], experiments: list[str], levels: list[float] | None,
                      columns: str | None, *, json_out: Path | None, matlab_out: Path | None,
-                     report_out: Path | None, ignored: list[str], captures: list | None = None) -> None:
+                     report_out: Path | None, ignored: list[str], captures: list | None = None,
+                     force: bool = False) -> None:
     """The several-step-levels path of ``identify``: captures given, or one log's segments."""
     from motorid.cli.levels import experiment_capture, identify_levels_cmd
     from motorid.io import atomic_outputs, read_capture
@@ -587,7 +592,7 @@ def _identify_levels(velocities: list[str], experiments: list[str], levels: list
     result = identify_levels_cmd(con, caps, levels, ignored=ignored)
     model = result.model  # type: ignore[attr-defined]
     _print_model(con, model, "linear part of the Hammerstein model (input: u with the dead-zone removed)")
-    with atomic_outputs() as outs:
+    with atomic_outputs(exclusive=not force) as outs:
         if json_out is not None:
             outs.write_text(json_out, model.to_json_text())
         if matlab_out is not None:
@@ -742,7 +747,7 @@ def report(
         progress(0, label="identifying")
         result = identify_experiment(caps, settings, step_volts=step_volts)
         progress(1, label="figures and page")
-        with atomic_outputs() as outs:
+        with atomic_outputs(exclusive=not force) as outs:
             outs.write_text(out, make_report(result, caps, validation=checks, design=doc))
         progress(2)
     _console().print(f"report: {out}")
@@ -839,7 +844,7 @@ def sweep(
     for cell, why in res.failures.items():
         con.print(f"[yellow]failed[/yellow] {cell}: {why}")
     if json_out is not None:
-        with atomic_outputs() as outs:
+        with atomic_outputs(exclusive=not force) as outs:
             outs.write_text(json_out, json.dumps(res.to_json(), indent=2) + "\n")
         con.print(f"table JSON: {json_out}")
 

@@ -132,7 +132,7 @@ def model_from_params_cmd(
     _check_outputs([(json_out, "--json", None)], force)
     model = model_from_params(MotorParams(km=km, kT=kt, gear=parse_ratio(gear), k0=k0, Tm_s=tm))
     if json_out is not None:
-        with atomic_outputs() as outs:
+        with atomic_outputs(exclusive=not force) as outs:
             outs.write_text(json_out, model.to_json_text() + "\n")
     _print_model(model, json_out)
 
@@ -159,7 +159,7 @@ def model_from_step_test_cmd(
                f"Tm = {sig(p.Tm_s)} s")
     model = model_from_params(p)
     if json_out is not None:
-        with atomic_outputs() as outs:
+        with atomic_outputs(exclusive=not force) as outs:
             outs.write_text(json_out, model.to_json_text() + "\n")
     _print_model(model, json_out)
 
@@ -232,7 +232,7 @@ def design(
     for w in d.warnings:
         typer.echo(f"warning: {w}")
     if json_out is not None:
-        with atomic_outputs() as outs:
+        with atomic_outputs(exclusive=not force) as outs:
             outs.write_text(json_out, d.to_json_text() + "\n")
         typer.echo(f"design JSON: {json_out}")
 
@@ -319,7 +319,7 @@ def simulate(
                          f"{res.output_unit if unit == 'output' else unit}" for key, unit in _METRIC_UNITS))
     for w in res.warnings:
         typer.echo(f"warning: {w}")
-    with atomic_outputs() as outs:  # the CSV, JSON and plot appear together, or none
+    with atomic_outputs(exclusive=not force) as outs:  # the CSV, JSON and plot appear together, or none
         if csv_out is not None:
             outs.write_text(csv_out, res.to_csv_text())
         if json_out is not None:
@@ -384,7 +384,7 @@ def modes(
         progress(len(plants))
     for line in lines:
         typer.echo(line)
-    with atomic_outputs() as outs:
+    with atomic_outputs(exclusive=not force) as outs:
         if json_out is not None:
             outs.write_text(json_out, json.dumps(modes_json(tuple(maps), criteria), indent=1) + "\n")
         if png is not None:

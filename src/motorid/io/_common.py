@@ -591,6 +591,15 @@ def check_writable(
             raise OptionError(f"given for {seen[key] or 'another output'} and {what}: give each output "
                               "its own file", file=str(p))
         seen[key] = option
+        if p.is_symlink() and not (folder and p.is_dir()):
+            try:
+                where = f" to {os.readlink(p)}"
+            except OSError:
+                where = ""
+            if not force:  # with --force the committed file replaces the link, not what it points to
+                raise OutputExistsError(f"is a symbolic link{where}; an output is written where it is named: use "
+                                        "--force (force=True) to replace the link itself with the file, or give "
+                                        "another path", file=str(p))
         if folder:
             if p.exists() and not p.is_dir():
                 raise OptionError(f"is a file, not a folder: give {what} a folder to write into", file=str(p))

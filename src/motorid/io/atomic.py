@@ -95,10 +95,11 @@ class AtomicOutputs:
     makes the writing itself all-or-nothing.
     """
 
-    __slots__ = ("_pending",)
+    __slots__ = ("_exclusive", "_pending")
 
-    def __init__(self) -> None:
+    def __init__(self, *, exclusive: bool = False) -> None:
         self._pending: dict[Path, Path] = {}  # target -> temporary file beside it
+        self._exclusive = exclusive
 
     def path(self, target: Path | str) -> Path:
         """A temporary path beside ``target`` to write into.
@@ -162,13 +163,19 @@ class AtomicOutputs:
             raise write_error(target, exc) from None
 
     def commit(self) -> None:
-        """Rename every temporary file over its target.
+        """Rename every temporary file over its target (or, exclusive, link it where nothing is).
 
         Raises
         ------
+        OutputExistsError
+            Exclusive: a target appeared since the check (another run wrote it); none of this
+            command's targets is left.
         OutputWriteError
             A rename failed; the remaining temporary files are removed.
         """
+        if self._exclusive:
+            self._commit_exclusive()
+            return
         try:
             for target, tmp in list(self._pending.items()):
                 try:
@@ -177,6 +184,35 @@ class AtomicOutputs:
                 except OSError as exc:
                     raise write_error(target, exc) from None
                 del self._pending[target]
+        finally:
+            self.discard()
+
+    def _commit_exclusive(self) -> None:
+        """Check and write in one step, all the targets or none.
+
+        ``link(2)`` fails when the target exists: ``O_EXCL``'s guarantee, for a file written
+        first under another name.
+        """
+        from motorid.errors import OutputExistsError
+
+        done: list[Path] = []
+        try:
+            for target, tmp in self._pending.items():
+                try:
+                    os.chmod(tmp, _final_mode(target))
+                    os.link(tmp, target)
+                except FileExistsError:
+                    for t in done:
+                        with contextlib.suppress(OSError):
+                            t.unlink()
+                    raise OutputExistsError("already exists (another run wrote it meanwhile); use --force "
+                                            "(force=True) to overwrite it", file=str(target)) from None
+                except OSError as exc:
+                    for t in done:
+                        with contextlib.suppress(OSError):
+                            t.unlink()
+                    raise write_error(target, exc) from None
+                done.append(target)
         finally:
             self.discard()
 
@@ -189,8 +225,15 @@ class AtomicOutputs:
 
 
 @contextlib.contextmanager
-def atomic_outputs() -> Iterator[AtomicOutputs]:
+def atomic_outputs(*, exclusive: bool = False) -> Iterator[AtomicOutputs]:
     """Collect a command's outputs and commit them together when the block succeeds.
+
+    Parameters
+    ----------
+    exclusive : bool
+        Never overwrite (the command line without ``--force``): a target that appeared since
+        :func:`motorid.io.check_writable` looked is refused at commit, in one step with the
+        write, and none of the command's targets is written.
 
     Yields
     ------
@@ -208,7 +251,7 @@ def atomic_outputs() -> Iterator[AtomicOutputs]:
     ...     outs.write_text(json_out, model.to_json_text())
     ...     outs.write_text(report_out, make_report(...))  # a failure here leaves no JSON
     """
-    outs = AtomicOutputs()
+    outs = AtomicOutputs(exclusive=exclusive)
     try:
         yield outs
     except BaseException:
