@@ -33,3 +33,37 @@ def test_a_folder_named_like_a_url_scheme_links_to_its_own_report():
     assert 'href="javascript:' not in page and 'href="data:' not in page
     assert 'href="./javascript%3Aalert%281%29/report.html"' in page
     assert 'href="./bob/report.html"' in page
+
+
+def _class(tmp_path, demo_run, names=("alice", "bob")):
+    root = tmp_path / "class"
+    for name in names:
+        (root / name).mkdir(parents=True)
+        (root / name / "ALL0001").symlink_to(demo_run.folder / "ALL0001", target_is_directory=True)
+    return root
+
+
+def test_links_to_itself_its_parent_or_outside_are_not_followed(tmp_path, demo_run):
+    from motorid.batch.discover import discover_experiments
+
+    root = _class(tmp_path, demo_run)
+    (root / "alice" / "self").symlink_to(".", target_is_directory=True)
+    (root / "alice" / "up").symlink_to("..", target_is_directory=True)
+    (root / "bob" / "away").symlink_to(demo_run.folder, target_is_directory=True)  # out of the class
+    names = [s.name for s in discover_experiments([root])]
+    assert names == ["alice", "bob"]
+
+
+def test_an_experiment_named_like_the_batchs_own_files_is_one_line(tmp_path, demo_run, run_cli):
+    root = _class(tmp_path, demo_run, names=("alice", "summary.csv"))
+    res = run_cli("batch", root, "--out", tmp_path / "out", "--jobs", "1")
+    assert res.code == 2 and "rename that folder" in res.err and len(res.err.strip().splitlines()) == 1
+
+
+def test_out_inside_a_symlink_loop_is_one_line(tmp_path, demo_run, run_cli):
+    root = _class(tmp_path, demo_run, names=("alice",))
+    (tmp_path / "a").symlink_to(tmp_path / "b")
+    (tmp_path / "b").symlink_to(tmp_path / "a")
+    res = run_cli("batch", root, "--out", tmp_path / "a" / "out", "--jobs", "1")
+    assert res.code == 2, res.err
+    assert "internal error" not in res.err and len(res.err.strip().splitlines()) == 1

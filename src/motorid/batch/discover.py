@@ -295,11 +295,22 @@ def _spec_for(root: Path, folder: Path, name: str, captures: list[tuple[str, ...
 
 
 def _walk(root: Path, skip: Path | None) -> Iterable[tuple[Path, list[tuple[str, ...]]]]:
-    """Experiment folders under ``root`` (depth first, sorted), with their loose captures."""
+    """Experiment folders under ``root`` (depth first, sorted), with their loose captures.
+
+    Each real folder is visited once and only inside the root: a symlink to ``.`` or ``..``, or
+    one out of the root, is not followed (a student's link would make the walk loop, grow
+    exponentially or leave the class's folder).
+    """
+    root_real = root.resolve()
+    seen: set[Path] = set()
     stack = [root]
     while stack:
         folder = stack.pop()
-        if skip is not None and folder.resolve() == skip:
+        real = folder.resolve()
+        if real in seen or (real != root_real and root_real not in real.parents):
+            continue
+        seen.add(real)
+        if skip is not None and real == skip:
             continue
         entries = _capture_entries(folder)
         if entries or (folder / EXPERIMENT_TOML).is_file() or (folder / MANIFEST_CSV).is_file():

@@ -22,12 +22,15 @@ from motorid.batch.page import summary_html
 from motorid.batch.store import load_record, write_outcome
 from motorid.batch.summary import SummaryRow, summary_csv, summary_rows
 from motorid.batch.task import BatchSettings, run_experiment_task
+from motorid.errors import OptionError
 from motorid.io import atomic_outputs, check_writable
 
 __all__ = ["BatchResult", "run_batch"]
 
 #: One line per run: which experiments were computed and which skipped (and the wall time).
 LOG_FILE = "batch-log.jsonl"
+#: The batch folder's own files: no experiment folder may take these names.
+BATCH_FILES: tuple[str, ...] = ("summary.csv", "summary.html", LOG_FILE)
 
 #: ``progress(done, failed, total, name)``: called at the start (``name`` empty) and after
 #: each experiment, skipped ones first.
@@ -120,7 +123,16 @@ def run_batch(
     settings = BatchSettings() if settings is None else settings
     out = Path(out)
     check_writable({"--out": out}, force=True, folder=True)
+    try:
+        out.resolve(strict=False)
+    except RuntimeError:  # a symlink loop on the way (Python < 3.13 raises RuntimeError)
+        raise OptionError("lies in a loop of symbolic links: give --out a real folder", file=str(out)) from None
     specs = discover_experiments(roots, skip=out)
+    for spec in specs:  # an experiment's folder beside the summary must not be one of the batch's own files
+        top = spec.name.split("/")[0]
+        if top in BATCH_FILES:
+            raise OptionError(f"the experiment {spec.name!r} would write into {out / top}, which is the batch's own "
+                              f"{top}: rename that folder (the batch writes {', '.join(BATCH_FILES)})")
     out.mkdir(parents=True, exist_ok=True)
     fingerprint = settings.fingerprint()
     hashes = {s.name: _hash(s, fingerprint) for s in specs}
