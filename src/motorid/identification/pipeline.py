@@ -309,7 +309,18 @@ def _markov_laguerre(cond: ConditionedExperiment, s: IdentifySettings) -> MotorM
     return model.replace(warnings=tuple(model.warnings) + tuple(notes), sample_interval_s=float(t[1] - t[0]))
 
 
+#: Most Markov parameters (or Laguerre terms) asked for: each needs several samples, and the
+#: regressors and the Hankel matrix grow with their square (100 000 asked for 75 GiB).
+MAX_MARKOV_PARAMS = 200
+
+
 def _markov(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
+    if s.markov_params is not None:
+        n = int(np.count_nonzero(cond.full_time_s >= 0))
+        limit = max(3, min(n // 4, MAX_MARKOV_PARAMS))
+        if s.markov_params > limit:
+            raise OptionError(f"--markov-params {s.markov_params}: at most {limit} for this record ({n} samples after "
+                              f"the step, at least 4 per parameter, and no more than {MAX_MARKOV_PARAMS})")
     if s.markov_basis == "laguerre":
         return _markov_laguerre(cond, s)
     t, v_meas, notes = _velocity(cond, full=True)

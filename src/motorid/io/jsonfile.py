@@ -41,5 +41,8 @@ def read_json(path: Path, what: str) -> object:
                                f"{getattr(exc, 'lineno', '?')})", file=str(path)) from None
     except RecursionError:
         raise ModelFormatError(f"not a motorid {what}: the JSON is nested too deeply", file=str(path)) from None
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits
+        raise ModelFormatError(f"not a motorid {what}: {' '.join(str(exc).split(';')[0].split())}",
+                               file=str(path)) from None
     except OSError as exc:
         raise OptionError(f"cannot read the {what} file ({exc.strerror or exc})", file=str(path)) from None

@@ -59,6 +59,10 @@ CHANNELS = ("position", "velocity", "current")
 
 
 
+#: Largest magnitude of a state-space entry: beyond it a product of two entries can overflow.
+MAX_MATRIX_ENTRY = 1e100
+
+
 def _as_matrix(name: str, value: Any, shape: tuple[int | None, int | None]) -> np.ndarray:
     """Return ``value`` as a read-only float 2-D array, or raise ModelFormatError."""
     try:
@@ -81,6 +85,9 @@ def _as_matrix(name: str, value: Any, shape: tuple[int | None, int | None]) -> n
             )
     if not np.all(np.isfinite(arr)):
         raise ModelFormatError(f"state-space matrix {name} contains NaN or infinity")
+    if arr.size and float(np.max(np.abs(arr))) > MAX_MATRIX_ENTRY:
+        raise ModelFormatError(f"state-space matrix {name} has an entry of {float(np.max(np.abs(arr))):.3g}: not a "
+                               f"motor's model (entries beyond {MAX_MATRIX_ENTRY:g} overflow every simulation)")
     arr.setflags(write=False)
     return arr
 

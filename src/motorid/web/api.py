@@ -38,7 +38,9 @@ async def _json_body(request: Request) -> dict[str, Any]:
     try:
         body = json.loads(raw)
     except (ValueError, UnicodeDecodeError) as exc:
-        raise OptionError(f"the request body is not JSON ({exc})") from None
+        raise OptionError(f"the request body is not JSON ({' '.join(str(exc).split(';')[0].split())})") from None
+    except RecursionError:
+        raise OptionError("the request body is JSON nested too deeply") from None
     if not isinstance(body, dict):
         raise OptionError("the request body must be a JSON object")
     return body
