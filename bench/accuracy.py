@@ -6,7 +6,7 @@ Run: ``python3 bench/accuracy.py [--runs 200] [--presets first-order,second-orde
 BLAS thread each, or the workers of a Dask scheduler).
 
 Presets: the trainer's ``first-order``, ``second-order``, ``third-order``; ``electrical-7ms``
-(issue 11, item 12: a 7 ms electrical pole near the 4 ms sampling); and the real set-ups of
+(a 7 ms electrical pole near the 4 ms sampling); and the real set-ups of
 :mod:`motorid.trainer.realsetups` (``fast-tbs1000``, ``pwm-encoder``, ``daq-deadtime``), each
 written to disk and read back as a user's files, identified with default options and the
 user's ``--step-volts``; their truth is the incremental gain and the mean residence time
@@ -21,7 +21,7 @@ Cases (paper's 4 ms sampling, 5.92 V step, position + velocity + current capture
 
 Methods: the paper's pinv (reduced state, 100 ms, five-point: as published), the paper's
 Markov method (``markov``: Taylor basis, as published) and its Laguerre-basis form
-(``markov-laguerre``, issue 14), the classic 63 % method, motorid's ``oe`` (order auto), ``srivc``, ``auto``;
+(``markov-laguerre``), the classic 63 % method, motorid's ``oe`` (order auto), ``srivc``, ``auto``;
 peers run in the same process: python-control's ERA on the differenced step response
 (converted to continuous time), a ``scipy.optimize.curve_fit`` of ``k(1 − e^{−t/τ})``, and
 SIPPY's N4SID (``sippy-unipi``) when it imports.
@@ -75,7 +75,7 @@ METHODS = ("pinv", "markov", "markov-laguerre", "classic", "oe", "srivc", "auto"
 #: ``METHOD:velocity`` runs METHOD on the velocity capture alone (the others left out): the
 #: reference for whether the other captures add bias.
 #: Bench method names that are ``motorid`` methods with settings: ``markov`` stays the paper's
-#: Taylor procedure as published; ``markov-laguerre`` is its Laguerre-basis form (issue 14).
+#: Taylor procedure as published; ``markov-laguerre`` is its Laguerre-basis form.
 METHOD_SETTINGS = {"markov": {"method": "markov", "markov_basis": "taylor"},
                    "markov-laguerre": {"method": "markov", "markov_basis": "laguerre"}}
 

@@ -5,7 +5,7 @@ Run: ``python3 bench/cli_speed.py [--repeat 5] [--src DIR]``.  For each command 
 ``../shared/real`` is there) it starts ``python -m motorid ...`` afresh ``--repeat`` times and
 prints the median wall time and CPU time (user + system of the child), once in the default
 environment and once with ``OPENBLAS_NUM_THREADS=1``: equal CPU in both columns means the
-library's own one-thread BLAS limit works (issue 11, item 13: scipy's OpenBLAS ran two
+library's own one-thread BLAS limit works (scipy's OpenBLAS ran two
 threads behind the CLI's limit, 9.1 s CPU against 2.6 s).  Benches that import scipy first
 could not see that; this one imports nothing of motorid in its own process.
 ``--src DIR`` runs another checkout's source (``PYTHONPATH=DIR/src``) for a before/after table.

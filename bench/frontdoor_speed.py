@@ -1,4 +1,4 @@
-"""Time of ``mi.identify`` on the demo captures, as a notebook user runs it (issue 13: < 2 s).
+"""Time of ``mi.identify`` on the demo captures, as a notebook user runs it (< 2 s).
 
 Run: ``python3 bench/frontdoor_speed.py [--repeat 5]``.  Writes the demo once, then runs
 ``import motorid as mi; mi.read_experiment(...); mi.identify(exp)`` in a fresh interpreter
@@ -50,7 +50,7 @@ def main() -> None:
                        ("first", "mi.identify (first call)"), ("second", "mi.identify (again)")):
         vals = [r[key] for r in runs]
         print(f"{label:<28}{statistics.median(vals):>12.3f}{max(vals):>10.3f}")
-    print(f"{args.repeat} fresh interpreters; issue 13 asks for mi.identify under 2 s")
+    print(f"{args.repeat} fresh interpreters; the target is mi.identify under 2 s")
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Fuzz the capture readers with thousands of mutated real captures (issue 12).
+"""Fuzz the capture readers with thousands of mutated real captures.
 
 Run: ``python3 bench/fuzz.py [--examples 5000] [--seed 0]``.  Each example copies one of the
 real files in ``../shared/real`` (the three Tektronix samples, the HSLU logs), applies one to

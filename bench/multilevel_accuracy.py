@@ -1,4 +1,4 @@
-"""Issue 15: Monte-Carlo accuracy of the static characteristic from several step levels.
+"""Monte-Carlo accuracy of the static characteristic from several step levels.
 
 For each run: the virtual trainer records 5 levels (2, 4, 6, 8, 10 V) × 3 repeats, each a
 separate 8-bit acquisition with fresh noise; the dead-zone (amplifier dead-zone + Coulomb

@@ -20,7 +20,7 @@ Usage::
     python bench/real_setups.py [--seeds 5] [--src DIR] [--setups a,b] [--no-real]
 
 ``--src DIR`` runs another checkout's source (``PYTHONPATH=DIR/src``), e.g. the code before
-issue 11: ``git worktree add /tmp/motorid-before 595a727`` then ``--src /tmp/motorid-before``.
+the real-set-up work: ``git worktree add /tmp/motorid-before 595a727`` then ``--src /tmp/motorid-before``.
 """
 
 from __future__ import annotations

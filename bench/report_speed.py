@@ -1,4 +1,4 @@
-"""Time to generate the demo experiment's HTML report (issue 6 target: ≤ 3 s).
+"""Time to generate the demo experiment's HTML report (target: ≤ 3 s).
 
 Run: ``python3 bench/report_speed.py [--repeat 3]``.  Identification is done once; the
 timed part is :func:`motorid.report.assemble.make_report` (sensitivity table + every figure).

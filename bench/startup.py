@@ -1,4 +1,4 @@
-"""Start-up cost of the CLI (issue 16): ``motorid --help`` and ``motorid inspect`` against a bare interpreter.
+"""Start-up cost of the CLI: ``motorid --help`` and ``motorid inspect`` against a bare interpreter.
 
 Run: ``python3 bench/startup.py [--repeat 7] [--src DIR]``.
 
@@ -6,7 +6,7 @@ Each command runs in a fresh process (``python -m motorid ...``, the console scr
 path without the pyenv shim in front), in the default environment (no BLAS variables set here),
 ``--repeat`` times; the table shows the median wall time and the median CPU time (user + system
 of the child, from ``getrusage(RUSAGE_CHILDREN)``) and both minus the median of ``python -c pass``
-measured the same way.  The target of issue 16 is ``--help`` under 0.25 s of CPU more than the
+measured the same way.  The target is ``--help`` under 0.25 s of CPU more than the
 bare interpreter.  ``--src DIR`` runs another checkout's source (``PYTHONPATH=DIR/src``), so a copy
 of ``src/`` taken before a change gives the "before" column of the same table.
 """
@@ -25,7 +25,7 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 REAL = REPO.parent / "shared" / "real" / "hslu-rtl-dcmotor" / "csv" / "06_dc_step_5_15_00.csv"
-#: The target of issue 16: extra CPU seconds of ``motorid --help`` over ``python -c pass``.
+#: The target: extra CPU seconds of ``motorid --help`` over ``python -c pass``.
 HELP_TARGET_S = 0.25
 
 

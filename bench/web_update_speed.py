@@ -1,4 +1,4 @@
-"""Speed of one slider move on the local web page (issue 18's 200 ms budget per update).
+"""Speed of one slider move on the local web page (a 200 ms budget per update).
 
 One update = design + closed-loop simulation (3 s at 1 ms) + the report's figure (PNG) + the
 mode-map marker, as the page's ``/tab/{tab}/design`` endpoint does it.  The bench writes the

@@ -1,6 +1,6 @@
 """The whole chain ``demo`` → ``identify`` (every method) → ``design`` → ``simulate`` / ``modes``.
 
-Issue 11 item 5/10: the model ``demo`` writes (an output-error model with abstract states
+The model ``demo`` writes (an output-error model with abstract states
 ``x1..x3``) was refused as "not controllable" and designs came out on abstract states.  Here
 every model the identification really produces is designed on, through the CLI and through
 the Python functions, and every result is checked against an independent computation:

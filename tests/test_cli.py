@@ -94,7 +94,7 @@ def test_inspect_human_table(run_cli, real_dir):
 
 
 def test_every_user_error_is_a_motorid_error_and_its_builtin() -> None:
-    """Issue 13: all error classes in motorid.errors, each a MotorIdError and the matching
+    """All error classes in motorid.errors, each a MotorIdError and the matching
     built-in, and still importable where they used to live."""
     import motorid.conditioning.edge as edge
     import motorid.control.feedback as feedback
@@ -109,7 +109,7 @@ def test_every_user_error_is_a_motorid_error_and_its_builtin() -> None:
     assert atomic.OutputWriteError is errors.OutputWriteError
     assert model.ModelFormatError is errors.ModelFormatError
     builtin = {"OutputExistsError": FileExistsError, "OutputWriteError": OSError,
-               # the oscilloscope (issue 17): an instrument that cannot be reached is an OSError,
+               # the oscilloscope: an instrument that cannot be reached is an OSError,
                # one that never triggers a TimeoutError
                "InstrumentError": OSError, "AcquisitionTimeoutError": TimeoutError}
     for name in errors.__all__:

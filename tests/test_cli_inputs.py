@@ -1,7 +1,7 @@
 """Wrong inputs to identify/inspect/demo/report/sweep: refused before any work, one line, exit 2.
 
 Every case asserts exit 2, exactly one line on stderr that names the option (or the file and
-the role), no traceback, and that nothing was written (issue 11 items 7, 9, 11; issue 12).
+the role), no traceback, and that nothing was written.
 """
 
 from __future__ import annotations
@@ -184,7 +184,7 @@ def test_a_role_given_twice_is_refused(caps, run_cli, tmp_path, command):
 
 
 def test_identify_with_one_level_given_twice_says_two_moving_levels_are_needed(caps, run_cli, tmp_path):
-    # issue 15: --velocity twice is the several-levels path; one level twice cannot show a dead-zone
+    # --velocity twice is the several-levels path; one level twice cannot show a dead-zone
     res = run_cli("identify", "--velocity", caps / "ALL0001", "--velocity", caps / "ALL0001",
                   "--json", tmp_path / "m.json")
     assert res.code == 2, res.out
@@ -295,7 +295,7 @@ def test_strict_exits_3_after_writing_the_outputs(caps, run_cli, tmp_path, monke
 
 
 def test_sweep_grid_comes_from_the_data_for_a_fast_motor(tmp_path, run_cli):
-    """Issue 11, item 1, for the sweep: the paper's grid (1.9–2.9 s × 0.04–0.12 s) has no cell a
+    """For the sweep: the paper's grid (1.9–2.9 s × 0.04–0.12 s) has no cell a
     0.35 s record of a 16 ms motor allows; the default grid is the data's own."""
     from motorid.analysis.sweep import PAPER_LENGTHS_S, data_grid
     from motorid.trainer.realsetups import write_real_setup

@@ -1,4 +1,4 @@
-"""``motorid demo`` writes TDS files that ``motorid inspect`` reads back as generated (issue 2)."""
+"""``motorid demo`` writes TDS files that ``motorid inspect`` reads back as generated."""
 
 import json
 

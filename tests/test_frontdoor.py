@@ -1,4 +1,4 @@
-"""The Python front door (issue 13): ``import motorid as mi`` and the five calls on the demo."""
+"""The Python front door: ``import motorid as mi`` and the five calls on the demo."""
 
 from __future__ import annotations
 
@@ -29,7 +29,7 @@ def fit(demo):
     exp = mi.read_experiment(position=demo / "ALL0000", velocity=demo / "ALL0001", current=demo / "ALL0002")
     t = time.perf_counter()
     result = mi.identify(exp)
-    # timing is measured in bench/frontdoor_speed.py, not asserted here (issue 13: < 2 s)
+    # timing is measured in bench/frontdoor_speed.py, not asserted here (< 2 s)
     print(f"mi.identify on the demo: {time.perf_counter() - t:.2f} s")
     return result
 

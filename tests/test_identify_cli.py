@@ -1,4 +1,4 @@
-"""``motorid identify`` / ``sweep`` on the demo captures and on real logs (issue 3)."""
+"""``motorid identify`` / ``sweep`` on the demo captures and on real logs."""
 
 import json
 

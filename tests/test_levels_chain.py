@@ -1,4 +1,4 @@
-"""Issue 15 end to end: several step levels → Hammerstein model → design → simulate → modes.
+"""End to end: several step levels → Hammerstein model → design → simulate → modes.
 
 The chain runs on the model the code really produces (captures written as TDS files by the
 virtual trainer, read back by the CLI), and the closed loop is checked against the trainer's
@@ -88,7 +88,7 @@ def _ess(text: str) -> float:
 
 
 def test_design_and_simulate_with_and_without_compensation_against_the_trainer(levels, run_cli, tmp_path):
-    # issue 15 must-show: a position step with a dead-zone; the steady-state error with and
+    # the target: a position step with a dead-zone; the steady-state error with and
     # without compensation, on the identified model and on the trainer's nonlinear plant
     exp, folders = levels
     m, d = tmp_path / "m.json", tmp_path / "d.json"

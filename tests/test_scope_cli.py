@@ -1,4 +1,4 @@
-"""``motorid scope list`` and ``motorid acquire`` against the simulated TDS 2012C (issue 17).
+"""``motorid scope list`` and ``motorid acquire`` against the simulated TDS 2012C.
 
 The must-show: ``acquire --simulate --out ALL0000 --identify`` saves files that read back to
 the trainer's quantised volts, written as the demo writes the same capture, and the model

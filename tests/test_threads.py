@@ -1,5 +1,5 @@
-"""BLAS is limited to one thread inside the fitting code, for every entry point (issue 11,
-item 13): scipy loads its own OpenBLAS lazily, so a limit entered before that import misses it."""
+"""BLAS is limited to one thread inside the fitting code, for every entry point: scipy loads its
+own OpenBLAS lazily, so a limit entered before that import misses it."""
 
 from __future__ import annotations
 

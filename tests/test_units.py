@@ -1,4 +1,4 @@
-"""Issue 16, units: the gain reads in the data's units (rpm/V for a log in rpm) and per
+"""units: the gain reads in the data's units (rpm/V for a log in rpm) and per
 physical unit when a sensor constant is given; the JSON says its unit."""
 
 from __future__ import annotations

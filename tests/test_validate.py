@@ -1,4 +1,4 @@
-"""Issue 11 items 7–8: one NRMSE, MATLAB's fit %, and a ``validate`` that tells the truth.
+"""One NRMSE, MATLAB's fit %, and a ``validate`` that tells the truth.
 
 The references are hand computations, closed-form responses and the trainer's own truth
 file; never numbers copied from our output.

@@ -1,4 +1,4 @@
-"""motorid.numfmt (issue 16): four significant figures, conjugate pairs, names in words.
+"""motorid.numfmt: four significant figures, conjugate pairs, names in words.
 
 Checked against Python's own rounding (``format(x, ".4g")``) as the independent reference: the
 text must be the same number, with no exponent between 1e-4 and 1e6 and no ``-0``.

@@ -1,4 +1,4 @@
-"""Progress bars (issue 16): the library reports through a callback, the CLI draws on stderr.
+"""Progress bars: the library reports through a callback, the CLI draws on stderr.
 
 No bar unless stderr is a terminal or ``--progress`` is given; the callbacks' sequence is
 checked, not the drawing speed (no sleeps).

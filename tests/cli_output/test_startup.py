@@ -1,4 +1,4 @@
-"""Start-up (issue 16): what a fresh ``motorid`` process imports for ``--help`` and ``inspect``.
+"""Start-up: what a fresh ``motorid`` process imports for ``--help`` and ``inspect``.
 
 Checked by module presence in ``sys.modules`` of a fresh interpreter, not by time (the machine
 is shared; bench/startup.py measures the time).

@@ -1,4 +1,4 @@
-"""response_metrics on python-control's step_info (issue 16) against closed forms and the old code.
+"""response_metrics on python-control's step_info against closed forms and the old code.
 
 A standard second-order step has closed forms for its overshoot and, found independently with
 brentq on the analytic response, its 10/90 % crossings and last ±2 % band exit; the home-made

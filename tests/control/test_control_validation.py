@@ -1,6 +1,6 @@
 """Everyday mistakes on ``design``/``simulate``/``modes``/``model``: exit 2, one line, nothing written.
 
-Issue 11 item 11 and issue 12 (hardening): every option and input file is validated before
+Hardening: every option and input file is validated before
 any work starts; the real entry point (``motorid.cli.app:main``, via the ``run_cli`` fixture)
 maps the errors to exit code 2 with one line on stderr and no traceback.
 """

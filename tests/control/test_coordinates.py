@@ -1,4 +1,4 @@
-"""Scale-free controllability/observability and measurable coordinates (issue 11 items 5, 10).
+"""Scale-free controllability/observability and measurable coordinates.
 
 Checked against python-control (``tf2ss``, ``ss2tf``, ``place``, ``acker``, ``ctrb``) and
 numpy eigenvalues, never against numbers copied from motorid's output.

@@ -1,4 +1,4 @@
-"""A model with a dead time through design and simulate (issue 11: every model the
+"""A model with a dead time through design and simulate (every model the
 identification produces goes on through the chain).  The model is the one `identify` gives
 with default options on the 100 Hz dead-time rig preset, not a hand-made one."""
 

@@ -1,4 +1,4 @@
-"""Defaults come from the data (issue 11, items 1–3, 6, 12): the sample interval, the shared
+"""Defaults come from the data: the sample interval, the shared
 step instant of one acquisition, the dead time, the first-order headline and the intervals."""
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ def _capture(t: np.ndarray, y: np.ndarray, *, u: np.ndarray | None = None, sourc
 
 def _fast_motor(dt: float = 2e-4, n: int = 2500, t_step: float = 0.05, seed: int = 0):
     """A 15 ms motor with a 1 ms electrical pole: velocity and armature current on one axis,
-    no input channel (the TBS1000 tacho + shunt set-up of issue 11)."""
+    no input channel (the TBS1000 tacho + shunt set-up)."""
     rng = np.random.default_rng(seed)
     t = np.arange(n) * dt - 0.1 * n * dt
     tau_m, tau_e, k = 0.015, 0.001, 0.8
@@ -58,7 +58,7 @@ def test_response_times_read_off_a_first_order_plus_dead_time() -> None:
 
 
 def test_auto_reduction_keeps_a_fast_motor_identifiable() -> None:
-    # the paper's 0.1 s on a 15 ms motor recorded at 0.2 ms left 3 samples (issue 11, item 1)
+    # the paper's 0.1 s on a 15 ms motor recorded at 0.2 ms left 3 samples
     ratio, why = auto_reduction_ratio(2e-4, 0.45, 0.016)
     assert ratio * 2e-4 == pytest.approx(0.016 / 5, rel=0.1)
     assert "--sample-interval 0.1" in why
@@ -93,7 +93,7 @@ def test_fast_motor_with_default_options_gets_gain_and_time_constant() -> None:
 
 
 def test_first_order_keeps_a_slow_pair_the_record_resolves() -> None:
-    """Issue 11, item 3: a pole at −35.4 beside a zero at −40.2 and a 6972 rad/s pole was
+    """A pole at −35.4 beside a zero at −40.2 and a 6972 rad/s pole was
     cancelled (12 % off the DC gain).  With the record's length known it is left in: the
     headline is the model's own DC gain and τ (moments), checked against python-control."""
     g = control.zpk([-40.2], [-35.4, -6972.0], 1.0)
@@ -115,7 +115,7 @@ def test_delay_is_part_of_the_model_response_and_json() -> None:
 
 
 def test_dead_time_rig_gets_its_dead_time_by_bic() -> None:
-    """A 100 Hz rig with a 35 ms dead time (issue 11, item 6): auto tries a delay, started from
+    """A 100 Hz rig with a 35 ms dead time: auto tries a delay, started from
     the read-off; the residence time (τ + dead time) is within 5 % of the truth either way."""
     rng = np.random.default_rng(4)
     dt, theta = 0.01, 0.035
@@ -159,7 +159,7 @@ def test_structure_uncertainty_widens_only_with_a_close_runner_up() -> None:
 
 
 def test_a_long_log_is_fitted_on_the_part_the_dynamics_need() -> None:
-    """A 3000 s log of a 0.33 s motor (issue 11, item 7): it used to be fitted as 1.2 s block
+    """A 3000 s log of a 0.33 s motor: it used to be fitted as 1.2 s block
     means (interval ±0.64 s); the fit now takes 50 time constants after the step."""
     from motorid.identification.stages import MAX_RECORD_TIME_CONSTANTS, fit_record_length
     from motorid.conditioning.pipeline import condition_experiment
@@ -182,7 +182,7 @@ def test_a_long_log_is_fitted_on_the_part_the_dynamics_need() -> None:
 
 
 def test_ripple_that_never_goes_away_is_not_told_to_record_longer() -> None:
-    """Issue 11, item 7: a low-speed step keeps its commutator ripple to the end; that is not
+    """A low-speed step keeps its commutator ripple to the end; that is not
     an unsettled record.  A record that really still rises is told so."""
     dt = 4e-3
     k = np.arange(-200, 2300)

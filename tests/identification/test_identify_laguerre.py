@@ -1,4 +1,4 @@
-"""Generalised Markov parameters on a Laguerre basis (issue 14), against independent computations."""
+"""Generalised Markov parameters on a Laguerre basis, against independent computations."""
 
 from __future__ import annotations
 
@@ -210,7 +210,7 @@ def test_cli_bad_markov_basis_exits_2(demo_dir, run_cli) -> None:
     assert "--markov-basis" in res.err and "laguerre" in res.err
 
 
-# --- output-error polish of the realisation (issue 14, items 2 and 3) ---------------------------
+# --- output-error polish of the realisation ---------------------------------------------------
 
 
 def _fine_grid_response(a, b, c, d, h, u, delay, k=200):
@@ -317,7 +317,7 @@ def test_third_order_needs_the_current_channel_velocity_hankel_cannot_resolve_it
     assert moments_tau(both.A, both.B, both.C) + both.delay_s == pytest.approx(moments_tau(st.A, st.B, st.C), rel=0.01)
 
 
-# --- the order choice of the polished fits (issue 14: order right ≥ 95 %) -------------------------------------
+# --- the order choice of the polished fits (order right ≥ 95 %) -------------------------------------
 
 
 def _polish_of(sigma: float, inflation: float, n_params: int):

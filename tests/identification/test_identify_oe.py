@@ -1,4 +1,4 @@
-"""Issue 4: the continuous-time output-error fit as a pure array function.
+"""The continuous-time output-error fit as a pure array function.
 
 Every reference value comes from python-control (closed-form responses) or from the known
 transfer function that generated the data, never from our own earlier output.

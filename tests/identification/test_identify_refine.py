@@ -1,4 +1,4 @@
-"""Issue 4: output-error refinement, SRIVC, order selection and uncertainty on trainer data."""
+"""Output-error refinement, SRIVC, order selection and uncertainty on trainer data."""
 
 import json
 

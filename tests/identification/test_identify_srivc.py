@@ -1,4 +1,4 @@
-"""Issue 4: SRIVC (Young's simplified refined instrumental variable, continuous time)."""
+"""SRIVC (Young's simplified refined instrumental variable, continuous time)."""
 
 from __future__ import annotations
 

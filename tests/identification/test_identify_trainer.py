@@ -1,4 +1,4 @@
-"""Issue 3 on the virtual trainer: the paper's methods on noisy, 8-bit, nonlinear captures."""
+"""On the virtual trainer: the paper's methods on noisy, 8-bit, nonlinear captures."""
 
 import pytest
 

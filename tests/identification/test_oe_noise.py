@@ -1,4 +1,4 @@
-"""Issue 4: what the output-error fit assumes about the data — per-capture grids, block means,
+"""What the output-error fit assumes about the data — per-capture grids, block means,
 a current that jumps, coloured noise, the measured step level, an undithered position.
 
 References are the generating models (python-control responses, known AR coefficients,

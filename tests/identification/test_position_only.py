@@ -1,4 +1,4 @@
-"""Issue 14 item 4: a position-only experiment passes the sanity gate (its velocity is the
+"""A position-only experiment passes the sanity gate (its velocity is the
 derivative of an 8-bit position, smoothed over the reduced interval, not over 7 raw samples)."""
 
 from __future__ import annotations

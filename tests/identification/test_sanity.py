@@ -1,4 +1,4 @@
-"""The sanity gate (issue 11, item 4): every wrong-looking result is flagged with its text."""
+"""The sanity gate: every wrong-looking result is flagged with its text."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Settings validate themselves on construction (issue 13): a bad value fails at once with a
+"""Settings validate themselves on construction: a bad value fails at once with a
 one-line OptionError naming the Python parameter, not deep inside the pipeline."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue 15: the static characteristic (dead-zone, gain, rails) from steps at several levels.
+"""The static characteristic (dead-zone, gain, rails) from steps at several levels.
 
 Ground truth: the virtual trainer's dead-zone plus Coulomb friction referred to the input
 (``truth_of(config).equivalent_input_offset_v``), its linear DC gain and the amplifier rails.
@@ -23,7 +23,7 @@ def _fit(exp):
 
 @pytest.mark.parametrize("seed", range(8))
 def test_dead_zone_and_gain_from_five_levels_three_repeats(seed):
-    # issue 15 must-show: dead-zone within ±0.05 V, linear gain within 1 %; the interval covers
+    # the target: dead-zone within ±0.05 V, linear gain within 1 %; the interval covers
     # the truth (the 100-run coverage figure comes from bench/multilevel_accuracy.py)
     exp = multilevel_experiment("deadzone", seed=seed)
     fit = _fit(exp)

@@ -1,4 +1,4 @@
-"""Live acquisition (issue 17): the SCPI dialogue, the preamble, the curve decoders and the
+"""Live acquisition: the SCPI dialogue, the preamble, the curve decoders and the
 saved "Save All" folder, against fakes and the simulated TDS 2012C (pyvisa-sim).
 
 Independent truths: blocks made by ``pyvisa.util.to_ieee_block`` from known codes; the

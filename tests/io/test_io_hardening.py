@@ -1,4 +1,4 @@
-"""Issue 12, the readers: any file in, a capture or one clear line out, in bounded time and memory.
+"""The readers: any file in, a capture or one clear line out, in bounded time and memory.
 
 Cases that could hang or eat memory (pipes, devices, large files, zip bombs) run the real
 command line in a child process with a timeout and an address-space limit

@@ -1,4 +1,4 @@
-"""Property tests of the model and design JSON loaders (issue 12).
+"""Property tests of the model and design JSON loaders.
 
 Valid JSON written by ``model from-params`` / ``design`` is mutated — keys dropped or renamed,
 values replaced by wrong types, NaN/±inf/huge numbers, wrong shapes, deep nesting — and must

@@ -1,4 +1,4 @@
-"""Typed stages (issue 13): the model's ``stages`` are :class:`Stage` objects whose JSON is
+"""Typed stages: the model's ``stages`` are :class:`Stage` objects whose JSON is
 the same object, key for key and in the same order, as the dicts they replaced."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue 16 must-show: the demo report with a design, as a browser shows it and as it prints.
+"""The demo report with a design, as a browser shows it and as it prints.
 
 Headless Chromium (Debian's /usr/bin/chromium, driven by Playwright) takes the screenshots an
 instructor would look at — the first page and the controller section — into

@@ -1,4 +1,4 @@
-"""Issue 15's several-levels page on the report's templates (issue 16): same page frame, guide,
+"""The several-levels page on the report's templates: same page frame, guide,
 escaping and figure style as the experiment report."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue 6: the HTML report of the demo experiment, and ``motorid validate``."""
+"""The HTML report of the demo experiment, and ``motorid validate``."""
 
 import re
 import shutil
@@ -88,7 +88,7 @@ def test_identify_report_with_design_shows_closed_loop_and_modes(demo, run_cli, 
 
 
 def test_report_simulates_a_design_made_on_the_default_model(demo, run_cli, tmp_path):
-    """Issue 11: the chain as a user runs it with default options — the demo's own model
+    """The chain as a user runs it with default options — the demo's own model
     (output-error states x1..x3), a design on it in measurable coordinates, and the report
     of the same identification must show the closed loop, not a note that it cannot."""
     d, page = tmp_path / "d.json", tmp_path / "r.html"
@@ -119,7 +119,7 @@ def test_report_of_a_fast_motor_without_input_channel_has_every_section(tmp_path
 
 
 def test_figures_leave_the_callers_matplotlib_backend_alone(tmp_path):
-    """No ``matplotlib.use("Agg")`` in library code (issue 13): a notebook's backend stays."""
+    """No ``matplotlib.use("Agg")`` in library code: a notebook's backend stays."""
     import subprocess
     import sys
     import textwrap

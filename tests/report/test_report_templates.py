@@ -1,4 +1,4 @@
-"""Issue 16 (report) and issue 13 (build_report in named steps): the templates, the figures'
+"""The templates, the figures'
 style and the sentence that explains an estimate that misses the truth.  No demo run: fast."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue 16: the report speaks the data's units — the HSLU speed log (plain CSV, speed in rpm)
+"""The report speaks the data's units — the HSLU speed log (plain CSV, speed in rpm)
 gives a page whose gain reads rpm/V and whose velocity axes are in rpm."""
 
 from __future__ import annotations

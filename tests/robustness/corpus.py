@@ -1,4 +1,4 @@
-"""The robustness corpus (issue 12): malformed and unusual inputs, built into a folder.
+"""The robustness corpus: malformed and unusual inputs, built into a folder.
 
 Every :class:`Case` is one command line as a new user or a careless script would type it,
 with the files it needs built by :func:`build` into ``root/<case id>/``.  ``{d}`` in an

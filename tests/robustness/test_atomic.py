@@ -1,4 +1,4 @@
-"""Atomic outputs (issue 12): all of a command's files appear together, or none does."""
+"""Atomic outputs: all of a command's files appear together, or none does."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The robustness corpus through the real CLI entry point (issue 12).
+"""The robustness corpus through the real CLI entry point.
 
 Each case of :mod:`corpus` must end in exit 2 with 1–3 lines naming the file or option, or
 exit 0 (with the expected warning); never an internal error or a traceback; nothing in its
@@ -83,7 +83,7 @@ def results(tmp_path_factory) -> dict:
 
 
 def test_corpus_size():
-    """Aim of issue 12: well over 150 cases, every class represented."""
+    """The aim: well over 150 cases, every class represented."""
     groups = {c.group for c in CASES}
     assert groups == {"file", "signal", "option", "output"}
     assert len(CASES) >= 150, len(CASES)

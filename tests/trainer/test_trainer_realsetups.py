@@ -91,7 +91,7 @@ def test_fast_tbs1000_is_a_tbs_pair_without_input_channel(tmp_path):
 
 
 def test_fast_tbs1000_current_leads_the_tacho(recordings):
-    """The current's onset precedes the tacho's visible rise by about 1.4–2.1 ms (issue 11, item 2)."""
+    """The current's onset precedes the tacho's visible rise by about 1.4–2.1 ms."""
     rec = recordings["fast-tbs1000"]
     t = read_capture(rec.files["current"]).time_s
     cur = read_capture(rec.files["current"]).output_v

@@ -1,4 +1,4 @@
-"""Issue 18: the JSON API (POST /api/identify, /api/design, /api/simulate) against the front
+"""The JSON API (POST /api/identify, /api/design, /api/simulate) against the front
 door, and every kind of bad upload: HTTP 422, one line (the CLI's), nothing left behind."""
 
 from __future__ import annotations

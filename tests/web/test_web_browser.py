@@ -1,4 +1,4 @@
-"""Issue 18: the page in a real headless Chromium (Playwright driving Debian's /usr/bin/chromium):
+"""The page in a real headless Chromium (Playwright driving Debian's /usr/bin/chromium):
 upload the demo captures, wait for the model, move a slider, see the plot change, download
 the report.  Screenshots are kept in tests/artefacts/web/."""
 

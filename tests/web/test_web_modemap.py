@@ -1,4 +1,4 @@
-"""Issue 18: the design marker on the six-mode maps — the gains it stands for, and where it
+"""The design marker on the six-mode maps — the gains it stands for, and where it
 lands in the library's SVG, checked against matplotlib's own data transform."""
 
 from __future__ import annotations

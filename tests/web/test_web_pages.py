@@ -1,4 +1,4 @@
-"""Issue 18: the page's endpoints with fastapi.testclient — upload → inspect → identify →
+"""The page's endpoints with fastapi.testclient — upload → inspect → identify →
 design → downloads — checked against the front door run on the same files."""
 
 from __future__ import annotations

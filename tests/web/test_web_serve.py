@@ -1,4 +1,4 @@
-"""Issue 18: ``motorid serve`` — loopback by default, a warning otherwise, options checked."""
+"""``motorid serve`` — loopback by default, a warning otherwise, options checked."""
 
 from __future__ import annotations
 
