@@ -7,6 +7,8 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 
 def _default_sigint() -> None:
     # a shell that started the tests in the background ignores SIGINT, and the ignore is inherited
@@ -23,3 +25,48 @@ def test_sigint_exits_130_with_one_line(tmp_path):
     assert proc.returncode == 130, (proc.returncode, err)
     lines = [ln for ln in err.splitlines() if ln.strip()]
     assert lines == ["motorid: interrupted"], err
+
+
+def _run_and_signal(args: list[str], sig: int, after_s: float, cwd) -> subprocess.CompletedProcess:
+    proc = subprocess.Popen([sys.executable, "-m", "motorid", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, cwd=cwd, preexec_fn=_default_sigint)
+    time.sleep(after_s)
+    proc.send_signal(sig)
+    out, err = proc.communicate(timeout=120)
+    return subprocess.CompletedProcess(args, proc.returncode, out, err)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+@pytest.mark.parametrize("after_s", [1.5, 2.5, 3.5])
+def test_an_interrupted_identify_writes_everything_or_nothing(tmp_path, demo_run, sig, after_s):
+    d = demo_run.folder
+    outs = [tmp_path / "m.json", tmp_path / "m.m", tmp_path / "r.html"]
+    res = _run_and_signal(["identify", "--position", str(d / "ALL0000"), "--velocity", str(d / "ALL0001"),
+                           "--current", str(d / "ALL0002"), "--json", str(outs[0]), "--matlab", str(outs[1]),
+                           "--report", str(outs[2])], sig, after_s, tmp_path)
+    written = [p.exists() for p in outs]
+    assert written in ([True] * 3, [False] * 3), (written, res.returncode, res.stderr[-300:])
+    assert not [p.name for p in tmp_path.iterdir() if ".part" in p.name]
+    if written == [True] * 3:  # finished before the signal: confirmed, and a success
+        assert res.returncode == 0 and "report:" in res.stdout, (res.returncode, res.stderr)
+    else:  # interrupted: nothing new, and it says so
+        assert res.returncode == (130 if sig == signal.SIGINT else 143), res.stderr
+        assert res.stderr.strip().splitlines()[-1] in ("motorid: interrupted", "motorid: terminated (SIGTERM)")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_an_interrupted_demo_puts_the_old_folder_back(tmp_path, sig):
+    out = tmp_path / "d"
+    out.mkdir()
+    (out / "mine.txt").write_text("keep me")
+    first = subprocess.run([sys.executable, "-m", "motorid", "demo", "--out", str(out), "--force"],
+                           capture_output=True, text=True, cwd=tmp_path)
+    assert first.returncode == 0, first.stderr
+    before = sorted(p.name for p in out.iterdir())
+    res = _run_and_signal(["demo", "--out", str(out), "--force"], sig, 2.0, tmp_path)
+    after = sorted(p.name for p in out.iterdir())
+    assert res.returncode in (0, 130, 143), res.stderr
+    assert after == before, (res.returncode, before, after)  # no hidden backup folder left, nothing missing
+    assert (out / "mine.txt").read_text() == "keep me"

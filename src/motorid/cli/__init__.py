@@ -6,6 +6,6 @@ half, :mod:`.demo` the bundled example.
 The library never imports this package (checked by import-linter in CI).
 """
 
-from motorid.cli.app import app, main
+from motorid.cli.app import app, entry, main
 
-__all__ = ["app", "main"]
+__all__ = ["app", "entry", "main"]

@@ -13,7 +13,7 @@ import traceback
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.console import Console
@@ -859,6 +859,45 @@ for _group in (_control, _scope, _serve, _batch):
     _group.register(app)
 
 
+class Terminated(BaseException):
+    """SIGTERM, raised where the command is: every ``with`` block on the way out cleans up.
+
+    A ``BaseException`` like ``KeyboardInterrupt``: ``except Exception`` does not swallow it, the
+    atomic outputs discard their temporary files and an output folder gets its old files back.
+    """
+
+
+def _terminate_as_interrupt() -> Any:
+    """Make SIGTERM unwind the command like Ctrl-C does (Python's default kills without cleanup).
+
+    Returns the handler it replaced (None outside the main thread, where handlers cannot be set).
+    """
+    import signal
+    import threading
+
+    def raise_terminated(signum: int, frame: object) -> None:
+        raise Terminated()
+
+    if threading.current_thread() is not threading.main_thread():  # signal handlers live in the main thread
+        return None
+    return signal.signal(signal.SIGTERM, raise_terminated)
+
+
+def entry() -> None:
+    """The ``motorid`` process: :func:`main`, then signals ignored until the process has exited.
+
+    Once the command has finished and said so, a signal during the interpreter's exit changes
+    nothing: a complete, confirmed run is a success.
+    """
+    import signal
+
+    try:
+        main()
+    finally:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
+
+
 def main() -> None:
     """Console-script entry point: run the app and map errors to exit codes."""
     import os
@@ -872,6 +911,8 @@ def main() -> None:
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     threadpool_limits(limits=1, user_api="blas")
     from motorid.options import command_line_words
+
+    previous_sigterm = _terminate_as_interrupt()
 
     try:
         with command_line_words():  # the front door's messages keep their flags here
@@ -889,6 +930,9 @@ def main() -> None:
     except (typer.Abort, KeyboardInterrupt):
         print("motorid: interrupted", file=sys.stderr)
         raise SystemExit(130) from None
+    except Terminated:
+        print("motorid: terminated (SIGTERM)", file=sys.stderr)
+        raise SystemExit(143) from None
     except SystemExit:
         raise
     except Exception as exc:
@@ -904,3 +948,8 @@ def main() -> None:
             print(f"motorid: internal error: {type(exc).__name__}: {exc} (run with --debug for the traceback)",
                   file=sys.stderr)
         raise SystemExit(1) from None
+    finally:
+        if previous_sigterm is not None:
+            import signal
+
+            signal.signal(signal.SIGTERM, previous_sigterm)
