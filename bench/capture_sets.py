@@ -1,6 +1,6 @@
 """Which capture moves τ: the same runs identified from different sets of captures, paired.
 
-``python3 bench/capture_sets.py [--preset electrical-7ms] [--runs 60] [--jobs 2]``: each run of
+``python3 bench/capture_sets.py [--preset electrical-7ms] [--runs 60] [--jobs 2] [--sets …]``: each run of
 the trainer (realistic noise) is identified with ``auto`` from all three captures, from velocity
 + position, from velocity + current and from the velocity alone; the table gives each set's
 bias of τ + dead time against the truth's moments (with its standard error), the number of
@@ -27,14 +27,16 @@ SETS = {"all three": ("velocity", "position", "current"), "velocity + position":
         "velocity + current": ("velocity", "current"), "velocity alone": ("velocity",)}
 
 
-def one_run(args: tuple[str, int]) -> dict[str, tuple[float, int]]:
-    preset, seed = args
+def one_run(args: tuple[str, int, tuple[str, ...]]) -> dict[str, tuple[float, int]]:
+    preset, seed, names = args
     warnings.simplefilter("ignore")
     exp = experiment(preset, "realistic", seed, 0.0)
     caps = dict(exp.captures)
     truth = residence_tau(exp.truth.velocity)
     out = {}
     for name, roles in SETS.items():
+        if name not in names:
+            continue
         cond = condition_experiment({r: caps[r] for r in roles}, ConditioningSettings(sample_interval_s=None))
         m = identify_conditioned(cond, IdentifySettings(method="auto")).model
         out[name] = (m.first_order().time_constant_s + m.delay_s - truth, len(m.poles()))
@@ -46,12 +48,16 @@ def main() -> None:
     ap.add_argument("--preset", default="electrical-7ms")
     ap.add_argument("--runs", type=int, default=60)
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--sets", default=",".join(SETS), help="which capture sets, comma-separated")
     args = ap.parse_args()
+    names = tuple(n.strip() for n in args.sets.split(","))
+    if not {"all three", "velocity alone"} <= set(names) or not set(names) <= set(SETS):
+        ap.error(f"--sets: a comma-separated subset of {', '.join(SETS)} holding 'all three' and 'velocity alone'")
     with Pool(args.jobs) as pool:
-        res = pool.map(one_run, [(args.preset, s) for s in range(args.runs)])
+        res = pool.map(one_run, [(args.preset, s, names) for s in range(args.runs)])
     print(f"{args.preset}, realistic noise, {args.runs} runs: τ + dead time − truth (s)")
     print(f"{'captures':22}{'bias':>11}{'± s.e.':>10}  poles chosen")
-    for name in SETS:
+    for name in names:
         e = np.array([r[name][0] for r in res])
         poles = np.bincount([r[name][1] for r in res])
         print(f"{name:22}{e.mean():+11.2e}{e.std(ddof=1) / np.sqrt(e.size):10.1e}  "
