@@ -67,3 +67,23 @@ def test_out_inside_a_symlink_loop_is_one_line(tmp_path, demo_run, run_cli):
     res = run_cli("batch", root, "--out", tmp_path / "a" / "out", "--jobs", "1")
     assert res.code == 2, res.err
     assert "internal error" not in res.err and len(res.err.strip().splitlines()) == 1
+
+
+def test_a_file_beyond_every_reader_is_refused_without_being_hashed(tmp_path, demo_run, run_cli):
+    import time
+
+    from motorid.batch.discover import discover_experiments
+    from motorid.io._common import MAX_TEXT_BYTES
+
+    root = _class(tmp_path, demo_run, names=("alice",))
+    (root / "bob").mkdir()
+    with open(root / "bob" / "huge.csv", "wb") as fh:  # sparse: no disk is used
+        fh.truncate(MAX_TEXT_BYTES + 1)
+    spec = next(s for s in discover_experiments([root]) if s.name == "bob")
+    t0 = time.process_time()
+    spec.content_hash({})
+    assert time.process_time() - t0 < 0.5  # 512 MiB read and hashed would take seconds
+    res = run_cli("batch", root, "--out", tmp_path / "out", "--jobs", "1")
+    rows = {r["experiment"]: r for r in csv.DictReader((tmp_path / "out" / "summary.csv").open())}
+    assert rows["alice"]["status"] == "ok" and rows["bob"]["status"] == "failed", res.err
+    assert "MiB" in rows["bob"]["error"] or "too large" in rows["bob"]["error"], rows["bob"]["error"]
