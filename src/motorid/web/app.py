@@ -31,6 +31,8 @@ from motorid.web.uploads import UploadLimits
 __all__ = ["WebSettings", "create_app", "error_line"]
 
 _HERE = Path(__file__).resolve().parent
+#: A tab keeps at most this many uploads' worth of files (ten 45 MB uploads used to keep 450 MiB).
+TAB_QUOTA_UPLOADS = 4
 
 
 @dataclass(frozen=True, slots=True)
@@ -73,6 +75,11 @@ class WebSettings:
     def max_upload_bytes(self) -> int:
         """:attr:`max_upload_mb` in bytes."""
         return int(self.max_upload_mb * 1024 * 1024)
+
+    @property
+    def max_tab_bytes(self) -> int:
+        """What one tab may keep: four uploads' worth (:data:`TAB_QUOTA_UPLOADS`)."""
+        return TAB_QUOTA_UPLOADS * self.max_upload_bytes
 
     def upload_limits(self) -> UploadLimits:
         """The limits of one upload: the body size, the file count, zips unpacking to at most 4× the body.

@@ -13,7 +13,7 @@ from fastapi import APIRouter, Request
 from fastapi.responses import FileResponse, HTMLResponse, Response
 from starlette.concurrency import run_in_threadpool
 
-from motorid.errors import MotorIdError, OptionError
+from motorid.errors import MotorIdError, OptionError, UploadError
 from motorid.web.tabs import PAGE_ROLES, Tab
 from motorid.web.uploads import as_uploaded, group_captures, receive_form
 
@@ -62,6 +62,11 @@ async def upload(request: Request, tab_id: str) -> HTMLResponse:
 
     tab = _tab(request, tab_id)
     s = request.app.state.settings
+    declared = request.headers.get("content-length", "")
+    held = await run_in_threadpool(tab.stored_bytes)
+    if held + (int(declared) if declared.isdigit() else 0) > s.max_tab_bytes:
+        raise UploadError(f"this tab already holds {held / 2**20:.3g} MB of files and may keep at most "
+                          f"{s.max_tab_bytes / 2**20:.3g} MB: clear the captures (or open a new tab) first")
     with tab.lock:
         tab.uploads += 1
         folder = tab.folder / f"upload-{tab.uploads}"
@@ -91,12 +96,7 @@ async def clear(request: Request, tab_id: str) -> HTMLResponse:
     with tab.lock:
         for sub in tab.folder.iterdir():
             shutil.rmtree(sub, ignore_errors=True) if sub.is_dir() else sub.unlink(missing_ok=True)
-        tab.captures.clear()
-        tab.ignored.clear()
-        tab.roles.clear()
-        tab.fit = tab.design = None
-        tab.simulation = {}
-        tab.mode_maps.clear()
+        tab.reset()
     return _captures(request, tab)
 
 

@@ -61,6 +61,19 @@ class CaptureEntry:
 class Tab:
     """The working state of one browser tab (mutable: it is the session, not a result)."""
 
+    def reset(self) -> None:
+        """Forget the captures, the model and the design (the files are the caller's to remove)."""
+        self.captures.clear()
+        self.ignored.clear()
+        self.roles.clear()
+        self.fit = self.design = None
+        self.simulation = {}
+        self.mode_maps.clear()
+
+    def stored_bytes(self) -> int:
+        """The bytes of the files this tab keeps."""
+        return sum(p.stat().st_size for p in self.folder.rglob("*") if p.is_file() and not p.is_symlink())
+
     tab_id: str
     folder: Path
     captures: list[CaptureEntry] = field(default_factory=list)
@@ -135,6 +148,12 @@ class TabStore:
             raise OptionError("this page's session is closed or unknown (server restarted, or too many tabs): "
                               "reload the page")
         tab.last_seen = time.monotonic()
+        if not tab.folder.is_dir():  # a temporary-file cleaner removed it under the running server
+            with tab.lock:
+                tab.folder.mkdir(parents=True, exist_ok=True)
+                tab.reset()
+            raise OptionError("this page's files were removed from the server's temporary folder (a cleaner?): "
+                              "the page starts over — drop the captures again")
         return tab
 
     def close(self, tab_id: str) -> bool:
