@@ -36,6 +36,7 @@ def test_inspect_reads_back_step_time_amplitude_and_wraps(demo_dir, run_cli):
     assert truth["position"]["wraps"] >= 1  # the paper preset turns the output shaft
 
 
+@pytest.mark.slow
 def test_demo_refuses_to_overwrite_without_force(demo_dir, run_cli):
     f = demo_dir / "ALL0001" / "F0001CH2.CSV"
     before = f.read_bytes()

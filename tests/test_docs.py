@@ -42,6 +42,7 @@ def _run_cli(line: str, monkeypatch) -> None:
     assert exc.value.code in (0, None), line
 
 
+@pytest.mark.slow
 def test_tutorial_blocks_run_and_print_what_they_say(tmp_path, monkeypatch):
     text = (REPO / "docs" / "tutorial.md").read_text(encoding="utf-8")
     blocks = FENCE.findall(text)

@@ -93,6 +93,7 @@ def documents(demo_run, tmp_path_factory):
     return out, codes, inspect
 
 
+@pytest.mark.slow
 def test_every_document_the_cli_writes_matches_its_schema(demo_run, documents):
     out, codes, inspect = documents
     assert all(c == 0 for c in codes.values()), codes

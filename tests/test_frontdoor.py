@@ -34,6 +34,7 @@ def fit(demo):
     return result
 
 
+@pytest.mark.slow
 def test_issue_example_runs_as_written(demo, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "D").symlink_to(demo)

@@ -114,6 +114,7 @@ def test_a_sensor_constant_on_a_log_already_in_rpm_is_refused_not_dropped(rig):
         mi.read_experiment(velocity=rig / "rig" / "l298n_log.csv", scale={"velocity": "0.1V/rpm"})
 
 
+@pytest.mark.slow
 def test_a_batch_never_puts_rpm_and_volts_in_one_distribution(rig, demo_run):
     root = rig / "class"
     (root / "rpm-rig").mkdir(parents=True)

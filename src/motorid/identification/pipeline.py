@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field, replace
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -27,7 +27,8 @@ from motorid.identification.sanity import SanityReport, sanity_checks
 from motorid.identification.metrics import fit_percent, nrmse
 from motorid.model import MotorModel, step_nrmse
 
-__all__ = ["METHODS", "Identification", "IdentifySettings", "identify_conditioned", "identify_experiment"]
+__all__ = ["METHODS", "REFINERS", "Identification", "IdentifySettings", "Refiner", "identify_conditioned",
+           "identify_experiment"]
 
 #: Methods of ``--method``.  ``auto``: the paper's methods → output-error refinement →
 #: order selection → uncertainty; ``paper-auto``: the best of the paper's methods alone.
@@ -560,56 +561,129 @@ def identify_conditioned(
     t, v, notes = _velocity(cond, full=True)
     extra_warn = list(cond.warnings) + notes + _settled_warning(t, v)
     report(1, PROGRESS_STEPS, "paper methods")
-    stages: list[dict[str, Any]] = []
+    start = _initialise(cond, settings)
+    model, reason, unwhitened = start.model, start.reason, None
+    refine = REFINERS.get(settings.method)
+    if settings.method not in PAPER_METHODS:
+        report(2, PROGRESS_STEPS, "output-error fits, order selection, SRIVC check")
+    if refine is not None:
+        step = refine(cond, settings, start)
+        model, reason, unwhitened = step.model, step.reason, step.unwhitened
+        start.candidates[step.name] = model
+    report(3, PROGRESS_STEPS, "sanity checks")
+    model, sanity = _gated(cond, settings, model, reason, unwhitened, start.stages, extra_warn, t, v)
+    report(PROGRESS_STEPS, PROGRESS_STEPS, "done")
+    return Identification(model, cond, start.candidates, start.failures, reason, sanity)
+
+
+@dataclass
+class _Start:
+    """The paper's methods run on the data: their models, the best one and why (the start of a refinement)."""
+
+    candidates: dict[str, MotorModel]
+    failures: dict[str, str]
+    best: str
+    model: MotorModel
+    reason: str
+    stages: list[dict[str, Any]]
+
+
+@dataclass(frozen=True)
+class _Refined:
+    """What a refinement gives: its model, why, its name among the candidates, the unwhitened σ."""
+
+    name: str
+    model: MotorModel
+    reason: str
     unwhitened: dict[str, float] | None = None
+
+
+class Refiner(Protocol):
+    """A refinement of the paper's best model: ``(conditioned, settings, start) -> refined``."""
+
+    def __call__(self, cond: ConditionedExperiment, settings: IdentifySettings, start: _Start) -> _Refined:
+        """Refine ``start.model`` on ``cond`` (appending its stages to ``start.stages``).
+
+        Parameters
+        ----------
+        cond : ConditionedExperiment
+            The conditioned captures.
+        settings : IdentifySettings
+            The options.
+        start : _Start
+            The paper's methods' results.
+
+        Returns
+        -------
+        _Refined
+            The refined model, why, its candidate name.
+        """
+        ...
+
+
+def _initialise(cond: ConditionedExperiment, settings: IdentifySettings) -> _Start:
+    """The paper's methods: the one asked for, or all three ranked by their velocity NRMSE."""
+    stages: list[dict[str, Any]] = []
     if settings.method in PAPER_METHODS:
         candidates, failures = _paper_stage(cond, settings, [settings.method])
         best = settings.method
-        model = candidates[best]
-        reason = f"method {best} as asked"
-    else:
-        # the paper's methods first: the initial model (and the answer of paper-auto)
-        init_settings = settings if settings.method == "paper-auto" else replace(settings, order="auto")
-        candidates, failures = _paper_stage(cond, init_settings, list(PAPER_METHODS))
-        ranked = sorted(candidates, key=lambda k: candidates[k].fit.get("velocity_nrmse", np.inf))
-        for k in ranked:
-            stages.append({"stage": "paper method", **_summary(k, candidates[k])})
-        scores = ", ".join(f"{k} {100 * candidates[k].fit['velocity_nrmse']:.2f}%" for k in ranked)
-        best = ranked[0]
-        reason = f"smallest velocity step-response NRMSE among the paper's methods ({scores})"
-        if failures:
-            reason += "; not run: " + "; ".join(f"{k} ({v})" for k, v in failures.items())
-        model = candidates[best]
-        report(2, PROGRESS_STEPS, "output-error fits, order selection, SRIVC check")
-        if settings.method == "srivc":
-            from motorid.identification.stages import STRUCTURES, srivc_stage
+        return _Start(candidates, failures, best, candidates[best], f"method {best} as asked", stages)
+    # the paper's methods first: the initial model (and the answer of paper-auto)
+    init_settings = settings if settings.method == "paper-auto" else replace(settings, order="auto")
+    candidates, failures = _paper_stage(cond, init_settings, list(PAPER_METHODS))
+    ranked = sorted(candidates, key=lambda k: candidates[k].fit.get("velocity_nrmse", np.inf))
+    for k in ranked:
+        stages.append({"stage": "paper method", **_summary(k, candidates[k])})
+    scores = ", ".join(f"{k} {100 * candidates[k].fit['velocity_nrmse']:.2f}%" for k in ranked)
+    best = ranked[0]
+    reason = f"smallest velocity step-response NRMSE among the paper's methods ({scores})"
+    if failures:
+        reason += "; not run: " + "; ".join(f"{k} ({v})" for k, v in failures.items())
+    return _Start(candidates, failures, best, candidates[best], reason, stages)
 
-            orders = (1, 2, 3) if settings.order == "auto" else (int(settings.order),)
-            tried: list[tuple[float, MotorModel, tuple[int, int]]] = []
-            n = cond.full_time_s.size
-            for order in orders:
-                for structure in STRUCTURES[order]:
-                    try:
-                        m = _with_fit(srivc_stage(cond, model, structure), cond)
-                    except (IdentificationError, OptionError):
-                        continue
-                    if np.any(np.real(m.poles()) >= 0) or not np.isfinite(m.fit["velocity_nrmse"]):
-                        continue
-                    # BIC on the velocity step response (noise level cancels between structures)
-                    bic = n * np.log(m.fit["velocity_nrmse"] ** 2) + (sum(structure) + 1) * np.log(n)
-                    tried.append((bic, m, structure))
-            if not tried:
-                raise IdentificationError("SRIVC found no stable model at the requested order(s)")
-            tried.sort(key=lambda x: x[0])
-            model = tried[0][1]
-            candidates["srivc"] = model
-            stages.append({"stage": "srivc", **_summary("srivc", model)})
-            st = tried[0][2]
-            reason = (f"SRIVC initialised from {best}; {st[0]} pole(s), {st[1]} zero(s) by BIC "
-                      f"among {len(tried)} stable fits")
-        elif settings.method in ("oe", "auto"):
-            model, reason, unwhitened = _refine(cond, settings, model, best, stages)
-            candidates["oe"] = model
+
+def _srivc_refined(cond: ConditionedExperiment, settings: IdentifySettings, start: _Start) -> _Refined:
+    """SRIVC from the paper's best model, each structure of the asked orders, BIC on the step response."""
+    from motorid.identification.stages import STRUCTURES, srivc_stage
+
+    orders = (1, 2, 3) if settings.order == "auto" else (int(settings.order),)
+    tried: list[tuple[float, MotorModel, tuple[int, int]]] = []
+    n = cond.full_time_s.size
+    for order in orders:
+        for structure in STRUCTURES[order]:
+            try:
+                m = _with_fit(srivc_stage(cond, start.model, structure), cond)
+            except (IdentificationError, OptionError):
+                continue
+            if np.any(np.real(m.poles()) >= 0) or not np.isfinite(m.fit["velocity_nrmse"]):
+                continue
+            # BIC on the velocity step response (noise level cancels between structures)
+            bic = n * np.log(m.fit["velocity_nrmse"] ** 2) + (sum(structure) + 1) * np.log(n)
+            tried.append((bic, m, structure))
+    if not tried:
+        raise IdentificationError("SRIVC found no stable model at the requested order(s)")
+    tried.sort(key=lambda x: x[0])
+    model = tried[0][1]
+    start.stages.append({"stage": "srivc", **_summary("srivc", model)})
+    st = tried[0][2]
+    return _Refined("srivc", model, f"SRIVC initialised from {start.best}; {st[0]} pole(s), {st[1]} zero(s) by BIC "
+                                    f"among {len(tried)} stable fits")
+
+
+def _oe_refined(cond: ConditionedExperiment, settings: IdentifySettings, start: _Start) -> _Refined:
+    """The output-error fit, its order selection and noise model, from the paper's best model."""
+    model, reason, unwhitened = _refine(cond, settings, start.model, start.best, start.stages)
+    return _Refined("oe", model, reason, unwhitened)
+
+
+#: The refinement of each method that is not one of the paper's own (``paper-auto`` has none).
+REFINERS: dict[str, Refiner] = {"srivc": _srivc_refined, "oe": _oe_refined, "auto": _oe_refined}
+
+
+def _gated(cond: ConditionedExperiment, settings: IdentifySettings, model: MotorModel, reason: str,
+           unwhitened: dict[str, float] | None, stages: list[dict[str, Any]], extra_warn: list[str],
+           t: np.ndarray, v: np.ndarray) -> tuple[MotorModel, Any]:
+    """The chosen model with its settings, the sanity gate's verdict and every warning."""
     settings_doc = dict(model.settings)
     settings_doc.update(
         conditioning=asdict(settings.conditioning), derivative=settings.derivative,
@@ -620,11 +694,10 @@ def identify_conditioned(
     recorded = {r.source: r.input_v[r.time_s >= 0] for r in cond.responses.values() if r.edge.method != "onset"}
     # its first-order baseline is a nonlinear fit: 9 s on a 10-million-sample log
     t_gate, v_gate = _dynamic_part(cond, SANITY_SAMPLES, t, v)
-    report(3, PROGRESS_STEPS, "sanity checks")
     sanity = sanity_checks(model, t_gate, v_gate, cond.step_volts,
                            sample_interval_s=float(t[1] - t[0]), unwhitened=unwhitened, input_v=recorded)
     gate = tuple(f"SANITY CHECK FAILED — {f}" for f in sanity.failures)
-    extra_warn += _no_dead_time_warning(cond, model)
+    extra_warn = extra_warn + _no_dead_time_warning(cond, model)
     if np.isfinite(model.dc_gain()) and model.dc_gain() < 0:
         # legitimate (a tacho wired the other way round), but a student should know it
         extra_warn.append(f"negative DC gain ({model.dc_gain():.4g}): the measured channel moves against the "
@@ -637,8 +710,7 @@ def identify_conditioned(
                 "apparent_dead_time_s": cond.dead_time_s},
         stages=tuple(stages),
     )
-    report(PROGRESS_STEPS, PROGRESS_STEPS, "done")
-    return Identification(model, cond, candidates, failures, reason, sanity)
+    return model, sanity
 
 
 @single_blas_thread

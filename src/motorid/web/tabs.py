@@ -71,7 +71,13 @@ class Tab:
         self.mode_maps.clear()
 
     def stored_bytes(self) -> int:
-        """The bytes of the files this tab keeps."""
+        """The bytes of the files this tab keeps.
+
+        Returns
+        -------
+        int
+            The sum of its regular files' sizes.
+        """
         return sum(p.stat().st_size for p in self.folder.rglob("*") if p.is_file() and not p.is_symlink())
 
     tab_id: str
