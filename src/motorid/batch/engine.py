@@ -14,8 +14,11 @@ every task (a Dask worker does not get loky's environment variables).
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
+import os
 import random
+import time
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, TypeVar
 
@@ -50,13 +53,38 @@ def task_seed(base_seed: int, key: str) -> int:
 
 
 @single_blas_thread
-def _seeded_call(func: Callable[[Any], R], key: str, item: Any, seed: int) -> tuple[str, R]:
-    """Run one task with the global random generators seeded (numpy's legacy one and Python's)."""
+def _seeded_call(func: Callable[[Any], R], key: str, item: Any, seed: int,
+                 parent_pid: int | None = None) -> tuple[str, R]:
+    """Run one task with the global random generators seeded (numpy's legacy one and Python's).
+
+    In a worker process of this machine's pool (``parent_pid``: the batch's process), a watcher
+    ends the worker when the batch is gone (killed by SIGKILL, or ended while this worker was
+    busy): a worker left running held the batch's output open, so a ``| tee`` never ended.
+    """
     import numpy as np
 
+    if parent_pid is not None and os.getpid() != parent_pid:
+        _watch_parent(parent_pid)
     np.random.seed(seed)  # legacy global-RNG use in any library the task calls
     random.seed(seed)
     return key, func(item)
+
+
+#: How often a worker looks whether the batch that started it is still there [s].
+PARENT_POLL_S = 1.0
+
+
+@functools.cache
+def _watch_parent(parent_pid: int) -> None:
+    """Start, once per worker process, a thread that ends the process when its parent is gone."""
+    import threading
+
+    def watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(PARENT_POLL_S)
+        os._exit(1)  # the batch is gone: nobody reads this worker's result
+
+    threading.Thread(target=watch, name="motorid-parent-watch", daemon=True).start()
 
 
 @contextlib.contextmanager
@@ -137,7 +165,8 @@ def parallel_map(
 
     if not isinstance(jobs, int) or jobs == 0 or jobs < -1:
         raise OptionError(f"--jobs {jobs!r}: give a number of worker processes ≥ 1 (or -1 for one per core)")
-    tasks = [joblib.delayed(_seeded_call)(func, key, item, task_seed(seed, key)) for key, item in items]
+    parent = os.getpid() if scheduler is None else None  # loky workers are this process's children
+    tasks = [joblib.delayed(_seeded_call)(func, key, item, task_seed(seed, key), parent) for key, item in items]
     if not tasks:
         return
     return_as = "generator" if ordered else "generator_unordered"
