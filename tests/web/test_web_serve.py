@@ -60,3 +60,46 @@ def test_serve_refuses_bad_options_in_one_line(run_cli, fake_uvicorn):
     res = run_cli("serve", "--max-upload-mb", "0")
     assert res.code == 2 and "--max-upload-mb" in res.err
     assert fake_uvicorn == []
+
+
+@pytest.mark.slow
+def test_serve_prints_its_token_and_stops_on_sigterm_within_seconds(tmp_path):
+    """As a user runs it: the first line is the address with the token; the page needs it; SIGTERM
+    stops the server within seconds and its temporary folder goes with it."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    import urllib.error
+    import urllib.request
+
+    port = _free_port()
+    env = {**os.environ, "TMPDIR": str(tmp_path)}
+    proc = subprocess.Popen([sys.executable, "-m", "motorid", "serve", "--port", str(port)], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        first = proc.stdout.readline()
+        url = first.split()[2]
+        assert url.startswith(f"http://127.0.0.1:{port}/?token="), first
+        deadline = time.monotonic() + 30
+        while True:
+            try:
+                with urllib.request.urlopen(url, timeout=5) as res:
+                    assert res.status == 200
+                break
+            except (urllib.error.URLError, ConnectionError):
+                assert time.monotonic() < deadline, "the server did not answer"
+                time.sleep(0.2)
+        with pytest.raises(urllib.error.HTTPError) as refused:
+            urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=5)
+        assert refused.value.code == 403  # no token, no page
+        assert list(tmp_path.glob("motorid-web-*"))
+        t0 = time.monotonic()
+        proc.send_signal(signal.SIGTERM)
+        proc.wait(timeout=15)
+        assert time.monotonic() - t0 < 10
+        assert not list(tmp_path.glob("motorid-web-*"))  # its temporary folder went with it
+    finally:
+        if proc.poll() is None:
+            proc.kill()

@@ -11,7 +11,12 @@ import typer
 
 from motorid.errors import OptionError
 
-__all__ = ["is_loopback", "register", "serve"]
+__all__ = ["KEEP_ALIVE_S", "SHUTDOWN_GRACE_S", "is_loopback", "register", "serve"]
+
+#: Seconds in-flight requests get after SIGTERM or Ctrl+C before the server stops anyway.
+SHUTDOWN_GRACE_S = 3
+#: Seconds an idle keep-alive connection is kept.
+KEEP_ALIVE_S = 5
 
 
 def is_loopback(host: str) -> bool:
@@ -92,7 +97,11 @@ def serve(
 
         # the browser asks once; give uvicorn a moment to bind first
         threading.Timer(1.0, webbrowser.open, [url]).start()
-    uvicorn.run(create_app(settings), host=host.strip("[]"), port=port, log_level="warning")
+    # SIGTERM or Ctrl+C: in-flight requests get a few seconds, then the server stops and its
+    # temporary folder goes (it used to wait for a long request for over a minute); an idle
+    # connection is closed after a few seconds
+    uvicorn.run(create_app(settings), host=host.strip("[]"), port=port, log_level="warning",
+                timeout_graceful_shutdown=SHUTDOWN_GRACE_S, timeout_keep_alive=KEEP_ALIVE_S)
 
 
 def register(app: typer.Typer) -> None:
