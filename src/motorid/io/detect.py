@@ -60,10 +60,7 @@ def detect_format(path: PathLike) -> str:
     kind = binary_kind(head[:TEXT_SNIFF_BYTES])
     if kind is not None:
         raise CaptureFormatError(f"not a capture: {kind}", file=file)
-    if len(head) == 64 * 1024:
-        # Cut at a line end so that a partial last line does not confuse the sniffing.
-        head = head[: head.rfind(b"\n") + 1] or head
-    text = decode_text(head, file=file)
+    text = decode_text(_whole_lines(head) if len(head) == HEAD_BYTES else head, file=file)
     stripped = text.lstrip()
     if not stripped:
         raise CaptureFormatError("empty file: not a capture", file=file)
@@ -72,6 +69,11 @@ def detect_format(path: PathLike) -> str:
         return TDS_FORMAT
     if sniff_table(lines) is not None:
         return PLAIN_FORMAT
+    if len(head) == HEAD_BYTES and all(not ln.strip() or ln.lstrip().startswith("#") for ln in lines):
+        # more than the head of comments (a logger's preamble): look past them
+        longer = split_lines(decode_text(_whole_lines(read_head(p, LONG_HEAD_BYTES)), file=file))
+        if sniff_table([ln for ln in longer if ln.strip() and not ln.lstrip().startswith("#")]) is not None:
+            return PLAIN_FORMAT
     if stripped[0] in "{[":
         raise CaptureFormatError("not a capture: a JSON file", file=file)
     if stripped.startswith("<"):
@@ -80,6 +82,31 @@ def detect_format(path: PathLike) -> str:
         "not a capture: neither a Tektronix CSV nor a table with a header row naming time and channels",
         file=file,
     )
+
+
+#: Bytes read to recognise a file's format.
+HEAD_BYTES = 64 * 1024
+#: Bytes read when the head holds nothing but comment lines.
+LONG_HEAD_BYTES = 4 * 1024 * 1024
+
+
+def _whole_lines(head: bytes) -> bytes:
+    """``head`` cut after its last complete line (a partial last line confuses the sniffing).
+
+    UTF-16 is cut after a whole newline code unit, on an even byte: cut at the newline byte
+    alone, a little-endian file was left with half a character and refused as unreadable.
+    """
+    if head.startswith(b"\xff\xfe"):  # UTF-16 LE: "\n" is b"\n\x00" at an even offset
+        i = head.rfind(b"\n\x00")
+        while i > 0 and i % 2:
+            i = head.rfind(b"\n\x00", 0, i)
+        return head[: i + 2] if i > 0 else head[: len(head) // 2 * 2]
+    if head.startswith(b"\xfe\xff"):  # UTF-16 BE: b"\x00\n", ending on an even offset
+        i = head.rfind(b"\x00\n")
+        while i > 0 and i % 2:
+            i = head.rfind(b"\x00\n", 0, i)
+        return head[: i + 2] if i > 0 else head[: len(head) // 2 * 2]
+    return head[: head.rfind(b"\n") + 1] or head
 
 
 def read_capture(

@@ -84,7 +84,8 @@ def sniff_table(lines: Sequence[str]) -> tuple[str | None, bool] | None:
     cells = _split(first, delim)
     if len(names) < 2 or len(cells) != len(names):
         return None
-    decimal_comma = delim in (";", "\t", None) and any(_DECIMAL_COMMA_CELL.match(c) for c in cells)
+    decimal_comma = delim in (";", "\t", None) and any(
+        _DECIMAL_COMMA_CELL.match(c) for i in idx[1:] for c in _split(lines[i], delim))
     if all(parse_number(n, decimal_comma=decimal_comma) is not None for n in names if n.strip()):
         return None
     numbers = sum(parse_number(c, decimal_comma=decimal_comma) is not None for c in cells)
@@ -245,9 +246,8 @@ def _read_careful(path: PathLike, file: str, columns: Mapping[str, str] | None, 
         raise CaptureFormatError(
             f"{len(rows_split[bad])} fields but the header has {width}", file=file, row=data_idx[bad] + 1
         )
-    decimal_comma = delim in (";", "\t", None) and any(
-        _DECIMAL_COMMA_CELL.match(c) for r in rows_split[:20] for c in r
-    )
+    # a log may write whole numbers for a while (0;0;0 before the step): every row decides
+    decimal_comma = delim in (";", "\t", None) and any(_DECIMAL_COMMA_CELL.match(c) for r in rows_split for c in r)
     cells = [[r[j] for r in rows_split] for j in range(width)]
     rows = np.asarray(data_idx) + 1
     return capture_from_table(names, cells, rows, file=file, fmt=PLAIN_FORMAT, columns=columns, role=role,
