@@ -694,18 +694,18 @@ def simulate(
 
 def _simulation_settings(
     *,
-    duration_s: float = 3.0,
-    reference: str | ReferenceSignal = "step",
-    level_v: float = 5.0,
-    saturation: float | None = None,
-    disturbance: float | None = None,
-    disturbance_start_s: float = 0.0,
-    plant: str = "linear",
-    dt_s: float | None = None,
-    x0: Sequence[float] | None = None,
-    z0: float = 0.0,
-    xhat0: Sequence[float] | None = None,
-    trainer_preset: str = "lab-report",
+    duration_s: float,
+    reference: str | ReferenceSignal,
+    level_v: float,
+    saturation: float | None,
+    disturbance: float | None,
+    disturbance_start_s: float,
+    plant: str,
+    dt_s: float | None,
+    x0: Sequence[float] | None,
+    z0: float,
+    xhat0: Sequence[float] | None,
+    trainer_preset: str,
 ) -> SimulationSettings:
     """:func:`simulate`'s keyword options as the simulator's settings (the report takes the same)."""
     from motorid.simulation.closed_loop import ReferenceSignal, SimulationSettings
@@ -788,7 +788,15 @@ def write_report(
     out = Path(path)
     check_writable({"path": out}, force=overwrite, create_parents=False)
     doc = design.to_json() if isinstance(design, Design) else (None if design is None else dict(design))
-    run = None if simulation is None else _simulation_settings(**simulation)
+    run = None
+    if simulation is not None:
+        from motorid.options import SIMULATE, defaults
+
+        unknown = sorted(set(simulation) - set(defaults(SIMULATE)))
+        if unknown:
+            raise OptionError(f"simulation={{{unknown[0]!r}: …}}: not an option of simulate; use "
+                              f"{', '.join(defaults(SIMULATE))}")
+        run = _simulation_settings(**{**defaults(SIMULATE), **simulation})
     page = make_report(fit.identification, fit.experiment.captures, validation=_validation_captures(validation),
                        design=doc, simulation=run)
     with atomic_outputs() as outs:

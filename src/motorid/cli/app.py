@@ -327,27 +327,19 @@ def _one_per_role(position, velocity, current) -> dict[str, str | None]:
     return given
 
 
+def _read_experiment(position, velocity, current, columns: str | None, **options):  # -> frontdoor.Experiment
+    """One capture per role, read through the front door (its role check: ``--force-role``)."""
+    from motorid import frontdoor
+
+    paths = {role: _capture_paths(spec) if spec else None
+             for role, spec in _one_per_role(position, velocity, current).items()}
+    return frontdoor.read_experiment(position=paths["position"], velocity=paths["velocity"],
+                                     current=paths["current"], columns=_parse_columns(columns), **options)
+
+
 def _read_roles(position, velocity, current, columns: str | None, *, force_role: bool = False) -> dict:
-    """Read the capture of each role; refuse one that looks like another role (``--force-role``)."""
-    from motorid.conditioning.role import role_conflict
-    from motorid.io import read_capture
-
-    colmap = _parse_columns(columns)
-    given = _one_per_role(position, velocity, current)
-    caps = {
-        role: read_capture(_capture_paths(spec), columns=colmap, role=role)
-        for role, spec in given.items()
-        if spec
-    }
-    if not force_role:
-        for role, cap in caps.items():
-            looks = role_conflict(cap, role)
-            if looks is not None:
-                raise OptionError(f"given as --{role} but looks like a {looks.role} capture ({looks.reason}); "
-                                  f"give it as --{looks.role}, or add --force-role to keep --{role}",
-                                  file=given[role])
-    return caps
-
+    """The captures of :func:`_read_experiment` by role."""
+    return dict(_read_experiment(position, velocity, current, columns, force_role=force_role).captures)
 
 
 def _conditioning(ratio, sample_interval, record_length, reduction, sync):
@@ -489,13 +481,9 @@ def identify(
     from motorid import frontdoor
     from motorid.model.units import parse_scales, parse_units
 
-    given = _one_per_role(position, velocity, current)
     declared, scales = parse_units(units), parse_scales(scale)  # refused before any file is read
-    exp = frontdoor.read_experiment(
-        **{role: _capture_paths(spec) for role, spec in given.items() if spec},  # type: ignore[arg-type]
-        step_volts=step_volts_v, t0=t0, columns=_parse_columns(columns), force_role=force_role,
-        units=declared, scale=scales,
-    )
+    exp = _read_experiment(position, velocity, current, columns, step_volts=step_volts_v, t0=t0,
+                           force_role=force_role, units=declared, scale=scales)
     found = _segments(dict(exp.captures), segment)
     if found is not None and not found[1]:
         # every step of the log, as the several-levels path's experiments

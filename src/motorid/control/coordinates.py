@@ -56,16 +56,6 @@ SENSORS: dict[str, tuple[str, str, int]] = {  # state: (channel, sensor, derivat
     "acceleration": ("velocity", "the tacho's derivative", 1),
     "jerk": ("velocity", "the tacho's second derivative", 2),
 }
-#: The same phrases for scope volts (what :func:`sensor_unit` says without units).
-SENSOR_UNITS: dict[str, str] = {
-    "position": "per V of the potentiometer",
-    "velocity": "per V of the tacho",
-    "current": "per V of the current shunt",
-    "acceleration": "per V/s of the tacho's derivative",
-    "jerk": "per V/s² of the tacho's second derivative",
-}
-
-
 def sensor_unit(state: str, units: Mapping[str, str] | None = None) -> str:
     """How a gain on ``state`` is read (``per V of the tacho``, ``per rpm of the tacho``).
 
@@ -90,6 +80,10 @@ def sensor_unit(state: str, units: Mapping[str, str] | None = None) -> str:
         return (f"per {units.get('velocity') or 'V'}/s^{state[len('velocity_d'):]} of the tacho's derivative "
                 "of that order")
     return f"per unit of the model state {state}"
+
+
+#: The phrases for scope volts (what :func:`sensor_unit` says without units).
+SENSOR_UNITS: dict[str, str] = {state: sensor_unit(state) for state in SENSORS}
 
 
 @dataclass(frozen=True, slots=True)

@@ -553,6 +553,10 @@ class NoiseModel:
         quantised position, see :func:`noise_model`).
     preliminary : MotorModel or None
         The fit the noise model comes from (a starting point for the others).
+    step_std : float
+        Standard error of the step level (:func:`step_level_std`).
+    level_rel_std : float
+        The velocity change's relative error the quantiser leaves (:func:`output_level_rel_std`).
     """
 
     sigma: dict[str, float]
@@ -560,6 +564,8 @@ class NoiseModel:
     pre_sigma: dict[str, float]
     scale_only: tuple[str, ...] = ()
     preliminary: MotorModel | None = None
+    step_std: float = 0.0
+    level_rel_std: float = 0.0
 
     @property
     def ar_order(self) -> dict[str, int]:
@@ -624,6 +630,8 @@ def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
     """
     data = _channel_data(cond)
     pre_sigma = {role: channel_sigma(cond, role, data.block[role]) for role in data.outputs}
+    # the levels' errors depend on the captures only: once here, not in every structure's fit
+    step_std, level_rel_std = step_level_std(cond), output_level_rel_std(cond)
     sigma = dict(pre_sigma)
     white = {role: np.array([1.0]) for role in data.outputs}
     res = None
@@ -641,7 +649,7 @@ def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
         if np.isfinite(res.cost) and np.all(np.real(res.poles) < 0):
             break
     if res is None:
-        return NoiseModel(sigma, white, pre_sigma)
+        return NoiseModel(sigma, white, pre_sigma, step_std=step_std, level_rel_std=level_rel_std)
     # an 8-bit position whose noise is well under a code does not average its quantisation
     # out: the error follows the motion (a slow sawtooth while the shaft speeds up, where
     # the time constants show) and would pull them as if it were signal.  With a velocity
@@ -652,7 +660,8 @@ def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
         spread = res.residual_rms["position"] * np.sqrt(data.block["position"])
         if quantum > 0 and spread < 0.5 * quantum:
             scale_only = ("position",)
-    first = NoiseModel(sigma, white, pre_sigma, scale_only, _oe_to_model(res, cond, _structure_of(res)))
+    first = NoiseModel(sigma, white, pre_sigma, scale_only, _oe_to_model(res, cond, _structure_of(res)),
+                       step_std=step_std, level_rel_std=level_rel_std)
     return refine_noise(first, res)
 
 
@@ -721,8 +730,7 @@ def oe_stage(
     delay0 = init.delay_s if init.delay_s > 0 else cond.dead_time_s
     res = output_error_fit(data.time_s, cond.step_volts, fitted, noise.pre_sigma if white else noise.sigma,
                            taus, dc, settings, init_zeros=zeros, init_delay_s=delay0, pre=data.pre,
-                           step_std=step_level_std(cond), level_rel_std=output_level_rel_std(cond),
-                           block=data.block,
+                           step_std=noise.step_std, level_rel_std=noise.level_rel_std, block=data.block,
                            whiten=None if white else noise.whiten, pre_sigma=noise.pre_sigma,
                            wrap_count=data.wrap_count)
     if "position" in noise.scale_only:

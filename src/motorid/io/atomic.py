@@ -201,16 +201,13 @@ class AtomicOutputs:
                 try:
                     os.chmod(tmp, _final_mode(target))
                     os.link(tmp, target)
-                except FileExistsError:
-                    for t in done:
-                        with contextlib.suppress(OSError):
-                            t.unlink()
-                    raise OutputExistsError("already exists (another run wrote it meanwhile); use --force "
-                                            "(force=True) to overwrite it", file=str(target)) from None
                 except OSError as exc:
-                    for t in done:
+                    for t in done:  # none of this command's targets stays
                         with contextlib.suppress(OSError):
                             t.unlink()
+                    if isinstance(exc, FileExistsError):
+                        raise OutputExistsError("already exists (another run wrote it meanwhile); use --force "
+                                                "(force=True) to overwrite it", file=str(target)) from None
                     raise write_error(target, exc) from None
                 done.append(target)
         finally:

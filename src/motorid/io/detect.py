@@ -96,15 +96,11 @@ def _whole_lines(head: bytes) -> bytes:
     UTF-16 is cut after a whole newline code unit, on an even byte: cut at the newline byte
     alone, a little-endian file was left with half a character and refused as unreadable.
     """
-    if head.startswith(b"\xff\xfe"):  # UTF-16 LE: "\n" is b"\n\x00" at an even offset
-        i = head.rfind(b"\n\x00")
+    newline = {b"\xff\xfe": b"\n\x00", b"\xfe\xff": b"\x00\n"}.get(head[:2])  # UTF-16 LE, BE
+    if newline is not None:  # a whole code unit, starting on an even byte
+        i = head.rfind(newline)
         while i > 0 and i % 2:
-            i = head.rfind(b"\n\x00", 0, i)
-        return head[: i + 2] if i > 0 else head[: len(head) // 2 * 2]
-    if head.startswith(b"\xfe\xff"):  # UTF-16 BE: b"\x00\n", ending on an even offset
-        i = head.rfind(b"\x00\n")
-        while i > 0 and i % 2:
-            i = head.rfind(b"\x00\n", 0, i)
+            i = head.rfind(newline, 0, i)
         return head[: i + 2] if i > 0 else head[: len(head) // 2 * 2]
     return head[: head.rfind(b"\n") + 1] or head
 

@@ -71,18 +71,19 @@ class LocalOnly:
             return
         headers = {k.decode("latin-1").lower(): v.decode("latin-1") for k, v in scope.get("headers", [])}
         path, method = scope.get("path", ""), scope.get("method", "GET")
-        refusal = self._refusal(headers, path, method, scope.get("query_string", b"").decode("latin-1"))
+        query = parse_qs(scope.get("query_string", b"").decode("latin-1"))
+        refusal = self._refusal(headers, path, method, query)
         if refusal is not None:
             status, line = refusal
             await _plain(send, status, line, path)
             return
-        query = parse_qs(scope.get("query_string", b"").decode("latin-1"))
         if self.token is not None and query.get("token") and method == "GET" and path == "/":
             await self.app(scope, receive, _with_cookie(send, self.token))
             return
         await self.app(scope, receive, send)
 
-    def _refusal(self, headers: dict[str, str], path: str, method: str, query_string: str) -> tuple[int, str] | None:
+    def _refusal(self, headers: dict[str, str], path: str, method: str,
+                 query: dict[str, list[str]]) -> tuple[int, str] | None:
         name = _host_name(headers.get("host", ""))
         if name not in self.hosts:
             return 400, (f"motorid: error: this server answers {', '.join(sorted(self.hosts))} only, not {name!r} "
@@ -100,7 +101,7 @@ class LocalOnly:
                     return 415, f"motorid: error: {path} takes a JSON body (Content-Type: application/json)"
         if self.token is None or path.startswith("/static/"):
             return None
-        given = parse_qs(query_string).get("token", [""])[0]
+        given = query.get("token", [""])[0]
         if not given:
             auth = headers.get("authorization", "")
             given = auth[7:].strip() if auth.lower().startswith("bearer ") else ""
