@@ -3,11 +3,11 @@ and an in-process CLI runner."""
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from clihelpers import run_motorid
 
 REPO = Path(__file__).resolve().parents[1]
 REAL = REPO.parent / "shared" / "real"
@@ -21,29 +21,10 @@ def real_dir() -> Path:
     return REAL
 
 
-@dataclass
-class CliResult:
-    code: int
-    out: str
-    err: str
-
-
 @pytest.fixture
-def run_cli(capsys, monkeypatch):
+def run_cli():
     """Run ``motorid ARGS`` in-process through the real entry point (error mapping included)."""
-    from motorid.cli.app import main
-
-    def run(*args: str) -> CliResult:
-        monkeypatch.setattr(sys, "argv", ["motorid", *map(str, args)])
-        code = 0
-        try:
-            main()
-        except SystemExit as exc:
-            code = int(exc.code or 0)
-        cap = capsys.readouterr()
-        return CliResult(code, cap.out, cap.err)
-
-    return run
+    return run_motorid
 
 
 @dataclass(frozen=True)

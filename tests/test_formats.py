@@ -13,6 +13,7 @@ from pathlib import Path
 
 import jsonschema
 import pytest
+from clihelpers import motorid_ok
 
 from motorid.schemas import SCHEMA_NAMES, schema
 
@@ -48,28 +49,6 @@ def test_the_schemas_reject_a_document_that_lost_a_required_key(demo_run):
     assert list(jsonschema.Draft202012Validator(schema("model")).iter_errors(bad))
 
 
-def _cli(*args: object) -> tuple[int, str]:
-    """``motorid ARGS`` in-process through the real entry point; (exit code, stdout)."""
-    import contextlib
-    import io
-    import sys
-
-    from motorid.cli.app import main
-
-    argv, out, err = sys.argv, io.StringIO(), io.StringIO()
-    sys.argv = ["motorid", *map(str, args)]
-    code = 0
-    try:
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-            main()
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    finally:
-        sys.argv = argv
-    assert code == 0, f"motorid {' '.join(map(str, args))}: exit {code}: {err.getvalue()[-400:]}"
-    return code, out.getvalue()
-
-
 @pytest.fixture(scope="module")
 def documents(demo_run, tmp_path_factory):
     """Every JSON document, written through the CLI from the demo's captures."""
@@ -88,8 +67,8 @@ def documents(demo_run, tmp_path_factory):
     (out / "root" / "alice").mkdir(parents=True)
     for cap in ("ALL0000", "ALL0001", "ALL0002"):
         (out / "root" / "alice" / cap).symlink_to(d / cap, target_is_directory=True)
-    codes = {k: _cli(*args)[0] for k, args in runs.items()}
-    inspect = _cli("inspect", d / "ALL0000", d / "ALL0001", d / "ALL0002", "--json")[1]
+    codes = {k: motorid_ok(*args).code for k, args in runs.items()}
+    inspect = motorid_ok("inspect", d / "ALL0000", d / "ALL0001", d / "ALL0002", "--json").out
     return out, codes, inspect
 
 

@@ -7,15 +7,13 @@ a capture read differently, a role added by one of them) shows here as a key tha
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import re
 import shutil
-import sys
 from pathlib import Path
 
 import pytest
+from clihelpers import motorid_ok
 
 import motorid as mi
 from motorid.trainer.realsetups import write_real_setup
@@ -23,22 +21,6 @@ from motorid.trainer.realsetups import write_real_setup
 #: The rigs whose files the trainer writes as those rigs do, plus the demo's scope folders.
 CASES = ("demo", "l298n-rpm", "arduino-millis", "host-loop", "encoder-counts", "pwm-encoder", "daq-deadtime",
          "ms-time", "fast-tbs1000")
-
-
-def _cli(*args: object) -> None:
-    from motorid.cli.app import main
-
-    argv, err = sys.argv, io.StringIO()
-    sys.argv = ["motorid", *map(str, args)]
-    code = 0
-    try:
-        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
-            main()
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    finally:
-        sys.argv = argv
-    assert code == 0, f"motorid {' '.join(map(str, args))}: {err.getvalue()[-500:]}"
 
 
 def _without_provenance(doc: dict, files: list[Path]) -> dict:
@@ -76,7 +58,7 @@ def test_cli_python_web_and_batch_give_the_same_model(case, demo_run, tmp_path):
     # the command line
     flags = [x for role, fs in roles.items() for x in (f"--{role}", spec(fs))]
     flags += [x for k, v in opts.items() for x in (f"--{k.replace('_', '-')}", str(v))]
-    _cli("identify", *flags, "--json", tmp_path / "cli.json")
+    motorid_ok("identify", *flags, "--json", tmp_path / "cli.json")
     by_cli = _without_provenance(json.loads((tmp_path / "cli.json").read_text()), files)
 
     # Python
@@ -106,6 +88,6 @@ def test_cli_python_web_and_batch_give_the_same_model(case, demo_run, tmp_path):
         toml.append(f'{role} = "{"+".join(f.name for f in fs)}"')
     toml += [f"{k} = {v!r}" for k, v in opts.items()]
     (folder / "experiment.toml").write_text("\n".join(toml) + "\n")
-    _cli("batch", tmp_path / "class", "--out", tmp_path / "out", "--jobs", "1")
+    motorid_ok("batch", tmp_path / "class", "--out", tmp_path / "out", "--jobs", "1")
     by_batch = json.loads((tmp_path / "out" / "alice" / "model.json").read_text())
     assert _without_provenance(by_batch, files) == by_cli

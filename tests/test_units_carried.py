@@ -7,15 +7,13 @@ the labels that used to be guessed (``V/V``, ``(volts)``, ``per V of the tacho``
 
 from __future__ import annotations
 
-import contextlib
 import csv
-import io
 import json
 import re
-import sys
 from pathlib import Path
 
 import pytest
+from clihelpers import motorid_ok
 
 from motorid.trainer.realsetups import write_real_setup
 
@@ -24,20 +22,8 @@ V_ON_RPM = (r"V/V", r"\(volts\)", r"per V of the tacho", r"velocity σ [0-9.e+-]
 
 
 def _cli(*args: object) -> str:
-    from motorid.cli.app import main
-
-    argv, out, err = sys.argv, io.StringIO(), io.StringIO()
-    sys.argv = ["motorid", *map(str, args)]
-    code = 0
-    try:
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-            main()
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    finally:
-        sys.argv = argv
-    assert code == 0, err.getvalue()[-400:]
-    return out.getvalue() + err.getvalue()
+    res = motorid_ok(*args)
+    return res.out + res.err
 
 
 def _no_volts_on_rpm(where: str, text: str) -> None:
