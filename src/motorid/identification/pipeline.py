@@ -488,15 +488,18 @@ def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: Motor
     return model, reason, unwhitened
 
 
-def _no_dead_time_warning(cond: ConditionedExperiment, model: MotorModel) -> list[str]:
-    """A warning when the data show a dead time the chosen model does not have.
+def _no_dead_time_warning(cond: ConditionedExperiment, settings: IdentifySettings, model: MotorModel) -> list[str]:
+    """A warning when the data show a dead time the chosen model cannot have.
 
     The paper's pinv, its Taylor-Markov method and the classic read-off model none: fitted from
     the step instant, their poles take up the dead time, and the residence time comes out short.
+    The output-error fits and the Laguerre-Markov method try one and keep it when BIC says so
+    (their choice text says what was tried): no warning for them.
     """
     from motorid.identification.stages import dead_time_shows
 
-    if model.delay_s > 0 or not dead_time_shows(cond):
+    never = model.method in ("pinv", "classic") or (model.method == "markov" and settings.markov_basis == "taylor")
+    if not never or model.delay_s > 0 or not dead_time_shows(cond):
         return []
     return [f"the response stays in its noise band for {1e3 * cond.dead_time_s:.3g} ms after the step (a dead time), "
             f"and this {model.method} model has none: its poles take it up, so τ and the residence time may be "
@@ -697,7 +700,7 @@ def _gated(cond: ConditionedExperiment, settings: IdentifySettings, model: Motor
     sanity = sanity_checks(model, t_gate, v_gate, cond.step_volts,
                            sample_interval_s=float(t[1] - t[0]), unwhitened=unwhitened, input_v=recorded)
     gate = tuple(f"SANITY CHECK FAILED — {f}" for f in sanity.failures)
-    extra_warn = extra_warn + _no_dead_time_warning(cond, model)
+    extra_warn = extra_warn + _no_dead_time_warning(cond, settings, model)
     if np.isfinite(model.dc_gain()) and model.dc_gain() < 0:
         # legitimate (a tacho wired the other way round), but a student should know it
         extra_warn.append(f"negative DC gain ({model.dc_gain():.4g}): the measured channel moves against the "
