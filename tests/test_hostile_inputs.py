@@ -53,3 +53,13 @@ def test_the_web_api_refuses_a_body_nested_too_deeply(demo_run):
         res = client.post("/api/design", content="[" * 100_000 + "]" * 100_000,
                           headers={"Content-Type": "application/json"})
     assert res.status_code == 422 and "nested too deeply" in res.json()["detail"]
+
+
+def test_write_report_refuses_an_unknown_simulation_option(demo_run, tmp_path):
+    import motorid as mi
+
+    fit = mi.identify(mi.read_experiment(velocity=demo_run.folder / "ALL0001"), method="pinv")
+    des = mi.design(fit.model, poles=[-5])
+    with pytest.raises(mi.MotorIdError, match=r"^simulation=\{'durationn': …\}: not an option of simulate; use "):
+        mi.write_report(tmp_path / "r.html", fit, design=des, simulation={"durationn": 3})
+    assert not (tmp_path / "r.html").exists()

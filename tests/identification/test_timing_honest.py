@@ -146,3 +146,18 @@ def test_pinv_says_it_has_no_dead_time(tmp_path):
 
     r = identify_experiment({"velocity": read_capture(log)}, IdentifySettings(method="pinv"))
     assert any("dead time" in w and "pinv model has none" in w for w in r.model.warnings)
+
+
+def test_only_a_method_that_cannot_fit_a_dead_time_is_told_to_use_one(real_dir):
+    """On the HSLU log (a 35–40 ms dead time) ``auto`` tried a dead time and BIC called it a tie:
+    its warnings must not send the user to the methods it is (before: "--method auto, oe or markov
+    fit the dead time" on an auto model); pinv, which cannot fit one, still says so."""
+    import motorid as mi
+
+    log = real_dir / "hslu-rtl-dcmotor" / "csv" / "06_dc_step_5_15_00.csv"
+    exp = mi.read_experiment(velocity=log)
+    auto = mi.identify(exp)
+    assert not any("fit the dead time" in w for w in auto.warnings), auto.warnings
+    assert "a dead time was tried" in auto.reason or auto.model.delay_s > 0
+    pinv = mi.identify(exp, method="pinv")
+    assert any("pinv model has none" in w and "fit the dead time" in w for w in pinv.warnings)

@@ -1,0 +1,46 @@
+"""The models identified from each rig the trainer records go on through the whole path:
+design, simulate and the report, from Python and from the command line (the model as
+identified, not a hand-made one)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from clihelpers import motorid_ok
+
+import motorid as mi
+from motorid.trainer.realsetups import write_real_setup
+
+pytestmark = pytest.mark.slow
+
+RIGS = ("l298n-rpm", "arduino-millis", "host-loop", "encoder-counts", "ms-time", "fast-tbs1000")
+
+
+def _poles(model) -> list[float]:
+    # one real pole per state, a little faster than the model's slowest
+    slow = float(np.min(np.abs(model.poles()[np.abs(model.poles()) > 1e-9]))) if model.order else 1.0
+    return [-slow * (1.5 + 0.5 * k) for k in range(model.order)]
+
+
+@pytest.mark.parametrize("rig", RIGS)
+def test_each_rig_model_through_design_simulate_and_report(rig, tmp_path):
+    rec = write_real_setup(rig, tmp_path / rig, seed=0)
+    args = list(rec.cli_args)
+    motorid_ok("identify", *args, "--json", tmp_path / "m.json", "--report", tmp_path / "r.html")
+    model = mi.MotorModel.from_json(json.loads((tmp_path / "m.json").read_text()))
+    # Python: the model the CLI wrote
+    des = mi.design(model, poles=_poles(model))
+    sim = mi.simulate(model, des, duration_s=2.0, level_v=1.0)
+    assert np.all(np.isfinite(sim.output_v)) and sim.output_unit == (model.units.get(des.output) or "V")
+    # the command line: the same model, a design, a simulation and a report with both
+    motorid_ok("design", tmp_path / "m.json", "--poles", ",".join(f"{p:g}" for p in _poles(model)),
+               "--json", tmp_path / "d.json")
+    motorid_ok("simulate", tmp_path / "m.json", tmp_path / "d.json", "--duration", "2", "--json", tmp_path / "s.json")
+    assert json.loads((tmp_path / "s.json").read_text())["output_unit"] == sim.output_unit
+    assert (tmp_path / "r.html").stat().st_size > 10_000
+    # the report with that design: its closed loop simulated on the identified model
+    motorid_ok("identify", *args, "--report", tmp_path / "r2.html", "--design", tmp_path / "d.json")
+    page = (tmp_path / "r2.html").read_text()
+    assert "no controller design given" not in page and "cannot be simulated" not in page
