@@ -187,3 +187,21 @@ def test_role_check_names_the_parameter(demo):
         mi.read_experiment(velocity=demo / "ALL0000")  # the position sawtooth
     exp = mi.read_experiment(velocity=demo / "ALL0000", force_role=True)
     assert set(exp.captures) == {"velocity"}
+
+
+def test_results_cross_process_boundaries_and_stay_read_only(fit):
+    """A result, its experiment and its model pickle (the web page's workers, multiprocessing,
+    joblib) and deep-copy; the mappings are read-only again on arrival."""
+    import copy
+    import pickle
+    from types import MappingProxyType
+
+    back = pickle.loads(pickle.dumps(fit))
+    assert back.to_json() == fit.to_json()
+    assert back.model.to_json_text() == fit.model.to_json_text()
+    for mapping in (back.params, back.fit, back.experiment.captures, back.model.uncertainty,
+                    back.experiment.captures["velocity"].extra, back.provenance.settings):
+        assert isinstance(mapping, MappingProxyType)
+    with pytest.raises(TypeError):
+        back.params["dc_gain"] = None  # type: ignore[index]
+    np.testing.assert_array_equal(copy.deepcopy(fit).model.A, fit.model.A)

@@ -14,6 +14,7 @@ from typing import overload
 
 import numpy as np
 
+from motorid.frozen import frozen_getstate, frozen_setstate
 from motorid.errors import CaptureDataError
 
 __all__ = ["ROLES", "Capture", "ChannelInfo", "ScopeInfo", "validate_samples"]
@@ -126,6 +127,9 @@ class Capture:
     warnings : tuple of str
         Problems noticed while reading (clipping at the rails, re-saved files, …).
     """
+
+    __getstate__ = frozen_getstate
+    __setstate__ = frozen_setstate
 
     source: str
     format: str

@@ -27,6 +27,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, Literal
 
+from motorid.frozen import frozen_getstate, frozen_setstate
 from motorid.capture import Capture
 from motorid.identification.result import ParameterEstimate
 from motorid.errors import OptionError
@@ -85,6 +86,9 @@ class Experiment:
     scales : Mapping[str, ChannelScale]
         Sensor constants (volts per physical unit) the user gave.
     """
+
+    __getstate__ = frozen_getstate
+    __setstate__ = frozen_setstate
 
     captures: Mapping[str, Capture]
     step_volts: float | None = None
@@ -276,6 +280,9 @@ class Provenance:
         The identification settings (``IdentifySettings`` as a dict) with ``step_volts`` and ``t0_s``.
     """
 
+    __getstate__ = frozen_getstate
+    __setstate__ = frozen_setstate
+
     version: str
     inputs_sha256: Mapping[str, str]
     settings: Mapping[str, Any]
@@ -313,6 +320,9 @@ class IdentificationResult:
     identification : Identification
         The pipeline's own result (conditioned data, every candidate model).
     """
+
+    __getstate__ = frozen_getstate
+    __setstate__ = frozen_setstate
 
     model: MotorModel
     params: Mapping[str, ParameterEstimate]

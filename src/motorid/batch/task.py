@@ -17,6 +17,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+from motorid.frozen import frozen_getstate, frozen_setstate
 from motorid.batch.discover import ExperimentSpec, _reduce_frozen
 from motorid.errors import MotorIdError, OptionError
 from motorid.options import IDENTIFY, defaults
@@ -61,6 +62,9 @@ class BatchSettings:
     OptionError
         An unknown identify option or a bad value (naming the option).
     """
+
+    __getstate__ = frozen_getstate
+    __setstate__ = frozen_setstate
 
     identify: Mapping[str, Any] = field(default_factory=dict)
     step_volts: float | None = None
@@ -162,6 +166,9 @@ class ExperimentOutcome:
         CPU time of the worker process meanwhile [s] (far below ``seconds``: other processes
         shared the cores).
     """
+
+    __getstate__ = frozen_getstate
+    __setstate__ = frozen_setstate
 
     name: str
     status: str

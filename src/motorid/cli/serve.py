@@ -11,12 +11,14 @@ import typer
 
 from motorid.errors import OptionError
 
-__all__ = ["KEEP_ALIVE_S", "SHUTDOWN_GRACE_S", "is_loopback", "register", "serve"]
+__all__ = ["CONNECTIONS", "KEEP_ALIVE_S", "SHUTDOWN_GRACE_S", "is_loopback", "register", "serve"]
 
 #: Seconds in-flight requests get after SIGTERM or Ctrl+C before the server stops anyway.
 SHUTDOWN_GRACE_S = 3
 #: Seconds an idle keep-alive connection is kept.
 KEEP_ALIVE_S = 5
+#: Connections and requests served at once; beyond, uvicorn answers 503.
+CONNECTIONS = 64
 
 
 def is_loopback(host: str) -> bool:
@@ -61,12 +63,18 @@ def serve(
         "--token/--no-token",
         help="Require the random token printed on the first line (as Jupyter does); --no-token only for "
              "scripts on a machine you trust.")] = True,
+    max_seconds: Annotated[float, typer.Option(
+        "--max-seconds", help="Longest identification or report; it is stopped after this many seconds.")] = 300.0,
+    max_memory_mb: Annotated[float, typer.Option(
+        "--max-memory-mb", help="Memory one identification or report may take, MB.")] = 2048.0,
 ) -> None:
     """Start the local web page: drop captures, identify, tune the controller with sliders."""
     try:
         import uvicorn
 
         from motorid.web import WebSettings, create_app
+        from motorid.web.protocol import DeadlineH11Protocol
+        from motorid.web.work import WorkLimits
     except ImportError as exc:
         raise OptionError(f"motorid serve needs the web extra ({exc.name} is missing): "
                           "pip install 'motorid[web]'") from None
@@ -77,7 +85,8 @@ def serve(
     secret = secrets.token_urlsafe(24) if token else None
     bound = host.strip("[]")
     hosts = LOCAL_HOSTS + (() if bound in ("0.0.0.0", "::") or bound in LOCAL_HOSTS else (bound,))
-    settings = WebSettings(max_upload_mb=max_upload_mb, token=secret, hosts=hosts)
+    settings = WebSettings(max_upload_mb=max_upload_mb, token=secret, hosts=hosts,
+                           work=WorkLimits(max_seconds=max_seconds, max_memory_mb=max_memory_mb))
     _check_port(host, port)
     if secret is None:
         print("motorid: warning: --no-token: any program or web page on this computer that finds the port can "
@@ -99,9 +108,11 @@ def serve(
         threading.Timer(1.0, webbrowser.open, [url]).start()
     # SIGTERM or Ctrl+C: in-flight requests get a few seconds, then the server stops and its
     # temporary folder goes (it used to wait for a long request for over a minute); an idle
-    # connection is closed after a few seconds
+    # connection is closed after a few seconds, a client that sends its request too slowly is
+    # disconnected, and past CONNECTIONS open connections new ones get 503
     uvicorn.run(create_app(settings), host=host.strip("[]"), port=port, log_level="warning",
-                timeout_graceful_shutdown=SHUTDOWN_GRACE_S, timeout_keep_alive=KEEP_ALIVE_S)
+                timeout_graceful_shutdown=SHUTDOWN_GRACE_S, timeout_keep_alive=KEEP_ALIVE_S,
+                http=DeadlineH11Protocol, limit_concurrency=CONNECTIONS)
 
 
 def register(app: typer.Typer) -> None:

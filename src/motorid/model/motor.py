@@ -27,6 +27,7 @@ from typing import Any
 import control
 import numpy as np
 
+from motorid.frozen import frozen_getstate, frozen_setstate
 from motorid.errors import ModelFormatError, OptionError
 from motorid.model.nonlinearity import StaticNonlinearity
 from motorid.model.stage import Stage
@@ -216,6 +217,9 @@ class MotorModel:
     ModelFormatError
         On inconsistent shapes, unknown channel names or non-finite entries.
     """
+
+    __getstate__ = frozen_getstate
+    __setstate__ = frozen_setstate
 
     A: np.ndarray
     B: np.ndarray

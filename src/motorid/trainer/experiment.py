@@ -13,6 +13,7 @@ from types import MappingProxyType
 
 import numpy as np
 
+from motorid.frozen import frozen_getstate, frozen_setstate
 from motorid.capture import Capture
 from motorid.errors import OptionError
 from motorid.trainer.plant import PlantResponse, simulate_plant
@@ -66,6 +67,9 @@ class TrainerExperiment:
     seed : int
     step_volts : float
     """
+
+    __getstate__ = frozen_getstate
+    __setstate__ = frozen_setstate
 
     captures: Mapping[str, Capture]
     capture_truth: Mapping[str, CaptureTruth]

@@ -34,6 +34,7 @@ from types import MappingProxyType
 import control
 import numpy as np
 
+from motorid.frozen import frozen_getstate, frozen_setstate
 from motorid.capture import Capture, ChannelInfo, ScopeInfo
 from motorid.errors import OptionError
 from motorid.io._common import check_writable
@@ -140,6 +141,9 @@ class RealSetupRecording:
     sample_interval_s : float
         Δt of the files.
     """
+
+    __getstate__ = frozen_getstate
+    __setstate__ = frozen_setstate
 
     name: str
     files: Mapping[str, Path]

@@ -18,6 +18,7 @@ from starlette.concurrency import run_in_threadpool
 from motorid.errors import OptionError, UploadError
 from motorid.web.options import design_options, identify_options, simulate_options
 from motorid.web.uploads import as_uploaded, group_captures, receive_form
+from motorid.web.work import run_bounded
 
 __all__ = ["router"]
 
@@ -90,7 +91,8 @@ async def api_identify(request: Request) -> dict[str, Any]:
             raise UploadError(f"files in field {stray[0]!r}: send captures in the fields position, velocity, current")
         if "velocity" not in paths and "position" not in paths:
             raise UploadError("no capture in the fields velocity or position: send at least one of them")
-        return await run_in_threadpool(_identify, paths, read_kw, ident_kw, folder)
+        return await run_bounded(request, settings.work, "the identification", _identify, paths, read_kw, ident_kw,
+                                 folder)
     finally:
         shutil.rmtree(folder, ignore_errors=True)
 

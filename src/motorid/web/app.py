@@ -15,7 +15,7 @@ import html
 import tempfile
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from fastapi import FastAPI, Request
@@ -27,6 +27,7 @@ from motorid.errors import MotorIdError, OptionError
 from motorid.web.guard import LOCAL_HOSTS, LocalOnly
 from motorid.web.tabs import TabStore
 from motorid.web.uploads import UploadLimits
+from motorid.web.work import RequestGoneError, WorkLimits
 
 __all__ = ["WebSettings", "create_app", "error_line"]
 
@@ -54,6 +55,9 @@ class WebSettings:
         Bearer``); None: none (``motorid serve --no-token``, tests).
     hosts : tuple of str
         The ``Host`` names answered (:data:`motorid.web.guard.LOCAL_HOSTS` and the bound address).
+    work : WorkLimits
+        Time and memory bounds of each identification and report (run in a worker process that
+        is stopped when its client leaves).
     """
 
     max_upload_mb: float = 50.0
@@ -62,6 +66,7 @@ class WebSettings:
     temp_root: Path | None = None
     token: str | None = None
     hosts: tuple[str, ...] = LOCAL_HOSTS
+    work: WorkLimits = field(default_factory=WorkLimits)
 
     def __post_init__(self) -> None:
         if not (self.max_upload_mb > 0 and self.max_upload_mb <= 4096):
@@ -152,6 +157,11 @@ def create_app(settings: WebSettings | None = None) -> FastAPI:
         # htmx swaps this into the page's error box (HX-Retarget), whatever the request's target
         return HTMLResponse(f'<p class="error">{html.escape(line)}</p>', status_code=422,
                             headers={"HX-Retarget": "#errors", "HX-Reswap": "innerHTML"})
+
+    @app.exception_handler(RequestGoneError)
+    async def _gone(request: Request, exc: RequestGoneError) -> Response:
+        # the client left and its worker was stopped: nobody reads this answer
+        return Response(status_code=499)
 
     app.include_router(api.router)
     app.include_router(pages.router)

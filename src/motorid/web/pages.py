@@ -7,6 +7,7 @@ lives in its :class:`~motorid.web.tabs.Tab`.
 from __future__ import annotations
 
 import shutil
+from pathlib import Path
 from typing import Any
 
 from fastapi import APIRouter, Request
@@ -16,6 +17,7 @@ from starlette.concurrency import run_in_threadpool
 from motorid.errors import MotorIdError, OptionError, UploadError
 from motorid.web.tabs import PAGE_ROLES, Tab
 from motorid.web.uploads import as_uploaded, group_captures, receive_form
+from motorid.web.work import run_bounded
 
 __all__ = ["router"]
 
@@ -132,7 +134,9 @@ async def identify(request: Request, tab_id: str) -> HTMLResponse:
         raise OptionError("no capture has the role velocity or position: choose the roles in the table")
     with tab.lock:
         tab.roles.update(roles)
-    fit = await run_in_threadpool(_identify, tab, chosen, read_kw, ident_kw)
+    paths = {role: entry.files.reader_argument() for role, entry in chosen.items()}
+    fit = await run_bounded(request, request.app.state.settings.work, "the identification", _identify, paths,
+                            read_kw, ident_kw, tab.folder)
     with tab.lock:
         tab.fit, tab.design, tab.simulation = fit, None, {}
         tab.mode_maps.clear()
@@ -140,14 +144,13 @@ async def identify(request: Request, tab_id: str) -> HTMLResponse:
                    ranges=slider_ranges(fit.model))
 
 
-def _identify(tab: Tab, chosen: dict[str, Any], read_kw: dict[str, Any], ident_kw: dict[str, Any]) -> Any:
+def _identify(paths: dict[str, Any], read_kw: dict[str, Any], ident_kw: dict[str, Any], folder: Path) -> Any:
     import motorid as mi
 
-    paths = {role: entry.files.reader_argument() for role, entry in chosen.items()}
     try:
         return mi.identify(mi.read_experiment(**paths, **read_kw), **ident_kw)
     except MotorIdError as exc:
-        raise as_uploaded(exc, tab.folder) from None
+        raise as_uploaded(exc, folder) from None
 
 
 @router.post("/tab/{tab_id}/design", response_class=HTMLResponse)
@@ -207,23 +210,25 @@ async def download(request: Request, tab_id: str, name: str) -> Response:
             raise OptionError("design a controller first (move a slider in the design panel)")
         path.write_text(tab.design.to_json_text() + "\n", encoding="utf-8")
     else:
-        await run_in_threadpool(_report, tab, path)
+        validation = [e.files.reader_argument() for e in tab.captures
+                      if tab.roles.get(e.cid) == "validation" and e.summary is not None]
+        await run_bounded(request, request.app.state.settings.work, "the report", _report, path, tab.fit,
+                          tab.design, validation, tab.simulation or None, tab.folder)
     return FileResponse(path, media_type=DOWNLOADS[name], filename=path.name)
 
 
-def _report(tab: Tab, path: Any) -> None:
+def _report(path: Path, fit: Any, design: Any, validation: list[Any], simulation: dict[str, Any] | None,
+            folder: Path) -> None:
     import motorid as mi
     from motorid.io import read_capture
 
-    assert tab.fit is not None
-    # the validation captures as read (a CH1/CH2 pair of any layout), scored in the report
-    checks = [read_capture(e.files.reader_argument()) for e in tab.captures
-              if tab.roles.get(e.cid) == "validation" and e.summary is not None]
     try:
+        # the validation captures as read (a CH1/CH2 pair of any layout), scored in the report
+        checks = [read_capture(arg) for arg in validation]
         # the report's closed loop is the run the page showed (its horizon, level and rails)
-        mi.write_report(path, tab.fit, design=tab.design, validation=checks, simulation=tab.simulation or None)
+        mi.write_report(path, fit, design=design, validation=checks, simulation=simulation)
     except MotorIdError as exc:
-        raise as_uploaded(exc, tab.folder) from None
+        raise as_uploaded(exc, folder) from None
 
 
 @router.post("/tab/{tab_id}/close")

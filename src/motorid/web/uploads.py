@@ -25,6 +25,7 @@ from types import MappingProxyType
 
 from python_multipart.multipart import Field, File, FormParser, parse_options_header
 
+from motorid.frozen import frozen_getstate, frozen_setstate
 from motorid.errors import MotorIdError, UploadError
 
 __all__ = [
@@ -101,6 +102,9 @@ class UploadedForm:
     folder : Path
         The folder holding this upload's files.
     """
+
+    __getstate__ = frozen_getstate
+    __setstate__ = frozen_setstate
 
     files: tuple[StoredFile, ...]
     fields: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
