@@ -46,3 +46,21 @@ def test_a_decimal_comma_first_seen_late(tmp_path):
     f.write_text("\n".join(lines) + "\n")
     cap = read_capture(f)
     assert cap.output_v[-1] == pytest.approx(4.5 * (1 - np.exp(-2999 / 300.0)), abs=1e-4)
+
+
+def test_old_mac_line_ends_read_the_same(tmp_path):
+    f = tmp_path / "cr.csv"
+    f.write_bytes(_table().replace("\n", "\r").encode())
+    _check(read_capture(f))
+
+
+def test_gaps_in_a_column_no_model_uses_are_a_note_naming_the_column_once(tmp_path):
+    lines = _table().splitlines()
+    lines[0] += ",notes"
+    lines[1:] = [row + ("," + ("nan" if i % 7 == 0 else "1")) for i, row in enumerate(lines[1:])]
+    f = tmp_path / "gaps.csv"
+    f.write_text("\n".join(lines) + "\n")
+    cap = read_capture(f)
+    _check(cap)
+    note = next(w for w in cap.warnings if "'notes'" in w)
+    assert "not finite" in note and "line 2" in note and "gaps.csv" not in note  # the reader's caller names the file

@@ -356,7 +356,7 @@ def capture_from_table(
         bad = np.flatnonzero(~np.isfinite(v))
         if bad.size:
             # a column no model uses may hold gaps; say so rather than refuse the file
-            notes.append(f"{file}: {where} {key!r} has {bad.size} value(s) that are not finite numbers "
+            notes.append(f"{where} {key!r} has {bad.size} value(s) that are not finite numbers "
                          f"(first at line {rows[int(bad[0])]}); it is not used")
 
     def info(j: int) -> ChannelInfo:
