@@ -406,8 +406,12 @@ def _oe_to_model(
     return MotorModel(
         A=big_a, B=big_b, C=cmat, D=dmat, states=states, outputs=tuple(outputs),
         step_volts=cond.step_volts, method="oe",
+        # the record's length: first_order() cancels only pole-zero pairs the record cannot show
+        # (a candidate with a pole at the sampling rate otherwise had its dominant pole cancelled
+        # against a zero 128× faster, and a DC gain of 0.002 widened the chosen model's interval)
         settings={"n_poles": structure[0], "n_zeros": structure[1],
-                  "delay": res.delay_s is not None and res.delay_s > 0},
+                  "delay": res.delay_s is not None and res.delay_s > 0,
+                  "record_length_s": float(cond.full_time_s[-1])},
         sample_interval_s=float(cond.full_time_s[1] - cond.full_time_s[0]),
         warnings=tuple(res.warnings),
         uncertainty={**uncertainty_json(res), "timing": timing_json(res, cond)},
