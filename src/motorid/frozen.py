@@ -18,13 +18,13 @@ from typing import Any
 __all__ = ["frozen_getstate", "frozen_setstate"]
 
 
-def frozen_getstate(self: Any) -> list[Any]:
+def frozen_getstate(obj: Any) -> list[Any]:
     """The field values in order, read-only mappings as ``("mappingproxy", dict)``.
 
     Parameters
     ----------
-    self : dataclass instance
-        A frozen, slotted dataclass.
+    obj : dataclass instance
+        A frozen, slotted dataclass (the method's ``self``).
 
     Returns
     -------
@@ -32,21 +32,21 @@ def frozen_getstate(self: Any) -> list[Any]:
         One entry per field.
     """
     out: list[Any] = []
-    for f in dataclasses.fields(self):
-        value = getattr(self, f.name)
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
         out.append(("mappingproxy", dict(value)) if isinstance(value, MappingProxyType) else ("value", value))
     return out
 
 
-def frozen_setstate(self: Any, state: list[Any]) -> None:
+def frozen_setstate(obj: Any, state: list[Any]) -> None:
     """Set the fields from :func:`frozen_getstate`'s list (the views made read-only again).
 
     Parameters
     ----------
-    self : dataclass instance
-        The instance being unpickled.
+    obj : dataclass instance
+        The instance being unpickled (the method's ``self``).
     state : list
         What :func:`frozen_getstate` returned.
     """
-    for f, (kind, value) in zip(dataclasses.fields(self), state, strict=True):
-        object.__setattr__(self, f.name, MappingProxyType(value) if kind == "mappingproxy" else value)
+    for f, (kind, value) in zip(dataclasses.fields(obj), state, strict=True):
+        object.__setattr__(obj, f.name, MappingProxyType(value) if kind == "mappingproxy" else value)

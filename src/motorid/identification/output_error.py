@@ -193,7 +193,7 @@ def _residues(num: np.ndarray, taus: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 
 def step_response_closed_form(
-    time_s: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float
+    time_s: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float, block: tuple[int, float] | None = None
 ) -> np.ndarray:
     """Step response of ``N(s)/Π(1 + τ_i s)`` (strictly proper or biproper, distinct τ).
 
@@ -210,15 +210,20 @@ def step_response_closed_form(
         Time constants τ_i of the denominator, distinct.
     step_volts : float
         Step level in volts.
+    block : (int, float), optional
+        ``(m, dt)``: each of ``time_s`` is the first of ``m`` samples ``dt`` apart, and the
+        result is their mean (see :func:`_blocked`).
 
     Returns
     -------
     ndarray
-        The response at ``time_s``.
+        The response at ``time_s`` (or its block means).
     """
     t = np.asarray(time_s, dtype=float)
     num = np.atleast_1d(np.asarray(num, dtype=float))
     taus = np.asarray(taus, dtype=float)
+    if block is not None:
+        return _blocked(step_response_closed_form, t, num, taus, step_volts, block)
     p, r, n0 = _residues(num, taus)
     tt = np.clip(t, 0.0, None)
     y = n0 + np.exp(np.outer(tt, p)) @ r
@@ -227,20 +232,22 @@ def step_response_closed_form(
 
 
 def _slope_closed_form(
-    time_s: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float
+    time_s: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float, block: tuple[int, float] | None = None
 ) -> np.ndarray:
     """Time derivative of :func:`step_response_closed_form` for ``t > 0``.
 
     The impulse response times the step; a jump at ``t = 0`` is not included.
     """
     t = np.asarray(time_s, dtype=float)
+    if block is not None:
+        return _blocked(_slope_closed_form, t, num, taus, step_volts, block)
     p, r, _ = _residues(np.atleast_1d(np.asarray(num, dtype=float)), np.asarray(taus, dtype=float))
     tt = np.clip(t, 0.0, None)
     return np.where(t > 0, step_volts * (np.exp(np.outer(tt, p)) @ (r * p)), 0.0)
 
 
 def position_closed_form(
-    time_s: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float
+    time_s: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float, block: tuple[int, float] | None = None
 ) -> np.ndarray:
     """Integral from 0 of :func:`step_response_closed_form`: ``N(0)t + Σ R_i (e^{p_i t} − 1)/p_i``.
 
@@ -254,6 +261,8 @@ def position_closed_form(
         Time constants τ_i of the denominator, distinct.
     step_volts : float
         Step level in volts.
+    block : (int, float), optional
+        ``(m, dt)``: block means, as in :func:`step_response_closed_form`.
 
     Returns
     -------
@@ -262,10 +271,46 @@ def position_closed_form(
     """
     t = np.asarray(time_s, dtype=float)
     num = np.atleast_1d(np.asarray(num, dtype=float))
+    if block is not None:
+        return _blocked(position_closed_form, t, num, taus, step_volts, block)
     p, r, n0 = _residues(num, np.asarray(taus, dtype=float))
     tt = np.clip(t, 0.0, None)
     y = n0 * tt + (np.exp(np.outer(tt, p)) - 1.0) @ (r / p)
     return np.where(t >= 0, step_volts * y, 0.0)
+
+
+def _blocked(fn: Any, t: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float,
+             block: tuple[int, float]) -> np.ndarray:
+    """Means over blocks of ``m`` samples ``dt`` apart of a closed form, from each block's first time ``t``.
+
+    A long record is fitted as block means (:data:`motorid.identification.stages.MAX_FIT_SAMPLES`
+    of them); evaluating the model at every sample and averaging cost a 1 M-sample capture
+    90 s.  Every closed form here is ``a + b·t + Σ c_i e^{p_i t}`` after the step, and the mean of
+    ``e^{p(t₀ + k·dt)}`` over ``k = 0…m−1`` is ``e^{p t₀}·(e^{p m dt} − 1)/(m (e^{p dt} − 1))``:
+    so a block is one evaluation at its first sample with the residues scaled by that factor
+    (and ``t`` moved to the block's middle in the linear term).  Blocks that hold the step
+    instant are averaged sample by sample; blocks wholly before it are zero.  Exact to rounding.
+    """
+    m, dt = int(block[0]), float(block[1])
+    taus_a = _separate(np.asarray(taus, dtype=float))
+    p = -1.0 / taus_a
+    gain = np.expm1(p * m * dt) / (m * np.expm1(p * dt))
+    num_a = np.atleast_1d(np.asarray(num, dtype=float))
+    _, r, n0 = _residues(num_a, taus_a)
+    after = t > 0
+    tt = np.where(after, t, 0.0)
+    e = np.exp(np.outer(tt, p))
+    if fn is step_response_closed_form:
+        y = n0 + e @ (r * gain)
+    elif fn is _slope_closed_form:
+        y = e @ (r * p * gain)
+    else:
+        y = n0 * (tt + 0.5 * (m - 1) * dt) + e @ (r / p * gain) - float(np.sum(r / p))
+    out = np.where(after, step_volts * y, 0.0)
+    edge = np.flatnonzero(~after & (t + (m - 1) * dt >= 0))
+    for i in edge:
+        out[i] = float(np.mean(fn(t[i] + dt * np.arange(m), num_a, taus_a, step_volts)))
+    return out
 
 
 def _block_mean(x: np.ndarray, ratio: int, *, from_end: bool = False) -> np.ndarray:
@@ -410,22 +455,24 @@ class _Layout:
 
 
 def _predict(
-    layout: _Layout, th: np.ndarray, t: np.ndarray | Mapping[str, np.ndarray], step: float, channels: Sequence[str]
+    layout: _Layout, th: np.ndarray, t: np.ndarray | Mapping[str, np.ndarray], step: float, channels: Sequence[str],
+    block: Mapping[str, tuple[int, float]] | None = None,
 ) -> dict[str, np.ndarray]:
     q = layout.unpack(th)
     num = _vel_num(q["K"], q["tz"])
     out = {}
+    blk = block or {}
 
     def te(ch: str) -> np.ndarray:
         grid = t[ch] if isinstance(t, Mapping) else t
         return grid - q["delay"] - q["shift"].get(ch, 0.0)
 
     if "velocity" in channels:
-        out["velocity"] = step_response_closed_form(te("velocity"), num, q["taus"], step)
+        out["velocity"] = step_response_closed_form(te("velocity"), num, q["taus"], step, blk.get("velocity"))
     if "position" in channels:
-        out["position"] = q["c"] * position_closed_form(te("position"), num, q["taus"], step)
+        out["position"] = q["c"] * position_closed_form(te("position"), num, q["taus"], step, blk.get("position"))
     if "current" in channels:
-        out["current"] = step_response_closed_form(te("current"), q["cur"], q["taus"], step)
+        out["current"] = step_response_closed_form(te("current"), q["cur"], q["taus"], step, blk.get("current"))
     return {c: y + q["off"].get(c, 0.0) for c, y in out.items()}
 
 
@@ -619,6 +666,7 @@ class _OeProblem:
     raw: dict[str, np.ndarray]
     data: dict[str, np.ndarray]
     ratio: dict[str, int]
+    fast: dict[str, tuple[int, float]]
     wraps: np.ndarray | None
     pre_data: dict[str, np.ndarray]
     sigma: Mapping[str, float]
@@ -675,8 +723,14 @@ class _OeProblem:
         filt = {c: np.asarray(whiten[c], dtype=float) for c in names if whiten is not None and c in whiten
                 and len(whiten[c]) > 1}
         lower, upper = _bounds(layout, settings, tc)
-        return cls(settings, layout, names, step_volts, tc, raw, data, ratio, wraps, pre_data, sigma, w, w_pre, filt,
-                   n_total, lower, upper)
+        # channels averaged over blocks of a uniform grid: their block means in closed form
+        fast = {}
+        for c in names:
+            gaps = np.diff(tc[c])
+            if ratio[c] > 1 and gaps.size and np.ptp(gaps) <= 1e-6 * float(np.mean(gaps)):
+                fast[c] = (ratio[c], float(tc[c][-1] - tc[c][0]) / (tc[c].size - 1))
+        return cls(settings, layout, names, step_volts, tc, raw, data, ratio, fast, wraps, pre_data, sigma, w, w_pre,
+                   filt, n_total, lower, upper)
 
     def initial_parameters(self, init_taus: Sequence[float], init_dc_gain: float, init_zeros: Sequence[float],
                            init_delay_s: float) -> np.ndarray:
@@ -720,18 +774,28 @@ class _OeProblem:
             return np.convolve(e, self.filt[c])[: e.size]
         return scipy.signal.lfilter(self.filt[c], [1.0], e, axis=0)
 
+    def _grid(self, tc: Mapping[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+        """Each channel's sample times (``tc`` or its own), or its blocks' first times where :attr:`fast`."""
+        tc = self.tc if tc is None else tc
+        return {c: tc[c][:: self.ratio[c]] if c in self.fast else tc[c] for c in self.names}
+
     def predict(self, th: np.ndarray, tc: Mapping[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
-        """Every channel's model response (on its own sample times, or ``tc``) for the parameters ``th``."""
-        pred = _predict(self.layout, th, self.tc if tc is None else tc, self.step_volts, self.names)
+        """Every channel's model response for the parameters ``th``, block means as fitted.
+
+        On the sample times ``tc`` (default: the channels' own).
+        """
+        pred = _predict(self.layout, th, self._grid(tc), self.step_volts, self.names, self.fast)
+        pred = {c: v if c in self.fast else _block_mean(v, self.ratio[c]) for c, v in pred.items()}
         if self.wraps is not None:
-            pred["position"] = pred["position"] + th[self.layout.idx["span_position"]] * self.wraps
+            wraps = _block_mean(self.wraps, self.ratio["position"])
+            pred["position"] = pred["position"] + th[self.layout.idx["span_position"]] * wraps
         return pred
 
     def residuals(self, th: np.ndarray, tc: Mapping[str, np.ndarray] | None = None) -> np.ndarray:
         """Whitened, weighted residuals of every channel and of the pre-step samples."""
         pred = self.predict(th, tc)
         idx = self.layout.idx
-        parts = [self._white(c, self.data[c] - _block_mean(pred[c], self.ratio[c])) * self.w[c] for c in self.names]
+        parts = [self._white(c, self.data[c] - pred[c]) * self.w[c] for c in self.names]
         parts += [(self.pre_data[c] - th[idx[f"off_{c}"]]) * self.w_pre[c] for c in self.pre_data]
         return np.concatenate(parts)
 
@@ -743,7 +807,8 @@ class _OeProblem:
         for the time constants and zeros only — a third of the model evaluations of a
         finite-difference Jacobian.
         """
-        layout, names, tc, u = self.layout, self.names, self.tc, self.step_volts
+        layout, names, u, fast = self.layout, self.names, self.step_volts, self.fast
+        tc = self._grid()
         n, m = self.settings.n_poles, self.settings.n_zeros
         n_par = len(layout.names)
         q = layout.unpack(th)
@@ -752,22 +817,26 @@ class _OeProblem:
         d = {c: np.zeros((tc[c].size, n_par)) for c in names}
         slope: dict[str, np.ndarray] = {}
         if "velocity" in names:
-            d["velocity"][:, 0] = step_response_closed_form(te["velocity"], num1, q["taus"], u)
-            slope["velocity"] = q["K"] * _slope_closed_form(te["velocity"], num1, q["taus"], u)
+            b = fast.get("velocity")
+            d["velocity"][:, 0] = step_response_closed_form(te["velocity"], num1, q["taus"], u, b)
+            slope["velocity"] = q["K"] * _slope_closed_form(te["velocity"], num1, q["taus"], u, b)
         if "position" in names:
-            p1 = position_closed_form(te["position"], num1, q["taus"], u)
+            b = fast.get("position")
+            p1 = position_closed_form(te["position"], num1, q["taus"], u, b)
             d["position"][:, 0] = q["c"] * p1
             if "c" in layout.idx:
                 d["position"][:, layout.idx["c"]] = q["K"] * p1
-            slope["position"] = q["c"] * q["K"] * step_response_closed_form(te["position"], num1, q["taus"], u)
+            slope["position"] = q["c"] * q["K"] * step_response_closed_form(te["position"], num1, q["taus"], u, b)
             if self.wraps is not None:
-                d["position"][:, layout.idx["span_position"]] = self.wraps
+                wraps = self.wraps if b is None else _block_mean(self.wraps, self.ratio["position"])
+                d["position"][:, layout.idx["span_position"]] = wraps
         if "current" in names:
+            b = fast.get("current")
             nc = layout.n_current
             for j in range(nc):
                 d["current"][:, layout.idx[f"cur_{j}"]] = step_response_closed_form(
-                    te["current"], np.eye(nc)[j], q["taus"], u)
-            slope["current"] = _slope_closed_form(te["current"], q["cur"], q["taus"], u)
+                    te["current"], np.eye(nc)[j], q["taus"], u, b)
+            slope["current"] = _slope_closed_form(te["current"], q["cur"], q["taus"], u, b)
         for c in names:
             d[c][:, layout.idx[f"off_{c}"]] = 1.0
             if c in layout.shift_of:
@@ -779,18 +848,18 @@ class _OeProblem:
                     d[c][:, layout.idx[f"phase_{other}"]] = slope[c]
             if "delay" in layout.idx:
                 d[c][:, layout.idx["delay"]] = -slope[c]
-        base = _predict(layout, th, tc, u, names)
+        base = _predict(layout, th, tc, u, names, fast)
         fd_params = [layout.idx[f"log_tau_{i}"] for i in range(n)] + [layout.idx[f"Tz_{j}"] for j in range(m)]
         for k in fd_params:
             h = JACOBIAN_STEP * max(abs(th[k]), 1.0) if k <= n else JACOBIAN_STEP * max(abs(th[k]), 1e-3)
             tp = th.copy()
             tp[k] += h
-            moved = _predict(layout, tp, tc, u, names)
+            moved = _predict(layout, tp, tc, u, names, fast)
             for c in names:
                 d[c][:, k] = (moved[c] - base[c]) / h
         rows = []
         for c in names:
-            block = d[c] if self.ratio[c] == 1 else d[c].reshape(-1, self.ratio[c], n_par).mean(axis=1)
+            block = d[c] if self.ratio[c] == 1 or c in fast else d[c].reshape(-1, self.ratio[c], n_par).mean(axis=1)
             rows.append(-self.w[c] * self._white(c, block))
         for c in self.pre_data:
             r_pre = np.zeros((self.pre_data[c].size, n_par))
@@ -852,7 +921,7 @@ class _OeProblem:
         for tau in q["taus"]:
             den = np.polymul(den, [tau, 1.0])
         lead = den[0]
-        pred = {c: _block_mean(v, self.ratio[c]) for c, v in self.predict(th).items()}
+        pred = self.predict(th)
         data = self.data
         return OeResult(
             params=th, param_names=layout.names, cov=cov,

@@ -35,7 +35,13 @@ class DeadlineH11Protocol(H11Protocol):
     _receipt_timer: asyncio.TimerHandle | None = None
 
     def connection_made(self, transport: asyncio.Transport) -> None:  # type: ignore[override]
-        """Start the header deadline of the first request."""
+        """Start the header deadline of the first request.
+
+        Parameters
+        ----------
+        transport : asyncio.Transport
+            The new connection.
+        """
         super().connection_made(transport)
         self._arm(self.header_timeout_s)
 
@@ -53,7 +59,13 @@ class DeadlineH11Protocol(H11Protocol):
             self._arm(self.header_timeout_s)
 
     def connection_lost(self, exc: Exception | None) -> None:
-        """Stop the deadline with the connection."""
+        """Stop the deadline with the connection.
+
+        Parameters
+        ----------
+        exc : Exception or None
+            Why the connection ended (None: closed normally).
+        """
         if self._receipt_timer is not None:
             self._receipt_timer.cancel()
         super().connection_lost(exc)
