@@ -182,9 +182,10 @@ async def run_bounded(request: _Disconnectable | None, limits: WorkLimits, what:
         except EOFError:
             raise MotorIdError(f"{what} stopped: its worker process ended before answering") from None
     finally:
+        # no await here: a request cancelled by the server's shutdown must still stop its worker
+        # (the forkserver, its parent, reaps it)
         if proc.is_alive():
             proc.kill()
-        await run_in_threadpool(proc.join, 5.0)
         receiver.close()
     if kind == "ok":
         return payload
