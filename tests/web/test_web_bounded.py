@@ -44,6 +44,18 @@ def _forkserver_running() -> None:
     forkserver.ensure_running()
 
 
+def _alive(pids: set[int]) -> list[int]:
+    """The processes of ``pids`` still running (not gone, not zombies)."""
+    out = []
+    for p in pids:
+        try:
+            if Path(f"/proc/{p}/stat").read_text().rsplit(")", 1)[1].split()[0] not in ("Z", "X"):
+                out.append(p)
+        except OSError:
+            continue
+    return out
+
+
 class _LeavesAfter:
     """A request whose client disconnects after ``polls`` checks."""
 
@@ -76,15 +88,9 @@ def test_the_worker_stops_when_the_client_leaves():
         asyncio.run(run_bounded(_LeavesAfter(5), WorkLimits(), "the identification", time.sleep, 60))
     assert time.monotonic() - t0 < 15
     deadline = time.monotonic() + 5
-    while time.monotonic() < deadline:
-        workers = {p for p in _descendants(os.getpid()) - before
-                   if "sleep" in Path(f"/proc/{p}/cmdline").read_bytes().decode(errors="replace")}
-        if not workers:
-            break
+    while (live := _alive(_descendants(os.getpid()) - before)) and time.monotonic() < deadline:
         time.sleep(0.05)
     # the forkserver stays (it serves the next request); the worker is gone
-    live = [p for p in _descendants(os.getpid()) - before if Path(f"/proc/{p}/stat").exists()
-            and Path(f"/proc/{p}/stat").read_text().split()[2] not in ("Z", "X")]
     assert not live, live
 
 
@@ -209,11 +215,7 @@ def test_the_identification_stops_when_its_client_hangs_up(live_server, demo_run
         time.sleep(0.2)
     hung_up = time.monotonic()  # the socket is closed here
     deadline = hung_up + 5
-    while time.monotonic() < deadline:
-        alive = [p for p in (_descendants(os.getpid()) - before) if Path(f"/proc/{p}/stat").exists()
-                 and Path(f"/proc/{p}/stat").read_text().split()[2] not in ("Z", "X")]
-        if not alive:
-            break
+    while (alive := _alive(_descendants(os.getpid()) - before)) and time.monotonic() < deadline:
         time.sleep(0.02)
     assert not alive, "the worker kept running after its client left"
     assert time.monotonic() - hung_up < 2.0
