@@ -212,7 +212,7 @@ def step_response_closed_form(
         Step level in volts.
     block : (int, float), optional
         ``(m, dt)``: each of ``time_s`` is the first of ``m`` samples ``dt`` apart, and the
-        result is their mean (see :func:`_blocked`).
+        result is their mean (see :func:`_exp_basis`).
 
     Returns
     -------
@@ -222,13 +222,12 @@ def step_response_closed_form(
     t = np.asarray(time_s, dtype=float)
     num = np.atleast_1d(np.asarray(num, dtype=float))
     taus = np.asarray(taus, dtype=float)
-    if block is not None:
-        return _blocked(step_response_closed_form, t, num, taus, step_volts, block)
     p, r, n0 = _residues(num, taus)
-    tt = np.clip(t, 0.0, None)
-    y = n0 + np.exp(np.outer(tt, p)) @ r
+    e, _, after = _exp_basis(t, p, block)
+    y = n0 + e @ r
     # a biproper numerator adds the direct term N_lead/Πτ at t = 0+ : already in the residues
-    return np.where(t >= 0, step_volts * y, 0.0)
+    out = np.where(after, step_volts * y, 0.0)
+    return _step_blocks(step_response_closed_form, out, t, num, taus, step_volts, block)
 
 
 def _slope_closed_form(
@@ -239,11 +238,10 @@ def _slope_closed_form(
     The impulse response times the step; a jump at ``t = 0`` is not included.
     """
     t = np.asarray(time_s, dtype=float)
-    if block is not None:
-        return _blocked(_slope_closed_form, t, num, taus, step_volts, block)
     p, r, _ = _residues(np.atleast_1d(np.asarray(num, dtype=float)), np.asarray(taus, dtype=float))
-    tt = np.clip(t, 0.0, None)
-    return np.where(t > 0, step_volts * (np.exp(np.outer(tt, p)) @ (r * p)), 0.0)
+    e, _, after = _exp_basis(t, p, block, strict=True)
+    out = np.where(after, step_volts * (e @ (r * p)), 0.0)
+    return _step_blocks(_slope_closed_form, out, t, num, taus, step_volts, block)
 
 
 def position_closed_form(
@@ -271,45 +269,47 @@ def position_closed_form(
     """
     t = np.asarray(time_s, dtype=float)
     num = np.atleast_1d(np.asarray(num, dtype=float))
-    if block is not None:
-        return _blocked(position_closed_form, t, num, taus, step_volts, block)
     p, r, n0 = _residues(num, np.asarray(taus, dtype=float))
-    tt = np.clip(t, 0.0, None)
-    y = n0 * tt + (np.exp(np.outer(tt, p)) - 1.0) @ (r / p)
-    return np.where(t >= 0, step_volts * y, 0.0)
+    e, lin, after = _exp_basis(t, p, block)
+    y = n0 * lin + (e - 1.0) @ (r / p)
+    out = np.where(after, step_volts * y, 0.0)
+    return _step_blocks(position_closed_form, out, t, num, taus, step_volts, block)
 
 
-def _blocked(fn: Any, t: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float,
-             block: tuple[int, float]) -> np.ndarray:
-    """Means over blocks of ``m`` samples ``dt`` apart of a closed form, from each block's first time ``t``.
+def _exp_basis(t: np.ndarray, p: np.ndarray, block: tuple[int, float] | None,
+               strict: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The exponentials of a closed form, the time of its linear term, the mask after the step.
 
-    A long record is fitted as block means (:data:`motorid.identification.stages.MAX_FIT_SAMPLES`
-    of them); evaluating the model at every sample and averaging cost a 1 M-sample capture
-    90 s.  Every closed form here is ``a + b·t + Σ c_i e^{p_i t}`` after the step, and the mean of
-    ``e^{p(t₀ + k·dt)}`` over ``k = 0…m−1`` is ``e^{p t₀}·(e^{p m dt} − 1)/(m (e^{p dt} − 1))``:
-    so a block is one evaluation at its first sample with the residues scaled by that factor
-    (and ``t`` moved to the block's middle in the linear term).  Blocks that hold the step
-    instant are averaged sample by sample; blocks wholly before it are zero.  Exact to rounding.
+    ``e^{p_i t}`` at each time (``t`` clipped at 0); the mask is ``t ≥ 0`` (``t > 0`` when
+    ``strict``).  With ``block = (m, dt)``, each ``t`` is the first of ``m`` samples ``dt`` apart and the
+    basis is the mean over them.  A long record is fitted as block means
+    (:data:`motorid.identification.stages.MAX_FIT_SAMPLES` of them), and averaging the model
+    sample by sample cost a 1 M-sample capture 90 s; every closed form here is
+    ``a + b·t + Σ c_i e^{p_i t}`` after the step, and the mean of ``e^{p(t₀ + k·dt)}`` over
+    ``k = 0…m−1`` is ``e^{p t₀}·(e^{p m dt} − 1)/(m (e^{p dt} − 1))``, that of ``t`` the block's
+    middle.  Only blocks wholly after the step are "after" (:func:`_step_blocks` does the others).
     """
+    if block is None:
+        tt = np.clip(t, 0.0, None)
+        return np.exp(np.outer(tt, p)), tt, (t > 0) if strict else (t >= 0)
     m, dt = int(block[0]), float(block[1])
-    taus_a = _separate(np.asarray(taus, dtype=float))
-    p = -1.0 / taus_a
-    gain = np.expm1(p * m * dt) / (m * np.expm1(p * dt))
-    num_a = np.atleast_1d(np.asarray(num, dtype=float))
-    _, r, n0 = _residues(num_a, taus_a)
     after = t > 0
     tt = np.where(after, t, 0.0)
-    e = np.exp(np.outer(tt, p))
-    if fn is step_response_closed_form:
-        y = n0 + e @ (r * gain)
-    elif fn is _slope_closed_form:
-        y = e @ (r * p * gain)
-    else:
-        y = n0 * (tt + 0.5 * (m - 1) * dt) + e @ (r / p * gain) - float(np.sum(r / p))
-    out = np.where(after, step_volts * y, 0.0)
-    edge = np.flatnonzero(~after & (t + (m - 1) * dt >= 0))
-    for i in edge:
-        out[i] = float(np.mean(fn(t[i] + dt * np.arange(m), num_a, taus_a, step_volts)))
+    mean = np.expm1(p * m * dt) / (m * np.expm1(p * dt))
+    return np.exp(np.outer(tt, p)) * mean, tt + 0.5 * (m - 1) * dt, after
+
+
+def _step_blocks(fn: Any, out: np.ndarray, t: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float,
+                 block: tuple[int, float] | None) -> np.ndarray:
+    """``out`` with the blocks that hold the step instant averaged sample by sample.
+
+    Blocks wholly before the step are already zero; without blocks ``out`` is returned as is.
+    """
+    if block is None:
+        return out
+    m, dt = int(block[0]), float(block[1])
+    for i in np.flatnonzero((t <= 0) & (t + (m - 1) * dt >= 0)):
+        out[i] = float(np.mean(fn(t[i] + dt * np.arange(m), num, taus, step_volts)))
     return out
 
 
