@@ -709,7 +709,8 @@ class _OeProblem:
         ratio = {c: max(1, int((block or {}).get(c, 1))) for c in names}
         tc = {c: tc[c][: tc[c].size // ratio[c] * ratio[c]] for c in names}
         if wraps is not None:
-            wraps = wraps[: tc["position"].size]
+            # the turns added to each fitted value: block means, as the data are
+            wraps = _block_mean(wraps[: tc["position"].size], ratio["position"])
         data = {c: _block_mean(raw[c], ratio[c]) for c in names}
         n_par = len(layout.names)
         shortest = min(v.size for v in data.values())
@@ -787,8 +788,7 @@ class _OeProblem:
         pred = _predict(self.layout, th, self._grid(tc), self.step_volts, self.names, self.fast)
         pred = {c: v if c in self.fast else _block_mean(v, self.ratio[c]) for c, v in pred.items()}
         if self.wraps is not None:
-            wraps = _block_mean(self.wraps, self.ratio["position"])
-            pred["position"] = pred["position"] + th[self.layout.idx["span_position"]] * wraps
+            pred["position"] = pred["position"] + th[self.layout.idx["span_position"]] * self.wraps
         return pred
 
     def residuals(self, th: np.ndarray, tc: Mapping[str, np.ndarray] | None = None) -> np.ndarray:
@@ -827,9 +827,6 @@ class _OeProblem:
             if "c" in layout.idx:
                 d["position"][:, layout.idx["c"]] = q["K"] * p1
             slope["position"] = q["c"] * q["K"] * step_response_closed_form(te["position"], num1, q["taus"], u, b)
-            if self.wraps is not None:
-                wraps = self.wraps if b is None else _block_mean(self.wraps, self.ratio["position"])
-                d["position"][:, layout.idx["span_position"]] = wraps
         if "current" in names:
             b = fast.get("current")
             nc = layout.n_current
@@ -860,6 +857,8 @@ class _OeProblem:
         rows = []
         for c in names:
             block = d[c] if self.ratio[c] == 1 or c in fast else d[c].reshape(-1, self.ratio[c], n_par).mean(axis=1)
+            if c == "position" and self.wraps is not None:
+                block[:, layout.idx["span_position"]] = self.wraps
             rows.append(-self.w[c] * self._white(c, block))
         for c in self.pre_data:
             r_pre = np.zeros((self.pre_data[c].size, n_par))
