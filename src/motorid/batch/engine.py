@@ -14,14 +14,13 @@ every task (a Dask worker does not get loky's environment variables).
 from __future__ import annotations
 
 import contextlib
-import functools
 import hashlib
 import os
 import random
-import time
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, TypeVar
 
+from motorid._process import end_with_parent
 from motorid._threads import single_blas_thread
 from motorid.errors import OptionError
 
@@ -64,27 +63,10 @@ def _seeded_call(func: Callable[[Any], R], key: str, item: Any, seed: int,
     import numpy as np
 
     if parent_pid is not None and os.getpid() != parent_pid:
-        _watch_parent(parent_pid)
+        end_with_parent(parent_pid)
     np.random.seed(seed)  # legacy global-RNG use in any library the task calls
     random.seed(seed)
     return key, func(item)
-
-
-#: How often a worker looks whether the batch that started it is still there [s].
-PARENT_POLL_S = 1.0
-
-
-@functools.cache
-def _watch_parent(parent_pid: int) -> None:
-    """Start, once per worker process, a thread that ends the process when its parent is gone."""
-    import threading
-
-    def watch() -> None:
-        while os.getppid() == parent_pid:
-            time.sleep(PARENT_POLL_S)
-        os._exit(1)  # the batch is gone: nobody reads this worker's result
-
-    threading.Thread(target=watch, name="motorid-parent-watch", daemon=True).start()
 
 
 @contextlib.contextmanager

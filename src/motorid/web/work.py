@@ -18,7 +18,6 @@ import math
 import multiprocessing
 import os
 import resource
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -27,6 +26,7 @@ from typing import Any, Protocol, TypeVar
 
 from starlette.concurrency import run_in_threadpool
 
+from motorid._process import end_with_parent
 from motorid.errors import MotorIdError, OptionError
 
 __all__ = ["RequestGoneError", "WorkLimits", "run_bounded"]
@@ -76,25 +76,9 @@ def _address_space_bytes() -> int | None:
         return None
 
 
-def _watch_server(server_pid: int) -> None:
-    """End this worker when the server is gone (SIGKILL leaves no one to stop it)."""
-
-    def watch() -> None:
-        while True:
-            time.sleep(0.5)
-            try:
-                os.kill(server_pid, 0)
-            except ProcessLookupError:
-                os._exit(1)
-            except PermissionError:
-                pass
-
-    threading.Thread(target=watch, name="motorid-server-watch", daemon=True).start()
-
-
-def _child(conn: Connection, server_pid: int, limits: WorkLimits, fn: Callable[..., Any],
-           args: tuple[Any, ...]) -> None:
-    _watch_server(server_pid)
+def _child(conn: Connection, limits: WorkLimits, fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
+    # the parent is the forkserver, which exits with the server (SIGKILL leaves no one to stop us)
+    end_with_parent(os.getppid())
     now = _address_space_bytes()
     if now is not None:
         cap = now + int(limits.max_memory_mb * 2**20)
@@ -160,7 +144,7 @@ async def run_bounded(request: _Disconnectable | None, limits: WorkLimits, what:
     """
     ctx = _context()
     receiver, sender = ctx.Pipe(duplex=False)
-    proc = ctx.Process(target=_child, args=(sender, os.getpid(), limits, fn, args), daemon=True)
+    proc = ctx.Process(target=_child, args=(sender, limits, fn, args), daemon=True)
     await run_in_threadpool(proc.start)
     sender.close()
     deadline = time.monotonic() + limits.max_seconds
