@@ -434,3 +434,19 @@ def test_electrical_pole_beside_the_sampling_is_told_from_a_dead_time() -> None:
     assert poles[1] == pytest.approx(truth[1], rel=0.15)
     assert poles[0] == pytest.approx(truth[0], rel=0.01)
     assert max(m.extras["laguerre_polish"]["ar_order"].values()) > 0
+
+
+def test_arrays_of_different_lengths_are_one_line_errors_in_every_estimator():
+    from motorid.errors import OptionError
+    from motorid.identification.classic import classic_first_order
+    from motorid.identification.laguerre import laguerre_coefficients, laguerre_identify
+    from motorid.identification.markov import markov_parameters
+
+    t, y = np.arange(10.0), np.arange(9.0)
+    fits = (laguerre_identify, classic_first_order, lambda a, b, u: markov_parameters(a, b, u, 5, None),
+            lambda a, b, _: laguerre_coefficients(a, b, 5.0, 3))
+    for fit in fits:
+        with pytest.raises(OptionError, match=r"time and \w+ arrays differ in length \(10 vs 9\)"):
+            fit(t, y, 1.0)
+    with pytest.raises(OptionError, match="non-zero number of volts"):
+        laguerre_identify(t, np.arange(10.0), float("nan"))

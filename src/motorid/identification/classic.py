@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from motorid.errors import OptionError
+from motorid.identification.arrays import check_step_level, response_arrays
 from motorid.identification.result import IdentificationError
 
 __all__ = ["SETTLE_WARN", "ClassicResult", "classic_first_order", "first_crossing"]
@@ -139,12 +139,8 @@ def classic_first_order(time_s: Any, y: Any, step_volts: float, *, t0: float = 0
     ----------
     Tsiolakis 2022, §1.1; Masoud 2019, Fig. 1 and eq. 43.
     """
-    t = np.asarray(time_s, dtype=float).ravel()
-    v = np.asarray(y, dtype=float).ravel()
-    if t.size != v.size:
-        raise OptionError(f"time and velocity arrays differ in length ({t.size} vs {v.size})")
-    if not step_volts or not math.isfinite(step_volts):
-        raise OptionError(f"the step level must be a non-zero number of volts, got {step_volts!r}")
+    t, v = response_arrays(time_s, y, "velocity")
+    check_step_level(step_volts)
     after = t >= t0
     t, v = t[after], v[after]
     if t.size < 10:

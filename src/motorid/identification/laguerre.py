@@ -45,6 +45,7 @@ import numpy as np
 import scipy.linalg
 import scipy.signal
 
+from motorid.identification.arrays import check_step_level, response_arrays
 from motorid.errors import OptionError
 from motorid.identification.laguerre_refine import POLISH_CHANNELS, LaguerrePolish, _polish_orders, laguerre_polish
 from motorid.identification.result import IdentificationError
@@ -427,10 +428,7 @@ def laguerre_coefficients(
     IdentificationError
         Fewer samples than terms, or rank-deficient regressors.
     """
-    t = np.asarray(time_s, dtype=float).ravel()
-    yy = np.asarray(y, dtype=float).ravel()
-    if t.size != yy.size:
-        raise OptionError(f"time and response arrays differ in length ({t.size} vs {yy.size})")
+    t, yy = response_arrays(time_s, y)
     keep = t >= 0
     if np.count_nonzero(keep) < n_terms + 2:
         raise IdentificationError(f"{np.count_nonzero(keep)} samples after the step cannot determine "
@@ -651,10 +649,8 @@ def laguerre_identify(
     settings = LaguerreSettings() if settings is None else settings
     if output not in ("velocity", "position"):
         raise OptionError(f"output must be 'velocity' or 'position', got {output!r}")
-    if not step_volts or not math.isfinite(step_volts):
-        raise OptionError(f"the step level must be a non-zero number of volts, got {step_volts!r}")
-    t = np.asarray(time_s, dtype=float).ravel()
-    yy = np.asarray(y, dtype=float).ravel()
+    check_step_level(step_volts)
+    t, yy = response_arrays(time_s, y)
     keep = t >= 0
     t, yy = t[keep], yy[keep]
     u = None if input_v is None else np.asarray(input_v, dtype=float).ravel()[keep]

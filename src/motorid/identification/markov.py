@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
+from motorid.identification.arrays import check_step_level, response_arrays
 from motorid.errors import OptionError
 from motorid.identification.result import IdentificationError, equilibrated_condition
 
@@ -246,12 +247,8 @@ def markov_parameters(
     ----------
     Masoud 2019, eqs. 21–28.
     """
-    t = np.asarray(time_s, dtype=float).ravel()
-    y = np.asarray(y_step, dtype=float).ravel()
-    if t.size != y.size:
-        raise OptionError(f"time and response arrays differ in length ({t.size} vs {y.size})")
-    if not u_step_volts or not math.isfinite(u_step_volts):
-        raise OptionError(f"the step level must be a non-zero number of volts, got {u_step_volts!r}")
+    t, y = response_arrays(time_s, y_step)
+    check_step_level(u_step_volts)
     if form not in ("velocity", "paper"):
         raise OptionError(f"form must be 'velocity' or 'paper', got {form!r}")
     t_end = float(np.max(t)) if window_s is None else float(window_s)
