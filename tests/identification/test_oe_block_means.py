@@ -52,16 +52,13 @@ def test_a_long_record_fits_the_same_model_as_sample_by_sample(monkeypatch):
     assert fast.dc_gain == pytest.approx(2.0, rel=2e-3) and fast.time_constant_s == pytest.approx(0.35, rel=5e-3)
 
 
-def test_a_long_scope_record_keeps_an_honest_gain_interval(tmp_path):
-    """A 200 000-sample Tektronix pair (8-bit codes, 10 µs): a candidate structure with a pole at
-    the sampling rate had its dominant pole cancelled against a zero 128× faster (its DC gain
-    0.002), which widened the chosen model's DC-gain interval to [−0.07, 0.58] under "all
-    checks passed"."""
-    import motorid as mi
+def _long_scope_pair(folder, n: int = 200_000):
+    """A Tektronix CH1/CH2 pair of ``n`` samples at 10 µs, 8-bit codes, a 0.4 s motor; and the
+    true DC gain (the quantised step's)."""
     from motorid.capture import Capture, ChannelInfo, ScopeInfo
     from motorid.io import write_tds_capture
 
-    n, dt = 200_000, 1e-5
+    dt = 1e-5
     t = (np.arange(n) - n // 10) * dt
     lsb_in, lsb_out = 2.0 / 25, 0.5 / 25
     u = np.where(t >= 0, np.round(5.92 / lsb_in), 0.0) * lsb_in
@@ -70,11 +67,40 @@ def test_a_long_scope_record_keeps_an_honest_gain_interval(tmp_path):
                   output_info=ChannelInfo("CH2", "V", 0.5, 0.0, 1.0, 0.0), input_v=u,
                   input_info=ChannelInfo("CH1", "V", 2.0, 0.0, 10.0, 0.0),
                   scope=ScopeInfo("TDS2012C", "C0", "FV", n, n * dt / 10, n // 10))
-    folder = write_tds_capture(tmp_path, cap, force=True)
+    return write_tds_capture(folder, cap, force=True), 1.5 / (np.round(5.92 / lsb_in) * lsb_in)
+
+
+def test_a_long_scope_record_keeps_an_honest_gain_interval(tmp_path):
+    """A 200 000-sample Tektronix pair (8-bit codes, 10 µs): a candidate structure with a pole at
+    the sampling rate had its dominant pole cancelled against a zero 128× faster (its DC gain
+    0.002), which widened the chosen model's DC-gain interval to [−0.07, 0.58] under "all
+    checks passed"."""
+    import motorid as mi
+
+    folder, truth_dc = _long_scope_pair(tmp_path)
     fit = mi.identify(mi.read_experiment(velocity=folder))
     dc, tau = fit.params["dc_gain"], fit.params["time_constant"]
-    truth_dc = 1.5 / (np.round(5.92 / lsb_in) * lsb_in)
     assert dc.value == pytest.approx(truth_dc, rel=2e-3) and tau.value == pytest.approx(0.4, rel=2e-3)
     assert dc.ci95[0] <= truth_dc <= dc.ci95[1]
     assert dc.ci95[1] - dc.ci95[0] < 0.02 * dc.value  # was 2.6 × the value
     assert tau.ci95[1] - tau.ci95[0] < 0.02 * tau.value
+
+
+@pytest.mark.slow
+def test_the_long_record_model_goes_through_design_simulate_and_report(tmp_path):
+    """As a user runs it: identify the long pair from the command line, then design, simulate
+    and a report with that design, on the model as identified."""
+    import json
+
+    from clihelpers import motorid_ok
+
+    folder, _ = _long_scope_pair(tmp_path / "cap")
+    motorid_ok("identify", "--velocity", folder, "--json", tmp_path / "m.json")
+    # the model has one state (the record shows one pole): one real closed-loop pole
+    motorid_ok("design", tmp_path / "m.json", "--poles", "-5", "--json", tmp_path / "d.json")
+    motorid_ok("simulate", tmp_path / "m.json", tmp_path / "d.json", "--duration", "2", "--json", tmp_path / "s.json")
+    sim = json.loads((tmp_path / "s.json").read_text())
+    assert all(v is not None and np.isfinite(v) for v in sim["series"]["output"])
+    motorid_ok("identify", "--velocity", folder, "--report", tmp_path / "r.html", "--design", tmp_path / "d.json")
+    page = (tmp_path / "r.html").read_text()
+    assert "no controller design given" not in page and "cannot be simulated" not in page

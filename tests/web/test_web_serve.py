@@ -59,7 +59,22 @@ def test_serve_refuses_bad_options_in_one_line(run_cli, fake_uvicorn):
     assert res.code == 2 and res.err.startswith("motorid: error: --host 127.0.0.1 --port") and res.err.count("\n") == 1
     res = run_cli("serve", "--max-upload-mb", "0")
     assert res.code == 2 and "--max-upload-mb" in res.err
+    for flag, value in (("--max-seconds", "0"), ("--max-seconds", "inf"), ("--max-memory-mb", "10"),
+                        ("--max-memory-mb", "nan")):
+        res = run_cli("serve", flag, value)
+        assert res.code == 2 and res.err.startswith(f"motorid: error: {flag} must be") and res.err.count("\n") == 1
     assert fake_uvicorn == []
+
+
+def test_serve_passes_its_bounds_and_the_deadline_protocol_to_uvicorn(run_cli, fake_uvicorn):
+    from motorid.web.protocol import DeadlineH11Protocol
+
+    res = run_cli("serve", "--no-token", "--max-seconds", "30", "--max-memory-mb", "512")
+    assert res.code == 0, res.err
+    app, kw = fake_uvicorn[0]
+    assert kw["http"] is DeadlineH11Protocol and kw["limit_concurrency"] == 64
+    work = app.state.settings.work
+    assert (work.max_seconds, work.max_memory_mb) == (30.0, 512.0)
 
 
 @pytest.mark.slow
