@@ -1,0 +1,114 @@
+"""CPU time and error of every estimator on the same samples, side by side in one run.
+
+Run: ``python3 bench/speed.py [--repeat 5] [--presets paper,first-order] [--seed 0]``.
+
+For each trainer preset (``paper`` is the demo's experiment: third order, as the `third-order`
+preset), one experiment is recorded with the trainer's realistic noise and 8-bit codes, then
+identified in this process, warm (one call first, not timed), with ``mi.identify(exp,
+method=M)`` for ``auto``, ``oe``, ``markov``, ``pinv`` and ``classic``, and with scipy's
+``curve_fit`` of a first order plus dead time on the same conditioned velocity samples (the
+peer a student would write). It prints, per method, the median CPU time of a call
+(``time.process_time``: the machine is shared, wall time is not a measure), the ratio to
+``pinv``, and the errors of the DC gain and of the residence time (τ + dead time) against the
+trainer's truth. The load average before and after is printed with the table; one BLAS thread,
+as the library uses.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import time
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.optimize
+
+import motorid as mi
+from motorid.conditioning.pipeline import ConditioningSettings, condition_experiment
+from motorid.trainer import run_experiment
+
+METHODS = ("auto", "oe", "markov", "pinv", "classic")
+
+
+@dataclass(frozen=True)
+class Row:
+    method: str
+    cpu_s: float
+    dc_gain: float
+    residence_s: float
+
+
+def residence_of(tf) -> float:
+    """Mean residence time by moments (``Σ1/p − Σ1/z``) of a transfer function's poles and zeros."""
+    num = np.atleast_1d(np.squeeze(tf.num[0][0])).astype(float)
+    den = np.atleast_1d(np.squeeze(tf.den[0][0])).astype(float)
+    zeros = np.roots(num) if num.size > 1 else np.array([])
+    return float(np.real(np.sum(-1.0 / np.roots(den)) - np.sum(-1.0 / zeros)))
+
+
+def curve_fit_fopdt(exp: mi.Experiment) -> tuple[float, float]:
+    """scipy ``curve_fit`` of ``K·u·(1 − exp(−(t − θ)/τ))`` on the conditioned velocity."""
+    cond = condition_experiment(dict(exp.captures), ConditioningSettings(sample_interval_s=None))
+    t, v, u = cond.full_time_s, cond.full_outputs["velocity"], cond.step_volts
+
+    def f(tt: np.ndarray, k: float, tau: float, theta: float) -> np.ndarray:
+        return k * u * (1.0 - np.exp(-np.clip(tt - theta, 0.0, None) / tau))
+
+    (k, tau, theta), _ = scipy.optimize.curve_fit(f, t, v, p0=[v[-1] / u, 0.06 * t[-1], 0.0])
+    return float(k), float(tau + theta)
+
+
+def cpu(fn, repeat: int):
+    fn()  # warm: first-call costs (imports, caches) are not the method's
+    times, out = [], None
+    for _ in range(repeat):
+        t0 = time.process_time()
+        out = fn()
+        times.append(time.process_time() - t0)
+    return statistics.median(times), out
+
+
+def run_preset(name: str, seed: int, repeat: int) -> tuple[list[Row], float, float]:
+    rec = run_experiment(name, seed=seed, validation=False)
+    exp = mi.Experiment(captures=dict(rec.captures))
+    dc_true = rec.truth.dc_gain * (1.0 - rec.truth.equivalent_input_offset_v / rec.step_volts)
+    res_true = residence_of(rec.truth.velocity)
+    rows = []
+    for method in METHODS:
+        t, fit = cpu(lambda m=method: mi.identify(exp, method=m), repeat)
+        fo = fit.model.first_order()
+        rows.append(Row(method, t, fo.dc_gain, fo.time_constant_s + fit.model.delay_s))
+    t, (k, res) = cpu(lambda: curve_fit_fopdt(exp), repeat)
+    rows.append(Row("scipy curve_fit (FOPDT)", t, k, res))
+    return rows, dc_true, res_true
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--presets", default="paper,first-order")
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+    print(f"load average before: {os.getloadavg()[0]:.2f}")
+    for name in args.presets.split(","):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            rows, dc_true, res_true = run_preset(name, args.seed, args.repeat)
+        pinv = next(r.cpu_s for r in rows if r.method == "pinv")
+        print(f"\npreset {name}, seed {args.seed}: median CPU of {args.repeat} warm calls; truth: "
+              f"DC gain {dc_true:.4f}, residence time {res_true:.4f} s")
+        print(f"{'method':<26}{'CPU (ms)':>10}{'× pinv':>9}{'DC gain err %':>15}{'residence err %':>17}")
+        for r in rows:
+            print(f"{r.method:<26}{1000 * r.cpu_s:>10.1f}{r.cpu_s / pinv:>9.1f}"
+                  f"{100 * (r.dc_gain / dc_true - 1):>15.3f}{100 * (r.residence_s / res_true - 1):>17.3f}")
+    print(f"\nload average after: {os.getloadavg()[0]:.2f}")
+
+
+if __name__ == "__main__":
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1):
+        main()
