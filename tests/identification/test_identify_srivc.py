@@ -71,3 +71,32 @@ def test_srivc_rejects_impossible_structures(settings):
 def test_srivc_rejects_too_few_samples():
     with pytest.raises(IdentificationError, match="samples"):
         srivc_fit(T_S[:5], U[:5], _clean()[:5], SrivcSettings(n_poles=2), init_den=_init_den())
+
+
+@pytest.mark.parametrize("poles", [(-3.0,), (-3.0, -40.0), (-3.0, -40.0, -300.0), (-2.0 + 5j, -2.0 - 5j, -50.0)])
+def test_filtering_equals_scipy_lsim(poles):
+    """SRIVC's filter (lfilter on lsim's own discretisation) against ``scipy.signal.lsim`` itself."""
+    import scipy.signal
+
+    from motorid.identification.srivc import _filtered_derivatives, _simulate
+
+    den = np.real(np.poly(poles))
+    t = np.arange(2000) * 0.004
+    rng = np.random.default_rng(1)
+    for u in (np.full(t.size, 5.92), rng.normal(size=t.size).cumsum()):
+        n = den.size - 1
+        a = np.zeros((n, n))
+        a[:-1, 1:] = np.eye(n - 1)
+        a[-1, :] = -den[1:][::-1]
+        b = np.zeros((n, 1))
+        b[-1, 0] = 1.0
+        c = np.vstack([np.eye(n), -den[1:][::-1]])
+        d = np.zeros((n + 1, 1))
+        d[-1, 0] = 1.0
+        _, ref, _ = scipy.signal.lsim((a, b, c, d), u, t)
+        ours = _filtered_derivatives(den, t, u, n)
+        for row in range(n + 1):
+            assert np.max(np.abs(ours[row] - ref[:, row])) <= 1e-7 * np.max(np.abs(ref[:, row]))
+        num = np.r_[2.0, 5.0] if n > 1 else np.r_[5.0]
+        _, ref_y, _ = scipy.signal.lsim((num, den), u, t)
+        assert np.max(np.abs(_simulate(num, den, t, u) - ref_y)) <= 1e-7 * np.max(np.abs(ref_y))

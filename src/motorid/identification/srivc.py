@@ -6,7 +6,8 @@ prefiltered by ``1/Â(s)`` (which also gives their time derivatives without nume
 differentiation), and the regression is solved with instruments built from the noise-free
 output of the current model.  It is close to statistically efficient for white output noise
 and needs no nonlinear optimiser — an independent second opinion to the output-error fit.
-No Python library implements it, hence this module; the filtering uses ``scipy.signal.lsim``.
+No Python library implements it, hence this module; the filtering is ``scipy.signal.lsim``'s
+linear-interpolation discretisation run through ``scipy.signal.lfilter`` (:func:`_lsim`).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg
 import scipy.signal
 
 from motorid.identification.result import IdentificationError
@@ -82,9 +84,59 @@ def _filtered_derivatives(den: np.ndarray, t: np.ndarray, x: np.ndarray, k: int)
     c = np.vstack([np.eye(n), -den[1:][::-1]])
     d = np.zeros((n + 1, 1))
     d[-1, 0] = 1.0
-    _, y, _ = scipy.signal.lsim((a, b, c, d), x, t)
-    y = np.atleast_2d(y.T) if y.ndim > 1 else y[None, :]
-    return y[: k + 1]
+    return _lsim(a, b, c[: k + 1], d[: k + 1], t, x)
+
+
+def _lsim(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, t: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Rows of ``y = C x + D u`` for ``ẋ = A x + B u`` from rest, ``u`` linear between samples.
+
+    The same discretisation as ``scipy.signal.lsim`` (``interp=True``): over one sample
+    ``x[k+1] = A_d x[k] + B_0 u[k] + B_1 u[k+1]`` from the exponential of the augmented
+    matrix.  ``lsim`` then steps the states in a Python loop, one iteration per sample (34 ms for
+    2500 samples of a third order, and every SRIVC iteration runs it several times); here each
+    output row is the sum of two ``lfilter`` runs, ``C(zI − A_d)⁻¹B_0`` on ``u`` and
+    ``C(zI − A_d)⁻¹B_1`` on ``u`` advanced one sample (strictly proper: ``x[k]`` uses ``u`` up
+    to ``k``), about 8× faster and equal to ``lsim`` to 1e-8 of the signal.
+    """
+    n = a.shape[0]
+    dt = float(t[1] - t[0])
+    m = np.zeros((n + 2, n + 2))
+    m[:n, :n], m[:n, n : n + 1], m[n, n + 1] = a * dt, b * dt, 1.0
+    e = scipy.linalg.expm(m)
+    ad, b1 = e[:n, :n], e[:n, n + 1 : n + 2]
+    b0 = e[:n, n : n + 1] - b1
+    u = np.asarray(u, dtype=float)
+    ahead = np.r_[u[1:], u[-1:]]
+    den = np.real(np.poly(ad))
+    n0, n1 = _numerators(ad, b0, c, den), _numerators(ad, b1, c, den)
+    out = np.empty((c.shape[0], u.size))
+    for i in range(c.shape[0]):
+        out[i] = scipy.signal.lfilter(n0[i], den, u) + scipy.signal.lfilter(n1[i], den, ahead) + d[i, 0] * u
+    return out
+
+
+def _numerators(a: np.ndarray, b: np.ndarray, c: np.ndarray, den: np.ndarray) -> np.ndarray:
+    """Numerators (rows, in powers of ``z⁻¹``) of ``C(zI − A)⁻¹B`` over ``den = det(zI − A)``.
+
+    From the Markov parameters ``M_i = C Aⁱ B``: ``b_k = Σ_{j<k} a_j M_{k−1−j}`` (Cayley–Hamilton),
+    every row at once; ``scipy.signal.ss2tf`` takes two eigenvalue problems per row.
+    """
+    n = a.shape[0]
+    markov = np.empty((n, c.shape[0]))
+    x = b[:, 0]
+    for i in range(n):
+        markov[i] = c @ x
+        x = a @ x
+    num = np.zeros((c.shape[0], n + 1))
+    for k in range(1, n + 1):
+        num[:, k] = sum(den[j] * markov[k - 1 - j] for j in range(k))
+    return num
+
+
+def _simulate(num: np.ndarray, den: np.ndarray, t: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Output of ``num/den`` (proper) to ``u`` from rest: ``scipy.signal.lsim`` through :func:`_lsim`."""
+    a, b, c, d = scipy.signal.tf2ss(num, den)
+    return _lsim(a, b, c, d, t, u)[0]
 
 
 def srivc_fit(time_s: np.ndarray, u: np.ndarray, y: np.ndarray, settings: SrivcSettings = SrivcSettings(),
@@ -136,10 +188,8 @@ def srivc_fit(time_s: np.ndarray, u: np.ndarray, y: np.ndarray, settings: SrivcS
             den = np.real(np.poly(r))
         yf = _filtered_derivatives(den, t, y, n)
         uf = _filtered_derivatives(den, t, u, m)
-        if theta_old is None:
-            x_hat = y  # first pass: plain (refined least-squares) prefiltered regression
-        else:
-            _, x_hat, _ = scipy.signal.lsim((num, den), u, t)
+        # first pass: plain (refined least-squares) prefiltered regression
+        x_hat = y if theta_old is None else _simulate(num, den, t, u)
         xf = _filtered_derivatives(den, t, x_hat, n)
         phi = np.vstack([-yf[n - 1 :: -1][:n], uf[::-1]])  # [−y^(n−1)..−y, u^(m)..u]
         zeta = np.vstack([-xf[n - 1 :: -1][:n], uf[::-1]])
@@ -160,7 +210,7 @@ def srivc_fit(time_s: np.ndarray, u: np.ndarray, y: np.ndarray, settings: SrivcS
             break
         theta_old = theta
     with np.errstate(over="ignore", invalid="ignore"):  # an unstable estimate overflows
-        _, x_hat, _ = scipy.signal.lsim((num, den), u, t)
+        x_hat = _simulate(num, den, t, u)
         sigma2 = float(np.mean((y - x_hat) ** 2))
     cov = sigma2 * p_mat
     poles = np.roots(den)
