@@ -7,9 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from motorid.identification import closed_form
 from motorid.identification import output_error as oe
 
-FORMS = (oe.step_response_closed_form, oe._slope_closed_form, oe.position_closed_form)
+FORMS = (closed_form.step_response_closed_form, closed_form.slope_closed_form, closed_form.position_closed_form)
 
 
 @pytest.mark.parametrize("form", FORMS, ids=lambda f: f.__name__)

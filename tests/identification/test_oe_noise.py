@@ -81,9 +81,11 @@ def test_oe_fits_each_capture_on_its_own_grid_and_block_means_exactly():
     assert all(rms < 1e-5 for rms in res.residual_rms.values())
 
 
-def test_oe_analytic_jacobian_equals_finite_differences(monkeypatch):
-    """The Jacobian handed to least_squares matches a central difference of the residuals
-    (whitening, block means, wraps, pre-step samples all active)."""
+@pytest.mark.parametrize(("delay", "blocks"), [(False, (1, 2, 1)), (True, (5, 3, 4))])
+def test_oe_analytic_jacobian_equals_finite_differences(monkeypatch, delay, blocks):
+    """The Jacobian handed to least_squares matches a central difference of the residuals to 1e-6
+    of each column (whitening, block means, wraps, pre-step samples, a dead time all active;
+    every column analytic)."""
     import scipy.optimize
 
     t = np.arange(0.0, 6.0, DT_S)
@@ -104,11 +106,11 @@ def test_oe_analytic_jacobian_equals_finite_differences(monkeypatch):
 
     monkeypatch.setattr(scipy.optimize, "least_squares", spy)
     output_error_fit(t, STEP_V, data, {ch: 0.01 for ch in data}, [0.35, 0.03, 0.01], 0.8,
-                     OeSettings(n_poles=3, n_zeros=1), pre={ch: np.zeros(300) for ch in data},
-                     block={"velocity": 1, "position": 2, "current": 1},
+                     OeSettings(n_poles=3, n_zeros=1, delay=delay), pre={ch: np.zeros(300) for ch in data},
+                     block=dict(zip(("velocity", "position", "current"), blocks, strict=True)), init_delay_s=0.01,
                      whiten={"velocity": np.array([1.0, -0.5]), "current": np.array([1.0, 0.3, 0.1])},
                      wrap_count={"position": wraps})
-    assert checked and np.all(checked[0] < 1e-3), checked[0]
+    assert checked and np.all(checked[0] < 1e-6), checked[0]
 
 
 def test_position_scale_fit_recovers_the_scale_and_a_span_error():

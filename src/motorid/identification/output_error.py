@@ -25,6 +25,14 @@ import scipy.linalg
 import scipy.optimize
 import scipy.signal
 
+from motorid.identification.closed_form import (
+    ResponseBasis,
+    position_closed_form,
+    residues,
+    separate,
+    slope_closed_form,
+    step_response_closed_form,
+)
 from motorid.identification.result import IdentificationError
 
 __all__ = [
@@ -54,6 +62,11 @@ class OeSettings:
         Fit a pure delay too.
     max_nfev : int
         Most model evaluations of the optimiser.
+    tolerance : float
+        Relative change of the cost and of the parameters that ends the fit (``ftol`` and
+        ``xtol`` of ``scipy.optimize.least_squares``; its default 1e-8).  The structure search
+        compares candidates at 1e-6 (their BIC then moves by about 1e-6 of the sample count,
+        far under the differences it decides on) and refits the chosen one at 1e-8.
     shifts : bool
         Fit time shifts (of the channels in ``shift_groups``).
     shift_bound_s : float or None
@@ -88,6 +101,7 @@ class OeSettings:
     n_zeros: int = 0
     delay: bool = False
     max_nfev: int = 200
+    tolerance: float = 1e-8
     shifts: bool = True
     shift_bound_s: float | None = None
     current_direct: bool | None = None
@@ -162,155 +176,6 @@ class OeResult:
     warnings: tuple[str, ...] = field(default=())
     residuals: dict[str, np.ndarray] = field(default_factory=dict)
     shifts: dict[str, float] = field(default_factory=dict)
-
-
-def _separate(taus: np.ndarray) -> np.ndarray:
-    """Nudge equal time constants apart: partial fractions need distinct poles.
-
-    The response is continuous in τ, so a 1e-6 relative split changes it by ~1e-6.
-    """
-    t = np.array(taus, dtype=float)
-    if t.size < 2:
-        return t
-    order = np.argsort(t)
-    ts = t[order]
-    close = np.diff(ts) < 1e-6 * ts[1:]
-    if np.any(close):
-        for j in np.flatnonzero(close):
-            ts[j + 1] = ts[j] * (1 + 2e-6)
-        t[order] = ts
-    return t
-
-
-def _residues(num: np.ndarray, taus: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """Poles p_i, residues of N(s)/(s·D(s)) at p_i, and N(0), for D(s) = Π(1 + τ_i s)."""
-    taus = _separate(taus)
-    p = -1.0 / taus
-    m = 1.0 + np.outer(p, taus)  # m[i, k] = 1 + τ_k p_i
-    np.fill_diagonal(m, 1.0)
-    res = np.polyval(num, p) / (p * taus * np.prod(m, axis=1))
-    return p, res, float(np.polyval(num, 0.0))
-
-
-def step_response_closed_form(
-    time_s: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float, block: tuple[int, float] | None = None
-) -> np.ndarray:
-    """Step response of ``N(s)/Π(1 + τ_i s)`` (strictly proper or biproper, distinct τ).
-
-    ``y(t) = step·[N(0) + Σ_i R_i e^{p_i t}]`` with ``R_i`` the residues of ``N(s)/(s D(s))``.
-    Zero for ``t < 0``.
-
-    Parameters
-    ----------
-    time_s : ndarray
-        Times in s (the step at 0).
-    num : array_like
-        Numerator ``N(s)``, highest power first.
-    taus : array_like
-        Time constants τ_i of the denominator, distinct.
-    step_volts : float
-        Step level in volts.
-    block : (int, float), optional
-        ``(m, dt)``: each of ``time_s`` is the first of ``m`` samples ``dt`` apart, and the
-        result is their mean (see :func:`_exp_basis`).
-
-    Returns
-    -------
-    ndarray
-        The response at ``time_s`` (or its block means).
-    """
-    t = np.asarray(time_s, dtype=float)
-    num = np.atleast_1d(np.asarray(num, dtype=float))
-    taus = np.asarray(taus, dtype=float)
-    p, r, n0 = _residues(num, taus)
-    e, _, after = _exp_basis(t, p, block)
-    y = n0 + e @ r
-    # a biproper numerator adds the direct term N_lead/Πτ at t = 0+ : already in the residues
-    out = np.where(after, step_volts * y, 0.0)
-    return _step_blocks(step_response_closed_form, out, t, num, taus, step_volts, block)
-
-
-def _slope_closed_form(
-    time_s: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float, block: tuple[int, float] | None = None
-) -> np.ndarray:
-    """Time derivative of :func:`step_response_closed_form` for ``t > 0``.
-
-    The impulse response times the step; a jump at ``t = 0`` is not included.
-    """
-    t = np.asarray(time_s, dtype=float)
-    p, r, _ = _residues(np.atleast_1d(np.asarray(num, dtype=float)), np.asarray(taus, dtype=float))
-    e, _, after = _exp_basis(t, p, block, strict=True)
-    out = np.where(after, step_volts * (e @ (r * p)), 0.0)
-    return _step_blocks(_slope_closed_form, out, t, num, taus, step_volts, block)
-
-
-def position_closed_form(
-    time_s: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float, block: tuple[int, float] | None = None
-) -> np.ndarray:
-    """Integral from 0 of :func:`step_response_closed_form`: ``N(0)t + Σ R_i (e^{p_i t} − 1)/p_i``.
-
-    Parameters
-    ----------
-    time_s : ndarray
-        Times in s (the step at 0).
-    num : array_like
-        Numerator ``N(s)``, highest power first.
-    taus : array_like
-        Time constants τ_i of the denominator, distinct.
-    step_volts : float
-        Step level in volts.
-    block : (int, float), optional
-        ``(m, dt)``: block means, as in :func:`step_response_closed_form`.
-
-    Returns
-    -------
-    ndarray
-        The position (integral of the response), zero for ``t < 0``.
-    """
-    t = np.asarray(time_s, dtype=float)
-    num = np.atleast_1d(np.asarray(num, dtype=float))
-    p, r, n0 = _residues(num, np.asarray(taus, dtype=float))
-    e, lin, after = _exp_basis(t, p, block)
-    y = n0 * lin + (e - 1.0) @ (r / p)
-    out = np.where(after, step_volts * y, 0.0)
-    return _step_blocks(position_closed_form, out, t, num, taus, step_volts, block)
-
-
-def _exp_basis(t: np.ndarray, p: np.ndarray, block: tuple[int, float] | None,
-               strict: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The exponentials of a closed form, the time of its linear term, the mask after the step.
-
-    ``e^{p_i t}`` at each time (``t`` clipped at 0); the mask is ``t ≥ 0`` (``t > 0`` when
-    ``strict``).  With ``block = (m, dt)``, each ``t`` is the first of ``m`` samples ``dt`` apart and the
-    basis is the mean over them.  A long record is fitted as block means
-    (:data:`motorid.identification.stages.MAX_FIT_SAMPLES` of them), and averaging the model
-    sample by sample cost a 1 M-sample capture 90 s; every closed form here is
-    ``a + b·t + Σ c_i e^{p_i t}`` after the step, and the mean of ``e^{p(t₀ + k·dt)}`` over
-    ``k = 0…m−1`` is ``e^{p t₀}·(e^{p m dt} − 1)/(m (e^{p dt} − 1))``, that of ``t`` the block's
-    middle.  Only blocks wholly after the step are "after" (:func:`_step_blocks` does the others).
-    """
-    if block is None:
-        tt = np.clip(t, 0.0, None)
-        return np.exp(np.outer(tt, p)), tt, (t > 0) if strict else (t >= 0)
-    m, dt = int(block[0]), float(block[1])
-    after = t > 0
-    tt = np.where(after, t, 0.0)
-    mean = np.expm1(p * m * dt) / (m * np.expm1(p * dt))
-    return np.exp(np.outer(tt, p)) * mean, tt + 0.5 * (m - 1) * dt, after
-
-
-def _step_blocks(fn: Any, out: np.ndarray, t: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float,
-                 block: tuple[int, float] | None) -> np.ndarray:
-    """``out`` with the blocks that hold the step instant averaged sample by sample.
-
-    Blocks wholly before the step are already zero; without blocks ``out`` is returned as is.
-    """
-    if block is None:
-        return out
-    m, dt = int(block[0]), float(block[1])
-    for i in np.flatnonzero((t <= 0) & (t + (m - 1) * dt >= 0)):
-        out[i] = float(np.mean(fn(t[i] + dt * np.arange(m), num, taus, step_volts)))
-    return out
 
 
 def _block_mean(x: np.ndarray, ratio: int, *, from_end: bool = False) -> np.ndarray:
@@ -501,7 +366,7 @@ def step_63_time(num: ArrayLike, taus: ArrayLike, delay_s: float = 0.0) -> float
     float
         The 63 % time (s); NaN for a zero DC gain or a response that never gets there.
     """
-    taus = _separate(np.asarray(taus, dtype=float))
+    taus = separate(np.asarray(taus, dtype=float))
     num = np.atleast_1d(np.asarray(num, dtype=float))
     k = float(num[-1])
     if k == 0 or not np.all(np.isfinite(taus)) or taus.size == 0:
@@ -520,12 +385,14 @@ def step_63_time(num: ArrayLike, taus: ArrayLike, delay_s: float = 0.0) -> float
     return float(scipy.optimize.brentq(gap, t[i - 1], t[i], xtol=1e-12 * horizon)) + float(delay_s)
 
 
-def _derived(layout: _Layout, th: np.ndarray) -> dict[str, float]:
+def _derived(layout: _Layout, th: np.ndarray, *, t63: bool = True) -> dict[str, float]:
+    """The quantities reported from a parameter vector (``t63``: with the 63 % time, a root search)."""
     q = layout.unpack(th)
     taus = np.sort(q["taus"])[::-1]
     d = {"dc_gain": float(q["K"]), "time_constant": float(np.sum(q["taus"]) - np.sum(q["tz"]))}
     d["residence_time"] = d["time_constant"] + float(q["delay"])
-    d["t63"] = step_63_time(_vel_num(q["K"], q["tz"]), q["taus"], float(q["delay"]))
+    if t63:
+        d["t63"] = step_63_time(_vel_num(q["K"], q["tz"]), q["taus"], float(q["delay"]))
     for i, tau in enumerate(taus):
         d[f"pole_{i}"] = float(-1.0 / tau)
     # neighbouring poles as a pair: two nearly equal poles are known as a pair (their sum and
@@ -629,14 +496,13 @@ def output_error_fit(
     warnings: list[str] = []
     with np.errstate(over="ignore", invalid="ignore"):
         sol = scipy.optimize.least_squares(prob.residuals, th0, jac=prob.jacobian, bounds=(prob.lower, prob.upper),
-                                           x_scale="jac", max_nfev=settings.max_nfev, method="trf")
+                                           x_scale="jac", max_nfev=settings.max_nfev, method="trf",
+                                           ftol=settings.tolerance, xtol=settings.tolerance)
     if not sol.success:
         warnings.append(f"output-error fit stopped early: {sol.message}")
     return prob.result(sol, step_std, warnings, level_rel_std=level_rel_std)
 
 
-#: Relative step of the forward differences of the Jacobian (time constants and zeros).
-JACOBIAN_STEP = 1e-7
 #: Relative step of the central differences of the delta method (derived quantities).
 DELTA_METHOD_STEP = 1e-6
 #: Fisher information worse conditioned than this: the parameters are poorly determined.
@@ -802,10 +668,9 @@ class _OeProblem:
     def jacobian(self, th: np.ndarray) -> np.ndarray:
         """Jacobian of :meth:`residuals`.
 
-        Analytic in the gain, scale, current numerator, offsets, shifts, delay and span error (the
-        responses are linear in them, or shifted in time); forward differences of the closed form
-        for the time constants and zeros only — a third of the model evaluations of a
-        finite-difference Jacobian.
+        Analytic: the gain, scale, current numerator, offsets, shifts, delay and span error enter
+        the responses linearly or as a time shift; the time constants and zeros through the closed
+        forms' own derivatives (:meth:`~motorid.identification.closed_form.ResponseBasis.shape`).
         """
         layout, names, u, fast = self.layout, self.names, self.step_volts, self.fast
         tc = self._grid()
@@ -813,27 +678,38 @@ class _OeProblem:
         n_par = len(layout.names)
         q = layout.unpack(th)
         te = {c: tc[c] - q["delay"] - q["shift"].get(c, 0.0) for c in names}
+        taus = q["taus"]
         num1 = _vel_num(1.0, q["tz"])
+        poles, r1, n01 = residues(num1, taus)
+        # one basis per channel: every column below is a product with it
+        basis = {c: ResponseBasis(te[c], poles, fast.get(c)) for c in names}
         d = {c: np.zeros((tc[c].size, n_par)) for c in names}
         slope: dict[str, np.ndarray] = {}
+        shape = [layout.idx[f"log_tau_{i}"] for i in range(n)] + [layout.idx[f"Tz_{j}"] for j in range(m)]
+        num = _vel_num(q["K"], q["tz"])
+        dnums = [np.polymul(_vel_num(q["K"], np.delete(q["tz"], j)), [1.0, 0.0]) for j in range(m)]
         if "velocity" in names:
-            b = fast.get("velocity")
-            d["velocity"][:, 0] = step_response_closed_form(te["velocity"], num1, q["taus"], u, b)
-            slope["velocity"] = q["K"] * _slope_closed_form(te["velocity"], num1, q["taus"], u, b)
+            bv = basis["velocity"]
+            d["velocity"][:, 0] = u * bv.step(r1, n01)
+            slope["velocity"] = q["K"] * u * bv.slope(r1)
+            d["velocity"][:, shape] = u * bv.shape("step", num, taus, dnums)
         if "position" in names:
-            b = fast.get("position")
-            p1 = position_closed_form(te["position"], num1, q["taus"], u, b)
+            bp = basis["position"]
+            p1 = u * bp.position(r1, n01)
             d["position"][:, 0] = q["c"] * p1
             if "c" in layout.idx:
                 d["position"][:, layout.idx["c"]] = q["K"] * p1
-            slope["position"] = q["c"] * q["K"] * step_response_closed_form(te["position"], num1, q["taus"], u, b)
+            slope["position"] = q["c"] * q["K"] * u * bp.step(r1, n01)
+            d["position"][:, shape] = q["c"] * u * bp.shape("position", num, taus, dnums)
         if "current" in names:
-            b = fast.get("current")
+            bc = basis["current"]
             nc = layout.n_current
-            for j in range(nc):
-                d["current"][:, layout.idx[f"cur_{j}"]] = step_response_closed_form(
-                    te["current"], np.eye(nc)[j], q["taus"], u, b)
-            slope["current"] = _slope_closed_form(te["current"], q["cur"], q["taus"], u, b)
+            unit = [residues(np.eye(nc)[j], taus) for j in range(nc)]  # the responses of s^k/D(s)
+            r_unit = np.column_stack([x[1] for x in unit])
+            cols = [layout.idx[f"cur_{j}"] for j in range(nc)]
+            d["current"][:, cols] = u * bc.step(r_unit, np.array([x[2] for x in unit]))
+            slope["current"] = u * bc.slope(r_unit @ q["cur"])
+            d["current"][:, shape[:n]] = u * bc.shape("step", q["cur"], taus)
         for c in names:
             d[c][:, layout.idx[f"off_{c}"]] = 1.0
             if c in layout.shift_of:
@@ -845,15 +721,6 @@ class _OeProblem:
                     d[c][:, layout.idx[f"phase_{other}"]] = slope[c]
             if "delay" in layout.idx:
                 d[c][:, layout.idx["delay"]] = -slope[c]
-        base = _predict(layout, th, tc, u, names, fast)
-        fd_params = [layout.idx[f"log_tau_{i}"] for i in range(n)] + [layout.idx[f"Tz_{j}"] for j in range(m)]
-        for k in fd_params:
-            h = JACOBIAN_STEP * max(abs(th[k]), 1.0) if k <= n else JACOBIAN_STEP * max(abs(th[k]), 1e-3)
-            tp = th.copy()
-            tp[k] += h
-            moved = _predict(layout, tp, tc, u, names, fast)
-            for c in names:
-                d[c][:, k] = (moved[c] - base[c]) / h
         rows = []
         for c in names:
             block = d[c] if self.ratio[c] == 1 or c in fast else d[c].reshape(-1, self.ratio[c], n_par).mean(axis=1)
@@ -979,19 +846,54 @@ def _delta_method(layout: _Layout, th: np.ndarray, cov: np.ndarray, step_rel_std
     d0 = _derived(layout, th)
     keys = list(d0)
     grads = np.zeros((len(keys), n_par))
-    for i in range(n_par):
+    # offsets, the position's scale, the current's numerator and the span error enter none of them
+    moving = [i for i, nm in enumerate(layout.names) if nm == "K" or nm == "delay"
+              or nm.startswith(("log_tau_", "Tz_", "shift_", "phase_"))]
+    for i in moving:
         h = DELTA_METHOD_STEP * max(abs(th[i]), 1e-3)
         tp, tm = th.copy(), th.copy()
         tp[i] += h
         tm[i] -= h
-        dp, dm = _derived(layout, tp), _derived(layout, tm)
+        dp, dm = _derived(layout, tp, t63=False), _derived(layout, tm, t63=False)
         grads[:, i] = [(dp.get(k, d0[k]) - dm.get(k, d0[k])) / (2 * h) for k in keys]
+    grads[keys.index("t63")] = _t63_gradient(layout, th, d0["t63"])
     var = np.einsum("ij,jk,ik->i", grads, cov, grads)
     # the step level is measured, not known: its error scales the fitted gain
     var[keys.index("dc_gain")] += (d0["dc_gain"] * step_rel_std) ** 2
     std = {k: float(np.sqrt(max(v, 0.0))) for k, v in zip(keys, var, strict=False)}
     ci = {k: (d0[k] - 1.96 * std[k], d0[k] + 1.96 * std[k]) for k in keys}
     return d0, std, ci
+
+
+def _t63_gradient(layout: _Layout, th: np.ndarray, t63: float) -> np.ndarray:
+    """Gradient of the 63 % time in the parameters, by the implicit function theorem.
+
+    ``t63`` solves ``g(t, θ) = y(t − delay; θ)/K − 0.632 = 0``, so ``∂t63/∂θ = −(∂g/∂θ)/(∂g/∂t)``:
+    central differences of the normalised response at the one instant found (no root search
+    per perturbed parameter, which cost a fit's uncertainty 2·n root searches); the dead time
+    moves it one for one, the gain not at all.
+    """
+    grad = np.zeros(th.size)
+    q = layout.unpack(th)
+    if not np.isfinite(t63):
+        return np.full(th.size, np.nan)
+    at = np.array([t63 - float(q["delay"])])
+
+    def level(x: np.ndarray) -> float:
+        qx = layout.unpack(x)
+        return float(step_response_closed_form(at, _vel_num(1.0, qx["tz"]), separate(qx["taus"]), 1.0)[0])
+
+    slope = float(slope_closed_form(at, _vel_num(1.0, q["tz"]), separate(q["taus"]), 1.0)[0])
+    for i, nm in enumerate(layout.names):
+        if nm.startswith(("log_tau_", "Tz_")):
+            h = DELTA_METHOD_STEP * max(abs(th[i]), 1e-3)
+            tp, tm = th.copy(), th.copy()
+            tp[i] += h
+            tm[i] -= h
+            grad[i] = -(level(tp) - level(tm)) / (2 * h) / slope
+    if "delay" in layout.idx:
+        grad[layout.idx["delay"]] = 1.0
+    return grad
 
 
 def position_scale_fit(

@@ -54,6 +54,10 @@ STRUCTURES: Mapping[int, tuple[tuple[int, int], ...]] = {
     3: ((3, 1), (3, 0)),
 }
 
+#: Stopping tolerance of the structure search's candidate fits (the chosen one is refitted at
+#: the fit's own 1e-8): see :attr:`~motorid.identification.output_error.OeSettings.tolerance`.
+SEARCH_TOLERANCE = 1e-6
+
 #: Longest record (per capture) handed to the nonlinear fit: longer ones are fitted as block
 #: means (the model averaged the same way) down to this many samples, so the fit time stays
 #: bounded.  A TDS1000/2000 record (2500 points) is fitted sample by sample: block means
@@ -271,7 +275,8 @@ def _sampled_phase(r: Any) -> float:
     return 0.5 * r.sample_interval_s if r.timing == "sampled" else 0.0
 
 
-def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, delay: bool = False) -> OeSettings:
+def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, delay: bool = False,
+                tolerance: float = 1e-8) -> OeSettings:
     """The output-error settings of one structure on these captures: their timing.
 
     Parameters
@@ -282,6 +287,8 @@ def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, dela
         ``(poles, zeros)`` of the velocity transfer function.
     delay : bool
         Fit a dead time.
+    tolerance : float
+        The fit's stopping tolerance (:attr:`OeSettings.tolerance`).
 
     Returns
     -------
@@ -298,7 +305,8 @@ def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, dela
     # fixed, their disagreement near the step bought a spurious pole-zero pair)
     sampled = tuple((role, r.sample_interval_s / np.sqrt(12.0)) for role, r in cond.responses.items()
                     if r.timing == "sampled" and role in cond.full_outputs)
-    return OeSettings(n_poles=structure[0], n_zeros=structure[1], delay=delay, shift_bound_s=_shift_bound(cond),
+    return OeSettings(n_poles=structure[0], n_zeros=structure[1], delay=delay, tolerance=tolerance,
+                      shift_bound_s=_shift_bound(cond),
                       shift_groups=timing_groups(cond), instant_std=sampled,
                       phase_group=tuple(role for role, _ in sampled))
 
@@ -701,6 +709,7 @@ def oe_stage(
     delay: bool = False,
     noise: NoiseModel | None = None,
     white: bool = False,
+    tolerance: float = 1e-8,
 ) -> tuple[OeResult, MotorModel]:
     """Output-error fit of one structure, initialised from ``init``.
 
@@ -720,6 +729,8 @@ def oe_stage(
     white : bool
         Leave the AR whitening out (weights: the pre-step noise levels): the sanity gate
         compares the two estimates, since an AR model can absorb a structural misfit.
+    tolerance : float
+        The fit's stopping tolerance (:data:`SEARCH_TOLERANCE` for the structure search's candidates).
 
     Returns
     -------
@@ -729,7 +740,7 @@ def oe_stage(
     data = _channel_data(cond)
     noise = noise if noise is not None else noise_model(cond, init)
     taus, dc, zeros = _init_from(init, *structure)
-    settings = oe_settings(cond, structure, delay=delay)
+    settings = oe_settings(cond, structure, delay=delay, tolerance=tolerance)
     fitted = {role: y for role, y in data.outputs.items() if role not in noise.scale_only}
     delay0 = init.delay_s if init.delay_s > 0 else cond.dead_time_s
     res = output_error_fit(data.time_s, cond.step_volts, fitted, noise.pre_sigma if white else noise.sigma,
@@ -1031,7 +1042,8 @@ def select_order(
                     start = quick if structure[0] <= n_quick and not with_delay else init
                 label = f"{structure}{' + delay' if with_delay else ''}"
                 try:
-                    res, model = oe_stage(cond, start, structure, noise=noise, delay=with_delay)
+                    res, model = oe_stage(cond, start, structure, noise=noise, delay=with_delay,
+                                          tolerance=SEARCH_TOLERANCE)
                 except IdentificationError as exc:
                     errors.append(f"{label}: {exc.message}")
                     continue

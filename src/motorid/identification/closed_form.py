@@ -1,0 +1,289 @@
+"""Step responses of ``N(s)/Π(1 + τ_i s)`` in closed form, and their derivatives, for the output-error fit.
+
+After the step every response the fit uses is ``a + b·t + Σ_i c_i e^{p_i t}`` (partial
+fractions, ``p_i = −1/τ_i``): the velocity's and the current's step responses, the position
+(their integral), the slope (for time shifts and the dead time), and every Jacobian column.
+:class:`ResponseBasis` holds the exponentials of one grid for one set of poles once, and each of
+those is a product with it — the fit's cost is a few such products per iteration.  Exact block
+means (a long record fitted as means of ``m`` samples) come from the same basis.  scipy and
+python-control simulate a transfer function sample by sample (``lsim``) and give no
+derivatives in its parameters, hence this module.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+__all__ = [
+    "ResponseBasis",
+    "position_closed_form",
+    "residue_derivatives",
+    "residues",
+    "separate",
+    "slope_closed_form",
+    "step_response_closed_form",
+]
+
+
+def separate(taus: ArrayLike) -> np.ndarray:
+    """Nudge equal time constants apart: partial fractions need distinct poles.
+
+    The response is continuous in τ, so a 1e-6 relative split changes it by ~1e-6.
+    """
+    t = np.array(taus, dtype=float)
+    if t.size < 2:
+        return t
+    order = np.argsort(t)
+    ts = t[order]
+    close = np.diff(ts) < 1e-6 * ts[1:]
+    if np.any(close):
+        for j in np.flatnonzero(close):
+            ts[j + 1] = ts[j] * (1 + 2e-6)
+        t[order] = ts
+    return t
+
+
+def residues(num: ArrayLike, taus: ArrayLike) -> tuple[np.ndarray, np.ndarray, float]:
+    """Poles p_i, residues of N(s)/(s·D(s)) at p_i, and N(0), for D(s) = Π(1 + τ_i s)."""
+    num = np.atleast_1d(np.asarray(num, dtype=float))
+    taus = separate(taus)
+    p = -1.0 / taus
+    m = 1.0 + np.outer(p, taus)  # m[i, k] = 1 + τ_k p_i
+    np.fill_diagonal(m, 1.0)
+    res = np.polyval(num, p) / (p * taus * np.prod(m, axis=1))
+    return p, res, float(np.polyval(num, 0.0))
+
+
+def residue_derivatives(num: ArrayLike, taus: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """``∂p_i/∂ln τ_i`` and ``∂R_i/∂ln τ_j`` of :func:`residues` (``R_i = N(p_i)/(p_i τ_i Π_{k≠i}(1 + τ_k p_i))``).
+
+    Analytic: nearly equal time constants have huge residues of opposite sign whose
+    derivatives no finite difference resolves (a step small against their gap drowns in
+    rounding, a larger one swaps their roles).
+    """
+    num = np.atleast_1d(np.asarray(num, dtype=float))
+    taus = separate(taus)
+    p, r, _ = residues(num, taus)
+    n = taus.size
+    f = 1.0 + np.outer(p, taus)  # f[i, k] = 1 + τ_k p_i
+    np.fill_diagonal(f, 1.0)
+    # the residue with N'(p_i) in place of N(p_i): no division by N(p_i), which a zero may cancel
+    dnum = np.polyval(np.polyder(num), p) if num.size > 1 else np.zeros(n)
+    rd = dnum / (p * taus * np.prod(f, axis=1))
+    # j ≠ i: only the factor (1 + τ_j p_i) moves
+    dr = -r[:, None] * taus[None, :] * p[:, None] / f
+    for i in range(n):
+        # p_i moves (∂p_i/∂ln τ_i = −p_i) while p_i·τ_i = −1 stays
+        dr[i, i] = -p[i] * (rd[i] - r[i] * float(np.sum(np.delete(taus / f[i], i))))
+    return -p, dr
+
+
+def _exp_basis(t: np.ndarray, p: np.ndarray, block: tuple[int, float] | None,
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The exponentials of a closed form, the time of its linear term, the mask after the step.
+
+    ``e^{p_i t}`` at each time (``t`` clipped at 0); the mask is ``t ≥ 0``.  With ``block =
+    (m, dt)``, each ``t`` is the first of ``m`` samples ``dt`` apart and the basis is the mean over
+    them: the mean of ``e^{p(t₀ + k·dt)}`` over ``k = 0…m−1`` is ``e^{p t₀}·(e^{p m dt} − 1)/(m
+    (e^{p dt} − 1))``, that of ``t`` the block's middle (averaging the model sample by sample cost a
+    1 M-sample capture 90 s).  Only blocks wholly after the step are "after"
+    (:class:`ResponseBasis` averages the others sample by sample).
+    """
+    if block is None:
+        tt = np.clip(t, 0.0, None)
+        return np.exp(np.outer(tt, p)), tt, t >= 0
+    m, dt = int(block[0]), float(block[1])
+    after = t > 0
+    tt = np.where(after, t, 0.0)
+    mean = np.expm1(p * m * dt) / (m * np.expm1(p * dt))
+    return np.exp(np.outer(tt, p)) * mean, tt + 0.5 * (m - 1) * dt, after
+
+
+class ResponseBasis:
+    """``e^{p_i t}`` on one grid for one set of poles (or its block means), shared by every closed form.
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Times from the step (s); with ``block``, the first time of each block.
+    poles : ndarray
+        ``p_i = −1/τ_i`` (from :func:`residues`, distinct).
+    block : (int, float), optional
+        ``(m, dt)``: every value is the mean over ``m`` samples ``dt`` apart.
+
+    Notes
+    -----
+    Each method takes residues ``r`` of shape ``(n,)`` or ``(n, k)`` (then ``k`` columns at once)
+    and returns the response divided by the step level (zero before the step).  A block that
+    holds the step instant is averaged sample by sample.
+    """
+
+    __slots__ = ("_de", "after", "block", "e", "lin", "p", "strict", "sub", "t")
+
+    def __init__(self, time_s: np.ndarray, poles: np.ndarray, block: tuple[int, float] | None = None) -> None:
+        t = np.asarray(time_s, dtype=float)
+        self.t, self.p, self.block = t, np.asarray(poles, dtype=float), block
+        self.e, self.lin, self.after = _exp_basis(t, self.p, block)
+        # the slope has no value at a jump: strictly after the step
+        self.strict = self.after if block is not None else t > 0
+        self.sub: list[tuple[int, ResponseBasis]] = []
+        if block is not None:
+            m, dt = int(block[0]), float(block[1])
+            self.sub = [(int(i), ResponseBasis(t[i] + dt * np.arange(m), self.p))
+                        for i in np.flatnonzero((t <= 0) & (t + (m - 1) * dt >= 0))]
+        self._de: np.ndarray | None = None
+
+    def _masked(self, y: np.ndarray, mask: np.ndarray) -> np.ndarray:
+        return np.where(mask if y.ndim == 1 else mask[:, None], y, 0.0)
+
+    def step(self, r: np.ndarray, n0: float | np.ndarray) -> np.ndarray:
+        """``N(0) + Σ R_i e^{p_i t}``: the step response (per volt)."""
+        out = self._masked(n0 + self.e @ r, self.after)
+        for i, sub in self.sub:
+            out[i] = sub.step(r, n0).mean(axis=0)
+        return out
+
+    def slope(self, r: np.ndarray) -> np.ndarray:
+        """``Σ R_i p_i e^{p_i t}``: the step response's time derivative (a jump at 0 excluded)."""
+        rp = r * (self.p if r.ndim == 1 else self.p[:, None])
+        out = self._masked(self.e @ rp, self.strict)
+        for i, sub in self.sub:
+            out[i] = sub.slope(r).mean(axis=0)
+        return out
+
+    def position(self, r: np.ndarray, n0: float | np.ndarray) -> np.ndarray:
+        """``N(0)·t + Σ R_i (e^{p_i t} − 1)/p_i``: the step response's integral."""
+        rp = r / (self.p if r.ndim == 1 else self.p[:, None])
+        lin = self.lin if np.ndim(n0) == 0 else self.lin[:, None]
+        out = self._masked(n0 * lin + (self.e - 1.0) @ rp, self.after)
+        for i, sub in self.sub:
+            out[i] = sub.position(r, n0).mean(axis=0)
+        return out
+
+    def _basis_slope(self) -> np.ndarray:
+        """``∂(basis)/∂p_i``: ``t·e^{p t}``, and for block means the derivative of their factor."""
+        if self._de is None:
+            de = self.e * np.where(self.after, self.t, 0.0)[:, None] if self.block is not None else \
+                self.e * np.clip(self.t, 0.0, None)[:, None]
+            if self.block is not None:
+                m, dt = int(self.block[0]), float(self.block[1])
+                p = self.p
+                whole = m * dt * np.exp(p * m * dt) / np.expm1(p * m * dt)
+                de = de + self.e * (whole - dt * np.exp(p * dt) / np.expm1(p * dt))
+            self._de = de
+        return self._de
+
+    def shape(self, kind: str, num: np.ndarray, taus: np.ndarray, dnums: Sequence[np.ndarray] = ()) -> np.ndarray:
+        """Derivatives of :meth:`step` (``kind="step"``) or :meth:`position` in each ``ln τ_j``, then each ``dnums``.
+
+        The basis functions' derivative in their pole is analytic, the residues' too
+        (:func:`residue_derivatives`; they are linear in the numerator).  Finite differences of
+        the whole response instead cost one model evaluation per time constant and zero in
+        every Jacobian, most of a fit's time.
+
+        Parameters
+        ----------
+        kind : str
+            ``"step"`` or ``"position"``.
+        num : ndarray
+            Numerator ``N(s)`` (highest power first).
+        taus : ndarray
+            The time constants whose poles this basis holds.
+        dnums : sequence of ndarray
+            Numerator directions ``∂N/∂θ`` (e.g. in a zero's time constant).
+
+        Returns
+        -------
+        ndarray
+            ``(len(time_s), len(taus) + len(dnums))``, per volt of step.
+        """
+        p = self.p
+        _, r, _ = residues(num, taus)
+        dp, dr = residue_derivatives(num, taus)
+        position = kind == "position"
+        if position:
+            coef = r / p
+            dcoef = dr / p[:, None]
+            dcoef[np.diag_indices_from(dcoef)] -= r * dp / p**2
+            cols = [(self.e - 1.0) @ dcoef + self._basis_slope() * (coef * dp)]
+        else:
+            cols = [self.e @ dr + self._basis_slope() * (r * dp)]
+        for dnum in dnums:
+            _, rn, n0 = residues(dnum, taus)
+            cols.append((n0 * self.lin + (self.e - 1.0) @ (rn / p) if position else n0 + self.e @ rn)[:, None])
+        out = self._masked(np.hstack(cols), self.after)
+        for i, sub in self.sub:
+            out[i] = sub.shape(kind, num, taus, dnums).mean(axis=0)
+        return out
+
+
+def step_response_closed_form(
+    time_s: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float, block: tuple[int, float] | None = None
+) -> np.ndarray:
+    """Step response of ``N(s)/Π(1 + τ_i s)`` (strictly proper or biproper, distinct τ).
+
+    ``y(t) = step·[N(0) + Σ_i R_i e^{p_i t}]`` with ``R_i`` the residues of ``N(s)/(s D(s))``
+    (a biproper numerator's direct term is in the residues).  Zero for ``t < 0``.
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Times in s (the step at 0).
+    num : array_like
+        Numerator ``N(s)``, highest power first.
+    taus : array_like
+        Time constants τ_i of the denominator, distinct.
+    step_volts : float
+        Step level in volts.
+    block : (int, float), optional
+        ``(m, dt)``: each of ``time_s`` is the first of ``m`` samples ``dt`` apart, and the
+        result is their mean.
+
+    Returns
+    -------
+    ndarray
+        The response at ``time_s`` (or its block means).
+    """
+    p, r, n0 = residues(num, taus)
+    return step_volts * ResponseBasis(time_s, p, block).step(r, n0)
+
+
+def slope_closed_form(
+    time_s: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float, block: tuple[int, float] | None = None
+) -> np.ndarray:
+    """Time derivative of :func:`step_response_closed_form` for ``t > 0``.
+
+    The impulse response times the step; a jump at ``t = 0`` is not included.
+    """
+    p, r, _ = residues(num, taus)
+    return step_volts * ResponseBasis(time_s, p, block).slope(r)
+
+
+def position_closed_form(
+    time_s: np.ndarray, num: ArrayLike, taus: ArrayLike, step_volts: float, block: tuple[int, float] | None = None
+) -> np.ndarray:
+    """Integral from 0 of :func:`step_response_closed_form`: ``N(0)t + Σ R_i (e^{p_i t} − 1)/p_i``.
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Times in s (the step at 0).
+    num : array_like
+        Numerator ``N(s)``, highest power first.
+    taus : array_like
+        Time constants τ_i of the denominator, distinct.
+    step_volts : float
+        Step level in volts.
+    block : (int, float), optional
+        ``(m, dt)``: block means, as in :func:`step_response_closed_form`.
+
+    Returns
+    -------
+    ndarray
+        The position (integral of the response), zero for ``t < 0``.
+    """
+    p, r, n0 = residues(num, taus)
+    return step_volts * ResponseBasis(time_s, p, block).position(r, n0)
