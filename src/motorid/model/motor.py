@@ -26,6 +26,7 @@ from typing import Any
 
 import control
 import numpy as np
+import scipy.signal
 
 from motorid.frozen import frozen_getstate, frozen_setstate
 from motorid.errors import ModelFormatError, OptionError
@@ -329,7 +330,10 @@ class MotorModel:
 
     def _row_tf(self, channel: str) -> tuple[np.ndarray, np.ndarray]:
         c, d = self._row(channel)
-        num, den = _tf_coeffs(control.ss2tf(self.A, self.B, c, d))
+        # scipy's conversion (what python-control runs without slycot) without wrapping it in a
+        # TransferFunction first: a model's TFs are taken dozens of times in one identification
+        nums, den = scipy.signal.ss2tf(self.A, self.B, c, d)
+        num, den = _normalise_tf(nums[0], den)
         # ss2tf does not remove states the channel cannot see (e.g. the position integrator
         # seen from the velocity row); cancel pairs that coincide to round-off.
         num, den, _ = _cancel_pairs(num, den, EXACT_CANCEL_TOL, "leading")
