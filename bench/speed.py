@@ -61,14 +61,20 @@ def curve_fit_fopdt(exp: mi.Experiment) -> tuple[float, float]:
     return float(k), float(tau + theta)
 
 
-def cpu(fn, repeat: int):
-    fn()  # warm: first-call costs (imports, caches) are not the method's
-    times, out = [], None
+def interleaved_cpu(calls: dict, repeat: int) -> dict:
+    """Median CPU time and last output of each call, the calls taken in turn ``repeat`` times.
+
+    Taken in turn, a change of the machine's load during the run weighs on every method
+    alike, so the ratios hold better than the absolute times.
+    """
+    outs = {name: fn() for name, fn in calls.items()}  # warm: first-call costs are not the method's
+    times: dict = {name: [] for name in calls}
     for _ in range(repeat):
-        t0 = time.process_time()
-        out = fn()
-        times.append(time.process_time() - t0)
-    return statistics.median(times), out
+        for name, fn in calls.items():
+            t0 = time.process_time()
+            outs[name] = fn()
+            times[name].append(time.process_time() - t0)
+    return {name: (statistics.median(times[name]), outs[name]) for name in calls}
 
 
 def run_preset(name: str, seed: int, repeat: int) -> tuple[list[Row], float, float]:
@@ -76,12 +82,15 @@ def run_preset(name: str, seed: int, repeat: int) -> tuple[list[Row], float, flo
     exp = mi.Experiment(captures=dict(rec.captures))
     dc_true = rec.truth.dc_gain * (1.0 - rec.truth.equivalent_input_offset_v / rec.step_volts)
     res_true = residence_of(rec.truth.velocity)
+    calls = {m: (lambda m=m: mi.identify(exp, method=m)) for m in METHODS}
+    calls["scipy curve_fit (FOPDT)"] = lambda: curve_fit_fopdt(exp)
+    timed = interleaved_cpu(calls, repeat)
     rows = []
     for method in METHODS:
-        t, fit = cpu(lambda m=method: mi.identify(exp, method=m), repeat)
+        t, fit = timed[method]
         fo = fit.model.first_order()
         rows.append(Row(method, t, fo.dc_gain, fo.time_constant_s + fit.model.delay_s))
-    t, (k, res) = cpu(lambda: curve_fit_fopdt(exp), repeat)
+    t, (k, res) = timed["scipy curve_fit (FOPDT)"]
     rows.append(Row("scipy curve_fit (FOPDT)", t, k, res))
     return rows, dc_true, res_true
 
@@ -98,7 +107,7 @@ def main() -> None:
             warnings.simplefilter("ignore")
             rows, dc_true, res_true = run_preset(name, args.seed, args.repeat)
         pinv = next(r.cpu_s for r in rows if r.method == "pinv")
-        print(f"\npreset {name}, seed {args.seed}: median CPU of {args.repeat} warm calls; truth: "
+        print(f"\npreset {name}, seed {args.seed}: median CPU of {args.repeat} warm calls, methods in turn; truth: "
               f"DC gain {dc_true:.4f}, residence time {res_true:.4f} s")
         print(f"{'method':<26}{'CPU (ms)':>10}{'× pinv':>9}{'DC gain err %':>15}{'residence err %':>17}")
         for r in rows:
