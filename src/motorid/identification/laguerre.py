@@ -733,19 +733,34 @@ def _best_coefficients(grid: _Grid, a: float, delay: float, settings: LaguerreSe
     except (IdentificationError, OptionError) as exc:
         errors.append(exc.message)
         return None
-    best: LaguerreCoefficients | None = None
+    # the network is lower triangular: the first k columns are the k-term regressors, so one QR
+    # of the column-equilibrated regressors gives every k's residual and condition number
+    # (those of R[:k, :k]); only the k of least BIC gets its coefficients and covariance
+    # (the R factor of [Φ, y]: its last column holds Qᵀy and the residual norm of all the terms,
+    # so the k-term residual is ‖r_yy‖² + Σ_{j≥k} (Qᵀy)_j², without forming Q)
+    n, big = grid.t.size, phi.shape[1]
+    norms = np.linalg.norm(phi, axis=0)
+    norms[norms == 0] = 1.0
+    r: np.ndarray = np.linalg.qr(np.column_stack([phi / norms, grid.y]), mode="r")  # type: ignore[assignment]
+    qty, tail = r[:big, big], float(r[big, big]) ** 2 if r.shape[0] > big else 0.0
+    best_k, best_bic = 0, math.inf
     for k in n_list:
-        # the network is lower triangular: the first k columns are the k-term regressors
-        try:
-            fit = _coefficients(phi[:, :k], grid.y, a, delay)
-        except IdentificationError as exc:
-            errors.append(exc.message)
+        sv = np.linalg.svd(r[:k, :k], compute_uv=False)
+        if sv[-1] <= 0 or (settings.n_terms is None and sv[0] / sv[-1] > MAX_CONDITION):
             continue
-        if settings.n_terms is None and fit.condition > MAX_CONDITION:
-            continue
-        if best is None or fit.bic < best.bic:
-            best = fit
-    return best
+        rss = tail + float(qty[k:] @ qty[k:])
+        bic = n * math.log(max(rss, 1e-300) / n) + k * math.log(n)
+        if bic < best_bic:
+            best_k, best_bic = k, bic
+    if best_k == 0:
+        if settings.n_terms is not None:
+            errors.append("the Laguerre regressors are rank deficient; use fewer terms")
+        return None
+    try:
+        return _coefficients(phi[:, :best_k], grid.y, a, delay)
+    except IdentificationError as exc:
+        errors.append(exc.message)
+        return None
 
 
 def _realised_orders(grid: _Grid, best: LaguerreCoefficients, settings: LaguerreSettings,
@@ -920,10 +935,12 @@ def _held_recursion(f: np.ndarray, x0: np.ndarray, g: np.ndarray, w: np.ndarray 
     kernel = np.where(causal[:, :, None, None], fg[np.clip(lag, 0, None)], 0.0)  # (j, i, states, inputs)
     out = np.empty((n, ns, x0.shape[1]))
     x = x0
+    # a held step (w ≡ 1) forces every block alike: once (a short last block uses its first rows)
+    steady = np.einsum("jisk,i->jsk", kernel, np.ones(size)) if w is None else None
     for s0 in range(0, n, size):
         m = min(size, n - s0)
         wb = np.ones(size) if w is None else np.r_[w[s0 : s0 + m], np.zeros(size - m)]
-        forced = np.einsum("jisk,i->jsk", kernel, wb)
+        forced = steady if steady is not None else np.einsum("jisk,i->jsk", kernel, wb)
         block = powers[:size] @ x + forced
         out[s0 : s0 + m] = block[:m]
         # the state one step after the block's last sample
