@@ -32,29 +32,60 @@ def separate(taus: ArrayLike) -> np.ndarray:
     """Nudge equal time constants apart: partial fractions need distinct poles.
 
     The response is continuous in τ, so a 1e-6 relative split changes it by ~1e-6.
+
+    Parameters
+    ----------
+    taus : array_like
+        Time constants (s).
+
+    Returns
+    -------
+    ndarray
+        The same time constants, those within 1e-6 of another moved 2e-6 apart.
     """
     t = np.array(taus, dtype=float)
     if t.size < 2:
         return t
     order = np.argsort(t)
     ts = t[order]
-    close = np.diff(ts) < 1e-6 * ts[1:]
-    if np.any(close):
+    close = ts[1:] - ts[:-1] < 1e-6 * ts[1:]
+    if close.any():
         for j in np.flatnonzero(close):
             ts[j + 1] = ts[j] * (1 + 2e-6)
         t[order] = ts
     return t
 
 
+def _horner(num: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``np.polyval`` for short numerators, without its per-call conversions (called thousands of times a fit)."""
+    y = np.full(x.shape, num[0], dtype=x.dtype)
+    for c in num[1:]:
+        y = y * x + c
+    return y
+
+
 def residues(num: ArrayLike, taus: ArrayLike) -> tuple[np.ndarray, np.ndarray, float]:
-    """Poles p_i, residues of N(s)/(s·D(s)) at p_i, and N(0), for D(s) = Π(1 + τ_i s)."""
+    """Poles p_i, residues of N(s)/(s·D(s)) at p_i, and N(0), for D(s) = Π(1 + τ_i s).
+
+    Parameters
+    ----------
+    num : array_like
+        Numerator ``N(s)``, highest power first.
+    taus : array_like
+        Time constants τ_i (equal ones are split by :func:`separate`).
+
+    Returns
+    -------
+    (ndarray, ndarray, float)
+        The poles ``p_i = −1/τ_i``, the residues ``R_i`` and ``N(0)``.
+    """
     num = np.atleast_1d(np.asarray(num, dtype=float))
     taus = separate(taus)
     p = -1.0 / taus
-    m = 1.0 + np.outer(p, taus)  # m[i, k] = 1 + τ_k p_i
+    m = 1.0 + p[:, None] * taus[None, :]  # m[i, k] = 1 + τ_k p_i
     np.fill_diagonal(m, 1.0)
-    res = np.polyval(num, p) / (p * taus * np.prod(m, axis=1))
-    return p, res, float(np.polyval(num, 0.0))
+    res = _horner(num, p) / (p * taus * m.prod(axis=1))
+    return p, res, float(num[-1])
 
 
 def residue_derivatives(num: ArrayLike, taus: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
@@ -63,21 +94,33 @@ def residue_derivatives(num: ArrayLike, taus: ArrayLike) -> tuple[np.ndarray, np
     Analytic: nearly equal time constants have huge residues of opposite sign whose
     derivatives no finite difference resolves (a step small against their gap drowns in
     rounding, a larger one swaps their roles).
+
+    Parameters
+    ----------
+    num : array_like
+        Numerator ``N(s)``, highest power first.
+    taus : array_like
+        Time constants τ_i.
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        ``∂p_i/∂ln τ_i`` (shape ``(n,)``) and ``∂R_i/∂ln τ_j`` (shape ``(n, n)``).
     """
     num = np.atleast_1d(np.asarray(num, dtype=float))
     taus = separate(taus)
     p, r, _ = residues(num, taus)
     n = taus.size
-    f = 1.0 + np.outer(p, taus)  # f[i, k] = 1 + τ_k p_i
+    f = 1.0 + p[:, None] * taus[None, :]  # f[i, k] = 1 + τ_k p_i
     np.fill_diagonal(f, 1.0)
     # the residue with N'(p_i) in place of N(p_i): no division by N(p_i), which a zero may cancel
-    dnum = np.polyval(np.polyder(num), p) if num.size > 1 else np.zeros(n)
-    rd = dnum / (p * taus * np.prod(f, axis=1))
+    dnum = _horner(num[:-1] * np.arange(num.size - 1, 0, -1), p) if num.size > 1 else np.zeros(n)
+    rd = dnum / (p * taus * f.prod(axis=1))
     # j ≠ i: only the factor (1 + τ_j p_i) moves
     dr = -r[:, None] * taus[None, :] * p[:, None] / f
     for i in range(n):
         # p_i moves (∂p_i/∂ln τ_i = −p_i) while p_i·τ_i = −1 stays
-        dr[i, i] = -p[i] * (rd[i] - r[i] * float(np.sum(np.delete(taus / f[i], i))))
+        dr[i, i] = -p[i] * (rd[i] - r[i] * float((taus / f[i]).sum() - taus[i]))  # f[i, i] = 1: k ≠ i
     return -p, dr
 
 
@@ -140,14 +183,38 @@ class ResponseBasis:
         return np.where(mask if y.ndim == 1 else mask[:, None], y, 0.0)
 
     def step(self, r: np.ndarray, n0: float | np.ndarray) -> np.ndarray:
-        """``N(0) + Σ R_i e^{p_i t}``: the step response (per volt)."""
+        """``N(0) + Σ R_i e^{p_i t}``: the step response (per volt).
+
+        Parameters
+        ----------
+        r : ndarray
+            Residues, ``(n,)`` or ``(n, k)``.
+        n0 : float or ndarray
+            ``N(0)`` (per column with ``k`` columns).
+
+        Returns
+        -------
+        ndarray
+            The response at each time, zero before the step.
+        """
         out = self._masked(n0 + self.e @ r, self.after)
         for i, sub in self.sub:
             out[i] = sub.step(r, n0).mean(axis=0)
         return out
 
     def slope(self, r: np.ndarray) -> np.ndarray:
-        """``Σ R_i p_i e^{p_i t}``: the step response's time derivative (a jump at 0 excluded)."""
+        """``Σ R_i p_i e^{p_i t}``: the step response's time derivative (a jump at 0 excluded).
+
+        Parameters
+        ----------
+        r : ndarray
+            Residues, ``(n,)`` or ``(n, k)``.
+
+        Returns
+        -------
+        ndarray
+            The slope at each time, zero up to the step.
+        """
         rp = r * (self.p if r.ndim == 1 else self.p[:, None])
         out = self._masked(self.e @ rp, self.strict)
         for i, sub in self.sub:
@@ -155,7 +222,20 @@ class ResponseBasis:
         return out
 
     def position(self, r: np.ndarray, n0: float | np.ndarray) -> np.ndarray:
-        """``N(0)·t + Σ R_i (e^{p_i t} − 1)/p_i``: the step response's integral."""
+        """``N(0)·t + Σ R_i (e^{p_i t} − 1)/p_i``: the step response's integral.
+
+        Parameters
+        ----------
+        r : ndarray
+            Residues, ``(n,)`` or ``(n, k)``.
+        n0 : float or ndarray
+            ``N(0)`` (per column with ``k`` columns).
+
+        Returns
+        -------
+        ndarray
+            The integral at each time, zero before the step.
+        """
         rp = r / (self.p if r.ndim == 1 else self.p[:, None])
         lin = self.lin if np.ndim(n0) == 0 else self.lin[:, None]
         out = self._masked(n0 * lin + (self.e - 1.0) @ rp, self.after)
@@ -257,6 +337,24 @@ def slope_closed_form(
     """Time derivative of :func:`step_response_closed_form` for ``t > 0``.
 
     The impulse response times the step; a jump at ``t = 0`` is not included.
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Times in s (the step at 0).
+    num : array_like
+        Numerator ``N(s)``, highest power first.
+    taus : array_like
+        Time constants τ_i of the denominator.
+    step_volts : float
+        Step level in volts.
+    block : (int, float), optional
+        ``(m, dt)``: block means, as in :func:`step_response_closed_form`.
+
+    Returns
+    -------
+    ndarray
+        The slope at ``time_s`` (zero up to the step).
     """
     p, r, _ = residues(num, taus)
     return step_volts * ResponseBasis(time_s, p, block).slope(r)

@@ -229,9 +229,13 @@ def ar_noise_model(residual: np.ndarray, max_order: int = 12) -> tuple[np.ndarra
 
 
 def _vel_num(k: float, tz: np.ndarray) -> np.ndarray:
-    num = np.array([k])
+    """``K·Π(Tz_j s + 1)``, highest power first (np.polymul's result, without its poly1d round trips)."""
+    num = np.array([k], dtype=float)
+    if k == 0:
+        return num
     for z in tz:
-        num = np.polymul(num, [z, 1.0])
+        if z != 0:  # (0·s + 1) = 1: np.polymul drops the leading zero too
+            num = np.convolve(num, [z, 1.0])
     return num
 
 
@@ -633,13 +637,19 @@ class _OeProblem:
     def _white(self, c: str, e: np.ndarray) -> np.ndarray:
         """The channel's FIR whitening from rest, along axis 0 (residuals or Jacobian columns).
 
-        A vector goes through np.convolve, which lfilter wraps in apply_along_axis.
+        A vector goes through np.convolve; a matrix as one shifted sum per filter tap over all
+        its columns at once (lfilter filters column by column through apply_along_axis: twice
+        the time for the dozen columns of a Jacobian).
         """
         if c not in self.filt:
             return e
+        f = self.filt[c]
         if e.ndim == 1:
-            return np.convolve(e, self.filt[c])[: e.size]
-        return scipy.signal.lfilter(self.filt[c], [1.0], e, axis=0)
+            return np.convolve(e, f)[: e.size]
+        out = f[0] * e
+        for k in range(1, min(f.size, e.shape[0])):
+            out[k:] += f[k] * e[:-k]
+        return out
 
     def _grid(self, tc: Mapping[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
         """Each channel's sample times (``tc`` or its own), or its blocks' first times where :attr:`fast`."""
@@ -687,7 +697,7 @@ class _OeProblem:
         slope: dict[str, np.ndarray] = {}
         shape = [layout.idx[f"log_tau_{i}"] for i in range(n)] + [layout.idx[f"Tz_{j}"] for j in range(m)]
         num = _vel_num(q["K"], q["tz"])
-        dnums = [np.polymul(_vel_num(q["K"], np.delete(q["tz"], j)), [1.0, 0.0]) for j in range(m)]
+        dnums = [np.append(_vel_num(q["K"], np.delete(q["tz"], j)), 0.0) for j in range(m)]  # · s
         if "velocity" in names:
             bv = basis["velocity"]
             d["velocity"][:, 0] = u * bv.step(r1, n01)
