@@ -100,3 +100,19 @@ def test_filtering_equals_scipy_lsim(poles):
         num = np.r_[2.0, 5.0] if n > 1 else np.r_[5.0]
         _, ref_y, _ = scipy.signal.lsim((num, den), u, t)
         assert np.max(np.abs(_simulate(num, den, t, u) - ref_y)) <= 1e-7 * np.max(np.abs(ref_y))
+
+
+def test_simulation_of_an_exploding_estimate_is_not_finite_rather_than_an_error():
+    """An unstable estimate whose sample-interval exponential overflows gives a non-finite
+    response, as scipy.signal.lsim does, not a LinAlgError (a real-set-up seed stopped `auto` so)."""
+    import scipy.signal
+
+    from motorid.identification.srivc import _simulate
+
+    t = np.arange(50) * 0.1
+    u = np.ones(t.size)
+    with np.errstate(over="ignore", invalid="ignore"):
+        ours = _simulate(np.r_[1.0], np.r_[1.0, -1e4], t, u)
+        _, ref, _ = scipy.signal.lsim((np.r_[1.0], np.r_[1.0, -1e4]), u, t)
+    assert not np.all(np.isfinite(ref))
+    assert ours.shape == t.shape and not np.all(np.isfinite(ours))

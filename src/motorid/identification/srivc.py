@@ -106,6 +106,9 @@ def _lsim(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, t: np.ndar
     ad, b1 = e[:n, :n], e[:n, n + 1 : n + 2]
     b0 = e[:n, n : n + 1] - b1
     u = np.asarray(u, dtype=float)
+    if not np.all(np.isfinite(e)):
+        # an unstable estimate's exponential overflows: its response is not finite (lsim's too)
+        return np.full((c.shape[0], u.size), np.nan)
     ahead = np.r_[u[1:], u[-1:]]
     den = np.real(np.poly(ad))
     n0, n1 = _numerators(ad, b0, c, den), _numerators(ad, b1, c, den)
