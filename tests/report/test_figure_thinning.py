@@ -1,0 +1,32 @@
+"""Curves drawn with at most two points per pixel column keep every extreme."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from motorid.report.figures import MAX_DRAWN_POINTS, thinned
+
+
+def test_thinned_curve_keeps_its_extremes_ends_and_order():
+    t = np.linspace(0.0, 3.0, 3001)
+    rng = np.random.default_rng(0)
+    # a bang-bang control effort: rails, fast switching, one-sample spikes
+    y = np.where(np.sin(40 * t) > 0, 10.0, -10.0) + rng.normal(0, 0.1, t.size)
+    y[[17, 1234, 2999]] = [25.0, -30.0, 12.0]
+    tt, yy = thinned(t, y)
+    assert tt.size <= MAX_DRAWN_POINTS + 10
+    assert np.all(np.diff(tt) > 0)
+    assert tt[0] == t[0] and tt[-1] == t[-1]
+    assert yy.max() == y.max() and yy.min() == y.min()
+    # every bucket's range is drawn: the envelope of the thinned curve equals the data's
+    k = int(np.ceil(t.size / (MAX_DRAWN_POINTS // 2)))
+    for start in range(0, t.size - k, k):
+        inside = (tt >= t[start]) & (tt <= t[start + k - 1])
+        assert yy[inside].max() == y[start:start + k].max()
+        assert yy[inside].min() == y[start:start + k].min()
+
+
+def test_short_curves_are_drawn_whole():
+    t = np.arange(100.0)
+    tt, yy = thinned(t, t**2)
+    assert tt is t and np.array_equal(yy, t**2)
