@@ -1,6 +1,7 @@
-"""Speed of one slider move on the local web page (a 200 ms budget per update).
+"""Speed of one slider move on the local web page (a 100 ms budget of server CPU per update).
 
-One update = design + closed-loop simulation (3 s at 1 ms) + the report's figure (PNG) + the
+One update = design + closed-loop simulation (3 s at 1 ms) + the closed-loop figure (SVG, fixed
+margins: ``figures.closed_loop(..., quick=True)``) + the
 mode-map marker, as the page's ``/tab/{tab}/design`` endpoint does it.  The bench writes the
 demo's captures (``motorid demo``, seed 0), uploads them to a fresh app through FastAPI's
 ``TestClient``, identifies, draws the mode maps once, then moves the ωn slider over
@@ -8,7 +9,7 @@ demo's captures (``motorid demo``, seed 0), uploads them to a fresh app through 
 thread's CPU time) and ``update`` (its wall time).  It prints the medians, the machine's load
 before and after, and whether the median CPU time meets the budget.
 
-Run: ``python3 bench/web_update_speed.py [--positions 12] [--budget-ms 200]``
+Run: ``python3 bench/web_update_speed.py [--positions 12] [--budget-ms 100]``
 
 A timing belongs here, not in the unit tests (the brief): the functional part of the same
 sequence (every position draws its own response, Kp grows as ωn²) is
@@ -37,7 +38,7 @@ ROLES = {"c0": "position", "c1": "velocity", "c2": "current", "c3": "validation"
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--positions", type=int, default=12)
-    ap.add_argument("--budget-ms", type=float, default=200.0)
+    ap.add_argument("--budget-ms", type=float, default=100.0)
     args = ap.parse_args()
     load_before = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as tmp:

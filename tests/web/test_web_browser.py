@@ -101,6 +101,9 @@ def test_lab_page_in_headless_chromium(chromium, live_server, demo_files):
         page.wait_for_function("() => Number(document.querySelector('#design-view').dataset.wn) === "
                                "Number(document.querySelector('#wn').value)", timeout=30_000)
         elapsed_ms = page.evaluate("performance.now()") - t0
+        # the panel's busy line is wired to the form and gone once the page has settled
+        assert page.get_attribute("#design-form", "hx-indicator") == "#design-busy"
+        page.wait_for_selector("#design-busy", state="hidden", timeout=10_000)
         assert page.get_attribute("#closed-loop-plot", "src") != before
         assert float(page.get_attribute("#design-view", "data-kp")) > kp_before  # faster poles: larger gain
         assert page.get_attribute("#mode-map circle.marker", "cx") != marker_before
@@ -126,6 +129,10 @@ def test_lab_page_in_headless_chromium(chromium, live_server, demo_files):
         # 4. download the report (with the design) and the design JSON
         with page.expect_download(timeout=120_000) as dl:
             page.click("#dl-report")
+            # the report takes seconds to write: a busy line with its elapsed time says so
+            busy = page.wait_for_selector("#dl-report + .busy", timeout=10_000)
+            assert "writing the report" in busy.text_content()
+        page.wait_for_selector("#dl-report + .busy", state="detached", timeout=30_000)
         report = Path(dl.value.path()).read_text(encoding="utf-8")
         assert dl.value.suggested_filename == "motorid-report.html"
         for sid in SECTIONS:

@@ -361,7 +361,8 @@ def design_update(model: MotorModel, form: DesignForm, maps: ModeMapView | None)
     series = {"reference": cols["reference"], f"output ({sim.output})": cols["output"], "u (control)": cols["u"]}
     sat = f", rails ±{form.saturation_v:g} V" if form.saturation_v else ""
     plot = figures.data_uri(figures.closed_loop(cols["time"], series,
-                                            f"closed loop: ζ = {form.damping:g}, ωn = {form.wn:g} rad/s{sat}"))
+                                                f"closed loop: ζ = {form.damping:g}, ωn = {form.wn:g} rad/s{sat}",
+                                                quick=True), "svg+xml")
     kp, kv, what = design_point(model, des, form.damping, form.wn)
     markers = mark(maps, kp, kv) if maps is not None else []
     return DesignView(des, sim, plot, markers, (kp, kv, what), 1e3 * (time.perf_counter() - t0),

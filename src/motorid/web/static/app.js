@@ -88,6 +88,49 @@
   }
   document.addEventListener("DOMContentLoaded", setup);
 
+  // a download that takes a while (the report: seconds) shows a busy line with its elapsed time
+  // until the file arrives; without JavaScript the link downloads as a plain link
+  document.body.addEventListener("click", async (ev) => {
+    const link = ev.target.closest && ev.target.closest("a[data-busy]");
+    if (!link || ev.defaultPrevented || ev.button !== 0 || ev.ctrlKey || ev.metaKey || ev.shiftKey) return;
+    ev.preventDefault();
+    if (link.dataset.pending) return;
+    link.dataset.pending = "1";
+    const busy = document.createElement("span");
+    busy.className = "busy";
+    busy.setAttribute("role", "status");
+    const t0 = performance.now();
+    const tick = () => { busy.textContent = link.dataset.busy + " " + ((performance.now() - t0) / 1000).toFixed(1) + " s"; };
+    tick();
+    const timer = setInterval(tick, 100);
+    link.after(busy);
+    try {
+      const resp = await fetch(link.href);
+      if (!resp.ok) {
+        errors().innerHTML = await resp.text();
+        return;
+      }
+      const blob = await resp.blob();
+      const named = /filename="?([^";]+)"?/.exec(resp.headers.get("Content-Disposition") || "");
+      const a = document.createElement("a");
+      a.href = URL.createObjectURL(blob);
+      a.download = named ? named[1] : (link.getAttribute("download") || "");
+      document.body.appendChild(a);
+      a.click();
+      a.remove();
+      setTimeout(() => URL.revokeObjectURL(a.href), 60000);
+    } catch (e) {
+      const p = document.createElement("p");
+      p.className = "error";
+      p.textContent = "motorid: the server does not answer: is motorid serve still running?";
+      errors().replaceChildren(p);
+    } finally {
+      clearInterval(timer);
+      busy.remove();
+      delete link.dataset.pending;
+    }
+  });
+
   // the tab's uploads are deleted when the page goes away
   window.addEventListener("pagehide", () => {
     if (tab) navigator.sendBeacon("/tab/" + tab + "/close");
