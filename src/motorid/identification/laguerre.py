@@ -40,7 +40,6 @@ import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
-import control
 import numpy as np
 import scipy.linalg
 import scipy.signal
@@ -223,9 +222,10 @@ class LaguerreResult:
         """
         from motorid.model import model_from_velocity_tf  # model imports nothing from identify
 
-        tf = control.ss2tf(control.ss(self.A, self.B, self.C, 0.0))
-        num = np.atleast_1d(np.squeeze(tf.num[0][0])).astype(float)
-        den = np.atleast_1d(np.squeeze(tf.den[0][0])).astype(float)
+        # what python-control's ss2tf runs (without slycot), without building its objects
+        nums, den = scipy.signal.ss2tf(self.A, self.B, self.C, np.zeros((1, 1)))
+        num = np.atleast_1d(np.squeeze(nums[0])).astype(float)
+        den = np.atleast_1d(np.squeeze(den)).astype(float)
         num = np.trim_zeros(np.where(np.abs(num) < 1e-12 * np.max(np.abs(num)), 0.0, num), "f")
         coeff = self.coefficients
         sv = self.hankel_sv
@@ -522,10 +522,47 @@ def laguerre_noise_floor(covariance: Any, *, draws: int = 400, quantile: float =
     return float(np.quantile(top, quantile))
 
 
+def eigensystem_realisation(g: np.ndarray, order: int, rows: int, cols: int,
+                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Ho–Kalman/ERA realisation ``(A, b, c)`` of order ``order`` with ``g_k ≈ c Aᵏ b``.
+
+    python-control's ``eigensys_realization`` on ``[0, g_0, g_1, …]`` (``m = rows``, ``n =
+    cols``), the same arithmetic on the same matrices (its result to the last bit, a test checks):
+    the Hankel matrix ``H_ij = g_(i+j)`` and its shift, the SVD of the first, balanced factors.
+    Written here because importing python-control (it imports matplotlib's pyplot and
+    scipy.stats) is half of ``motorid identify``'s CPU, and the realisation is all the
+    identification needs from it.
+
+    Parameters
+    ----------
+    g : ndarray
+        ``g_0 … g_(rows+cols−1)``.
+    order : int
+        Number of states kept.
+    rows, cols : int
+        The Hankel matrix's block rows and columns.
+
+    Returns
+    -------
+    A, b, c : ndarray
+        Shapes ``(order, order)``, ``(order, 1)``, ``(1, order)``.
+    """
+    h = scipy.linalg.hankel(g[:rows], g[rows - 1 : rows + cols])  # rows × (cols + 1)
+    first, shifted = h[:, :-1], h[:, 1:]
+    u, sv, vh = np.linalg.svd(first, True)
+    ur, vhr = u[:, :order], vh[:order, :]
+    root_inv = np.diag(1.0 / np.sqrt(sv[:order]))
+    a = root_inv @ ur.T @ shifted @ vhr.T @ root_inv
+    b = root_inv @ ur.T @ first[:, 0:1]
+    c = first[0:1, :] @ vhr.T @ root_inv
+    return a, b, c
+
+
 def laguerre_realisation(g: Any, pole: float, order: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Continuous-time realisation of order ``order`` from Laguerre coefficients.
 
-    ERA (python-control ``eigensys_realization``) on ``[0, g_0, g_1, …]`` gives
+    ERA (:func:`eigensystem_realisation`: python-control's ``eigensys_realization``) on
+    ``[0, g_0, g_1, …]`` gives
     ``(A_d, b̃, c̃)`` with ``g_k = c̃ A_dᵏ b̃``; the bilinear map ``w = (s − a)/(s + a)`` takes it
     back: ``A = a(A_d − I)⁻¹(A_d + I)``, ``B = b̃``, ``C = √(2a)·c̃(I − A_d)⁻¹``.
 
@@ -555,9 +592,7 @@ def laguerre_realisation(g: Any, pole: float, order: int) -> tuple[np.ndarray, n
     if g.size < 2 * order:
         raise IdentificationError(f"order {order} needs at least {2 * order} Laguerre coefficients, got {g.size}")
     rows = g.size // 2
-    cols = g.size - rows
-    sysd, _ = control.eigensys_realization(np.r_[0.0, g], r=order, m=rows, n=cols)
-    a_d, b_t, c_t = (np.asarray(x, dtype=float) for x in (sysd.A, sysd.B, sysd.C))
+    a_d, b_t, c_t = eigensystem_realisation(g, order, rows, g.size - rows)
     eye = np.eye(order)
     if np.linalg.cond(eye - a_d) > 1e12:
         raise IdentificationError(

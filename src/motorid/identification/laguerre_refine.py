@@ -16,7 +16,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
-import control
 import numpy as np
 import scipy.linalg
 import scipy.signal
@@ -29,11 +28,24 @@ if TYPE_CHECKING:
 __all__ = ["POLISH_CHANNELS", "LaguerrePolish", "laguerre_polish"]
 
 
-def _state_space(num: np.ndarray, den: np.ndarray) -> Any:
-    """``control.ss`` of ``num/den``; a numerator with a tiny leading coefficient is expected here."""
+@dataclass(frozen=True)
+class _Realisation:
+    """``A``, ``B``, ``C`` of a transfer function (what the polish reads of a state-space object)."""
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+
+
+def _state_space(num: np.ndarray, den: np.ndarray) -> _Realisation:
+    """The controllable realisation of ``num/den``: python-control's ``ss(tf(num, den))``.
+
+    Without its import cost; a numerator with a tiny leading coefficient is expected here.
+    """
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", scipy.signal.BadCoefficients)
-        return control.ss(control.tf(num, den))
+        a, b, c, _ = scipy.signal.tf2ss(num, den)
+    return _Realisation(a, b, c)
 
 
 def _polish_orders(candidates: list[_Candidate], t: np.ndarray, outputs: dict[str, np.ndarray],
@@ -435,9 +447,10 @@ def laguerre_polish(
     ys = {ch: np.asarray(outputs[ch], dtype=float).ravel() for ch in channels}
     u = _input_for_polish(t, input_v, step_volts)
     h = float(t[1] - t[0])
-    tf = control.ss2tf(control.ss(A, B, C, 0.0))
-    num = np.atleast_1d(np.squeeze(tf.num[0][0])).astype(float)
-    den = np.atleast_1d(np.squeeze(tf.den[0][0])).astype(float)
+    nums, den = scipy.signal.ss2tf(np.asarray(A, float), np.asarray(B, float).reshape(-1, 1),
+                                   np.asarray(C, float).reshape(1, -1), np.zeros((1, 1)))
+    num = np.trim_zeros(np.atleast_1d(np.squeeze(nums[0])).astype(float), "f")
+    den = np.atleast_1d(np.squeeze(den)).astype(float)
     m = den.size - 1
     num, den = num / den[0], den / den[0]
     num = np.r_[np.zeros(m - num.size), num][-m:]
