@@ -62,6 +62,15 @@ def test_inspect_loads_numpy_but_not_scipy_control_or_matplotlib(demo_run) -> No
     assert [h for h in ("scipy", "control", "matplotlib") if _loaded(mods, h)] == []
 
 
+def test_identify_loads_neither_python_control_nor_matplotlib(demo_run, tmp_path) -> None:
+    """``identify`` (auto, printout, model JSON) needs no python-control object and no figure."""
+    d = demo_run.folder
+    mods, rc = _modules_after(["identify", "--position", str(d / "ALL0000"), "--velocity", str(d / "ALL0001"),
+                               "--current", str(d / "ALL0002"), "--json", str(tmp_path / "m.json")])
+    assert rc == 0 and (tmp_path / "m.json").is_file()
+    assert [h for h in ("control", "matplotlib") if _loaded(mods, h)] == []
+
+
 def test_one_blas_thread_without_importing_scipy_up_front() -> None:
     # with OPENBLAS_NUM_THREADS=1 (what the CLI sets) the wrapper no longer imports scipy.linalg;
     # a scipy loaded later inside the wrapped function must still run one BLAS thread

@@ -22,9 +22,8 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import control
 import numpy as np
 import scipy.signal
 
@@ -45,6 +44,9 @@ from motorid.model.simplify import (
     _roots,
     _tf_coeffs,
 )
+
+if TYPE_CHECKING:
+    import control
 
 __all__ = [
     "CHANNELS",
@@ -145,8 +147,9 @@ def model_from_velocity_tf(
         d_val = np.array([[d]])
         vstates: tuple[str, ...] = ("velocity",) if d == 0.0 else ("x1",)
     else:
-        sys = control.tf2ss(control.tf(num, den))
-        a, b_col, c_row, d_val = (np.asarray(m, dtype=float) for m in (sys.A, sys.B, sys.C, sys.D))
+        # python-control's tf2ss (without slycot) is this call: the same realisation, without
+        # importing python-control (half a second of a command's start-up) to build a model
+        a, b_col, c_row, d_val = (np.asarray(m, dtype=float) for m in scipy.signal.tf2ss(num, den))
         vstates = _state_names(a.shape[0])
     if not with_position:
         return MotorModel(A=a, B=b_col, C=c_row, D=d_val, states=vstates,
@@ -321,6 +324,8 @@ class MotorModel:
         control.StateSpace
             Outputs in the order of :attr:`outputs`.
         """
+        import control
+
         return control.ss(self.A, self.B, self.C, self.D, inputs=["u"],
                           outputs=list(self.outputs), states=list(self.states))
 
@@ -339,14 +344,49 @@ class MotorModel:
         num, den, _ = _cancel_pairs(num, den, EXACT_CANCEL_TOL, "leading")
         return _normalise_tf(num, den)
 
+    def tf_coefficients(self, channel: str) -> tuple[np.ndarray, np.ndarray] | None:
+        """Numerator and denominator of a channel's transfer function, as its ``*_tf`` property holds them.
+
+        Plain arrays (highest power first, ``den[0] == 1``): for printing and JSON, where building
+        a python-control object (and importing python-control) is not needed.
+
+        Parameters
+        ----------
+        channel : str
+            ``velocity``, ``position`` (the velocity's integral when the model has no position
+            output) or ``current``.
+
+        Returns
+        -------
+        (ndarray, ndarray) or None
+            ``(num, den)``; None for ``current`` when the model has no current output.
+
+        Raises
+        ------
+        OptionError
+            An unknown channel.
+        """
+        if channel not in ("velocity", "position", "current"):
+            raise OptionError(f"no transfer function for channel {channel!r}: use velocity, position or current")
+        if channel == "current" and "current" not in self.outputs:
+            return None
+        if channel == "position" and "position" not in self.outputs:
+            num, den = self._row_tf("velocity")
+            return num, np.polymul(den, [1.0, 0.0])
+        return self._row_tf(channel)
+
     @property
     def velocity_tf(self) -> control.TransferFunction:
         """Input volts → velocity-channel volts, ``den[0] == 1`` (Masoud 2019, eq. 9)."""
+        import control
+
         return control.tf(*self._row_tf("velocity"))
 
     @property
     def position_tf(self) -> control.TransferFunction:
         """Input volts → position channel; velocity TF / s when there is no position output."""
+        import control
+
         if "position" in self.outputs:
             return control.tf(*self._row_tf("position"))
         num, den = self._row_tf("velocity")
@@ -357,6 +397,8 @@ class MotorModel:
         """Input volts → current channel, or None when the model has no current output."""
         if "current" not in self.outputs:
             return None
+        import control
+
         return control.tf(*self._row_tf("current"))
 
     def poles(self) -> np.ndarray:
@@ -505,8 +547,9 @@ class MotorModel:
         if np.any(poles.real >= 0):
             raise OptionError("reduce needs a stable velocity transfer function; "
                               "cancel near pole-zero pairs first (cancel_near)")
-        sys = control.tf2ss(control.tf(num, den))
-        a, b, c, d = (np.asarray(m, dtype=float) for m in (sys.A, sys.B, sys.C, sys.D))
+        import control  # python-control is imported where its objects or algorithms are used
+
+        a, b, c, d = (np.asarray(m, dtype=float) for m in scipy.signal.tf2ss(num, den))
         ab, bb, cb = _balance(a, b, c)
         bal = control.ss(ab, bb, cb, d)
         if ab.shape[0] > order:

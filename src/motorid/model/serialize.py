@@ -19,7 +19,7 @@ from motorid.errors import ModelFormatError
 from motorid.io.jsonfile import read_json
 from motorid.model.nonlinearity import StaticNonlinearity
 from motorid.model.units import ChannelScale, channel_unit
-from motorid.model.simplify import _roots, _tf_coeffs
+from motorid.model.simplify import _normalise_tf, _roots
 
 if TYPE_CHECKING:
     from motorid.model.motor import MotorModel
@@ -72,7 +72,7 @@ def model_to_dict(model: MotorModel) -> dict[str, Any]:
     """
     cv, dv = model._row("velocity")
     vnum, vden = model._row_tf("velocity")
-    pnum, pden = _tf_coeffs(model.position_tf)
+    pnum, pden = _normalise_tf(*model.tf_coefficients("position"))
     fo = model.first_order()
     data: dict[str, Any] = {
         "schema": SCHEMA,
@@ -101,9 +101,9 @@ def model_to_dict(model: MotorModel) -> dict[str, Any]:
         "settings": dict(model.settings),
         "extras": dict(model.extras),
     }
-    cur = model.current_tf
+    cur = model.tf_coefficients("current")
     if cur is not None:
-        cnum, cden = _tf_coeffs(cur)
+        cnum, cden = _normalise_tf(*cur)
         data["current_tf"] = {"num": cnum.tolist(), "den": cden.tolist()}
     if model.uncertainty:
         unc = dict(model.uncertainty)
@@ -212,7 +212,7 @@ def model_to_matlab(model: MotorModel, name: str = "motor") -> str:
 
     cv, dv = model._row("velocity")
     vnum, vden = model._row_tf("velocity")
-    pnum, pden = _tf_coeffs(model.position_tf)
+    pnum, pden = _normalise_tf(*model.tf_coefficients("position"))
     fo = model.first_order()
     lines = [
         f"% {name}: DC servo-motor model identified by motorid (method: {model.method})",

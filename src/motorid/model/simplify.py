@@ -11,10 +11,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import control
 import numpy as np
 import scipy.linalg
+
+if TYPE_CHECKING:
+    import control
 
 #: Default relative tolerance of :meth:`MotorModel.cancel_near`: a pole and a zero closer
 #: than 2 % of the fastest pole's magnitude are treated as one numerical artefact

@@ -49,12 +49,12 @@ def _header(model: Any, title: str) -> list[SummaryLine]:
     lines.append(_plain(f"B = {_array_text(model.B.ravel())}ᵀ"))
     for name in ("velocity", "position", "current"):
         try:
-            tf = getattr(model, f"{name}_tf")
+            coeffs = model.tf_coefficients(name)
         except Exception:
-            tf = None
-        if tf is None:
+            coeffs = None
+        if coeffs is None:
             continue
-        num, den = np.ravel(tf.num[0][0]), np.ravel(tf.den[0][0])
+        num, den = np.ravel(coeffs[0]), np.ravel(coeffs[1])
         lines.append(_plain(f"H_{name}(s) = ({poly_text(num)}) / ({poly_text(den)})"))
     lines.append(_plain(f"poles: {roots_text(model.poles())}"))
     fo = model.first_order()
@@ -134,7 +134,7 @@ def _noise_and_stages(model: Any) -> list[SummaryLine]:
 
 def _velocity_poles(model: Any) -> int:
     """Poles of the velocity transfer function (the 'order' the paper and python-control mean)."""
-    den = np.trim_zeros(np.ravel(model.velocity_tf.den[0][0]), "f")
+    den = np.trim_zeros(np.ravel(model.tf_coefficients("velocity")[1]), "f")
     return int(den.size - 1)
 
 
