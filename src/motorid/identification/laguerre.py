@@ -968,14 +968,24 @@ def _held_recursion(f: np.ndarray, x0: np.ndarray, g: np.ndarray, w: np.ndarray 
     lag = np.arange(size)[:, None] - 1 - np.arange(size)[None, :]  # j − 1 − i
     causal = lag >= 0
     kernel = np.where(causal[:, :, None, None], fg[np.clip(lag, 0, None)], 0.0)  # (j, i, states, inputs)
-    out = np.empty((n, ns, x0.shape[1]))
+    ni = x0.shape[1]
+    out = np.empty((n, ns, ni))
     x = x0
-    # a held step (w ≡ 1) forces every block alike: once (a short last block uses its first rows)
-    steady = np.einsum("jisk,i->jsk", kernel, np.ones(size)) if w is None else None
-    for s0 in range(0, n, size):
+    # every block's forced response in one matrix product: the kernel as a (rows, i) matrix
+    # against the blocks' inputs as columns (a held step, w ≡ 1, forces every block alike; a
+    # short last block uses its first rows)
+    n_blocks = -(-n // size)
+    inputs = np.ones((size, 1 if w is None else n_blocks))
+    if w is not None:
+        padded = np.zeros(n_blocks * size)
+        padded[:n] = w[:n]
+        inputs = padded.reshape(n_blocks, size).T
+    flat = kernel.transpose(0, 2, 3, 1).reshape(size * ns * ni, size)
+    forced_all = (flat @ inputs).reshape(size, ns, ni, -1)
+    for b, s0 in enumerate(range(0, n, size)):
         m = min(size, n - s0)
-        wb = np.ones(size) if w is None else np.r_[w[s0 : s0 + m], np.zeros(size - m)]
-        forced = steady if steady is not None else np.einsum("jisk,i->jsk", kernel, wb)
+        wb = inputs[:, 0 if w is None else b]
+        forced = forced_all[..., 0 if w is None else b]
         block = powers[:size] @ x + forced
         out[s0 : s0 + m] = block[:m]
         # the state one step after the block's last sample
