@@ -30,3 +30,23 @@ def test_short_curves_are_drawn_whole():
     t = np.arange(100.0)
     tt, yy = thinned(t, t**2)
     assert tt is t and np.array_equal(yy, t**2)
+
+
+def test_closed_loop_canvas_redraws_in_place_and_rebuilds_for_other_curves():
+    from motorid.report.figures import ClosedLoopCanvas
+
+    t = np.linspace(0.0, 3.0, 3001)
+    canvas = ClosedLoopCanvas()
+    first = canvas.svg(t, {"reference": np.ones_like(t), "output (velocity)": 1 - np.exp(-t), "u (control)": np.exp(-t)},
+                       "closed loop: ζ = 1")
+    fig = canvas._fig
+    second = canvas.svg(t, {"reference": 2 * np.ones_like(t), "output (velocity)": 2 * (1 - np.exp(-3 * t)),
+                            "u (control)": 8 * np.exp(-3 * t)}, "closed loop: ζ = 0.7, and a title long enough to wrap "
+                           "onto a second line of the heading")
+    assert canvas._fig is fig  # same curves: the figure is reused
+    assert first.startswith(b"<?xml") and second.startswith(b"<?xml") and first != second
+    assert "ζ = 0.7" in canvas._axes[0].get_title(loc="left")
+    # the axes follow the new data: the control axis now reaches 8
+    assert canvas._axes[1].get_ylim()[1] >= 8.0
+    canvas.svg(t, {"reference": np.ones_like(t), "output (position)": t}, "other curves")
+    assert canvas._fig is not fig

@@ -15,9 +15,10 @@ import functools
 import base64
 import io
 import textwrap
+import threading
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal, ParamSpec, TypeVar, cast
+from typing import Any, ParamSpec, TypeVar, cast
 
 import matplotlib
 import numpy as np
@@ -33,6 +34,8 @@ __all__ = [
     "DPI",
     "FONT_PT",
     "FULL_WIDTH_IN",
+    "MAX_DRAWN_POINTS",
+    "ClosedLoopCanvas",
     "IntervalCheck",
     "closed_loop",
     "conditioned_signals",
@@ -46,6 +49,7 @@ __all__ = [
     "step_fit",
     "styled",
     "sweep_maps",
+    "thinned",
     "validation_overlay",
 ]
 
@@ -111,13 +115,12 @@ def styled(func: Callable[_P, _R]) -> Callable[_P, _R]:
     return wrapper
 
 
-def _subplots(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float],
-              layout: Literal["constrained"] | None = "constrained", **kwargs):
+def _subplots(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float], **kwargs):
     """``pyplot.subplots`` without pyplot: a :class:`~matplotlib.figure.Figure` of its own.
 
     No global figure manager, no backend switch — a notebook's backend is left alone.
     """
-    fig = Figure(figsize=figsize, layout=layout)
+    fig = Figure(figsize=figsize, layout="constrained")
     return fig, fig.subplots(nrows, ncols, **kwargs)
 
 
@@ -489,12 +492,8 @@ def validation_overlay(time_s: np.ndarray, input_v: np.ndarray, measured: np.nda
 @styled
 def closed_loop(time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str, *,
                 rails_v: float | None = None, disturbances_s: Sequence[float] = (),
-                metrics: Sequence[str] = (), quick: bool = False) -> bytes:
+                metrics: Sequence[str] = ()) -> bytes:
     """Closed-loop response: output, reference, control effort (and estimated states).
-
-    ``quick`` (the web page's slider, redrawn on every move): fixed margins instead of the
-    constrained layout and SVG instead of PNG, 73 ms instead of 152 ms of CPU (the layout engine
-    measures every tick label twice; ``bench/web_update_speed.py``).
 
     Parameters
     ----------
@@ -511,17 +510,13 @@ def closed_loop(time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str
         Instants a load is applied (s), drawn on both panels.
     metrics : sequence of str
         Short texts (e.g. ``"overshoot: 4.3 %"``) shown under the title.
-    quick : bool
-        Fixed margins and an SVG image (for :func:`data_uri` with ``kind="svg+xml"``).
 
     Returns
     -------
     bytes
-        The PNG image (SVG with ``quick``).
+        The PNG image.
     """
-    height = 5.0
-    fig, axes = _subplots(2, 1, figsize=(FULL_WIDTH_IN, height), sharex=True, gridspec_kw={"height_ratios": [3, 2]},
-                          layout=None if quick else "constrained")
+    fig, axes = _subplots(2, 1, figsize=(FULL_WIDTH_IN, 5.0), sharex=True, gridspec_kw={"height_ratios": [3, 2]})
     for name, y in series.items():
         ax = axes[1] if name.startswith("u") or "control" in name else axes[0]
         ax.plot(*thinned(np.asarray(time_s), np.asarray(y)), lw=1.3, label=name)
@@ -536,19 +531,81 @@ def closed_loop(time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str
         ax.legend(loc="best")
     # the metrics go under the title, never over the curves: three to a line
     lines = ["   ".join(metrics[i:i + _METRICS_PER_LINE]) for i in range(0, len(metrics), _METRICS_PER_LINE)]
-    heading = _wrapped("\n".join([title, *lines]))
-    axes[0].set_title(heading, loc="left")
+    axes[0].set_title(_wrapped("\n".join([title, *lines])), loc="left")
     axes[0].set_ylabel("V")
     axes[1].set_ylabel("control u (V)")
     axes[1].set_xlabel("time (s)")
-    if not quick:
-        return png(fig)
-    # room for the heading's lines (about 0.2 in each at the style's title size) and the labels
-    top = 1.0 - (0.2 * (heading.count("\n") + 1) + 0.15) / height
-    fig.subplots_adjust(left=0.1, right=0.98, bottom=0.1, top=top, hspace=0.08)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="svg")
-    return buf.getvalue()
+    return png(fig)
+
+
+class ClosedLoopCanvas:
+    """The closed-loop figure of :func:`closed_loop` kept between redraws, drawn as SVG.
+
+    The web page redraws it on every slider move: building the figure (axes, ticks, the
+    constrained layout) was most of a move's CPU, so the figure, its axes and its curves are
+    made once and each redraw only replaces the curves' data, rescales and renders (about 36 ms
+    instead of 150 ms; ``bench/web_update_speed.py``).  Fixed margins stand in for the
+    constrained layout.  A redraw with other series names builds the figure anew.  Its own lock
+    makes one canvas safe to share between threads.
+    """
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._names: tuple[str, ...] = ()
+        self._fig: Figure | None = None
+        self._axes: Any = None
+        self._lines: dict[str, Any] = {}
+
+    def _build(self, time_s: np.ndarray, series: Mapping[str, np.ndarray]) -> None:
+        fig = Figure(figsize=(FULL_WIDTH_IN, 5.0))
+        axes = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [3, 2]})
+        self._lines = {}
+        for name, y in series.items():
+            ax = axes[1] if name.startswith("u") or "control" in name else axes[0]
+            self._lines[name] = ax.plot(*thinned(time_s, np.asarray(y)), lw=1.3, label=name)[0]
+        for ax in axes:
+            ax.legend(loc="best")
+        axes[0].set_ylabel("V")
+        axes[1].set_ylabel("control u (V)")
+        axes[1].set_xlabel("time (s)")
+        self._fig, self._axes, self._names = fig, axes, tuple(series)
+
+    def svg(self, time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str) -> bytes:
+        """The figure for these curves, as SVG.
+
+        Parameters
+        ----------
+        time_s : ndarray
+            Times in s.
+        series : Mapping[str, ndarray]
+            The curves by name, as :func:`closed_loop` takes them.
+        title : str
+            The figure title.
+
+        Returns
+        -------
+        bytes
+            The SVG image (for :func:`data_uri` with ``kind="svg+xml"``).
+        """
+        t = np.asarray(time_s, dtype=float)
+        with self._lock, matplotlib.rc_context(cast("Any", _STYLE)):
+            if self._fig is None or tuple(series) != self._names:
+                self._build(t, series)
+            else:
+                for name, y in series.items():
+                    self._lines[name].set_data(*thinned(t, np.asarray(y)))
+                for ax in self._axes:
+                    ax.relim()
+                    ax.autoscale_view()
+            assert self._fig is not None
+            heading = _wrapped(title)
+            self._axes[0].set_title(heading, loc="left")
+            # room for the heading's lines (about 0.2 in each at the style's title size)
+            top = 1.0 - (0.2 * (heading.count("\n") + 1) + 0.15) / 5.0
+            self._fig.subplots_adjust(left=0.1, right=0.98, bottom=0.1, top=top, hspace=0.08)
+            buf = io.BytesIO()
+            self._fig.savefig(buf, format="svg")
+            return buf.getvalue()
 
 
 @styled

@@ -186,7 +186,13 @@ def _design(tab: Tab, dform: Any) -> tuple[Any, Any]:
             except MotorIdError as exc:
                 maps = str(exc)  # the panel says why there is no map
             tab.mode_maps[key] = maps
-    view = design_update(model, dform, maps if not isinstance(maps, str) else None)
+    with tab.lock:
+        if tab.canvas is None:
+            from motorid.report.figures import ClosedLoopCanvas
+
+            tab.canvas = ClosedLoopCanvas()
+        canvas = tab.canvas
+    view = design_update(model, dform, maps if not isinstance(maps, str) else None, canvas)
     with tab.lock:
         tab.design, tab.simulation = view.design, dform.simulate_options()
     return view, maps

@@ -69,6 +69,7 @@ class Tab:
         self.fit = self.design = None
         self.simulation = {}
         self.mode_maps.clear()
+        self.canvas = None
 
     def stored_bytes(self) -> int:
         """The bytes of the files this tab keeps.
@@ -92,6 +93,8 @@ class Tab:
     uploads: int = 0
     last_seen: float = field(default_factory=time.monotonic)
     lock: threading.RLock = field(default_factory=threading.RLock)
+    #: The closed-loop figure kept between slider moves (a ``report.figures.ClosedLoopCanvas``).
+    canvas: Any = None
 
 
 class TabStore:

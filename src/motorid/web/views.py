@@ -325,7 +325,8 @@ class DesignView:
     cpu_ms: float
 
 
-def design_update(model: MotorModel, form: DesignForm, maps: ModeMapView | None) -> DesignView:
+def design_update(model: MotorModel, form: DesignForm, maps: ModeMapView | None,
+                  canvas: Any = None) -> DesignView:
     """Design, simulate, draw and mark one slider position.
 
     Parameters
@@ -336,6 +337,8 @@ def design_update(model: MotorModel, form: DesignForm, maps: ModeMapView | None)
         The panel's inputs.
     maps : ModeMapView or None
         The drawn mode maps (None: no marker).
+    canvas : ClosedLoopCanvas, optional
+        The tab's closed-loop figure, redrawn in place (default: a new one).
 
     Returns
     -------
@@ -360,9 +363,9 @@ def design_update(model: MotorModel, form: DesignForm, maps: ModeMapView | None)
     cols = sim.columns()
     series = {"reference": cols["reference"], f"output ({sim.output})": cols["output"], "u (control)": cols["u"]}
     sat = f", rails ±{form.saturation_v:g} V" if form.saturation_v else ""
-    plot = figures.data_uri(figures.closed_loop(cols["time"], series,
-                                                f"closed loop: ζ = {form.damping:g}, ωn = {form.wn:g} rad/s{sat}",
-                                                quick=True), "svg+xml")
+    canvas = canvas if canvas is not None else figures.ClosedLoopCanvas()
+    plot = figures.data_uri(canvas.svg(cols["time"], series,
+                                       f"closed loop: ζ = {form.damping:g}, ωn = {form.wn:g} rad/s{sat}"), "svg+xml")
     kp, kv, what = design_point(model, des, form.damping, form.wn)
     markers = mark(maps, kp, kv) if maps is not None else []
     return DesignView(des, sim, plot, markers, (kp, kv, what), 1e3 * (time.perf_counter() - t0),
