@@ -1,5 +1,5 @@
 """``python -m motorid`` runs the command-line interface."""
 
-from motorid.cli.app import entry
+from motorid.cli import entry
 
 entry()

@@ -27,6 +27,24 @@ def test_sigint_exits_130_with_one_line(tmp_path):
     assert lines == ["motorid: interrupted"], err
 
 
+def test_ctrl_c_during_the_start_up_is_an_interruption_too(tmp_path):
+    """A Ctrl-C while the commands are still being imported (a loaded machine's first second)."""
+    code = (
+        "import sys\n"
+        "class Interrupt:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name == 'motorid.cli.app':\n"
+        "            raise KeyboardInterrupt\n"
+        "sys.meta_path.insert(0, Interrupt())\n"
+        "sys.argv = ['motorid', '--help']\n"
+        "from motorid.cli import entry\n"
+        "entry()\n"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=60)
+    assert res.returncode == 130, (res.returncode, res.stderr)
+    assert [ln for ln in res.stderr.splitlines() if ln.strip()] == ["motorid: interrupted"], res.stderr
+
+
 def _run_and_signal(args: list[str], sig: int, after_s: float, cwd) -> subprocess.CompletedProcess:
     proc = subprocess.Popen([sys.executable, "-m", "motorid", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, cwd=cwd, preexec_fn=_default_sigint)

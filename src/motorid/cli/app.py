@@ -881,6 +881,9 @@ def entry() -> None:
 
     try:
         main()
+    except KeyboardInterrupt:  # before main's own handling was in place
+        print("motorid: interrupted", file=sys.stderr)
+        raise SystemExit(130) from None
     finally:
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, signal.SIG_IGN)
