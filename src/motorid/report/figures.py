@@ -564,7 +564,8 @@ class ClosedLoopCanvas:
             ax = axes[1] if name.startswith("u") or "control" in name else axes[0]
             self._lines[name] = ax.plot(*thinned(time_s, np.asarray(y)), lw=1.3, label=name)[0]
         for ax in axes:
-            ax.legend(loc="best")
+            if ax.get_lines():  # a panel without curves gets no (empty) legend
+                ax.legend(loc="best")
         axes[0].set_ylabel("V")
         axes[1].set_ylabel("control u (V)")
         axes[1].set_xlabel("time (s)")
