@@ -41,14 +41,6 @@ class Row:
     residence_s: float
 
 
-def residence_of(tf) -> float:
-    """Mean residence time by moments (``Σ1/p − Σ1/z``) of a transfer function's poles and zeros."""
-    num = np.atleast_1d(np.squeeze(tf.num[0][0])).astype(float)
-    den = np.atleast_1d(np.squeeze(tf.den[0][0])).astype(float)
-    zeros = np.roots(num) if num.size > 1 else np.array([])
-    return float(np.real(np.sum(-1.0 / np.roots(den)) - np.sum(-1.0 / zeros)))
-
-
 def curve_fit_fopdt(exp: mi.Experiment) -> tuple[float, float]:
     """scipy ``curve_fit`` of ``K·u·(1 − exp(−(t − θ)/τ))`` on the conditioned velocity."""
     cond = condition_experiment(dict(exp.captures), ConditioningSettings(sample_interval_s=None))
@@ -81,7 +73,7 @@ def run_preset(name: str, seed: int, repeat: int) -> tuple[list[Row], float, flo
     rec = run_experiment(name, seed=seed, validation=False)
     exp = mi.Experiment(captures=dict(rec.captures))
     dc_true = rec.truth.dc_gain * (1.0 - rec.truth.equivalent_input_offset_v / rec.step_volts)
-    res_true = residence_of(rec.truth.velocity)
+    res_true = rec.truth.time_constant_s  # the velocity TF's residence time by moments (no dead time)
     calls = {m: (lambda m=m: mi.identify(exp, method=m)) for m in METHODS}
     calls["scipy curve_fit (FOPDT)"] = lambda: curve_fit_fopdt(exp)
     timed = interleaved_cpu(calls, repeat)
