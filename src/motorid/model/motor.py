@@ -22,7 +22,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal, overload
 
 import numpy as np
 import scipy.signal
@@ -344,6 +344,12 @@ class MotorModel:
         num, den, _ = _cancel_pairs(num, den, EXACT_CANCEL_TOL, "leading")
         return _normalise_tf(num, den)
 
+    @overload
+    def tf_coefficients(self, channel: Literal["velocity", "position"]) -> tuple[np.ndarray, np.ndarray]: ...
+
+    @overload
+    def tf_coefficients(self, channel: str) -> tuple[np.ndarray, np.ndarray] | None: ...
+
     def tf_coefficients(self, channel: str) -> tuple[np.ndarray, np.ndarray] | None:
         """Numerator and denominator of a channel's transfer function, as its ``*_tf`` property holds them.
 
@@ -387,19 +393,17 @@ class MotorModel:
         """Input volts → position channel; velocity TF / s when there is no position output."""
         import control
 
-        if "position" in self.outputs:
-            return control.tf(*self._row_tf("position"))
-        num, den = self._row_tf("velocity")
-        return control.tf(num, np.polymul(den, [1.0, 0.0]))
+        return control.tf(*self.tf_coefficients("position"))
 
     @property
     def current_tf(self) -> control.TransferFunction | None:
         """Input volts → current channel, or None when the model has no current output."""
-        if "current" not in self.outputs:
+        coeffs = self.tf_coefficients("current")
+        if coeffs is None:
             return None
         import control
 
-        return control.tf(*self._row_tf("current"))
+        return control.tf(*coeffs)
 
     def poles(self) -> np.ndarray:
         """Poles of the velocity transfer function (complex array).

@@ -53,13 +53,6 @@ def _complex_pairs(values: np.ndarray) -> list[list[float]]:
 
 
 
-def _position_tf(model: Any) -> tuple[Any, Any]:
-    """The position transfer function's coefficients (every model has one: the velocity's integral)."""
-    coeffs = model.tf_coefficients("position")
-    assert coeffs is not None
-    return _normalise_tf(*coeffs)
-
-
 def model_to_dict(model: MotorModel) -> dict[str, Any]:
     """``model`` as the docs/formats.md "Model JSON" dict (schema ``motorid.model/1``).
 
@@ -79,7 +72,7 @@ def model_to_dict(model: MotorModel) -> dict[str, Any]:
     """
     cv, dv = model._row("velocity")
     vnum, vden = model._row_tf("velocity")
-    pnum, pden = _position_tf(model)
+    pnum, pden = _normalise_tf(*model.tf_coefficients("position"))
     fo = model.first_order()
     data: dict[str, Any] = {
         "schema": SCHEMA,
@@ -219,7 +212,7 @@ def model_to_matlab(model: MotorModel, name: str = "motor") -> str:
 
     cv, dv = model._row("velocity")
     vnum, vden = model._row_tf("velocity")
-    pnum, pden = _position_tf(model)
+    pnum, pden = _normalise_tf(*model.tf_coefficients("position"))
     fo = model.first_order()
     lines = [
         f"% {name}: DC servo-motor model identified by motorid (method: {model.method})",
