@@ -42,11 +42,16 @@ from typing import Any
 
 import numpy as np
 import scipy.linalg
-import scipy.signal
 
 from motorid.identification.arrays import check_step_level, response_arrays
 from motorid.errors import OptionError
-from motorid.identification.laguerre_refine import POLISH_CHANNELS, LaguerrePolish, _polish_orders, laguerre_polish
+from motorid.identification.laguerre_refine import (
+    POLISH_CHANNELS,
+    LaguerrePolish,
+    _polish_orders,
+    _transfer_function,
+    laguerre_polish,
+)
 from motorid.identification.result import IdentificationError
 
 __all__ = [
@@ -222,10 +227,7 @@ class LaguerreResult:
         """
         from motorid.model import model_from_velocity_tf  # model imports nothing from identify
 
-        # what python-control's ss2tf runs (without slycot), without building its objects
-        nums, den = scipy.signal.ss2tf(self.A, self.B, self.C, np.zeros((1, 1)))
-        num = np.atleast_1d(np.squeeze(nums[0])).astype(float)
-        den = np.atleast_1d(np.squeeze(den)).astype(float)
+        num, den = _transfer_function(self.A, self.B, self.C)
         num = np.trim_zeros(np.where(np.abs(num) < 1e-12 * np.max(np.abs(num)), 0.0, num), "f")
         coeff = self.coefficients
         sv = self.hankel_sv

@@ -48,6 +48,17 @@ def _state_space(num: np.ndarray, den: np.ndarray) -> _Realisation:
     return _Realisation(a, b, c)
 
 
+def _transfer_function(a: Any, b: Any, c: Any) -> tuple[np.ndarray, np.ndarray]:
+    """``num, den`` of ``c (sI − a)⁻¹ b`` (SISO), exact leading zeros of ``num`` dropped.
+
+    What python-control's ``ss2tf`` runs (without slycot), without building its objects.
+    """
+    nums, den = scipy.signal.ss2tf(np.asarray(a, float), np.asarray(b, float).reshape(-1, 1),
+                                   np.asarray(c, float).reshape(1, -1), np.zeros((1, 1)))
+    num = np.trim_zeros(np.atleast_1d(np.squeeze(nums[0])).astype(float), "f")
+    return num, np.atleast_1d(np.squeeze(den)).astype(float)
+
+
 def _polish_orders(candidates: list[_Candidate], t: np.ndarray, outputs: dict[str, np.ndarray],
                    u: np.ndarray | None, step_volts: float, primary: str,
                    pre_step: dict[str, np.ndarray] | None = None) -> list[tuple[Any, ...]]:
@@ -447,10 +458,7 @@ def laguerre_polish(
     ys = {ch: np.asarray(outputs[ch], dtype=float).ravel() for ch in channels}
     u = _input_for_polish(t, input_v, step_volts)
     h = float(t[1] - t[0])
-    nums, den = scipy.signal.ss2tf(np.asarray(A, float), np.asarray(B, float).reshape(-1, 1),
-                                   np.asarray(C, float).reshape(1, -1), np.zeros((1, 1)))
-    num = np.trim_zeros(np.atleast_1d(np.squeeze(nums[0])).astype(float), "f")
-    den = np.atleast_1d(np.squeeze(den)).astype(float)
+    num, den = _transfer_function(A, B, C)
     m = den.size - 1
     num, den = num / den[0], den / den[0]
     num = np.r_[np.zeros(m - num.size), num][-m:]
