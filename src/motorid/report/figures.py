@@ -516,10 +516,8 @@ def closed_loop(time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str
     bytes
         The PNG image.
     """
-    fig, axes = _subplots(2, 1, figsize=(FULL_WIDTH_IN, 5.0), sharex=True, gridspec_kw={"height_ratios": [3, 2]})
-    for name, y in series.items():
-        ax = axes[1] if name.startswith("u") or "control" in name else axes[0]
-        ax.plot(*thinned(np.asarray(time_s), np.asarray(y)), lw=1.3, label=name)
+    fig = Figure(figsize=(FULL_WIDTH_IN, 5.0), layout="constrained")
+    axes, _ = _closed_loop_axes(fig, np.asarray(time_s), series)
     if rails_v is not None:
         for sign in (1.0, -1.0):
             axes[1].axhline(sign * rails_v, color="k", ls="--", lw=1.0,
@@ -532,10 +530,24 @@ def closed_loop(time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str
     # the metrics go under the title, never over the curves: three to a line
     lines = ["   ".join(metrics[i:i + _METRICS_PER_LINE]) for i in range(0, len(metrics), _METRICS_PER_LINE)]
     axes[0].set_title(_wrapped("\n".join([title, *lines])), loc="left")
+    return png(fig)
+
+
+def _closed_loop_axes(fig: Figure, time_s: np.ndarray, series: Mapping[str, np.ndarray]) -> tuple[Any, dict[str, Any]]:
+    """The closed loop's two panels on ``fig``: outputs above, control effort below, labelled.
+
+    A name starting with ``u`` or containing ``control`` goes on the control-effort panel; each
+    curve is drawn :func:`thinned`.  Returns the axes and the curves by name.
+    """
+    axes = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [3, 2]})
+    lines = {}
+    for name, y in series.items():
+        ax = axes[1] if name.startswith("u") or "control" in name else axes[0]
+        lines[name] = ax.plot(*thinned(time_s, np.asarray(y)), lw=1.3, label=name)[0]
     axes[0].set_ylabel("V")
     axes[1].set_ylabel("control u (V)")
     axes[1].set_xlabel("time (s)")
-    return png(fig)
+    return axes, lines
 
 
 class ClosedLoopCanvas:
@@ -558,17 +570,10 @@ class ClosedLoopCanvas:
 
     def _build(self, time_s: np.ndarray, series: Mapping[str, np.ndarray]) -> None:
         fig = Figure(figsize=(FULL_WIDTH_IN, 5.0))
-        axes = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [3, 2]})
-        self._lines = {}
-        for name, y in series.items():
-            ax = axes[1] if name.startswith("u") or "control" in name else axes[0]
-            self._lines[name] = ax.plot(*thinned(time_s, np.asarray(y)), lw=1.3, label=name)[0]
+        axes, self._lines = _closed_loop_axes(fig, time_s, series)
         for ax in axes:
             if ax.get_lines():  # a panel without curves gets no (empty) legend
                 ax.legend(loc="best")
-        axes[0].set_ylabel("V")
-        axes[1].set_ylabel("control u (V)")
-        axes[1].set_xlabel("time (s)")
         self._fig, self._axes, self._names = fig, axes, tuple(series)
 
     def svg(self, time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str) -> bytes:
