@@ -50,6 +50,22 @@ def test_velocity_only_model_position_is_integral() -> None:
     assert fo.k == pytest.approx(2.0) and fo.p == pytest.approx(2.5)
 
 
+def test_tf_coefficients_are_the_transfer_functions_without_python_control() -> None:
+    from motorid.errors import OptionError
+
+    for m in (_pinv_like(), model_from_velocity_tf([2.0], [1.0, 2.5], step_volts=1.0, method="classic")):
+        for channel in ("velocity", "position", "current"):
+            coeffs = m.tf_coefficients(channel)
+            tf = getattr(m, f"{channel}_tf")
+            if tf is None:
+                assert coeffs is None
+                continue
+            np.testing.assert_array_equal(np.ravel(tf.num[0][0]), coeffs[0])
+            np.testing.assert_array_equal(np.ravel(tf.den[0][0]), coeffs[1])
+    with pytest.raises(OptionError, match="no transfer function for channel 'torque'"):
+        _pinv_like().tf_coefficients("torque")
+
+
 def test_first_order_is_mean_residence_time() -> None:
     # G = 1/((s+1)(s+4)): τ = 1 + 1/4 (sum of time constants), DC gain 1/4.
     m = model_from_velocity_tf([1.0], [1.0, 5.0, 4.0])
