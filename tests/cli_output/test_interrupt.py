@@ -45,6 +45,49 @@ def test_ctrl_c_during_the_start_up_is_an_interruption_too(tmp_path):
     assert [ln for ln in res.stderr.splitlines() if ln.strip()] == ["motorid: interrupted"], res.stderr
 
 
+def test_a_handled_ctrl_c_inside_generated_code_does_not_kill_the_process(tmp_path):
+    """Under ``python -m``, a Ctrl-C that ended an ``exec`` of a string (dataclasses and
+    namedtuples build their methods so) made CPython kill itself by SIGINT at exit, after the
+    command had printed its line and chosen 130: a caller saw "killed by a signal"."""
+    (tmp_path / "interrupted_start.py").write_text(
+        "import sys\n"
+        "class Interrupt:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name == 'motorid.cli.app':\n"
+        "            exec('raise KeyboardInterrupt')\n"
+        "sys.meta_path.insert(0, Interrupt())\n"
+        "sys.argv = ['motorid', '--help']\n"
+        "from motorid.cli import entry\n"
+        "entry()\n"
+    )
+    res = subprocess.run([sys.executable, "-m", "interrupted_start"], capture_output=True, text=True, cwd=tmp_path,
+                         timeout=60)
+    assert res.returncode == 130, (res.returncode, res.stderr)
+    assert [ln for ln in res.stderr.splitlines() if ln.strip()] == ["motorid: interrupted"], res.stderr
+
+
+@pytest.mark.parametrize(("module", "argv"), [("motorid.cli.app", ["--help"]),
+                                              ("motorid.cli.demo", ["demo", "--out", "d"])])
+def test_an_extension_interrupted_while_imported_is_an_interruption(tmp_path, module, argv):
+    """pybind11 modules report a Ctrl-C during their initialisation as ``ImportError`` raised from
+    the KeyboardInterrupt: exit 130 and one line, not "internal error: ImportError"."""
+    code = (
+        "import sys\n"
+        "class Interrupt:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        f"        if name == {module!r}:\n"
+        "            raise ImportError('initialization failed') from KeyboardInterrupt()\n"
+        "sys.meta_path.insert(0, Interrupt())\n"
+        f"sys.argv = ['motorid', *{argv!r}]\n"
+        "from motorid.cli import entry\n"
+        "entry()\n"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=60)
+    assert res.returncode == 130, (res.returncode, res.stderr)
+    assert [ln for ln in res.stderr.splitlines() if ln.strip()] == ["motorid: interrupted"], res.stderr
+    assert not (tmp_path / "d").exists()
+
+
 def _run_and_signal(args: list[str], sig: int, after_s: float, cwd) -> subprocess.CompletedProcess:
     proc = subprocess.Popen([sys.executable, "-m", "motorid", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, cwd=cwd, preexec_fn=_default_sigint)

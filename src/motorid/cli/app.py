@@ -871,22 +871,23 @@ def _terminate_as_interrupt() -> Any:
     return signal.signal(signal.SIGTERM, raise_terminated)
 
 
-def entry() -> None:
-    """The ``motorid`` process: :func:`main`, then signals ignored until the process has exited.
+def _signal_behind(exc: BaseException) -> tuple[str, int] | None:
+    """The line and exit code of a Ctrl-C or SIGTERM that ``exc`` was raised from, if any.
 
-    Once the command has finished and said so, a signal during the interpreter's exit changes
-    nothing: a complete, confirmed run is a success.
+    An extension module interrupted while it is imported reports an ``ImportError``
+    ("initialization failed", pybind11) whose cause is the KeyboardInterrupt: that is an
+    interruption, not an internal error.
     """
-    import signal
-
-    try:
-        main()
-    except KeyboardInterrupt:  # before main's own handling was in place
-        print("motorid: interrupted", file=sys.stderr)
-        raise SystemExit(130) from None
-    finally:
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, signal.SIG_IGN)
+    seen: set[int] = set()
+    cur: BaseException | None = exc
+    while cur is not None and id(cur) not in seen:
+        seen.add(id(cur))
+        if isinstance(cur, KeyboardInterrupt):
+            return "motorid: interrupted", 130
+        if isinstance(cur, Terminated):
+            return "motorid: terminated (SIGTERM)", 143
+        cur = cur.__cause__ or cur.__context__
+    return None
 
 
 def main() -> None:
@@ -927,6 +928,10 @@ def main() -> None:
     except SystemExit:
         raise
     except Exception as exc:
+        signal_exit = _signal_behind(exc)
+        if signal_exit is not None:
+            print(signal_exit[0], file=sys.stderr)
+            raise SystemExit(signal_exit[1]) from None
         # typer vendors its own click (typer._click): recognise its usage errors by shape
         code = getattr(exc, "exit_code", None)
         if hasattr(exc, "show") and isinstance(code, int):
