@@ -148,3 +148,19 @@ def test_identify_delay_option_reports_the_delay_and_the_noise_model(demo, run_c
     # an 8-bit pot with 0.01 V noise is not dithered: position for its scale only, shown to the user
     assert doc["extras"]["noise"]["position"]["use"] == "scale only"
     assert "scale only" in res.out
+
+
+def test_a_given_step_level_without_an_input_channel_is_said_to_carry_every_gain(demo_run, run_cli, tmp_path):
+    """A velocity saved without its CH1: nothing in the data can check ``--step-volts``, so a
+    wrong level (3 V for the demo's 5.92 V step) scales the gain silently — unless it is said."""
+    import shutil
+
+    alone = tmp_path / "ALL0001"
+    alone.mkdir()
+    shutil.copy(demo_run.folder / "ALL0001" / "F0001CH2.CSV", alone)
+    res = run_cli("identify", "--velocity", str(alone), "--step-volts", "3")
+    assert res.code == 0, res.err
+    said = " ".join((res.out + res.err).split())
+    assert "no input channel: the step level is the 3 V given by --step-volts, not a recorded one" in said
+    with_ch1 = run_cli("identify", "--velocity", str(demo_run.folder / "ALL0001"))
+    assert with_ch1.code == 0 and "not a recorded one" not in with_ch1.out + with_ch1.err

@@ -10,7 +10,8 @@ used, warned about) here, before any method runs.
 What the data cannot tell: a wrong ``--step-volts`` on a capture without an input channel
 scales the model's gain by the same factor and leaves every signal-level check unchanged (the
 response is a perfectly good response to *some* step).  Only a CH1 step (checked against
-``--step-volts`` by the command line) or a known motor gain can catch it.
+``--step-volts`` by the command line) or a known motor gain can catch it, so each such
+capture carries a warning that its gains rest on the level given.
 """
 
 from __future__ import annotations

@@ -142,6 +142,10 @@ def step_response(
                 "no input channel: give the step level with --step-volts", file=capture.source
             )
         amp = float(step_volts)
+        # nothing in the data can check this level (a response is a good response to *some*
+        # step): say that every gain rests on it
+        warnings.append(f"no input channel: the step level is the {amp:g} V given by --step-volts, not a recorded "
+                        "one; every gain scales with 1/step")
         edge = response_onset(t, y, file=capture.source)
         if role == "position" and t0_s is None:
             # a ramp: the line through its rise meets the baseline a time constant late
