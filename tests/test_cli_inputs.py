@@ -312,3 +312,17 @@ def test_sweep_grid_comes_from_the_data_for_a_fast_motor(tmp_path, run_cli):
     assert "grid from the data" in res.out
     res = run_cli("sweep", *args, "--method", "classic", "--lengths", "paper", "--intervals", "paper")
     assert res.code == 2 and "every one of the 15 cells" in res.err
+
+
+def test_an_existing_output_names_the_flag_on_the_command_line_and_the_keyword_in_python(caps, run_cli, tmp_path):
+    """The same refusal, in each caller's words: ``--force`` in a terminal, ``force=True`` in Python."""
+    from motorid.errors import OutputExistsError
+    from motorid.io import check_writable
+
+    out = tmp_path / "m.json"
+    out.write_text("{}")
+    res = run_cli("identify", "--velocity", str(caps / "ALL0001"), "--json", str(out))
+    _refused(res, "m.json", "use --force to overwrite it")
+    assert "force=True" not in res.err
+    with pytest.raises(OutputExistsError, match="use force=True to overwrite it"):
+        check_writable([out], force=False)

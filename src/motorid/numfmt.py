@@ -123,6 +123,16 @@ def _shared_places(z: complex, digits: int) -> int:
     return _decimals(big, digits) if big > 0 else 0
 
 
+#: How a repeated root is marked (more than three times: ``(×4)``).
+_MULTIPLICITY = {1: "", 2: " (double)", 3: " (triple)"}
+
+
+def _rounds_to_real(z: complex, digits: int) -> bool:
+    """The imaginary part is zero at the decimal places ``z`` is printed with."""
+    places = _shared_places(z, digits)
+    return places >= 0 and abs(z) < 1e6 and float(_fixed(abs(z.imag), places)) == 0.0
+
+
 def complex_text(z: complex, digits: int = DIGITS, *, pair: bool = False) -> str:
     """A complex number as ``-2.800 + 1.150j``; a real one (``|imag|`` negligible) without ``+0j``.
 
@@ -178,8 +188,15 @@ def roots_text(values: Iterable[complex], digits: int = DIGITS) -> str:
     parts: list[str] = []
     while left:
         z = left.pop(0)
-        if _is_real(z):
-            parts.append(complex_text(z, digits))
+        if _is_real(z) or _rounds_to_real(z, digits):
+            # a repeated real root (a double pole, split by the eigenvalue solver into two reals
+            # or a pair with a vanishing imaginary part) is printed once, with its multiplicity
+            text = sig(z.real, digits)
+            same = [i for i, w in enumerate(left) if (_is_real(w) or _rounds_to_real(w, digits))
+                    and sig(w.real, digits) == text]
+            for i in reversed(same):
+                left.pop(i)
+            parts.append(text + _MULTIPLICITY.get(1 + len(same), f" (×{1 + len(same)})"))
             continue
         # its conjugate, if present: the closest root to z̄ within a relative tolerance
         match = min(range(len(left)), key=lambda i: abs(left[i] - z.conjugate()), default=None)

@@ -257,6 +257,27 @@ def speaks_as_called(command: str) -> Callable[[Callable[_P, _R]], Callable[_P, 
     return decorate
 
 
+def switch_words(flag: str, name: str) -> str:
+    """A switch as the caller writes it: ``--force`` on the command line, ``force=True`` in Python.
+
+    For messages of the library's own functions (the output writers' ``force``), which no
+    command's option table lists.
+
+    Parameters
+    ----------
+    flag : str
+        The command-line flag (``--force``).
+    name : str
+        The keyword argument (``force``).
+
+    Returns
+    -------
+    str
+        The words for the current caller.
+    """
+    return flag if _COMMAND_LINE.get() else f"{name}=True"
+
+
 @contextmanager
 def command_line_words() -> Iterator[None]:
     """Inside, the front door's messages keep the command-line flags (the CLI calls it so).

@@ -73,3 +73,18 @@ def test_metric_names_in_words() -> None:
     assert metric_name("settling_time_s") == "settling time (2 %)"
     assert metric_name("velocity_nrmse") == "velocity NRMSE"
     assert metric_name("something_new") == "something new"
+
+
+def test_a_double_real_pole_is_printed_once() -> None:
+    """Pole placement's double pole comes back from the eigenvalue solver as -8 ± 3e-5j: printed
+    as ``-8.000 ± 0.000j`` it read as an oscillation; it is one real pole, twice."""
+    assert roots_text([-48.0, -8 + 3e-5j, -8 - 3e-5j]) == "-48, -8 (double)"
+    assert roots_text([-8 + 0.01j, -8 - 0.01j]) == "-8.000 ± 0.010j"  # a visible imaginary part stays a pair
+    # a pole-placement double pole, as python-control computes it
+    import control
+
+    a = np.array([[0.0, 1.0], [0.0, -2.0]])
+    b = np.array([[0.0], [3.0]])
+    k = control.acker(a, b, [-8.0, -8.0])
+    text = roots_text(np.linalg.eigvals(a - b @ np.atleast_2d(k)))
+    assert text == "-8 (double)", text

@@ -47,7 +47,7 @@ def test_from_params_then_design_report_numbers(model_file, tmp_path):
     res = runner.invoke(APP, ["design", str(model_file), "--k2", "8.5", "--damping", "1", "--json", str(d)])
     assert res.exit_code == 0, res.output
     assert "k1 = 19.64" in res.output and "kr = 19.64" in res.output
-    assert "k2 > -1.111" in res.output and "closed-loop poles: -7.863, -7.863" in res.output
+    assert "k2 > -1.111" in res.output and "closed-loop poles: -7.863 (double)" in res.output
     data = json.loads(d.read_text())
     assert data["K"][0] == pytest.approx(19.64, abs=0.01) and data["kr"] == pytest.approx(data["K"][0])
 

@@ -366,7 +366,7 @@ def test_existing_files_are_kept_without_force(tmp_path):
     folder = save_acquisition(acq, tmp_path / "ALL0000")
     before = (folder / "F0000CH2.CSV").read_bytes()
     other = acquire_waveforms(FakeTds({1: _codes()[1], 2: _codes()[2] // 2}), AcquireSettings())
-    with pytest.raises(MotorIdError, match="--force"):
+    with pytest.raises(MotorIdError, match="use force=True"):
         save_acquisition(other, folder)
     assert (folder / "F0000CH2.CSV").read_bytes() == before
     save_acquisition(other, folder, force=True)

@@ -24,7 +24,7 @@ def test_round_trip_keeps_channels_and_metadata(tmp_path):
     np.testing.assert_allclose(back.output_v, cap.output_v, rtol=1e-14, atol=0)
     assert back.input_info == cap.input_info and back.output_info == cap.output_info
     assert back.scope == cap.scope
-    with pytest.raises(OutputExistsError, match="use --force"):
+    with pytest.raises(OutputExistsError, match="use force=True"):
         write_openchoice_xlsx(f, cap)
     write_openchoice_xlsx(f, cap, force=True)
 

@@ -125,7 +125,7 @@ def test_overwrite_is_refused_without_force(tmp_path):
     cap = step_capture(n=100)
     f = tmp_path / "F0000CH1.CSV"
     write_tds_channel(f, cap.time_s, cap.output_v, cap.output_info, cap.scope)
-    with pytest.raises(OutputExistsError, match="use --force") as err:
+    with pytest.raises(OutputExistsError, match="use force=True") as err:
         write_tds_channel(f, cap.time_s, cap.output_v, cap.output_info, cap.scope)
     assert str(f) in str(err.value)
     write_tds_channel(f, cap.time_s, cap.output_v, cap.output_info, cap.scope, force=True)

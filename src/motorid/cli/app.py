@@ -10,6 +10,7 @@ import json
 import math
 import sys
 import traceback
+import typing
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -26,7 +27,7 @@ from motorid.numfmt import sig
 # typer and rich only, not numpy, scipy, python-control or matplotlib.
 
 app = typer.Typer(
-    add_completion=False,
+    add_completion=True,
     no_args_is_help=True,
     help="Identify a DC servo-motor model from oscilloscope step captures.",
     pretty_exceptions_enable=False,
@@ -39,8 +40,18 @@ def _console() -> Console:
     return Console(highlight=False, width=None if sys.stdout.isatty() else 120)
 
 
+def _print_version(value: bool) -> None:
+    if value:
+        from motorid import __version__
+
+        print(f"motorid {__version__}")
+        raise typer.Exit()
+
+
 @app.callback()
 def _root(
+    version: Annotated[bool, typer.Option("--version", callback=_print_version, is_eager=True,
+                                          help="Print the version and exit.")] = False,
     debug: Annotated[bool, typer.Option("--debug", help="Show the traceback of internal errors.")] = False,
     progress: Annotated[bool, typer.Option(
         "--progress",
@@ -449,7 +460,7 @@ def identify(
 ) -> None:
     """Identify the motor model from step captures (paper sections III-VI).
 
-    Several step levels (``--velocity`` repeated, ``--experiment`` or ``--dead-zone``) give a
+    Several step levels (--velocity repeated, --experiment or --dead-zone) give a
     Hammerstein model: dead-zone, gain and rails in front of shared dynamics.
     """
     columns = _with_time_unit(columns, time_unit)
@@ -871,6 +882,46 @@ def _terminate_as_interrupt() -> Any:
     return signal.signal(signal.SIGTERM, raise_terminated)
 
 
+#: What the help shows after an option that takes a value, by the value's type (click's words).
+_METAVARS = {int: "INTEGER", float: "FLOAT", str: "TEXT"}
+#: Options and arguments naming capture files or folders (strings, so that ``ALL0001`` and globs pass).
+_CAPTURE_PARAMS = frozenset({"position", "velocity", "current", "validate", "experiment"})
+
+
+def _conventional_help(command: Any) -> Any:
+    """``command`` (the click command typer built) with its help in the usual conventions.
+
+    Flags are shown as flags (typer's help writes ``<bool>`` after ``--force`` and ``--help``) and
+    a value by click's word for it (``TEXT``, ``PATH``, ``FLOAT``: typer writes
+    ``<list[str]>`` for a repeatable option). Set here, on the built command, because typer has
+    no setting for it; an option's own ``metavar`` is kept.
+    """
+    import typer._click as click
+
+    todo = [command]
+    while todo:
+        cmd = todo.pop()
+        todo.extend(getattr(cmd, "commands", {}).values())
+        helper = cmd.get_help_option(click.Context(cmd))
+        for param in [*cmd.params, *([helper] if helper is not None else [])]:
+            if not hasattr(param, "is_flag"):  # an argument: its name (CAPTURES...) says it, no type after it
+                setattr(param, "display_type_rich", lambda ctx: None)  # noqa: B010 - on this instance only
+                continue
+            if param.is_flag:
+                param.metavar = ""
+            elif param.metavar is None and hasattr(param, "type_descriptor"):
+                desc = param.type_descriptor
+                if desc.is_path or param.name in _CAPTURE_PARAMS:
+                    param.metavar = "PATH"
+                elif desc.is_choice:
+                    continue
+                else:
+                    base = desc.annotation
+                    args = typing.get_args(base) if desc.is_list else ()
+                    param.metavar = _METAVARS.get(args[0] if args else base, "TEXT")
+    return command
+
+
 def _signal_behind(exc: BaseException) -> tuple[str, int] | None:
     """The line and exit code of a Ctrl-C or SIGTERM that ``exc`` was raised from, if any.
 
@@ -908,7 +959,7 @@ def main() -> None:
 
     try:
         with command_line_words():  # the front door's messages keep their flags here
-            code = app(standalone_mode=False)
+            code = _conventional_help(typer.main.get_command(app))(standalone_mode=False)
         # without standalone mode click returns the exit code of an interrupt (130) instead of exiting
         if isinstance(code, int) and code != 0:
             if code == 130:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import shlex
 import sys
 import tempfile
 from collections.abc import Iterator
@@ -180,7 +181,10 @@ def scope_list(
     for f in found:
         table.add_row(f.resource, f.idn if f.idn is not None else f"[yellow]{f.problem}[/yellow]")
     con.print(table)
-    con.print("acquire: motorid acquire --resource RESOURCE --out ALL0000" + (" --simulate" if simulate else ""))
+    # the hint names a resource that answered (the first), quoted for the shell
+    answering = [f.resource for f in found if f.idn is not None] or [found[0].resource]
+    con.print(f"acquire: motorid acquire --resource {shlex.quote(answering[0])} --out ALL0000"
+              + (" --simulate" if simulate else ""), markup=False)
 
 
 def _pick_resource(rm: object, target: _Target) -> str:

@@ -17,6 +17,7 @@ import numpy as np
 
 from motorid.capture import ChannelInfo
 from motorid.errors import CaptureDataError, CaptureFormatError, MotorIdError, OutputExistsError
+from motorid.options import switch_words
 
 __all__ = [
     "CAREFUL_MAX_BYTES",
@@ -598,8 +599,8 @@ def check_writable(
                 where = ""
             if not force:  # with --force the committed file replaces the link, not what it points to
                 raise OutputExistsError(f"is a symbolic link{where}; an output is written where it is named: use "
-                                        "--force (force=True) to replace the link itself with the file, or give "
-                                        "another path", file=str(p))
+                                        f"{switch_words('--force', 'force')} to replace the link itself with the "
+                                        "file, or give another path", file=str(p))
         if folder:
             if p.exists() and not p.is_dir():
                 raise OptionError(f"is a file, not a folder: give {what} a folder to write into", file=str(p))
@@ -622,7 +623,8 @@ def check_writable(
         if not os.access(parent, os.W_OK | os.X_OK):
             raise OptionError(f"cannot write into the folder {parent} (permission denied) for {what}", file=str(p))
         if not folder and not force and p.exists():
-            raise OutputExistsError("already exists; use --force (force=True) to overwrite it", file=str(p))
+            raise OutputExistsError(f"already exists; use {switch_words('--force', 'force')} to overwrite it",
+                                    file=str(p))
 
 
 def rail_clipping_warning(values_v: np.ndarray, info: ChannelInfo, label: str) -> str | None:

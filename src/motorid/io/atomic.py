@@ -27,6 +27,7 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from motorid.errors import MotorIdError, OutputWriteError
+from motorid.options import switch_words
 
 __all__ = ["AtomicOutputs", "OutputWriteError", "atomic_folder", "atomic_outputs"]
 
@@ -206,8 +207,9 @@ class AtomicOutputs:
                         with contextlib.suppress(OSError):
                             t.unlink()
                     if isinstance(exc, FileExistsError):
-                        raise OutputExistsError("already exists (another run wrote it meanwhile); use --force "
-                                                "(force=True) to overwrite it", file=str(target)) from None
+                        raise OutputExistsError("already exists (another run wrote it meanwhile); use "
+                                                f"{switch_words('--force', 'force')} to overwrite it",
+                                                file=str(target)) from None
                     raise write_error(target, exc) from None
                 done.append(target)
         finally:
