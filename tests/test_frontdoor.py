@@ -15,6 +15,7 @@ import pytest
 
 import motorid as mi
 from motorid.errors import CaptureFormatError, MotorIdError, OptionError
+from motorid.numfmt import sig
 
 FRONT_DOOR = ("read_experiment", "identify", "design", "simulate", "write_report")
 
@@ -205,3 +206,22 @@ def test_results_cross_process_boundaries_and_stay_read_only(fit):
     with pytest.raises(TypeError):
         back.params["dc_gain"] = None  # type: ignore[index]
     np.testing.assert_array_equal(copy.deepcopy(fit).model.A, fit.model.A)
+
+
+def test_a_result_reads_in_a_notebook(fit):
+    """``repr`` is one line with the headline numbers (not the arrays), the HTML view a table of
+    the parameters with their intervals, and ``plot()`` the measured-vs-model figure."""
+    from matplotlib.figure import Figure
+
+    text = repr(fit)
+    assert text.startswith("<IdentificationResult ") and "\n" not in text and len(text) < 400, text
+    gain = fit.params["dc_gain"]
+    assert f"dc gain {sig(gain.value)} {gain.unit} [{sig(gain.ci95[0])}, {sig(gain.ci95[1])}]" in text
+    assert f"{len(fit.sanity.checks)}/{len(fit.sanity.checks)} checks passed" in text
+    page = fit._repr_html_()
+    assert page.count("<tr>") == 1 + len(fit.params) and "95 % interval" in page
+    fig = fit.plot()
+    assert isinstance(fig, Figure)
+    roles = [r for r in ("velocity", "position", "current") if r in fit.model.outputs]
+    assert [ax.get_title(loc="left") for ax in fig.axes[::2]] == roles
+    assert fig.axes[0].get_ylabel() == f"velocity ({fit.model.units.get('velocity') or 'V'})"

@@ -31,9 +31,12 @@ from motorid.frozen import frozen_getstate, frozen_setstate
 from motorid.capture import Capture
 from motorid.identification.result import ParameterEstimate
 from motorid.errors import OptionError
+from motorid.numfmt import complex_text, sig
 from motorid.options import speaks_as_called
 
 if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
     from motorid.control.design import Design
     from motorid.identification.hammerstein import MultiLevelResult
     from motorid.identification.pipeline import Identification
@@ -334,6 +337,55 @@ class IdentificationResult:
     provenance: Provenance
     experiment: Experiment
     identification: Identification
+
+    def __repr__(self) -> str:
+        """One line: method, structure, the headline numbers with their intervals, the checks."""
+        return f"<IdentificationResult {self._headline()}>"
+
+    def _headline(self) -> str:
+        m = self.model
+        parts = [f"{m.method}, {len(m.poles())} pole(s)"]
+        for key, label in (("dc_gain", "dc gain"), ("time_constant", "τ"), ("delay", "dead time")):
+            p = self.params.get(key)
+            if p is None:
+                continue
+            text = f"{label} {sig(complex(p.value).real)} {p.unit}".rstrip()
+            if p.ci95 is not None:
+                text += f" [{sig(p.ci95[0])}, {sig(p.ci95[1])}]"
+            parts.append(text)
+        failed = sum(1 for c in self.sanity.checks if not c.passed)
+        parts.append(f"{len(self.sanity.checks) - failed}/{len(self.sanity.checks)} checks passed")
+        if self.warnings:
+            parts.append(f"{len(self.warnings)} warning(s)")
+        return "; ".join(parts)
+
+    def _repr_html_(self) -> str:
+        """A notebook's view: the headline, the parameters with their intervals, the warnings."""
+        from html import escape
+
+        rows = []
+        for name, p in self.params.items():
+            ci = "" if p.ci95 is None else f"[{sig(p.ci95[0])}, {sig(p.ci95[1])}]"
+            err = "" if not math.isfinite(p.stderr) else sig(p.stderr)
+            value = complex_text(p.value) if isinstance(p.value, complex) else sig(float(p.value))
+            rows.append(f"<tr><td>{escape(name)}</td><td>{escape(value)}</td><td>{escape(err)}</td>"
+                        f"<td>{escape(ci)}</td><td>{escape(p.unit)}</td></tr>")
+        warn = "".join(f"<li>{escape(w)}</li>" for w in self.warnings)
+        return (f"<p><b>IdentificationResult</b>: {escape(self._headline())}</p>"
+                "<table><tr><th>parameter</th><th>value</th><th>std</th><th>95 % interval</th><th>unit</th></tr>"
+                + "".join(rows) + "</table>" + (f"<p>warnings:</p><ul>{warn}</ul>" if warn else ""))
+
+    def plot(self) -> Figure:
+        """Measured vs model step responses with their residuals, one pair of axes per channel.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The report's fit figure (data's units on the axes); ``fig.savefig(path)`` saves it.
+        """
+        from motorid.report.figures import step_fit_figure
+
+        return step_fit_figure(self.model, self.identification.conditioned)
 
     def summary(self) -> str:
         """The text ``motorid identify`` prints for the same captures and options.

@@ -343,9 +343,7 @@ def pole_zero(model: MotorModel) -> bytes:
 
 @styled
 def step_fit(model: MotorModel, cond: ConditionedExperiment) -> bytes:
-    """Measured vs model step responses with residuals (paper Figs. 27–28, 33–35).
-
-    One response above its residual per output, stacked, so that every panel is full width.
+    """Measured vs model step responses with residuals (paper Figs. 27–28, 33–35), as PNG.
 
     Parameters
     ----------
@@ -357,7 +355,29 @@ def step_fit(model: MotorModel, cond: ConditionedExperiment) -> bytes:
     Returns
     -------
     bytes
-        The PNG image.
+        The PNG image of :func:`step_fit_figure`.
+    """
+    return png(step_fit_figure(model, cond))
+
+
+@styled
+def step_fit_figure(model: MotorModel, cond: ConditionedExperiment) -> Figure:
+    """Measured vs model step responses with residuals (paper Figs. 27–28, 33–35).
+
+    One response above its residual per output, stacked, so that every panel is full width;
+    each axis in the data's unit.
+
+    Parameters
+    ----------
+    model : MotorModel
+        The identified model.
+    cond : ConditionedExperiment
+        The conditioned captures.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        A figure of its own (no pyplot manager): a notebook shows it, ``fig.savefig`` saves it.
     """
     t = cond.full_time_s
     roles = [r for r in ("velocity", "position", "current") if r in cond.full_outputs and r in model.outputs]
@@ -382,7 +402,7 @@ def step_fit(model: MotorModel, cond: ConditionedExperiment) -> bytes:
         top.tick_params(labelbottom=False)
         bottom.set_xlabel("time from the step (s)")
         bottom.set_ylabel(f"residual ({unit})")
-    return png(fig)
+    return fig
 
 
 @styled
