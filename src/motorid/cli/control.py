@@ -221,6 +221,8 @@ def design(
         ofb_poles = sorted(cast("np.ndarray", d.output_feedback_poles), key=lambda p: (p.real, p.imag))
         typer.echo("plant + observer + feedback poles (separation): " + roots_text(ofb_poles))
     typer.echo("Routh-Hurwitz: " + "; ".join(d.routh))
+    if d.margins is not None:
+        typer.echo("margins: " + d.margins.text())
     if d.dead_zone_v is not None:
         info = d.dead_zone_info()
         bound = info["steady_state_error_bound_v"]

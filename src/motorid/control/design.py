@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, cast
 
 import numpy as np
@@ -31,6 +31,7 @@ from motorid.control.feedback import (
     reference_gain,
 )
 from motorid.control.integral import integral_gains, integral_poly, routh_violations
+from motorid.control.margins import LoopMargins, loop_margins
 from motorid.control.observer import observer_gain, output_feedback_matrix
 from motorid.control.routh import affine_char_poly, routh_conditions
 from motorid.errors import OptionError
@@ -170,6 +171,9 @@ class Design:
         compensation by inverse dead-zone feed-forward (``u + u₀·sign(u)``).
     units : Mapping[str, str]
         The model's channel units (``{"velocity": "rpm"}``): a gain on the velocity is per rpm.
+    margins : LoopMargins or None
+        Gain, phase and delay margins, sensitivity peak and bandwidth of the loop on the model
+        it was designed for (:mod:`.margins`); None for a design read from a JSON without them.
     """
 
     states: tuple[str, ...]
@@ -187,6 +191,7 @@ class Design:
     transform: np.ndarray | None = None
     dead_zone_v: float | None = None
     units: Mapping[str, str] = field(default_factory=dict)
+    margins: LoopMargins | None = None
 
     @property
     def K_model(self) -> np.ndarray:
@@ -254,7 +259,8 @@ class Design:
             "routh": list(self.routh),
             "warnings": list(self.warnings),
         } | ({} if self.dead_zone_v is None else {"dead_zone": self.dead_zone_info()}) | (
-            {"units": dict(self.units)} if self.units else {})
+            {"units": dict(self.units)} if self.units else {}) | (
+            {} if self.margins is None else {"margins": self.margins.to_json()})
 
     def dead_zone_info(self) -> dict[str, Any]:
         """The dead-zone and the steady-state error it leaves, with and without compensation.
@@ -377,7 +383,19 @@ class Design:
         return cls(states, out, k, kr, ki, l_vec,
                    cl_poles if cl_poles is not None else np.zeros(0, complex),
                    poles("observer_poles"), poles("output_feedback_poles"), strings("routh"), strings("warnings"),
-                   model_states, transform, number_of(data.get("dead_zone")), _units(data.get("units")))
+                   model_states, transform, number_of(data.get("dead_zone")), _units(data.get("units")),
+                   _margins(data.get("margins")))
+
+
+def _margins(entry: Any) -> LoopMargins | None:
+    if entry is None:
+        return None
+    if not isinstance(entry, dict):
+        raise OptionError("not a motorid design: key 'margins' must be an object")
+    try:
+        return LoopMargins.from_json(entry)
+    except ValueError as exc:
+        raise OptionError(f"not a motorid design: {exc}") from None
 
 
 def _units(entry: Any) -> dict[str, str]:
@@ -613,9 +631,10 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
     warnings += _dead_time_warnings(model.delay_s, a, b, c, k, ki)
     changed = mr.changed
     nl = model.static_nonlinearity
-    return Design(tuple(work.states), out_name, k_row, kr, ki, l_col, cl, obs, ofb, tuple(routh),
-                  tuple(warnings), mr.source_states if changed else None, mr.transform if changed else None,
-                  None if nl is None else nl.dead_zone_v, dict(model.units))
+    design = Design(tuple(work.states), out_name, k_row, kr, ki, l_col, cl, obs, ofb, tuple(routh),
+                    tuple(warnings), mr.source_states if changed else None, mr.transform if changed else None,
+                    None if nl is None else nl.dead_zone_v, dict(model.units))
+    return replace(design, margins=loop_margins(model, design))
 
 
 def _requested_poles(s: DesignSettings, a: np.ndarray, b: np.ndarray, n: int, n_pair: int,

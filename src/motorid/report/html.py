@@ -534,6 +534,10 @@ def design_section(inp: ReportInputs) -> dict[str, Any]:
         return {"given": False}
     gain_rows = [["states", ", ".join(map(str, d.get("states") or []))]]
     gain_rows += [[words, _value_text(d.get(key))] for key, words in _DESIGN_ROWS if d.get(key) is not None]
+    if isinstance(d.get("margins"), dict):
+        from motorid.control.margins import LoopMargins
+
+        gain_rows.append(["margins", LoopMargins.from_json(d["margins"]).text()])
     view: dict[str, Any] = {"given": True, "gain_rows": gain_rows, "routh": [str(x) for x in d.get("routh") or []],
                             "closed_loop_png": "", "caption": "", "metric_rows": [], "note": str(d.get("note") or ""),
                             "modes_png": "", "modes_marker": "", **gain_units(inp.identification.model.units)}

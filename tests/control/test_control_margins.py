@@ -1,0 +1,98 @@
+"""Margins of a design against the same loop built independently, as python-control users do:
+the controller as a transfer function from the measured output to the command, times the motor."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import control
+import numpy as np
+import pytest
+
+import motorid as mi
+from motorid.control.design import design_model, output_row
+from motorid.control.margins import loop_margins
+
+
+@pytest.fixture(scope="module")
+def model(demo_run):
+    return mi.MotorModel.from_json(json.loads((demo_run.folder / "model.json").read_text()))
+
+
+def _independent(model, des):
+    """Stability margins and bandwidth from transfer functions: L = C_ctrl(s)·G(s)."""
+    work = design_model(model, des)
+    a, b = work.A, work.B.reshape(-1, 1)
+    c = output_row(work, des.output)[1].reshape(1, -1)
+    n = a.shape[0]
+    k = des.K.reshape(1, n)
+    motor = control.ss(a, b, c, 0.0)
+    if des.L is None:  # every state measured: the loop is K (sI − A)⁻¹ B (+ ki/s · G)
+        loop = control.tf(control.ss(a, b, k, 0.0))
+        if des.ki is not None:
+            loop = loop + control.tf([des.ki], [1, 0]) * control.tf(motor)
+    else:  # the observer (fed the command) and the integrator form a controller from y to u
+        l_col = des.L.reshape(n, 1)
+        a_c = a - b @ k - l_col @ c
+        if des.ki is None:
+            ctrl = control.ss(a_c, l_col, k, 0.0)
+        else:
+            a_c = np.block([[a_c, -b * des.ki], [np.zeros((1, n)), np.zeros((1, 1))]])
+            ctrl = control.ss(a_c, np.vstack([l_col, [[1.0]]]), np.hstack([k, [[des.ki]]]), 0.0)
+        loop = control.tf(ctrl) * control.tf(motor)
+    gm, pm, sm, _, wgc, _ = control.stability_margins(loop)
+    return gm, pm, sm, wgc
+
+
+@pytest.mark.parametrize("options", [
+    {"damping": 1.0, "wn": 8.0},
+    {"damping": 0.7, "wn": 5.0, "integral": True},
+    {"damping": 0.7, "wn": 5.0, "observer_poles": [-30, -32, -34, -36]},
+    {"damping": 0.7, "wn": 5.0, "integral": True, "observer_poles": [-30, -32, -34, -36]},
+])
+def test_margins_equal_the_loop_built_from_transfer_functions(model, options):
+    des = mi.design(model, **options)
+    got = des.margins
+    gm, pm, sm, wgc = _independent(model, des)
+    assert got.phase_deg == pytest.approx(pm, rel=1e-6, abs=1e-6)
+    assert got.crossover_rad_s == pytest.approx(wgc, rel=1e-6)
+    assert got.delay_s == pytest.approx(math.radians(pm) / wgc, rel=1e-6)
+    assert got.ms == pytest.approx(1 / sm, rel=1e-4)
+    if math.isfinite(gm):
+        assert got.gain_db == pytest.approx(20 * math.log10(gm), rel=1e-6, abs=1e-6)
+    else:
+        assert math.isinf(got.gain_db)
+    # the JSON carries them, and reads back
+    back = type(des).from_json(des.to_json())
+    assert back.margins.to_json() == got.to_json()
+
+
+def test_bandwidth_is_the_closed_loop_s(model):
+    des = mi.design(model, damping=1.0, wn=8.0)
+    work = design_model(model, des)
+    a, b = work.A, work.B.reshape(-1, 1)
+    c = output_row(work, des.output)[1].reshape(1, -1)
+    closed = control.ss(a - b @ des.K.reshape(1, -1), b * des.kr, c, 0.0)
+    assert des.margins.bandwidth_rad_s == pytest.approx(float(control.bandwidth(closed)), rel=1e-4)
+
+
+def test_the_model_s_dead_time_eats_phase_margin(model):
+    """A dead time τ at the motor's input turns the phase at the crossover by ω_c·τ: the phase
+    margin drops by that much (within the Padé approximant's error) and so does the delay margin."""
+    des = mi.design(model, damping=1.0, wn=8.0)
+    base = des.margins
+    tau = 0.2 * base.delay_s
+    late = loop_margins(model.replace(delay_s=tau), des)
+    assert late.dead_time_s == tau
+    assert late.crossover_rad_s == pytest.approx(base.crossover_rad_s, rel=1e-3)
+    assert late.phase_deg == pytest.approx(base.phase_deg - math.degrees(base.crossover_rad_s * tau), abs=0.05)
+    assert late.delay_s == pytest.approx(base.delay_s - tau, rel=2e-3)
+
+
+def test_the_design_printout_says_the_margins(demo_run, run_cli):
+    res = run_cli("design", str(demo_run.folder / "model.json"), "--damping", "1", "--wn", "8")
+    assert res.code == 0, res.err
+    line = next(ln for ln in res.out.splitlines() if ln.startswith("margins: "))
+    assert "gain margin" in line and "phase margin" in line and "delay margin" in line and "Ms " in line
+    assert "bandwidth" in line and "rad/s" in line
