@@ -695,6 +695,7 @@ def simulate(
     z0: float = 0.0,
     xhat0: Sequence[float] | None = None,
     trainer_preset: str = "lab-report",
+    anti_windup: bool | None = None,
 ) -> SimulationResult:
     """Run a design in closed loop on the model or the virtual trainer (``motorid simulate``).
 
@@ -727,6 +728,10 @@ def simulate(
         Initial integrator state.
     trainer_preset : str
         Trainer preset for ``plant="trainer"``.
+    anti_windup : bool, optional
+        Hold the integrator while the command is beyond a rail and its error would push it
+        further (conditional integration). Default: on when ``saturation`` is given and the
+        design integrates.
 
     Returns
     -------
@@ -746,7 +751,7 @@ def simulate(
     settings = _simulation_settings(
         duration_s=duration_s, reference=reference, level_v=level_v, saturation=saturation, disturbance=disturbance,
         disturbance_start_s=disturbance_start_s, plant=plant, dt_s=dt_s, x0=x0, z0=z0, xhat0=xhat0,
-        trainer_preset=trainer_preset)
+        trainer_preset=trainer_preset, anti_windup=anti_windup)
     if plant == "trainer":
         from motorid.trainer.closed_loop import simulate_on_trainer
 
@@ -768,6 +773,7 @@ def _simulation_settings(
     z0: float,
     xhat0: Sequence[float] | None,
     trainer_preset: str,
+    anti_windup: bool | None = None,
 ) -> SimulationSettings:
     """:func:`simulate`'s keyword options as the simulator's settings (the report takes the same)."""
     from motorid.simulation.closed_loop import ReferenceSignal, SimulationSettings
@@ -785,6 +791,7 @@ def _simulation_settings(
         xhat0=None if xhat0 is None else tuple(float(v) for v in xhat0),
         plant=plant,
         trainer_preset=trainer_preset,
+        anti_windup=anti_windup,
     )
 
 

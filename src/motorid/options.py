@@ -129,6 +129,8 @@ SIMULATE: tuple[OptionSpec, ...] = (
     OptionSpec("z0", "--z0", 0.0, "", "initial integrator state"),
     OptionSpec("xhat0", "--xhat0", None, "", "initial observer estimate"),
     OptionSpec("trainer_preset", "--preset", "lab-report", "", "trainer preset for plant=trainer"),
+    OptionSpec("anti_windup", "--anti-windup", None, "",
+               "hold the integrator against the rails (default: on with saturation and integral action)"),
 )
 
 #: Each front-door function's options, by the command's name.

@@ -269,6 +269,10 @@ def simulate(
         "--compensate-dead-zone",
         help="Add the model's dead-zone to the command (inverse dead-zone feed-forward; a model identified "
              "from several step levels).")] = False,
+    anti_windup: Annotated[bool | None, typer.Option(
+        "--anti-windup/--no-anti-windup",
+        help="Hold the integrator while the command is beyond a rail and its error would push it further "
+             "(conditional integration; default: on with --saturation and integral action).")] = None,
     csv_out: Annotated[Path | None, typer.Option("--csv", help="Write the time series as CSV.")] = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write metrics and series as JSON.")] = None,
     png: Annotated[Path | None, typer.Option("--png", help="Write a plot.")] = None,
@@ -302,7 +306,7 @@ def simulate(
                                   frequency_hz=frequency, start_s=start),
         saturation_v=saturation, disturbance_v=disturbance, disturbance_start_s=disturbance_start,
         x0=_floats(x0, "--x0"), z0=z0, xhat0=_floats(xhat0, "--xhat0"), plant=plant, trainer_preset=preset,
-        dead_zone_compensation=compensate_dead_zone,
+        dead_zone_compensation=compensate_dead_zone, anti_windup=anti_windup,
     )
     model = load_model(model_file)
     d = _load_design(design_file)

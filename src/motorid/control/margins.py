@@ -188,18 +188,32 @@ def loop_margins(model: MotorModel, design: Design) -> LoopMargins:
     _, c = output_row(work, design.output)
     c = np.asarray(c, float).reshape(1, -1)
     tau = float(model.delay_s)
-    pade = control.tf(*control.pade(tau, PADE_ORDER)) if tau > 0 else None
     a_l, b_l, c_l = _loop_matrices(a, b, c, design, observer=True)
+    fastest = max(float(np.max(np.abs(np.linalg.eigvals(a_l)), initial=0.0)), 1.0)
+    # a dead time far below the loop's time scales (an identified 1e-11 s) turns no phase; its
+    # Padé approximant would only put coefficients of 1e-88 into the polynomials
+    pade = control.tf(*control.pade(tau, PADE_ORDER)) if tau * fastest > 1e-6 else None
     loop = control.ss(a_l, b_l, c_l, 0.0)
     if pade is not None:
         loop = loop * control.ss(pade)
-    gm, pm, sm, _wpc, wgc, _wms = control.stability_margins(loop)
+    try:
+        gm, pm, sm, _wpc, wgc, _wms = control.stability_margins(loop)
+    except (np.linalg.LinAlgError, ValueError, FloatingPointError):
+        # the polynomial method failed numerically: python-control's frequency-response method
+        omega = np.logspace(np.log10(fastest) - 6, np.log10(fastest) + 3, 20000)
+        gm, pm, sm, _wpc, wgc, _wms = control.stability_margins(control.frd(loop, omega), method="frd")
     gain_db = 20 * math.log10(gm) if gm is not None and math.isfinite(gm) and gm > 0 else math.inf
     phase = float(pm) if pm is not None and math.isfinite(pm) else math.inf
     wgc = float(wgc) if wgc is not None and math.isfinite(wgc) and wgc > 0 else math.nan
     delay = math.radians(phase) / wgc if math.isfinite(phase) and math.isfinite(wgc) else math.inf
-    ms = 1.0 / float(sm) if sm is not None and float(sm) > 0 else math.inf
-    return LoopMargins(gain_db, phase, delay, wgc, ms, _bandwidth(a, b, c, design, pade), tau)
+    # the sensitivity peak also on a grid: python-control finds the stationary points of |1 + L|,
+    # and a loop whose |1 + L| only falls towards ω → 0 or ∞ has none
+    omega = np.logspace(np.log10(fastest) - 6, np.log10(fastest) + 3, 2000)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        grid_ms = float(np.nanmax(1.0 / np.abs(1.0 + np.ravel(loop(1j * omega)))))
+    ms = max(grid_ms, 1.0 / float(sm) if sm is not None and math.isfinite(sm) and float(sm) > 0 else 0.0)
+    used = tau if pade is not None else 0.0
+    return LoopMargins(gain_db, phase, delay, wgc, ms, _bandwidth(a, b, c, design, pade), used)
 
 
 def _bandwidth(a: np.ndarray, b: np.ndarray, c: np.ndarray, design: Design, pade: Any) -> float:

@@ -107,6 +107,10 @@ class SimulationSettings:
         Add the model's dead-zone to the controller's command (inverse dead-zone
         feed-forward, :meth:`StaticNonlinearity.compensate`); needs a model with a static
         nonlinearity.
+    anti_windup : bool or None
+        Integral action against the rails by conditional integration: the integrator holds
+        while the command is beyond a rail and its error would push it further. ``None``
+        (default): on when there are rails (``saturation_v``) and the design integrates.
     """
 
     duration_s: float = 5.0
@@ -121,6 +125,7 @@ class SimulationSettings:
     plant: str = "linear"
     trainer_preset: str = "lab-report"
     dead_zone_compensation: bool = False
+    anti_windup: bool | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.duration_s) and self.duration_s > 0):
@@ -189,6 +194,8 @@ class SimulationResult:
     units : Mapping[str, str]
         The model's channel units: the output, the reference and the errors are in
         :attr:`output_unit`; ``u`` is in volts.
+    anti_windup : bool
+        The integrator was held against the rails (conditional integration).
     """
 
     time_s: np.ndarray
@@ -204,6 +211,7 @@ class SimulationResult:
     metrics: ResponseMetrics
     warnings: tuple[str, ...] = ()
     units: Mapping[str, str] = field(default_factory=dict)
+    anti_windup: bool = False
 
     @property
     def output_unit(self) -> str:
@@ -271,6 +279,7 @@ class SimulationResult:
             "output_unit": self.output_unit,
             "metrics": {k: clean(getattr(m, k)) for k in m.__slots__},
             "warnings": list(self.warnings),
+            "anti_windup": self.anti_windup,
             "series": {k: [clean(x) for x in v] for k, v in self.columns().items()},
         }
 
@@ -500,6 +509,7 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
     xh = _vector(s.xhat0, n, "--xhat0")
     z = float(s.z0)
     sat = math.inf if s.saturation_v is None else float(s.saturation_v)
+    hold = ki is not None and (s.anti_windup if s.anti_windup is not None else s.saturation_v is not None)
     warnings: list[str] = []
 
     phi, gam = _zoh(a, b, s.dt_s)
@@ -565,7 +575,12 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
                     u_plant = float(nl.effective_input(u_plant))
                 x = phi @ x + gam[:, 0] * (u_plant + d[i])
             if zs is not None:
-                z += s.dt_s * (y - r[i])  # exact: y − r is held over the interval
+                e = y - r[i]
+                # conditional integration: integrating e moves the command by −ki·e·dt; hold
+                # the integrator while the command is beyond a rail and e would push it further
+                if hold and ki is not None and ((u_req > sat and ki * e < 0) or (u_req < -sat and ki * e > 0)):
+                    e = 0.0
+                z += s.dt_s * e  # exact: y − r is held over the interval
             if use_obs:
                 u_obs = u if nl is None else float(nl.effective_input(u))
                 xh = phi_o @ xh + gam_o @ np.array([u_obs, y])
@@ -577,9 +592,30 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
                         "unstable")
     if s.saturation_v is not None and np.any(np.abs(uraw) > sat):
         warnings.append(f"the actuator saturated (|u| reached {np.nanmax(np.abs(uraw)):.3g} V > {sat:g} V)")
+        warnings += _rail_to_rail(us, sat, integral=ki is not None, held=hold)
     metrics = response_metrics(t, ys, r, us, s.reference.kind == "step")
     return SimulationResult(t, r, ys, us, uraw, xs, xhs, zs, tuple(model.states), design.output, metrics,
-                            tuple(warnings), dict(model.units))
+                            tuple(warnings), dict(model.units), bool(hold))
+
+
+#: Rail-to-rail swings of the applied command in the last half of a run that make a limit cycle
+#: (two: from one rail to the other and back, a whole period still going on).
+LIMIT_CYCLE_SWINGS = 2
+
+
+def _rail_to_rail(u: np.ndarray, sat: float, *, integral: bool, held: bool) -> list[str]:
+    """A warning when the command swings from rail to rail in the last half of the run (a limit cycle)."""
+    tail = u[u.size // 2:]
+    rails = np.where(tail >= sat * (1 - 1e-9), 1, np.where(tail <= -sat * (1 - 1e-9), -1, 0))
+    visits = rails[rails != 0]
+    swings = int(np.count_nonzero(np.diff(visits))) if visits.size else 0
+    if swings < LIMIT_CYCLE_SWINGS:
+        return []
+    why = ("the integrator winds up while the command sits on a rail; simulate with anti-windup (the default "
+           "with --saturation) or ask for slower poles" if integral and not held else
+           "the loop is too fast for the rails: ask for slower poles, a smaller step, or wider rails")
+    return [f"the loop limit-cycles between the rails: the command swung from ±{sat:g} V to ∓{sat:g} V {swings} "
+            f"times in the last half of the run — {why}"]
 
 
 def simulation_figure(result: SimulationResult, title: str = "", *, rails_v: float | None = None,

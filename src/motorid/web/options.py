@@ -251,4 +251,8 @@ def simulate_options(body: Mapping[str, Any]) -> dict[str, Any]:
             if not isinstance(body[name], list):
                 raise OptionError(f"{name}: give a list of numbers")
             out[name] = [_json_number(name, v, optional=False) for v in body[name]]
+    if body.get("anti_windup") is not None:
+        if not isinstance(body["anti_windup"], bool):
+            raise OptionError(f"anti_windup={body['anti_windup']!r}: give true, false or null")
+        out["anti_windup"] = body["anti_windup"]
     return out
