@@ -177,3 +177,15 @@ def test_first_order_cancels_slow_artifact_pairs_but_keeps_fast_ones() -> None:
     fo = fast.first_order()
     assert fo.dc_gain == pytest.approx(0.92, rel=1e-9)
     assert fo.time_constant_s == pytest.approx(sum(-1 / x for x in p) - sum(-1 / x for x in z), rel=1e-9)
+
+
+def test_python_control_systems_carry_named_signals_with_units():
+    """``u [V]`` → ``velocity [rpm]``: a system printed or interconnected by name says what it is."""
+    from motorid.model.motor import model_from_velocity_tf
+
+    m = model_from_velocity_tf([2.0], [0.5, 1.0], with_position=True).replace(units={"velocity": "rpm"})
+    assert m.velocity_tf.input_labels == ["u [V]"] and m.velocity_tf.output_labels == ["velocity [rpm]"]
+    assert m.position_tf.output_labels == ["position [V]"]
+    sys = m.ss()
+    assert sys.input_labels == ["u [V]"]
+    assert sys.output_labels == [f"{ch} [{'rpm' if ch == 'velocity' else 'V'}]" for ch in m.outputs]

@@ -13,11 +13,13 @@ python-control computes the margins (:func:`control.stability_margins`) and the 
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import scipy.signal
 
 if TYPE_CHECKING:
     from motorid.control.design import Design
@@ -209,7 +211,9 @@ def loop_margins(model: MotorModel, design: Design) -> LoopMargins:
     # the sensitivity peak also on a grid: python-control finds the stationary points of |1 + L|,
     # and a loop whose |1 + L| only falls towards ω → 0 or ∞ has none
     omega = np.logspace(np.log10(fastest) - 6, np.log10(fastest) + 3, 2000)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore"), warnings.catch_warnings():
+        # a loop pole on the imaginary axis (an integrator) makes one grid point singular: NaN, skipped
+        warnings.filterwarnings("ignore", "singular matrix in frequency response", RuntimeWarning)
         grid_ms = float(np.nanmax(1.0 / np.abs(1.0 + np.ravel(loop(1j * omega)))))
     ms = max(grid_ms, 1.0 / float(sm) if sm is not None and math.isfinite(sm) and float(sm) > 0 else 0.0)
     used = tau if pade is not None else 0.0
@@ -231,9 +235,13 @@ def _bandwidth(a: np.ndarray, b: np.ndarray, c: np.ndarray, design: Design, pade
         ref = control.tf([design.kr if design.kr is not None else 1.0], [1.0])
     # as a transfer function: minreal of a state-space model needs slycot; the integrator of the
     # reference path cancels against the zero at s = 0 the loop's integrator puts in ``command``
-    closed = control.minreal(control.tf(motor) * control.tf(command) * ref, verbose=False)
-    try:
-        bw = float(control.bandwidth(closed))
-    except (ValueError, TypeError, ZeroDivisionError):  # no finite DC gain
-        return math.nan
+    with warnings.catch_warnings():
+        # the conversion leaves numerator coefficients at rounding level, which scipy flags
+        # (here and where python-control takes the poles of the result)
+        warnings.simplefilter("ignore", scipy.signal.BadCoefficients)
+        closed = control.minreal(control.tf(motor) * control.tf(command) * ref, verbose=False)
+        try:
+            bw = float(control.bandwidth(closed))
+        except (ValueError, TypeError, ZeroDivisionError):  # no finite DC gain
+            return math.nan
     return bw if math.isfinite(bw) else math.nan

@@ -58,6 +58,8 @@ __all__ = [
 ]
 
 CHANNELS = ("position", "velocity", "current")
+#: The input signal's name on the python-control systems: the amplifier's command, in volts.
+INPUT_SIGNAL = "u [V]"
 
 
 
@@ -326,8 +328,23 @@ class MotorModel:
         """
         import control
 
-        return control.ss(self.A, self.B, self.C, self.D, inputs=["u"],
-                          outputs=list(self.outputs), states=list(self.states))
+        return control.ss(self.A, self.B, self.C, self.D, inputs=[INPUT_SIGNAL],
+                          outputs=[self.signal_name(ch) for ch in self.outputs], states=list(self.states))
+
+    def signal_name(self, channel: str) -> str:
+        """A channel's name with its unit, as the python-control systems carry it (``velocity [rpm]``).
+
+        Parameters
+        ----------
+        channel : str
+            ``velocity``, ``position`` or ``current``.
+
+        Returns
+        -------
+        str
+            ``"<channel> [<unit>]"``, the unit being the data's (``V`` for scope volts).
+        """
+        return f"{channel} [{self.units.get(channel) or 'V'}]"
 
     def _row(self, channel: str) -> tuple[np.ndarray, np.ndarray]:
         i = self.outputs.index(channel)
@@ -386,14 +403,15 @@ class MotorModel:
         """Input volts → velocity-channel volts, ``den[0] == 1`` (Masoud 2019, eq. 9)."""
         import control
 
-        return control.tf(*self._row_tf("velocity"))
+        return control.tf(*self._row_tf("velocity"), inputs=INPUT_SIGNAL, outputs=self.signal_name("velocity"))
 
     @property
     def position_tf(self) -> control.TransferFunction:
         """Input volts → position channel; velocity TF / s when there is no position output."""
         import control
 
-        return control.tf(*self.tf_coefficients("position"))
+        return control.tf(*self.tf_coefficients("position"), inputs=INPUT_SIGNAL,
+                          outputs=self.signal_name("position"))
 
     @property
     def current_tf(self) -> control.TransferFunction | None:
@@ -403,7 +421,7 @@ class MotorModel:
             return None
         import control
 
-        return control.tf(*coeffs)
+        return control.tf(*coeffs, inputs=INPUT_SIGNAL, outputs=self.signal_name("current"))
 
     def poles(self) -> np.ndarray:
         """Poles of the velocity transfer function (complex array).
