@@ -96,3 +96,18 @@ def test_the_design_printout_says_the_margins(demo_run, run_cli):
     line = next(ln for ln in res.out.splitlines() if ln.startswith("margins: "))
     assert "gain margin" in line and "phase margin" in line and "delay margin" in line and "Ms " in line
     assert "bandwidth" in line and "rad/s" in line
+
+
+@pytest.mark.parametrize("delay_s", [0.0, 0.01])
+def test_the_plotted_loop_crosses_where_the_margins_say(model, delay_s):
+    """The report's Bode/Nyquist data: |L| = 1 at the crossover and the phase there is −180° + the
+    phase margin (the dead time exact on the plot, a Padé approximant in the margins)."""
+    from motorid.control.margins import loop_frequency_response
+
+    m = model.replace(delay_s=delay_s)
+    des = mi.design(m, damping=1.0, wn=8.0)
+    omega, resp = loop_frequency_response(m, des, points=4000)
+    mg = loop_margins(m, des)
+    i = int(np.argmin(np.abs(np.log(omega / mg.crossover_rad_s))))
+    assert abs(resp[i]) == pytest.approx(1.0, rel=5e-3)
+    assert math.degrees(np.angle(resp[i])) == pytest.approx(-180.0 + mg.phase_deg, abs=0.3)

@@ -85,6 +85,8 @@ def test_identify_report_with_design_shows_closed_loop_and_modes(demo, run_cli, 
     design = html[html.index('<section id="design">'):]
     assert 'alt="closed loop"' in design and 'alt="mode map"' in design and "settling time (2 %)" in design
     assert 'alt="ALL0003"' in html  # the validation overlay
+    # the loop's margins, in the gains table and as Bode and Nyquist plots
+    assert 'alt="loop Bode and Nyquist"' in design and "phase margin" in design and "Ms " in design
 
 
 def test_report_simulates_a_design_made_on_the_default_model(demo, run_cli, tmp_path):

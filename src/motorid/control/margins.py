@@ -25,7 +25,7 @@ if TYPE_CHECKING:
     from motorid.control.design import Design
     from motorid.model import MotorModel
 
-__all__ = ["PADE_ORDER", "LoopMargins", "loop_margins"]
+__all__ = ["PADE_ORDER", "LoopMargins", "loop_frequency_response", "loop_margins"]
 
 #: Order of the Padé approximant of the model's dead time in the loop.
 PADE_ORDER = 8
@@ -218,6 +218,39 @@ def loop_margins(model: MotorModel, design: Design) -> LoopMargins:
     ms = max(grid_ms, 1.0 / float(sm) if sm is not None and math.isfinite(sm) and float(sm) > 0 else 0.0)
     used = tau if pade is not None else 0.0
     return LoopMargins(gain_db, phase, delay, wgc, ms, _bandwidth(a, b, c, design, pade), used)
+
+
+def loop_frequency_response(model: MotorModel, design: Design, points: int = 800) -> tuple[np.ndarray, np.ndarray]:
+    """``L(jω)`` of the loop :func:`loop_margins` checks, the model's dead time exact (``e^{−jωτ}``).
+
+    Parameters
+    ----------
+    model : MotorModel
+        The model the design was made for.
+    design : Design
+        The controller.
+    points : int
+        Frequencies, log-spaced over five decades around the loop's fastest pole.
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        ``ω`` (rad/s) and the complex ``L(jω)`` (NaN where a loop pole sits on the axis).
+    """
+    import control
+
+    from motorid.control.design import design_model, output_row
+
+    work = design_model(model, design)
+    a, b = np.asarray(work.A, float), np.asarray(work.B, float).reshape(-1, 1)
+    c = np.asarray(output_row(work, design.output)[1], float).reshape(1, -1)
+    a_l, b_l, c_l = _loop_matrices(a, b, c, design, observer=True)
+    fastest = max(float(np.max(np.abs(np.linalg.eigvals(a_l)), initial=0.0)), 1.0)
+    omega = np.logspace(np.log10(fastest) - 4, np.log10(fastest) + 1, points)
+    with np.errstate(divide="ignore", invalid="ignore"), warnings.catch_warnings():
+        warnings.filterwarnings("ignore", "singular matrix in frequency response", RuntimeWarning)
+        resp = np.ravel(control.ss(a_l, b_l, c_l, 0.0)(1j * omega))
+    return omega, resp * np.exp(-1j * omega * float(model.delay_s))
 
 
 def _bandwidth(a: np.ndarray, b: np.ndarray, c: np.ndarray, design: Design, pade: Any) -> float:

@@ -406,6 +406,61 @@ def step_fit_figure(model: MotorModel, cond: ConditionedExperiment) -> Figure:
 
 
 @styled
+def loop_bode_nyquist(omega: np.ndarray, loop: np.ndarray, margins: Mapping[str, Any]) -> bytes:
+    """Bode and Nyquist plots of a design's loop, broken at the motor's input, its margins marked.
+
+    Parameters
+    ----------
+    omega : ndarray
+        Frequencies (rad/s).
+    loop : ndarray
+        ``L(jω)`` (complex).
+    margins : Mapping
+        The design JSON's ``margins`` (``crossover_rad_s``, ``phase_deg``, ``gain_db``, ``ms``).
+
+    Returns
+    -------
+    bytes
+        The PNG image.
+    """
+    fig = Figure(figsize=(FULL_WIDTH_IN, 4.2), layout="constrained")
+    grid = fig.add_gridspec(2, 2, width_ratios=[1.6, 1])
+    mag, ph, nyq = fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[1, 0]), fig.add_subplot(grid[:, 1])
+    ph.sharex(mag)
+    ok = np.isfinite(loop)
+    w, L = omega[ok], loop[ok]
+    mag.semilogx(w, 20 * np.log10(np.abs(L)))
+    mag.axhline(0.0, color="k", lw=0.6)
+    mag.set_ylabel("|L| (dB)")
+    mag.tick_params(labelbottom=False)
+    ph.semilogx(w, np.degrees(np.unwrap(np.angle(L))))
+    ph.axhline(-180.0, color="k", lw=0.6)
+    ph.set_ylabel("phase of L (°)")
+    ph.set_xlabel("ω (rad/s)")
+    wc, pm = margins.get("crossover_rad_s"), margins.get("phase_deg")
+    if wc is not None and pm is not None:
+        for ax in (mag, ph):
+            ax.axvline(wc, color="C3", ls="--", lw=0.8)
+        ph.annotate(f"phase margin {pm:.3g}°", (wc, -180.0 + pm), color="C3", xytext=(4, 4),
+                    textcoords="offset points")
+    nyq.plot(L.real, L.imag, lw=1.2, label="L(jω), ω > 0")
+    nyq.plot(L.real, -L.imag, lw=0.8, ls=":", color="C0")
+    nyq.plot([-1.0], [0.0], "+", color="C3", ms=10, mew=2)
+    ms = margins.get("ms")
+    if ms:  # the Ms circle: |1 + L| ≥ 1/Ms everywhere
+        theta = np.linspace(0, 2 * np.pi, 200)
+        nyq.plot(-1 + np.cos(theta) / ms, np.sin(theta) / ms, color="C3", lw=0.8, ls="--",
+                 label=f"|1 + L| = 1/Ms (Ms {ms:.3g})")
+    nyq.set_xlim(-3, 1.5)
+    nyq.set_ylim(-2.5, 2.5)
+    nyq.set_aspect("equal", adjustable="datalim")
+    nyq.set_xlabel("Re L")
+    nyq.set_ylabel("Im L")
+    nyq.legend(loc="lower right", fontsize="small")
+    return png(fig)
+
+
+@styled
 def hankel_values(scaled: Sequence[float], raw: Sequence[float], floor: float | None) -> bytes:
     """Normalised Hankel singular values, time-scaled and raw (order evidence, paper §IV).
 

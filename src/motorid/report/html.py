@@ -534,13 +534,23 @@ def design_section(inp: ReportInputs) -> dict[str, Any]:
         return {"given": False}
     gain_rows = [["states", ", ".join(map(str, d.get("states") or []))]]
     gain_rows += [[words, _value_text(d.get(key))] for key, words in _DESIGN_ROWS if d.get(key) is not None]
+    loop_png = ""
     if isinstance(d.get("margins"), dict):
-        from motorid.control.margins import LoopMargins
+        from motorid.control.design import Design
+        from motorid.control.margins import LoopMargins, loop_frequency_response
+        from motorid.errors import MotorIdError
 
         gain_rows.append(["margins", LoopMargins.from_json(d["margins"]).text()])
+        try:
+            response = loop_frequency_response(inp.identification.model, Design.from_json(d))
+        except MotorIdError:  # a design for another model's states: its margins row stays, no plot
+            response = None
+        if response is not None:
+            loop_png = figures.data_uri(figures.loop_bode_nyquist(*response, d["margins"]))
     view: dict[str, Any] = {"given": True, "gain_rows": gain_rows, "routh": [str(x) for x in d.get("routh") or []],
                             "closed_loop_png": "", "caption": "", "metric_rows": [], "note": str(d.get("note") or ""),
-                            "modes_png": "", "modes_marker": "", **gain_units(inp.identification.model.units)}
+                            "modes_png": "", "modes_marker": "", "loop_png": loop_png,
+                            **gain_units(inp.identification.model.units)}
     sim = d.get("simulation")
     if sim:
         metrics = sim.get("metrics") or {}
