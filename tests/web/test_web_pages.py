@@ -198,3 +198,20 @@ def test_page_errors_are_the_cli_line_in_the_error_box(client, demo_files):
     assert res.status_code == 422 and "two captures have the role position" in res.text
     res = client.post(f"/tab/{tab}/identify", data={f"role_{k}": v for k, v in ROLES.items()} | {"order": "7"})
     assert res.status_code == 422 and "order" in res.text
+
+
+def test_numbers_on_the_page_are_written_as_in_the_terminal(client, demo_files):
+    """No ``-0`` step time, a double pole once, the margins of the design — as the CLI prints them."""
+    from motorid.numfmt import roots_text
+
+    pages: list[str] = []
+    tab = _identified_tab(client, demo_files, pages)
+    cells = re.findall(r"<td>(-?[0-9][^<]*)</td>", pages[0])
+    assert cells and "-0" not in cells
+    res = client.post(f"/tab/{tab}/design", data={"damping": "1", "wn": "6", "level": "5", "duration": "3"})
+    assert res.status_code == 200, res.text
+    des = client.get(f"/tab/{tab}/download/design.json").json()
+    poles = [complex(re_, im) for re_, im in des["closed_loop_poles"]]
+    assert f"closed-loop poles: {roots_text(sorted(poles, key=lambda p: (p.real, p.imag)))}" in res.text
+    assert "(double)" in res.text and "± 0.000j" not in res.text
+    assert "margins: gain margin" in res.text and "phase margin" in res.text

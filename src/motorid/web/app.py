@@ -24,6 +24,7 @@ from fastapi.staticfiles import StaticFiles
 from fastapi.templating import Jinja2Templates
 
 from motorid.errors import MotorIdError, OptionError
+from motorid.numfmt import roots_text, sig
 from motorid.web.guard import LOCAL_HOSTS, LocalOnly
 from motorid.web.tabs import TabStore
 from motorid.web.uploads import UploadLimits
@@ -146,6 +147,9 @@ def create_app(settings: WebSettings | None = None) -> FastAPI:
     app.state.settings = settings
     templates = Jinja2Templates(directory=str(_HERE / "templates"))
     templates.env.filters["b64"] = lambda data: base64.b64encode(data).decode("ascii")
+    # numbers as the terminal writes them: four figures, never "-0", a pair or a double pole once
+    templates.env.filters["sig"] = sig
+    templates.env.filters["roots"] = lambda values: roots_text(sorted(values, key=lambda p: (p.real, p.imag)))
     app.state.templates = templates
     app.mount("/static", StaticFiles(directory=str(_HERE / "static")), name="static")
 
