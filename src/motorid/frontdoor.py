@@ -353,8 +353,8 @@ class IdentificationResult:
             if p.ci95 is not None:
                 text += f" [{sig(p.ci95[0])}, {sig(p.ci95[1])}]"
             parts.append(text)
-        failed = sum(1 for c in self.sanity.checks if not c.passed)
-        parts.append(f"{len(self.sanity.checks) - failed}/{len(self.sanity.checks)} checks passed")
+        checks = len(self.sanity.checks)
+        parts.append(f"{checks - len(self.sanity.failures)}/{checks} checks passed")
         if self.warnings:
             parts.append(f"{len(self.warnings)} warning(s)")
         return "; ".join(parts)
@@ -773,7 +773,7 @@ def _simulation_settings(
     z0: float,
     xhat0: Sequence[float] | None,
     trainer_preset: str,
-    anti_windup: bool | None = None,
+    anti_windup: bool | None,
 ) -> SimulationSettings:
     """:func:`simulate`'s keyword options as the simulator's settings (the report takes the same)."""
     from motorid.simulation.closed_loop import ReferenceSignal, SimulationSettings

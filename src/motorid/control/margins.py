@@ -183,15 +183,10 @@ def loop_margins(model: MotorModel, design: Design) -> LoopMargins:
     """
     import control
 
-    from motorid.control.design import design_model, output_row
-
-    work = design_model(model, design)
-    a, b = np.asarray(work.A, float), np.asarray(work.B, float).reshape(-1, 1)
-    _, c = output_row(work, design.output)
-    c = np.asarray(c, float).reshape(1, -1)
-    tau = float(model.delay_s)
+    a, b, c = _design_plant(model, design)
     a_l, b_l, c_l = _loop_matrices(a, b, c, design, observer=True)
-    fastest = max(float(np.max(np.abs(np.linalg.eigvals(a_l)), initial=0.0)), 1.0)
+    fastest = _fastest(a_l)
+    tau = float(model.delay_s)
     # a dead time far below the loop's time scales (an identified 1e-11 s) turns no phase; its
     # Padé approximant would only put coefficients of 1e-88 into the polynomials
     pade = control.tf(*control.pade(tau, PADE_ORDER)) if tau * fastest > 1e-6 else None
@@ -211,10 +206,8 @@ def loop_margins(model: MotorModel, design: Design) -> LoopMargins:
     # the sensitivity peak also on a grid: python-control finds the stationary points of |1 + L|,
     # and a loop whose |1 + L| only falls towards ω → 0 or ∞ has none
     omega = np.logspace(np.log10(fastest) - 6, np.log10(fastest) + 3, 2000)
-    with np.errstate(divide="ignore", invalid="ignore"), warnings.catch_warnings():
-        # a loop pole on the imaginary axis (an integrator) makes one grid point singular: NaN, skipped
-        warnings.filterwarnings("ignore", "singular matrix in frequency response", RuntimeWarning)
-        grid_ms = float(np.nanmax(1.0 / np.abs(1.0 + np.ravel(loop(1j * omega)))))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        grid_ms = float(np.nanmax(1.0 / np.abs(1.0 + _response(loop, omega))))
     ms = max(grid_ms, 1.0 / float(sm) if sm is not None and math.isfinite(sm) and float(sm) > 0 else 0.0)
     used = tau if pade is not None else 0.0
     return LoopMargins(gain_db, phase, delay, wgc, ms, _bandwidth(a, b, c, design, pade), used)
@@ -239,18 +232,33 @@ def loop_frequency_response(model: MotorModel, design: Design, points: int = 800
     """
     import control
 
+    a, b, c = _design_plant(model, design)
+    a_l, b_l, c_l = _loop_matrices(a, b, c, design, observer=True)
+    fastest = _fastest(a_l)
+    omega = np.logspace(np.log10(fastest) - 4, np.log10(fastest) + 1, points)
+    resp = _response(control.ss(a_l, b_l, c_l, 0.0), omega)
+    return omega, resp * np.exp(-1j * omega * float(model.delay_s))
+
+
+def _design_plant(model: MotorModel, design: Design) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(A, B, C)`` of ``model`` in the design's coordinates, ``C`` the measured output's row."""
     from motorid.control.design import design_model, output_row
 
     work = design_model(model, design)
-    a, b = np.asarray(work.A, float), np.asarray(work.B, float).reshape(-1, 1)
     c = np.asarray(output_row(work, design.output)[1], float).reshape(1, -1)
-    a_l, b_l, c_l = _loop_matrices(a, b, c, design, observer=True)
-    fastest = max(float(np.max(np.abs(np.linalg.eigvals(a_l)), initial=0.0)), 1.0)
-    omega = np.logspace(np.log10(fastest) - 4, np.log10(fastest) + 1, points)
+    return np.asarray(work.A, float), np.asarray(work.B, float).reshape(-1, 1), c
+
+
+def _fastest(a_l: np.ndarray) -> float:
+    """The loop's fastest pole magnitude (at least 1 rad/s): where its frequency grids are centred."""
+    return max(float(np.max(np.abs(np.linalg.eigvals(a_l)), initial=0.0)), 1.0)
+
+
+def _response(system: Any, omega: np.ndarray) -> np.ndarray:
+    """A SISO system's ``G(jω)`` on ``omega``; NaN where a pole sits on the axis (an integrator)."""
     with np.errstate(divide="ignore", invalid="ignore"), warnings.catch_warnings():
         warnings.filterwarnings("ignore", "singular matrix in frequency response", RuntimeWarning)
-        resp = np.ravel(control.ss(a_l, b_l, c_l, 0.0)(1j * omega))
-    return omega, resp * np.exp(-1j * omega * float(model.delay_s))
+        return np.ravel(system(1j * omega))
 
 
 def _bandwidth(a: np.ndarray, b: np.ndarray, c: np.ndarray, design: Design, pade: Any) -> float:
