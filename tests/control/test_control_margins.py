@@ -111,3 +111,15 @@ def test_the_plotted_loop_crosses_where_the_margins_say(model, delay_s):
     i = int(np.argmin(np.abs(np.log(omega / mg.crossover_rad_s))))
     assert abs(resp[i]) == pytest.approx(1.0, rel=5e-3)
     assert math.degrees(np.angle(resp[i])) == pytest.approx(-180.0 + mg.phase_deg, abs=0.3)
+
+
+@pytest.mark.parametrize(("margins", "needle"), [("wide", "'margins' must be an object"),
+                                                 ({"phase_deg": "60"}, "margins.phase_deg")])
+def test_a_design_json_with_bad_margins_is_one_line(demo_run, run_cli, tmp_path, margins, needle):
+    model = demo_run.folder / "model.json"
+    d = tmp_path / "d.json"
+    assert run_cli("design", model, "--damping", "1", "--wn", "8", "--json", d).code == 0
+    d.write_text(json.dumps(json.loads(d.read_text()) | {"margins": margins}))
+    res = run_cli("simulate", model, d)
+    assert res.code == 2 and needle in res.err, res.err
+    assert len([ln for ln in res.err.splitlines() if ln.strip()]) == 1 and "Traceback" not in res.err

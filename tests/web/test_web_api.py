@@ -220,3 +220,7 @@ def test_api_design_and_simulate_refuse_bad_options(client, demo_run):
     _one_line_422(client.post("/api/simulate", json={"model": model_json, "design": des, "duration_s": -1}),
                   "duration_s")
     _one_line_422(client.post("/api/simulate", json={"model": model_json, "design": {"K": [1]}}), "design")
+    _one_line_422(client.post("/api/simulate", json={"model": model_json, "design": des, "anti_windup": "yes"}),
+                  "anti_windup")
+    _one_line_422(client.post("/api/simulate", json={"model": model_json, "design": des | {"margins": {"ms": "big"}}}),
+                  "margins.ms")
