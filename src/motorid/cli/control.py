@@ -177,9 +177,16 @@ def design(
     ki: Annotated[float | None, typer.Option("--ki", help="Given integral gain (Routh-checked).")] = None,
     integral_pole: Annotated[float | None, typer.Option(
         "--integral-pole", help="Extra real pole placed with the integrator.")] = None,
-    observer_poles: Annotated[str | None,
-                              typer.Option("--observer-poles", help="Observer poles, e.g. -50,-40.")] = None,
+    observer_poles: Annotated[str | None, typer.Option(
+        "--observer-poles", help="Observer poles, e.g. -50,-40: one per state for a full observer from --output, "
+        "one per state the sensors do not measure for a reduced-order one.")] = None,
+    sensors: Annotated[str | None, typer.Option(
+        "--sensors", help="What the rig measures, e.g. position,velocity (default: the model's channels); "
+        "the other states are estimated.")] = None,
     output: Annotated[str | None, typer.Option("--output", help="Measured channel y (default position).")] = None,
+    robust_samples: Annotated[int, typer.Option(
+        "--robust-samples", help="Plausible motors, drawn from the model's uncertainty, the design is checked on "
+        "(0: no check).")] = 2000,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the Design JSON here.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
 ) -> None:
@@ -195,7 +202,8 @@ def design(
         damping=damping, k2=k2, wn=wn, settling_time_s=settling_time, overshoot_pct=overshoot,
         integral=integral, ki=ki, integral_pole=integral_pole,
         observer_poles=None if observer_poles is None else tuple(parse_poles(observer_poles, "--observer-poles")),
-        output=output,
+        output=output, robust_samples=robust_samples,
+        sensors=None if sensors is None else tuple(x.strip() for x in sensors.split(",") if x.strip()),
     )
     model = load_model(model_file)
     try:
@@ -207,7 +215,17 @@ def design(
                    + ", ".join(d.states) + " (gains on the model's own states: K_model in the JSON)")
     for i, k in enumerate(d.K):
         typer.echo(f"k{i + 1} = {sig(k)}    ({d.states[i]})")
-    typer.echo("gains per sensor: " + ", ".join(f"k_{name} = {sig(g)} {unit}" for name, g, unit in d.sensor_gains()))
+    estimated = set(d.reduced.estimated) if d.reduced is not None else set()
+    typer.echo("gains per sensor: " + ", ".join(f"k_{name} = {sig(g)} {unit}" + (" (on its estimate)" if name in
+                                                                               estimated else "")
+                                                for name, g, unit in d.sensor_gains()))
+    if d.reduced is not None:
+        r = d.reduced
+        typer.echo(f"sensors: {', '.join(r.measured)}; {', '.join(r.estimated)} estimated by a reduced-order observer "
+                   f"(poles {roots_text(r.poles)}; ẇ = F w + G·[{', '.join(r.measured)}] + H u, "
+                   f"{', '.join(r.estimated)} = w + L·[{', '.join(r.measured)}]; F, G, H, L in the JSON)")
+    elif d.sensors is not None:
+        typer.echo(f"sensors: {', '.join(d.sensors)}")
     if d.kr is not None:
         typer.echo(f"kr = {sig(d.kr)}")
     if d.ki is not None:
@@ -223,6 +241,8 @@ def design(
     typer.echo("Routh-Hurwitz: " + "; ".join(d.routh))
     if d.margins is not None:
         typer.echo("margins: " + d.margins.text())
+    if d.robust is not None:
+        typer.echo("robust: " + d.robust.text())
     if d.dead_zone_v is not None:
         info = d.dead_zone_info()
         bound = info["steady_state_error_bound_v"]
