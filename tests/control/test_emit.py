@@ -284,6 +284,14 @@ def test_an_interval_that_makes_the_sampled_loop_unstable_is_refused():
         discretise_design(REPORT_MODEL, design, ts)
 
 
+def test_an_unstable_design_is_refused_as_such_not_for_its_interval():
+    # a given ki that violates the Routh–Hurwitz condition: the design warns, sampling refuses
+    design = design_controller(REPORT_MODEL, DesignSettings(poles=(-2.0, -3.0), integral=True, ki=500.0))
+    assert np.max(design.closed_loop_poles.real) > 0
+    with pytest.raises(OptionError, match=r"^--discrete: the designed loop itself is unstable"):
+        discretise_design(REPORT_MODEL, design, 0.001)
+
+
 def test_an_unknown_method_or_language_is_refused():
     design = design_controller(REPORT_MODEL, CASES["feedback"][1])
     with pytest.raises(OptionError, match=r"^--discrete-method 'magic'"):
@@ -303,3 +311,13 @@ def test_any_controller_in_state_space_form_is_emitted():
     assert "velocity [rpm]" in emit_c(dc)
     with pytest.raises(OptionError, match="continuous-time"):
         discretise(dc.system, 0.01)
+
+
+def test_the_header_cannot_break_out_of_its_comment_or_docstring():
+    pi = control.ss([[0.0]], [[1.0, -1.0]], [[3.0]], [[2.0, -2.0]], inputs=["r", "velocity"], outputs=["u"])
+    dc = discretise(pi, 0.01, units={"velocity": "rpm*/s"}, notes=('a """ note /* with \\d',))
+    head = emit_c(dc).split("*/")[0]  # the header comment, up to its first end
+    assert head.count("/*") == 1 and "velocity [rpm* /s]" in head and "Ad x[k]" in head
+    code = emit_python(dc)
+    compile(code, "<emitted>", "exec")
+    assert code.count('"""') == 6  # the module's, init's and step's docstrings

@@ -280,7 +280,8 @@ def discretise_design(model: MotorModel, design: Design, ts: float, method: str 
     ------
     OptionError
         ``ts`` not > 0, at or beyond the Nyquist limit ``π/|p|`` of the loop's fastest pole, or
-        making the sampled loop unstable; an unknown method.
+        making the sampled loop unstable; an unknown method; a design whose continuous loop is
+        already unstable.
 
     References
     ----------
@@ -290,6 +291,12 @@ def discretise_design(model: MotorModel, design: Design, ts: float, method: str 
     import control
 
     _check_ts(ts, method)
+    designed = design.output_feedback_poles if design.output_feedback_poles is not None else design.closed_loop_poles
+    if designed is not None and np.size(designed) and float(np.max(np.real(designed))) >= 0:
+        # sampling cannot make an unstable loop stable: the interval is not what is wrong
+        raise OptionError("--discrete: the designed loop itself is unstable (a closed-loop pole at "
+                          f"{float(np.max(np.real(designed))):.3g} rad/s in the right half-plane or on the axis); "
+                          "fix the design before sampling it (see its warnings)")
     csys = controller_system(model, design)
     poles = [np.asarray(p, dtype=complex).ravel() for p in
              (design.closed_loop_poles, design.observer_poles, design.output_feedback_poles, csys.poles())
@@ -319,14 +326,13 @@ def discretise_design(model: MotorModel, design: Design, ts: float, method: str 
     if model.delay_s > 0:
         warnings.append(f"the model's {model.delay_s:.3g} s dead time is not in the sampled loop checked here; "
                         "the design's margins include it")
-    notes = _design_notes(model, design, dc, fastest, ts_max, rho)
+    notes = _design_notes(model, design)
     return DiscreteController(dc.system, dc.ts_s, method, units, fastest if fastest > 0 else None, ts_max, rho,
                               notes, tuple(warnings))
 
 
-def _design_notes(model: MotorModel, design: Design, dc: DiscreteController, fastest: float,
-                  ts_max: float | None, rho: float) -> tuple[str, ...]:
-    """The header lines of a design's emitted controller."""
+def _design_notes(model: MotorModel, design: Design) -> tuple[str, ...]:
+    """The header lines naming the model and the design of an emitted controller."""
     from motorid.numfmt import roots_text
 
     unit_of = {name: signal_unit(name, design.units, output=design.output) for name in design.states}
@@ -348,17 +354,6 @@ def _design_notes(model: MotorModel, design: Design, dc: DiscreteController, fas
     if design.L is not None and design.observer_poles is not None:
         lines.append("  L = [" + ", ".join(f"{v:.6g}" for v in design.L) + "], observer poles: "
                      + roots_text(design.observer_poles) + " rad/s")
-    lines.append(f"Sampling: TS = {dc.ts_s:g} s ({1 / dc.ts_s:.6g} Hz), discretised by {dc.method} "
-                 "(python-control c2d)")
-    lines.append("Signals: " + ", ".join(f"{name} [{dc.units.get(name) or '-'}]"
-                                         for name in (*dc.inputs, *dc.outputs)))
-    if dc.states:
-        lines.append("State: " + ", ".join(dc.states))
-    if fastest > 0 and ts_max is not None:
-        lines.append(f"Sample-rate limits: fastest loop pole |p| = {fastest:.4g} rad/s; TS*|p| = "
-                     f"{dc.ts_s * fastest:.3g} (rule of thumb TS*|p| <= {SAMPLING_RULE}, i.e. TS <= "
-                     f"{SAMPLING_RULE / fastest:.3g} s, {RULE_SOURCE}); Nyquist limit TS < pi/|p| = {ts_max:.4g} s")
-    lines.append(f"Sampled loop (motor behind a zero-order hold + this controller): largest |z| = {rho:.6g}")
     return tuple(lines)
 
 
@@ -451,9 +446,20 @@ def _header(dc: DiscreteController, name: str, source: str | None) -> list[str]:
     if source:
         lines.append(source)
     lines.append("")
-    lines += list(dc.notes) or [f"Sampling: TS = {dc.ts_s:g} s, discretised by {dc.method} (python-control c2d)",
-                                "Signals: " + ", ".join(f"{n} [{dc.units.get(n) or '-'}]"
-                                                        for n in (*dc.inputs, *dc.outputs))]
+    lines += list(dc.notes)
+    lines.append(f"Sampling: TS = {dc.ts_s:g} s ({1 / dc.ts_s:.6g} Hz), discretised by {dc.method} "
+                 "(python-control c2d)")
+    lines.append("Signals: " + ", ".join(f"{n} [{dc.units.get(n) or '-'}]" for n in (*dc.inputs, *dc.outputs)))
+    if dc.states:
+        lines.append("State: " + ", ".join(dc.states))
+    p, ts_max = dc.fastest_pole_rad_s, dc.ts_max_s
+    if p is not None and ts_max is not None:
+        lines.append(f"Sample-rate limits: fastest loop pole |p| = {p:.4g} rad/s; TS*|p| = {dc.ts_s * p:.3g} "
+                     f"(rule of thumb TS*|p| <= {SAMPLING_RULE}, i.e. TS <= {SAMPLING_RULE / p:.3g} s, "
+                     f"{RULE_SOURCE}); Nyquist limit TS < pi/|p| = {ts_max:.4g} s")
+    if dc.loop_spectral_radius is not None:
+        lines.append("Sampled loop (motor behind a zero-order hold + this controller): largest |z| = "
+                     f"{dc.loop_spectral_radius:.6g}")
     lines += [f"WARNING: {w}" for w in dc.warnings]
     lines += ["", "x[k+1] = Ad x[k] + Bd in[k],  u[k] = Cd x[k] + Dd in[k],  in = ["
               + ", ".join(dc.inputs) + "]; coefficients printed with %.17g."]
@@ -497,7 +503,9 @@ def emit_c(dc: DiscreteController, *, name: str = "motor_controller", source: st
     n = len(eq.states)
     upper = ident.upper()
     out = ["/*"]
-    out += [f" * {line}".rstrip() for raw in _header(dc, ident, source) for line in _wrap(raw, "")]
+    # nothing in the header may close (or nest) the comment
+    header = [raw.replace("*/", "* /").replace("/*", "/ *") for raw in _header(dc, ident, source)]
+    out += [f" * {line}".rstrip() for raw in header for line in _wrap(raw, "")]
     out += [" *",
             " * Use (e.g. an Arduino sketch):",
             f" *   static {ident}_state ctl;          in setup():  {ident}_init(&ctl);",
@@ -552,7 +560,9 @@ def emit_python(dc: DiscreteController, *, name: str = "motor_controller", sourc
     ident = _c_name(name)
     n = len(eq.states)
     lines = ['"""' + f"{ident}: a controller as difference equations (motorid)."]
-    lines += [line for raw in _header(dc, ident, source)[1:] for line in _wrap(raw.replace('"""', "'''"), "")]
+    # nothing in the header may end the docstring or start an escape sequence
+    header = [raw.replace("\\", "/").replace('"""', "'''") for raw in _header(dc, ident, source)[1:]]
+    lines += [line for raw in header for line in _wrap(raw, "")]
     lines += ["", f"Use: x = {ident}_init(), then every TS seconds u = {ident}_step(x, {', '.join(eq.inputs)}).",
               '"""', "", f"TS = {_number(dc.ts_s)}", f"INPUTS = {tuple(dc.inputs)!r}", "", "",
               f"def {ident}_init():", '    """The state x[0]: zeros."""', f"    return [0.0] * {max(n, 1)}", "", "",
