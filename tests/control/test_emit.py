@@ -321,3 +321,15 @@ def test_the_header_cannot_break_out_of_its_comment_or_docstring():
     code = emit_python(dc)
     compile(code, "<emitted>", "exec")
     assert code.count('"""') == 6  # the module's, init's and step's docstrings
+
+
+def test_a_discrete_python_control_system_is_emitted_as_given():
+    """The emitters take a discrete-time StateSpace as well (a PID discretised by its own rule)."""
+    pid = control.ss([[1.0, 0.0], [0.0, 0.5]], [[0.01, -0.01], [0.0, 0.2]], [[3.0, -1.0]], [[2.0, -2.5]], 0.01,
+                     inputs=["r", "position"], outputs=["u"])
+    w = np.column_stack([np.ones(50), np.sin(0.2 * np.arange(50))])
+    want = np.ravel(control.forced_response(pid, T=np.arange(50) * 0.01, U=w.T).outputs)
+    assert np.max(np.abs(_run_python(emit_python(pid), w) - want)) <= 1e-12
+    assert "a discrete-time system as given" in emit_c(pid)
+    with pytest.raises(OptionError, match="discrete-time system with a sampling interval"):
+        emit_c(control.ss([[-1.0]], [[1.0]], [[1.0]], [[0.0]]))

@@ -419,6 +419,17 @@ class _Equations:
     state_rhs: tuple[str, ...]
 
 
+def _as_discrete(dc: Any) -> DiscreteController:
+    """``dc`` itself, or a discrete-time python-control system wrapped as one (method ``given``)."""
+    if isinstance(dc, DiscreteController):
+        return dc
+    dt = getattr(dc, "dt", None)
+    if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not (math.isfinite(dt) and dt > 0):
+        raise OptionError("the emitters write a discrete-time system with a sampling interval (dt > 0); "
+                          "discretise a continuous-time controller first")
+    return DiscreteController(dc, float(dt), "given")
+
+
 def _equations(dc: DiscreteController) -> _Equations:
     if len(dc.outputs) != 1:
         raise OptionError(f"the emitters write a controller with one output (the command), this one has "
@@ -447,8 +458,9 @@ def _header(dc: DiscreteController, name: str, source: str | None) -> list[str]:
         lines.append(source)
     lines.append("")
     lines += list(dc.notes)
-    lines.append(f"Sampling: TS = {dc.ts_s:g} s ({1 / dc.ts_s:.6g} Hz), discretised by {dc.method} "
-                 "(python-control c2d)")
+    how = (f"discretised by {dc.method} (python-control c2d)" if dc.method in METHODS
+           else "a discrete-time system as given")
+    lines.append(f"Sampling: TS = {dc.ts_s:g} s ({1 / dc.ts_s:.6g} Hz), {how}")
     lines.append("Signals: " + ", ".join(f"{n} [{dc.units.get(n) or '-'}]" for n in (*dc.inputs, *dc.outputs)))
     if dc.states:
         lines.append("State: " + ", ".join(dc.states))
@@ -475,13 +487,15 @@ def _wrap(text: str, prefix: str, width: int = 100) -> list[str]:
                          break_long_words=False, break_on_hyphens=False) or [prefix.rstrip()]
 
 
-def emit_c(dc: DiscreteController, *, name: str = "motor_controller", source: str | None = None) -> str:
+def emit_c(dc: DiscreteController | control.StateSpace, *, name: str = "motor_controller",
+           source: str | None = None) -> str:
     """The controller as a C99 source file: a state struct, an init function and a step function.
 
     Parameters
     ----------
-    dc : DiscreteController
-        From :func:`discretise` or :func:`discretise_design`.
+    dc : DiscreteController or control.StateSpace
+        From :func:`discretise` or :func:`discretise_design`, or any discrete-time system
+        (``dt > 0``) with one output.
     name : str
         Prefix of the type and functions (``<name>_state``, ``<name>_init``, ``<name>_step``).
     source : str, optional
@@ -498,6 +512,7 @@ def emit_c(dc: DiscreteController, *, name: str = "motor_controller", source: st
     OptionError
         A controller with more than one output, a name that is no identifier.
     """
+    dc = _as_discrete(dc)
     eq = _equations(dc)
     ident = _c_name(name)
     n = len(eq.states)
@@ -539,12 +554,14 @@ def emit_c(dc: DiscreteController, *, name: str = "motor_controller", source: st
     return "\n".join(out)
 
 
-def emit_python(dc: DiscreteController, *, name: str = "motor_controller", source: str | None = None) -> str:
+def emit_python(dc: DiscreteController | control.StateSpace, *, name: str = "motor_controller",
+                source: str | None = None) -> str:
     """The controller as a Python module with the same difference equations as :func:`emit_c`.
 
     Parameters
     ----------
-    dc : DiscreteController
+    dc : DiscreteController or control.StateSpace
+        As for :func:`emit_c`.
     name : str
         Prefix of the functions (``<name>_init``, ``<name>_step``).
     source : str, optional
@@ -556,6 +573,7 @@ def emit_python(dc: DiscreteController, *, name: str = "motor_controller", sourc
         Python (no imports): ``x = <name>_init()`` once, then ``u = <name>_step(x, r, y…)``
         once per sample (``x`` is updated in place).
     """
+    dc = _as_discrete(dc)
     eq = _equations(dc)
     ident = _c_name(name)
     n = len(eq.states)
@@ -575,12 +593,14 @@ def emit_python(dc: DiscreteController, *, name: str = "motor_controller", sourc
     return "\n".join(lines)
 
 
-def emit_matlab(dc: DiscreteController, *, name: str = "motor_controller", source: str | None = None) -> str:
+def emit_matlab(dc: DiscreteController | control.StateSpace, *, name: str = "motor_controller",
+                source: str | None = None) -> str:
     """The controller as a MATLAB/Octave function with the same difference equations as :func:`emit_c`.
 
     Parameters
     ----------
-    dc : DiscreteController
+    dc : DiscreteController or control.StateSpace
+        As for :func:`emit_c`.
     name : str
         The function's name (save the file as ``<name>_step.m``).
     source : str, optional
@@ -591,6 +611,7 @@ def emit_matlab(dc: DiscreteController, *, name: str = "motor_controller", sourc
     str
         ``function [u, x] = <name>_step(x, r, y…)``: start with ``x = zeros(n, 1)``.
     """
+    dc = _as_discrete(dc)
     eq = _equations(dc)
     ident = _c_name(name)
     n = len(eq.states)
@@ -608,12 +629,14 @@ def emit_matlab(dc: DiscreteController, *, name: str = "motor_controller", sourc
 _EMITTERS: dict[str, Callable[..., str]] = {"c": emit_c, "python": emit_python, "matlab": emit_matlab}
 
 
-def emit(dc: DiscreteController, language: str, *, name: str = "motor_controller", source: str | None = None) -> str:
+def emit(dc: DiscreteController | control.StateSpace, language: str, *, name: str = "motor_controller",
+         source: str | None = None) -> str:
     """The controller's code in ``language`` (one of :data:`LANGUAGES`).
 
     Parameters
     ----------
-    dc : DiscreteController
+    dc : DiscreteController or control.StateSpace
+        As for :func:`emit_c`.
     language : str
         ``c``, ``python`` or ``matlab``.
     name : str
