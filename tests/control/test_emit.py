@@ -333,3 +333,12 @@ def test_a_discrete_python_control_system_is_emitted_as_given():
     assert "a discrete-time system as given" in emit_c(pid)
     with pytest.raises(OptionError, match="discrete-time system with a sampling interval"):
         emit_c(control.ss([[-1.0]], [[1.0]], [[1.0]], [[0.0]]))
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_every_method_gives_code_that_runs_the_discretised_controller(method):
+    model, settings = CASES["integral+observer"]
+    dc = discretise_design(model, design_controller(model, settings), 0.002, method)
+    assert f"discretised by {method}" in emit_c(dc)
+    w = _inputs(dc)
+    assert np.max(np.abs(_run_python(emit_python(dc), w) - _reference(dc, w))) <= 1e-9
