@@ -342,3 +342,19 @@ def test_every_method_gives_code_that_runs_the_discretised_controller(method):
     assert f"discretised by {method}" in emit_c(dc)
     w = _inputs(dc)
     assert np.max(np.abs(_run_python(emit_python(dc), w) - _reference(dc, w))) <= 1e-9
+
+
+def test_the_sampled_loop_check_includes_the_models_dead_time():
+    """A dead time of exactly two intervals is z⁻² at the motor's input: the loop's largest |z| agrees."""
+    ts = 0.004
+    model = REPORT_MODEL.replace(delay_s=2 * ts)
+    design = design_controller(model, CASES["integral+observer"][1])
+    dc = discretise_design(model, design, ts)
+    plant = _plant(model, design)
+    m = control.c2d(plant, ts) * control.ss(control.tf([1.0], [1.0, 0.0, 0.0], ts))
+    motor = control.ss(m.A, m.B, m.C, m.D, ts, inputs=["u"], outputs=plant.output_labels)
+    exact = control.interconnect([motor, dc.system], inplist=["r"], outlist=["u"], check_unused=False)
+    rho = np.max(np.abs(np.linalg.eigvals(exact.A)))
+    assert dc.loop_spectral_radius == pytest.approx(rho, rel=1e-6)
+    without = discretise_design(REPORT_MODEL, design, ts).loop_spectral_radius
+    assert abs(rho - without) > 1e-4  # the delay is in the check, not left out

@@ -18,7 +18,7 @@ about 0.1–0.6 for the closed loop's natural frequency ``ω``; 0.2 keeps the sa
 to the continuous design), an interval at or beyond the Nyquist limit ``π/|p|`` (the fastest
 pole's frequency no longer below half the sampling rate) is refused, and so is one at which
 the sampled loop — the motor held by a zero-order hold, read every ``TS``, and the discrete
-controller — is unstable.
+controller; the model's dead time in it as the margins' Padé approximant — is unstable.
 """
 
 from __future__ import annotations
@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from motorid.control.controller import COMMAND, controller_system, signal_unit
+from motorid.control.margins import PADE_ORDER
 from motorid.errors import OptionError
 
 if TYPE_CHECKING:
@@ -84,7 +85,8 @@ class DiscreteController:
     ts_max_s : float or None
         The Nyquist limit ``π / |p|``: intervals at or above it are refused.
     loop_spectral_radius : float or None
-        Largest ``|z|`` of the sampled loop (motor with a zero-order hold + this controller).
+        Largest ``|z|`` of the sampled loop (motor with a zero-order hold + this controller; the
+        model's dead time in it as a Padé approximant).
     notes : tuple of str
         What the controller is (model, design, signals), for the emitted code's header.
     warnings : tuple of str
@@ -310,8 +312,16 @@ def discretise_design(model: MotorModel, design: Design, ts: float, method: str 
     units = {name: signal_unit(name, design.units, output=design.output)
              for name in (*csys.input_labels, *csys.output_labels)}
     dc = discretise(csys, ts, method, units=units)
-    # the sampled loop: the motor behind a zero-order hold (the DAC), read every TS
-    motor = control.c2d(plant_system(model, design), float(ts), method="zoh")
+    # the sampled loop: the motor (its dead time as a Padé approximant, as in the margins) behind a
+    # zero-order hold (the DAC), read every TS
+    motor_c = plant_system(model, design)
+    tau = float(model.delay_s)
+    delayed = tau * max(fastest, 1.0) > 1e-6
+    if delayed:
+        with_delay = motor_c * control.ss(control.tf(*control.pade(tau, PADE_ORDER)))
+        motor_c = control.ss(with_delay.A, with_delay.B, with_delay.C, with_delay.D, inputs=[COMMAND],
+                             outputs=motor_c.output_labels, name="motor")
+    motor = control.c2d(motor_c, float(ts), method="zoh")
     loop = control.interconnect([motor, dc.system], inplist=["r"], outlist=[COMMAND], check_unused=False)
     rho = float(np.max(np.abs(np.linalg.eigvals(np.asarray(loop.A, dtype=float))), initial=0.0))
     if not rho < 1.0:
@@ -323,9 +333,6 @@ def discretise_design(model: MotorModel, design: Design, ts: float, method: str 
         warnings.append(f"TS*|p| = {ts * fastest:.2g} for the loop's fastest pole (|p| = {fastest:.3g} rad/s) is "
                         f"above {SAMPLING_RULE} (the rule of thumb, {RULE_SOURCE}): the sampled loop departs from "
                         f"the design; TS <= {SAMPLING_RULE / fastest:.2g} s keeps to it")
-    if model.delay_s > 0:
-        warnings.append(f"the model's {model.delay_s:.3g} s dead time is not in the sampled loop checked here; "
-                        "the design's margins include it")
     notes = _design_notes(model, design)
     return DiscreteController(dc.system, dc.ts_s, method, units, fastest if fastest > 0 else None, ts_max, rho,
                               notes, tuple(warnings))
@@ -470,8 +477,8 @@ def _header(dc: DiscreteController, name: str, source: str | None) -> list[str]:
                      f"(rule of thumb TS*|p| <= {SAMPLING_RULE}, i.e. TS <= {SAMPLING_RULE / p:.3g} s, "
                      f"{RULE_SOURCE}); Nyquist limit TS < pi/|p| = {ts_max:.4g} s")
     if dc.loop_spectral_radius is not None:
-        lines.append("Sampled loop (motor behind a zero-order hold + this controller): largest |z| = "
-                     f"{dc.loop_spectral_radius:.6g}")
+        lines.append("Sampled loop (motor behind a zero-order hold, its dead time included, + this controller): "
+                     f"largest |z| = {dc.loop_spectral_radius:.6g}")
     lines += [f"WARNING: {w}" for w in dc.warnings]
     lines += ["", "x[k+1] = Ad x[k] + Bd in[k],  u[k] = Cd x[k] + Dd in[k],  in = ["
               + ", ".join(dc.inputs) + "]; coefficients printed with %.17g."]
