@@ -568,42 +568,25 @@ def _check_placed(placed: np.ndarray, wanted: np.ndarray) -> list[str]:
     return []
 
 
-def _dead_time_warnings(delay_s: float, a: np.ndarray, b: np.ndarray, c: np.ndarray, k: np.ndarray,
-                        ki: float | None) -> list[str]:
-    """What the model's dead time does to the state-feedback loop.
+def _dead_time_warnings(delay_s: float, margins: LoopMargins) -> list[str]:
+    """What the model's dead time does to the loop, in the numbers of its margins.
 
-    Pole placement works on the delay-free state-space model.  Broken at the plant input, the
-    loop ``L(s) = K(sI − A)⁻¹B`` (with the integrator row when there is one) has phase
-    margin ``φ`` at its crossover ``ω``: a dead time longer than ``φ/ω`` (the delay margin)
-    makes the closed loop unstable (python-control's ``stability_margins``).
+    Pole placement works on the delay-free state-space model; the margins are those of the loop
+    with the dead time in it (:mod:`.margins`), so the warning and the margins line agree.
     """
     if not delay_s > 0:
         return []
-    import control
-
-    n = a.shape[0]
-    if ki is not None:
-        a_l = np.block([[a, np.zeros((n, 1))], [c.reshape(1, n), np.zeros((1, 1))]])
-        b_l = np.vstack([b.reshape(n, 1), [[0.0]]])
-        k_l = np.hstack([k.reshape(1, n), [[ki]]])
-    else:
-        a_l, b_l, k_l = a, b.reshape(n, 1), k.reshape(1, n)
-    try:
-        _, pm, _, _, wp, _ = control.stability_margins(control.ss(a_l, b_l, k_l, 0.0))
-    except (ValueError, np.linalg.LinAlgError):
-        return [f"the model has a {1e3 * delay_s:.3g} ms dead time that pole placement ignores; its effect on "
-                "the loop could not be computed: simulate the design (motorid simulate applies the dead time)"]
-    if not (np.isfinite(pm) and np.isfinite(wp) and wp > 0):
-        return [f"the model has a {1e3 * delay_s:.3g} ms dead time that pole placement ignores (the loop "
-                "gain never crosses 1, so it cannot destabilise it); simulate applies it"]
-    margin = float(np.deg2rad(pm) / wp)
-    if delay_s >= margin:
-        return [f"UNSTABLE with the model's dead time: the loop tolerates at most {1e3 * margin:.3g} ms of "
-                f"delay (phase margin {pm:.3g}° at {wp:.3g} rad/s) and the model has {1e3 * delay_s:.3g} ms; "
-                "ask for slower closed-loop poles"]
-    return [f"the model's {1e3 * delay_s:.3g} ms dead time is not in the pole placement: the loop tolerates "
-            f"{1e3 * margin:.3g} ms (phase margin {pm:.3g}° at {wp:.3g} rad/s), so the closed loop is less "
-            "damped than the poles say; simulate applies the dead time"]
+    ms = 1e3 * delay_s
+    pm, wc, extra = margins.phase_deg, margins.crossover_rad_s, margins.delay_s
+    if not (math.isfinite(pm) and math.isfinite(wc)):
+        return [f"the model has a {ms:.3g} ms dead time that pole placement ignores (the loop gain never crosses "
+                "1, so it cannot destabilise it); simulate applies it"]
+    if pm <= 0 or extra <= 0:
+        return [f"UNSTABLE with the model's dead time: with its {ms:.3g} ms in the loop the phase margin is "
+                f"{pm:.3g}° at {wc:.3g} rad/s; ask for slower closed-loop poles"]
+    return [f"the model's {ms:.3g} ms dead time is not in the pole placement: with it in the loop the phase margin "
+            f"is {pm:.3g}° at {wc:.3g} rad/s and {1e3 * extra:.3g} ms more delay is tolerated, so the closed loop "
+            "is less damped than the poles say; simulate applies the dead time"]
 
 
 @single_blas_thread
@@ -696,13 +679,14 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
     elif s.observer_poles is not None:
         raise OptionError(f"--observer-poles: give {n} poles (a full observer from {out_name}) or one per "
                           "state the sensors do not measure (a reduced-order observer)")
-    warnings += _dead_time_warnings(model.delay_s, a, b, c, k, ki)
     changed = mr.changed
     nl = model.static_nonlinearity
     design = Design(tuple(work.states), out_name, k_row, kr, ki, l_col, cl, obs, ofb, tuple(routh),
                     tuple(warnings), mr.source_states if changed else None, mr.transform if changed else None,
                     None if nl is None else nl.dead_zone_v, dict(model.units), sensors=sensors, reduced=reduced)
-    design = replace(design, margins=loop_margins(model, design))
+    margins = loop_margins(model, design)
+    design = replace(design, margins=margins,
+                     warnings=(*design.warnings, *_dead_time_warnings(model.delay_s, margins)))
     if s.robust_samples:
         spec = RobustSpec(s.overshoot_pct, s.settling_time_s)
         try:

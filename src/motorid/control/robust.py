@@ -146,7 +146,8 @@ class RobustCheck:
             if not (math.isfinite(lo) or math.isfinite(hi)):
                 return None if math.isnan(lo) else f"∞{unit}"
             hi_txt = sig(hi) if math.isfinite(hi) else "∞"
-            return f"{sig(lo)}–{hi_txt}{unit}"
+            lo_txt = sig(lo) if math.isfinite(lo) else "∞"
+            return f"{lo_txt}{unit}" if lo_txt == hi_txt else f"{lo_txt}–{hi_txt}{unit}"
 
         head = f"stable for {pct(self.stable_fraction)} % of {self.samples} plausible motors"
         if self.spec_fraction is not None:
