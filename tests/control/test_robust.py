@@ -249,3 +249,17 @@ def test_the_stacked_realisation_is_scipys():
         a, b, c, _ = scipy.signal.tf2ss(num[i], den[i])
         assert np.array_equal(r.A[i, 1:, 1:], a) and np.array_equal(r.B[i, 1:], b)
         assert np.array_equal(r.C[i, 1, 1:], c[0])
+
+
+def test_the_band_of_steps_brackets_its_median_and_settles_on_the_reference(demo_model):
+    des = mi.design(demo_model, damping=0.8, wn=6.0, integral=True, robust_samples=300)
+    t, lo, mid, hi = (np.asarray(x) for x in des.robust.band)
+    assert t.size == lo.size == mid.size == hi.size > 100
+    assert np.all(lo <= mid + 1e-12) and np.all(mid <= hi + 1e-12)
+    assert mid[-1] == pytest.approx(1.0, abs=0.02)  # integral action: every stable motor ends on r
+    # the nominal loop's step lies inside the band
+    nominal = mi.design(demo_model, damping=0.8, wn=6.0, integral=True, robust_samples=0)
+    sim = mi.simulate(demo_model, nominal, duration_s=float(t[-1]), level_v=1.0)
+    y = np.interp(t, sim.time_s, sim.output_v)
+    inside = (y >= lo - 0.02) & (y <= hi + 0.02)
+    assert inside.mean() > 0.95

@@ -102,6 +102,8 @@ def test_report_simulates_a_design_made_on_the_default_model(demo, run_cli, tmp_
     html = page.read_text(encoding="utf-8")
     design = html[html.index('<section id="design">'):]
     assert 'alt="closed loop"' in design and "cannot be simulated" not in design
+    # the design on the plausible motors: its line and its band of steps
+    assert "plausible motors" in design and 'alt="on plausible motors"' in design
 
 
 def test_report_of_a_fast_motor_without_input_channel_has_every_section(tmp_path, run_cli):

@@ -45,6 +45,8 @@ REGION = 0.95
 STEP_POINTS = 1500
 #: Order of the dead time's Padé approximant in the closed loop's eigenvalues and steps.
 PADE_ORDER = 6
+#: Instants of the step-response band kept in the design JSON.
+BAND_POINTS = 150
 #: Frequencies of the loop's response (log-spaced over seven decades around its fastest pole).
 MARGIN_POINTS = 400
 #: A rebuilt nominal motor must match the model's velocity TF to this relative tolerance, or
@@ -112,6 +114,9 @@ class RobustCheck:
         The random generator's seed (the check is reproducible).
     note : str
         How the motors were drawn, in one sentence.
+    band : tuple of four tuples of float
+        The unit reference step over the stable motors: time (s), then the 2.5 %, 50 % and
+        97.5 % points of the measured output at each instant (:data:`BAND_POINTS` instants).
     """
 
     samples: int
@@ -126,6 +131,7 @@ class RobustCheck:
     parameters: tuple[str, ...]
     seed: int
     note: str
+    band: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...], tuple[float, ...]] = ((), (), (), ())
 
     def text(self) -> str:
         """One sentence for a terminal.
@@ -178,7 +184,9 @@ class RobustCheck:
                 "overshoot_pct": triple(self.overshoot_pct), "settling_time_s": triple(self.settling_time_s),
                 "phase_margin_deg": triple(self.phase_margin_deg), "gain_margin_db": triple(self.gain_margin_db),
                 "ms": triple(self.ms), "parameters": list(self.parameters), "seed": self.seed,
-                "method": self.note}
+                "method": self.note} | ({"band": {"time_s": list(self.band[0]), "p2_5": list(self.band[1]),
+                                                  "median": list(self.band[2]), "p97_5": list(self.band[3])}}
+                                        if self.band[0] else {})
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> RobustCheck:
@@ -214,6 +222,16 @@ class RobustCheck:
             lo, mid, hi = (missing if x is None else float(x) for x in v)
             return (lo, mid, hi)
 
+        band: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...], tuple[float, ...]] = ((), (), (), ())
+        if data.get("band") is not None:
+            b = data["band"]
+            try:
+                cols = [tuple(float(x) for x in b[k]) for k in ("time_s", "p2_5", "median", "p97_5")]
+            except (KeyError, TypeError, ValueError):
+                raise ValueError("robust.band must hold time_s, p2_5, median and p97_5 lists of numbers") from None
+            if len({len(c) for c in cols}) != 1:
+                raise ValueError("robust.band's lists must have one length")
+            band = (cols[0], cols[1], cols[2], cols[3])
         spec = data.get("spec") or {}
         samples = data.get("samples")
         if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
@@ -226,7 +244,7 @@ class RobustCheck:
                    triple("overshoot_pct", math.nan), triple("settling_time_s", math.nan),
                    triple("phase_margin_deg", math.inf), triple("gain_margin_db", math.inf), triple("ms", math.nan),
                    tuple(str(p) for p in data.get("parameters") or ()), int(data.get("seed") or 0),
-                   str(data.get("method") or ""))
+                   str(data.get("method") or ""), band)
 
 
 @dataclass(frozen=True, slots=True)
@@ -615,20 +633,24 @@ def _per_motor(pl: _Plants, nominal: tuple[np.ndarray, np.ndarray, np.ndarray], 
     stable = np.all(eig.real < 0, axis=1)
     over = np.full(count, np.nan)
     settle = np.full(count, np.nan)
+    band = np.zeros((4, 0))
     if stable.any():
         t, y = _steps(a[stable], b[stable], c[stable], horizon)
         finals = -(c[stable] @ np.linalg.solve(a[stable], b[stable]))[:, 0, 0]
         over[stable], settle[stable] = _step_metrics(t, y, finals)
+        pick = np.linspace(0, t.size - 1, BAND_POINTS).round().astype(int)
+        band = np.vstack([t[pick], np.percentile(y[:, pick], [2.5, 50.0, 97.5], axis=0)])
     la, lb, lc = _loop(pl, nominal, design)
     omega = np.logspace(math.log10(fastest) - 5, math.log10(fastest) + 2, MARGIN_POINTS)
     pm, gm, ms = (np.where(stable, v, np.nan) for v in _margins(la, lb, lc, pl.delay, omega))
     return {"stable": stable, "overshoot_pct": over, "settling_time_s": settle, "phase_margin_deg": pm,
-            "gain_margin_db": gm, "ms": ms}
+            "gain_margin_db": gm, "ms": ms, "band": band}
 
 
 def _summary(per: dict[str, np.ndarray], spec: RobustSpec, names: tuple[str, ...], seed: int) -> RobustCheck:
     """The fractions and ranges over the motors."""
     stable = per["stable"]
+    band = per["band"]
     count = stable.size
     meets = stable.copy()
     if spec.overshoot_pct is not None:
@@ -644,4 +666,6 @@ def _summary(per: dict[str, np.ndarray], spec: RobustSpec, names: tuple[str, ...
                        settling_time_s=_percentiles(per["settling_time_s"]),
                        phase_margin_deg=_percentiles(per["phase_margin_deg"]),
                        gain_margin_db=_percentiles(per["gain_margin_db"]), ms=_percentiles(per["ms"]),
-                       parameters=names, seed=seed, note=note)
+                       parameters=names, seed=seed, note=note,
+                       band=(tuple(map(float, band[0])), tuple(map(float, band[1])), tuple(map(float, band[2])),
+                             tuple(map(float, band[3]))))

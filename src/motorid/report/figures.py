@@ -461,6 +461,39 @@ def loop_bode_nyquist(omega: np.ndarray, loop: np.ndarray, margins: Mapping[str,
 
 
 @styled
+def robust_band(band: Mapping[str, Sequence[float]], unit: str, summary: str) -> bytes:
+    """The reference step over the plausible motors: the median and the 95 % band of the output.
+
+    Parameters
+    ----------
+    band : Mapping
+        The design JSON's ``robust.band`` (``time_s``, ``p2_5``, ``median``, ``p97_5``) for a
+        unit reference step.
+    unit : str
+        The measured output's unit (of the reference too).
+    summary : str
+        The robustness line (:meth:`motorid.control.robust.RobustCheck.text`), as the title.
+
+    Returns
+    -------
+    bytes
+        The PNG image.
+    """
+    fig = Figure(figsize=(FULL_WIDTH_IN, 2.8), layout="constrained")
+    ax = fig.add_subplot()
+    t = np.asarray(band["time_s"], float)
+    ax.fill_between(t, np.asarray(band["p2_5"], float), np.asarray(band["p97_5"], float), color="C0", alpha=0.3,
+                    lw=0, label="95 % of the plausible motors")
+    ax.plot(t, np.asarray(band["median"], float), color="C0", lw=1.2, label="median")
+    ax.axhline(1.0, color="k", lw=0.6, ls="--", label="reference")
+    ax.set_xlabel("time after a unit reference step (s)")
+    ax.set_ylabel(f"output ({unit} per {unit} of reference)")
+    ax.set_title(_wrapped(summary), fontsize="small")
+    ax.legend(loc="lower right", fontsize="small")
+    return png(fig)
+
+
+@styled
 def hankel_values(scaled: Sequence[float], raw: Sequence[float], floor: float | None) -> bytes:
     """Normalised Hankel singular values, time-scaled and raw (order evidence, paper §IV).
 

@@ -536,7 +536,7 @@ def design_section(inp: ReportInputs) -> dict[str, Any]:
         return {"given": False}
     gain_rows = [["states", ", ".join(map(str, d.get("states") or []))]]
     gain_rows += [[words, _value_text(d.get(key))] for key, words in _DESIGN_ROWS if d.get(key) is not None]
-    loop_png = ""
+    loop_png = robust_png = ""
     if isinstance(d.get("margins"), dict):
         from motorid.control.design import Design
         from motorid.control.margins import LoopMargins, loop_frequency_response
@@ -546,9 +546,13 @@ def design_section(inp: ReportInputs) -> dict[str, Any]:
         if isinstance(d.get("robust"), dict):
             from motorid.control.robust import RobustCheck
 
-            # a malformed robust object in a hand-edited design: its row is left out
+            # a malformed robust object in a hand-edited design: its row (and band) is left out
             with contextlib.suppress(ValueError):
-                gain_rows.append(["on plausible motors", RobustCheck.from_json(d["robust"]).text()])
+                check = RobustCheck.from_json(d["robust"])
+                gain_rows.append(["on plausible motors", check.text()])
+                if check.band[0]:
+                    unit = inp.identification.model.units.get(str(d.get("output") or "position")) or "V"
+                    robust_png = figures.data_uri(figures.robust_band(d["robust"]["band"], unit, check.text()))
         try:
             response = loop_frequency_response(inp.identification.model, Design.from_json(d))
         except MotorIdError:  # a design for another model's states: its margins row stays, no plot
@@ -557,7 +561,7 @@ def design_section(inp: ReportInputs) -> dict[str, Any]:
             loop_png = figures.data_uri(figures.loop_bode_nyquist(*response, d["margins"]))
     view: dict[str, Any] = {"given": True, "gain_rows": gain_rows, "routh": [str(x) for x in d.get("routh") or []],
                             "closed_loop_png": "", "caption": "", "metric_rows": [], "note": str(d.get("note") or ""),
-                            "modes_png": "", "modes_marker": "", "loop_png": loop_png,
+                            "modes_png": "", "modes_marker": "", "loop_png": loop_png, "robust_png": robust_png,
                             **gain_units(inp.identification.model.units)}
     sim = d.get("simulation")
     if sim:
