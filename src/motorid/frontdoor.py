@@ -638,6 +638,7 @@ def design(
     output: str | None = None,
     robust_samples: int = 2000,
     sensors: Sequence[str] | None = None,
+    robust_fraction: float | None = None,
 ) -> Design:
     """Design state feedback, integral action and an observer (``motorid design`` in Python).
 
@@ -672,6 +673,9 @@ def design(
     sensors : sequence of str, optional
         What the rig measures (``position``, ``velocity``, ``current``; default: the model's
         channels); the other states are estimated by a reduced-order observer.
+    robust_fraction : float, optional
+        Tighten the design's own settling time and overshoot until this fraction of the
+        plausible motors meets ``settling_time``/``overshoot`` (e.g. 0.95).
 
     Returns
     -------
@@ -690,7 +694,7 @@ def design(
         poles=_poles("poles", poles), damping=damping, k2=k2, wn=wn, settling_time_s=settling_time,
         overshoot_pct=overshoot, integral=integral, ki=ki, integral_pole=integral_pole,
         observer_poles=_poles("observer_poles", observer_poles), output=output, robust_samples=robust_samples,
-        sensors=None if sensors is None else _names("sensors", sensors),
+        sensors=None if sensors is None else _names("sensors", sensors), robust_fraction=robust_fraction,
     )
     return design_controller(_model_of(model), settings)
 

@@ -115,6 +115,7 @@ DESIGN: tuple[OptionSpec, ...] = (
     OptionSpec("output", "--output", None, "", "measured channel"),
     OptionSpec("robust_samples", "--robust-samples", 2000, "", "plausible motors the design is checked on (0: none)"),
     OptionSpec("sensors", "--sensors", None, "", "what the rig measures, e.g. position,velocity"),
+    OptionSpec("robust_fraction", "--robust", None, "", "tune until this fraction of plausible motors meets the spec"),
 )
 
 #: :func:`motorid.simulate`'s options.

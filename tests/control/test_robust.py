@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import motorid as mi
+from motorid.errors import OptionError
 from motorid.control.design import design_model, output_row
 from motorid.control.robust import (
     PADE_ORDER,
@@ -263,3 +264,18 @@ def test_the_band_of_steps_brackets_its_median_and_settles_on_the_reference(demo
     y = np.interp(t, sim.time_s, sim.output_v)
     inside = (y >= lo - 0.02) & (y <= hi + 0.02)
     assert inside.mean() > 0.95
+
+
+def test_robust_tuning_tightens_the_design_until_the_fraction_meets_the_spec(demo_model):
+    plain = mi.design(demo_model, settling_time=1.0, overshoot=5.0, integral=True, robust_samples=400)
+    tuned = mi.design(demo_model, settling_time=1.0, overshoot=5.0, integral=True, robust_samples=400,
+                      robust_fraction=0.9)
+    assert plain.robust.spec_fraction < 0.9 <= tuned.robust.spec_fraction
+    note = [w for w in tuned.warnings if w.startswith("--robust 0.9: designed for settling")]
+    assert note and "of the plausible motors meet settling ≤ 1 s, overshoot ≤ 5 %" in note[0]
+    # the tuned design is faster than asked for, so that the plausible motors meet the spec
+    assert max(p.real for p in tuned.closed_loop_poles) < max(p.real for p in plain.closed_loop_poles)
+    with pytest.raises(OptionError, match="tunes against a spec"):
+        mi.design(demo_model, damping=1.0, wn=8.0, robust_fraction=0.9)
+    with pytest.raises(OptionError, match="fraction in"):
+        mi.design(demo_model, settling_time=1.0, overshoot=5.0, robust_fraction=1.5)

@@ -184,6 +184,9 @@ def design(
         "--sensors", help="What the rig measures, e.g. position,velocity (default: the model's channels); "
         "the other states are estimated.")] = None,
     output: Annotated[str | None, typer.Option("--output", help="Measured channel y (default position).")] = None,
+    robust: Annotated[float | None, typer.Option(
+        "--robust", help="Tune for robustness: tighten the design's own settling time and overshoot until this "
+        "fraction of the plausible motors meets --settling-time/--overshoot (e.g. 0.95).")] = None,
     robust_samples: Annotated[int, typer.Option(
         "--robust-samples", help="Plausible motors, drawn from the model's uncertainty, the design is checked on "
         "(0: no check).")] = 2000,
@@ -218,7 +221,7 @@ def design(
         damping=damping, k2=k2, wn=wn, settling_time_s=settling_time, overshoot_pct=overshoot,
         integral=integral, ki=ki, integral_pole=integral_pole,
         observer_poles=None if observer_poles is None else tuple(parse_poles(observer_poles, "--observer-poles")),
-        output=output, robust_samples=robust_samples,
+        output=output, robust_samples=robust_samples, robust_fraction=robust,
         sensors=None if sensors is None else tuple(x.strip() for x in sensors.split(",") if x.strip()),
     )
     model = load_model(model_file)

@@ -82,6 +82,10 @@ class DesignSettings:
         What the rig measures (``position``, ``velocity``, ``current``); default: the channels
         the model was identified from.  States that are not measured (an acceleration) are
         estimated by a reduced-order observer (:mod:`.reduced_observer`), never differentiated.
+    robust_fraction : float, optional
+        Tune for robustness: the design's own settling time and overshoot are tightened until
+        this fraction of the plausible motors meets the ``settling_time_s``/``overshoot_pct``
+        asked for (:func:`design_controller` says how far it went).
     """
 
     poles: tuple[complex, ...] | None = None
@@ -97,6 +101,7 @@ class DesignSettings:
     output: str | None = None
     robust_samples: int = 0
     sensors: tuple[str, ...] | None = None
+    robust_fraction: float | None = None
 
     def __post_init__(self) -> None:
         for name, option in (("damping", "--damping"), ("wn", "--wn"), ("settling_time_s", "--settling-time")):
@@ -137,6 +142,12 @@ class DesignSettings:
             if bad or not self.sensors or len(set(self.sensors)) != len(self.sensors):
                 raise OptionError(f"--sensors {','.join(map(str, self.sensors))}: give distinct channels among "
                                   "position, velocity and current (what the rig measures; derivatives are estimated)")
+        if self.robust_fraction is not None:
+            f = self.robust_fraction
+            if isinstance(f, bool) or not isinstance(f, (int, float)) or not 0 < f < 1:
+                raise OptionError(f"--robust must be a fraction in (0, 1), e.g. 0.95, got {f!r}")
+            if self.settling_time_s is None:
+                raise OptionError("--robust tunes against a spec: give --settling-time and --overshoot")
         n = self.robust_samples
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not (n == 0 or 10 <= n <= 1_000_000):
             raise OptionError(f"--robust-samples must be 0 (no check) or a whole number from 10 to 1000000, got {n!r}")
@@ -589,6 +600,45 @@ def _dead_time_warnings(delay_s: float, margins: LoopMargins) -> list[str]:
             "is less damped than the poles say; simulate applies the dead time"]
 
 
+#: ``--robust``: each step asks the nominal design for this fraction of the previous step's
+#: settling time and overshoot, at most :data:`ROBUST_STEPS` times.
+ROBUST_TIGHTEN = 0.85
+ROBUST_STEPS = 12
+#: Plausible motors each tuning step is checked on (the final design on ``robust_samples``).
+ROBUST_SEARCH_SAMPLES = 400
+
+
+def _robust_tuned(model: MotorModel, s: DesignSettings) -> Design:
+    """The design whose own targets are tightened until ``s.robust_fraction`` of the motors meet ``s``'s spec."""
+    spec_ts, spec_os = cast(float, s.settling_time_s), cast(float, s.overshoot_pct)
+    spec = RobustSpec(spec_os, spec_ts)
+    ts, os_pct = spec_ts, spec_os
+    tried: list[tuple[float, float, float]] = []
+    for _ in range(ROBUST_STEPS):
+        trial = replace(s, settling_time_s=ts, overshoot_pct=os_pct, robust_fraction=None, robust_samples=0)
+        design = design_controller(model, trial)
+        check = robust_check(model, design, samples=ROBUST_SEARCH_SAMPLES, spec=spec)
+        tried.append((ts, os_pct, cast(float, check.spec_fraction)))
+        if cast(float, check.spec_fraction) >= cast(float, s.robust_fraction):
+            break
+        ts, os_pct = ts * ROBUST_TIGHTEN, os_pct * ROBUST_TIGHTEN
+    best_ts, best_os, _ = max(tried, key=lambda x: x[2])
+    final = design_controller(model, replace(s, settling_time_s=best_ts, overshoot_pct=best_os, robust_fraction=None,
+                                             robust_samples=0))
+    final = replace(final, robust=robust_check(model, final, samples=max(s.robust_samples, ROBUST_SEARCH_SAMPLES),
+                                               spec=spec))
+    got = cast(float, cast(RobustCheck, final.robust).spec_fraction)
+    from motorid.numfmt import sig
+
+    how = (f"--robust {sig(cast(float, s.robust_fraction))}: designed for settling {sig(best_ts)} s and overshoot "
+           f"{sig(best_os)} % so that {100 * got:.1f} % of the plausible motors meet settling ≤ {sig(spec_ts)} s, "
+           f"overshoot ≤ {sig(spec_os)} % (the nominal design for the spec itself: "
+           f"{100 * tried[0][2]:.1f} %)")
+    if got < cast(float, s.robust_fraction):
+        how += f"; {len(tried)} tightenings did not reach the fraction: ask for a looser spec or identify again"
+    return replace(final, warnings=(*final.warnings, how))
+
+
 @single_blas_thread
 def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
     """Design state feedback (with optional integral action and observer) for ``model``.
@@ -620,6 +670,11 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
     Tsiolakis 2022, eqs. 30–58.
     """
     s = settings  # validated on construction (DesignSettings.__post_init__)
+    if s.robust_fraction is not None:
+        try:
+            return _robust_tuned(model, s)
+        except RobustCheckUnavailable as exc:
+            raise OptionError(f"--robust needs the model's uncertainty: {exc}") from None
     mr = measurable_realisation(model)
     work = mr.model
     a, b = work.A, work.B

@@ -194,7 +194,7 @@ def design_options(body: Mapping[str, Any]) -> dict[str, Any]:
     """
     _unknown(body, DESIGN_OPTIONS, "design")
     out: dict[str, Any] = {}
-    for name in ("damping", "wn", "k2", "settling_time", "overshoot", "ki"):
+    for name in ("damping", "wn", "k2", "settling_time", "overshoot", "ki", "robust_fraction"):
         if name in body:
             out[name] = _json_number(name, body[name])
     for name in ("poles", "observer_poles"):
