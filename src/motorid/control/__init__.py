@@ -20,6 +20,7 @@ from motorid.control.feedback import (
 )
 from motorid.control.integral import augment_integral, integral_gains, integral_poly, routh_violations
 from motorid.control.observer import check_observable, observer_gain, output_feedback_matrix
+from motorid.control.pid import PidDesign, PidSettings, design_pid
 from motorid.control.params import MotorParams, model_from_params, params_from_step_test, parse_ratio
 from motorid.control.routh import AffinePoly, affine_char_poly, routh_array, routh_conditions, routh_stable
 
@@ -33,6 +34,8 @@ __all__ = [
     "DesignSettings",
     "MeasurableRealisation",
     "MotorParams",
+    "PidDesign",
+    "PidSettings",
     "affine_char_poly",
     "augment_integral",
     "check_controllable",
@@ -41,6 +44,7 @@ __all__ = [
     "check_poles",
     "design_controller",
     "design_model",
+    "design_pid",
     "dominant_second_order",
     "integral_gains",
     "integral_poly",
