@@ -342,8 +342,8 @@ def _channel_system(model: MotorModel, channel: str) -> tuple[control.StateSpace
         raise OptionError(f"--pid-loop {channel}: the model has no {channel} output (its outputs are "
                           f"{list(model.outputs)}); identify with --{channel} or use the other loop")
     output_row(model, channel)  # refuses a direct feed-through
-    which = "position" if channel == "position" else "velocity"
-    num, den = (np.asarray(v, float) for v in model.tf_coefficients(which))
+    coeffs = model.tf_coefficients("position") if channel == "position" else model.tf_coefficients("velocity")
+    num, den = (np.asarray(v, float) for v in coeffs)
     plant = control.ss(control.tf(num, den), inputs=[_COMMAND], outputs=[model.signal_name(channel)])
     return plant, num, den
 
