@@ -42,6 +42,7 @@ __all__ = [
     "response_metrics",
     "simulate_closed_loop",
     "simulation_figure",
+    "step_check",
 ]
 
 #: Reference waveforms: a step (report §2.2.1), a sinusoid (§2.2.3) and the trainer's test signals.
@@ -705,6 +706,35 @@ def _simulate_pid(model: MotorModel, pid: PidDesign, s: SimulationSettings,
     metrics = response_metrics(t, ys, r, us, s.reference.kind == "step")
     return SimulationResult(t, r, ys, us, uraw, xs, None, zs, tuple(model.states), pid.output, metrics,
                             tuple(warnings), dict(model.units), bool(hold))
+
+
+def step_check(model: MotorModel, pid: PidDesign, level: float = 1.0) -> SimulationResult:
+    """A unit step of the reference through the linear loop (no rails), long enough to settle.
+
+    The record is ten times the closed loop's slowest time constant (1–30 s), the control
+    interval at most 1 ms and a tenth of the derivative filter's time constant.
+
+    Parameters
+    ----------
+    model : MotorModel
+        The model the PID was designed for (its dead time applied).
+    pid : PidDesign
+    level : float
+        The step, in the output's unit.
+
+    Returns
+    -------
+    SimulationResult
+        Its ``metrics`` hold the overshoot and the settling time.
+    """
+    poles = np.asarray(pid.closed_loop_poles, complex)
+    stable = poles[poles.real < 0]
+    slowest = float(np.min(-stable.real)) if stable.size else 1.0
+    duration = min(max(10.0 / slowest, 1.0), 30.0)
+    dt = min(1e-3, pid.tf_s / 10 if pid.tf_s > 0 else 1e-3)
+    dt = max(dt, duration / 300_000)
+    return simulate_closed_loop(model, pid, SimulationSettings(duration_s=duration, dt_s=dt,
+                                                               reference=ReferenceSignal(level_v=level)))
 
 
 #: Rail-to-rail swings of the applied command in the last half of a run that make a limit cycle
