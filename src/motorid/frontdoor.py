@@ -38,6 +38,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
     from motorid.control.design import Design
+    from motorid.control.pid import PidDesign
     from motorid.identification.hammerstein import MultiLevelResult
     from motorid.identification.pipeline import Identification
     from motorid.identification.sanity import SanityReport
@@ -681,7 +682,7 @@ def design(
 @speaks_as_called("simulate")
 def simulate(
     model: MotorModel | IdentificationResult,
-    design: Design,
+    design: Design | PidDesign,
     *,
     duration_s: float = 3.0,
     reference: str | ReferenceSignal = "step",
@@ -703,8 +704,8 @@ def simulate(
     ----------
     model : MotorModel or IdentificationResult
         The plant (``plant="linear"``) and the observer's model.
-    design : Design
-        From :func:`design`.
+    design : Design or PidDesign
+        From :func:`design`, or a PID from :func:`motorid.control.design_pid`.
     duration_s : float
         Record length [s].
     reference : str or ReferenceSignal
@@ -744,10 +745,11 @@ def simulate(
         Bad settings, or a design for other states than the model's.
     """
     from motorid.control.design import Design
+    from motorid.control.pid import PidDesign
     from motorid.simulation.closed_loop import simulate_closed_loop
 
-    if not isinstance(design, Design):
-        raise OptionError(f"design= must be the Design of mi.design(...), got {type(design).__name__}")
+    if not isinstance(design, (Design, PidDesign)):
+        raise OptionError(f"design= must be the Design of mi.design(...) or a PidDesign, got {type(design).__name__}")
     settings = _simulation_settings(
         duration_s=duration_s, reference=reference, level_v=level_v, saturation=saturation, disturbance=disturbance,
         disturbance_start_s=disturbance_start_s, plant=plant, dt_s=dt_s, x0=x0, z0=z0, xhat0=xhat0,

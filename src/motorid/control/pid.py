@@ -61,6 +61,7 @@ __all__ = [
     "PidSettings",
     "ReducedModel",
     "design_pid",
+    "pid_loop_frequency_response",
     "reduce_half_rule",
 ]
 
@@ -738,3 +739,32 @@ def design_pid(model: MotorModel, settings: PidSettings) -> PidDesign:
         warnings.append(f"the sensitivity peak Ms = {margins.ms:.3g} is above 2: little robustness; ask for a "
                         "slower loop (a larger --tau-c or a smaller --wn)")
     return replace(pid, margins=margins, closed_loop_poles=poles, warnings=tuple(warnings))
+
+
+def pid_loop_frequency_response(model: MotorModel, pid: PidDesign, points: int = 800) -> tuple[np.ndarray, np.ndarray]:
+    """``L(jω) = C(jω) G(jω) e^{−jωθ}`` of the PID's loop, the model's dead time exact.
+
+    The counterpart of :func:`motorid.control.margins.loop_frequency_response` for a PID.
+
+    Parameters
+    ----------
+    model : MotorModel
+        The model the PID was designed for.
+    pid : PidDesign
+    points : int
+        Frequencies, log-spaced over five decades around the loop's fastest pole.
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        ``ω`` (rad/s) and the complex ``L(jω)``.
+    """
+    import control
+
+    from motorid.control.margins import _response
+
+    plant, _num, _den = _channel_system(model, pid.loop)
+    loop = control.ss(pid.tf()) * plant
+    fastest = max(float(np.max(np.abs(np.linalg.eigvals(np.asarray(loop.A, float))), initial=0.0)), 1.0)
+    omega = np.logspace(np.log10(fastest) - 4, np.log10(fastest) + 1, points)
+    return omega, _response(loop, omega) * np.exp(-1j * omega * float(model.delay_s))

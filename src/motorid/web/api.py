@@ -140,13 +140,13 @@ async def api_simulate(request: Request) -> dict[str, Any]:
         The simulation JSON (``motorid simulate --json``: metrics, warnings, series).
     """
     import motorid as mi
-    from motorid.control.design import Design
+    from motorid.control.design_io import controller_from_json
 
     body = await _json_body(request)
     model = _model(body)
     if "design" not in body:
         raise OptionError('the body needs "design": the design JSON of motorid design --json or POST /api/design')
-    des = Design.from_json(body["design"], file="design")
+    des = controller_from_json(body["design"], file="design")
     opts = simulate_options({k: v for k, v in body.items() if k not in ("model", "design")})
     sim = await run_in_threadpool(lambda: mi.simulate(model, des, **opts))
     return sim.to_json()
