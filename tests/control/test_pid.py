@@ -210,3 +210,17 @@ def test_a_position_loop_needs_a_position_output():
     m = model_from_velocity_tf([2.0], [0.5, 1.0])
     with pytest.raises(MotorIdError, match="no position output"):
         design_pid(m, PidSettings(loop="position"))
+
+
+def test_simc_slows_down_until_the_full_models_loop_is_robust():
+    # a lightly damped pair (ζ = 0.1) taken as two lags: SIMC's τc gives an unstable loop on the
+    # full model, so τc is doubled until python-control's loop has Ms ≤ 2, and the warning says so
+    m = model_from_velocity_tf([2.0], [1.0, 0.4, 4.0], with_position=True)
+    p = design_pid(m, PidSettings())
+    loop = _pid_tf(p) * _plant(m, "velocity")
+    assert np.all(np.real(control.feedback(loop, 1).poles()) < 0)
+    _gm, _pm, sm, *_ = control.stability_margins(loop)
+    assert 1 / sm <= 2.0 + 1e-6 and p.margins.ms <= 2.0
+    assert any(w.startswith("τc raised from 0.25 s") for w in p.warnings)
+    given = design_pid(m, PidSettings(tau_c_s=0.25))  # a τc given is kept, and called unstable
+    assert given.tau_c_s == 0.25 and any(w.startswith("UNSTABLE") for w in given.warnings)

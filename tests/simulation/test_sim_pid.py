@@ -42,7 +42,7 @@ def test_the_sampled_loop_is_the_continuous_closed_loop(delay_s, settings):
     # tolerance: the controller samples y every 0.1 ms and holds u (about half a sample of extra lag),
     # and the dead time's Padé approximant rings for a few ms around t = θ: 0.5 % of the step
     assert np.max(np.abs(sim.output_v - want)) < 0.005 * 10.0
-    assert abs(sim.output_v[-1] - 10.0) < 0.05  # integral action, or the motor's own integrator
+    assert abs(sim.output_v[-1] - 10.0) < 0.1  # 1 %: integral action, or the motor's own integrator
     m = sim.metrics
     assert np.isfinite(m.settling_time_s) and m.overshoot_pct < 25
     info = control.step_info(want / 10.0, T=sim.time_s, yfinal=1.0, SettlingTimeThreshold=0.02)

@@ -54,6 +54,8 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DERIVATIVE_FILTER_N",
+    "MAX_DETUNE",
+    "MS_TARGET",
     "PID_LOOPS",
     "PID_RULES",
     "TAU_C_FRACTION",
@@ -692,53 +694,89 @@ def design_pid(model: MotorModel, settings: PidSettings) -> PidDesign:
     ----------
     Skogestad 2003, §3 (half rule), §4 (SIMC).
     """
-    import control
-
     s = settings
     channel = s.loop
     plant, num, den = _channel_system(model, channel)
     red = reduce_half_rule(num, den, model.delay_s, integrating=channel == "position", channel=channel)
-    warnings = list(red.notes)
-    tau_c: float | None = None
-    if s.rule == "simc":
-        kp, ki, kd, tau_c, notes = _simc(red, s)
-    else:
-        kp, ki, kd, notes = _placement(red, s)
-    warnings += notes
-    for name, given in (("kp", s.kp), ("ki", s.ki), ("kd", s.kd)):
-        if given is not None:
-            rule_value = {"kp": kp, "ki": ki, "kd": kd}[name]
-            warnings.append(f"{name} = {given:.4g} given (the rule's: {rule_value:.4g})")
-            kp, ki, kd = (given if name == "kp" else kp, given if name == "ki" else ki,
-                          given if name == "kd" else kd)
-    for name, v in (("kp", kp), ("ki", ki), ("kd", kd)):
-        if v < 0:
-            warnings.append(f"{name} = {v:.4g} is negative: the poles asked for are slower than the motor's own; "
-                            "ask for a larger --wn")
-    td = kd / kp if kp != 0 else kd
-    tf_s = abs(td) / s.derivative_filter if kd != 0 else 0.0
     unit = model.units.get(channel) or "V"
-    pid = PidDesign(float(kp), float(ki), float(kd), float(tf_s), channel, s.rule, channel, unit, _gain_units(unit),
-                    tau_c, float(s.derivative_filter), red, None, np.zeros(0, complex), (), float(model.delay_s),
-                    dict(model.units))
+
+    def tuned(tau_c_s: float | None) -> tuple[PidDesign, list[str]]:
+        notes: list[str] = []
+        tau_c: float | None = None
+        if s.rule == "simc":
+            kp, ki, kd, tau_c, notes = _simc(red, replace(s, tau_c_s=tau_c_s) if tau_c_s is not None else s)
+        else:
+            kp, ki, kd, notes = _placement(red, s)
+        for name, given in (("kp", s.kp), ("ki", s.ki), ("kd", s.kd)):
+            if given is not None:
+                rule_value = {"kp": kp, "ki": ki, "kd": kd}[name]
+                notes.append(f"{name} = {given:.4g} given (the rule's: {rule_value:.4g})")
+                kp, ki, kd = (given if name == "kp" else kp, given if name == "ki" else ki,
+                              given if name == "kd" else kd)
+        for name, v in (("kp", kp), ("ki", ki), ("kd", kd)):
+            if v < 0:
+                notes.append(f"{name} = {v:.4g} is negative: the poles asked for are slower than the motor's own; "
+                             "ask for a larger --wn")
+        td = kd / kp if kp != 0 else kd
+        tf_s = abs(td) / s.derivative_filter if kd != 0 else 0.0
+        pid = PidDesign(float(kp), float(ki), float(kd), float(tf_s), channel, s.rule, channel, unit,
+                        _gain_units(unit), tau_c, float(s.derivative_filter), red, None, np.zeros(0, complex), (),
+                        float(model.delay_s), dict(model.units))
+        return _with_loop(pid, plant), notes
+
+    pid, notes = tuned(None)
+    # SIMC's own τc on an approximation too coarse for the model (a lightly damped pair, a large
+    # zero) can leave a fragile loop: slow it down (τc doubled) until Ms ≤ 2, Skogestad's upper
+    # robustness target, and say so; a τc, a gain or poles the user gave are kept as given
+    if s.rule == "simc" and s.tau_c_s is None and s.kp is None and s.ki is None and s.kd is None:
+        first = pid.tau_c_s
+        for _ in range(MAX_DETUNE):
+            if _robust(pid):
+                break
+            pid, notes = tuned(2 * float(pid.tau_c_s or 0.0))
+        if pid.tau_c_s != first:
+            notes.append(f"τc raised from {first:.4g} s to {pid.tau_c_s:.4g} s (doubled until Ms ≤ {MS_TARGET:g}): "
+                         "SIMC's τc left the full model's loop fragile")
+    warnings = [*red.notes, *notes]
+    poles, margins = pid.closed_loop_poles, pid.margins
+    if np.any(poles.real >= 0):
+        worst = poles[np.argmax(poles.real)]
+        warnings.append(f"UNSTABLE: the closed loop on the full model{' with its dead time' if model.delay_s else ''} "
+                        f"has a pole at {worst:.4g}; ask for a slower loop (a larger --tau-c or a smaller --wn)")
+    elif margins is not None and math.isfinite(margins.ms) and margins.ms > MS_TARGET:
+        warnings.append(f"the sensitivity peak Ms = {margins.ms:.3g} is above {MS_TARGET:g}: little robustness; ask "
+                        "for a slower loop (a larger --tau-c or a smaller --wn)")
+    return replace(pid, warnings=tuple(warnings))
+
+
+#: Largest sensitivity peak SIMC's default τc is allowed to leave (Skogestad 2003 aims at 1.6–2).
+MS_TARGET = 2.0
+#: How many times the default τc may be doubled to reach :data:`MS_TARGET`.
+MAX_DETUNE = 12
+
+
+def _robust(pid: PidDesign) -> bool:
+    """Stable, with a sensitivity peak within :data:`MS_TARGET`."""
+    m = pid.margins
+    return bool(np.all(pid.closed_loop_poles.real < 0)) and m is not None and math.isfinite(m.ms) \
+        and m.ms <= MS_TARGET
+
+
+def _with_loop(pid: PidDesign, plant: control.StateSpace) -> PidDesign:
+    """``pid`` with the closed-loop poles and margins of its loop on ``plant`` and the model's dead time."""
+    import control
+
     ctrl = control.ss(pid.tf())
     fastest = max(float(np.max(np.abs(np.linalg.eigvals(np.asarray(plant.A, float))), initial=0.0)),
-                  1.0 / tf_s if tf_s > 0 else 0.0, 1.0)
-    pade = dead_time_pade(float(model.delay_s), fastest)
+                  1.0 / pid.tf_s if pid.tf_s > 0 else 0.0, 1.0)
+    pade = dead_time_pade(pid.dead_time_s, fastest)
     delayed = plant if pade is None else plant * pade
     closed = control.feedback(delayed, ctrl)
     poles = np.asarray(closed.poles(), complex)
-    c_r = control.tf([kp], [1.0]) + (control.tf([ki], [1.0, 0.0]) if ki != 0 else 0)
+    c_r = control.tf([pid.kp], [1.0]) + (control.tf([pid.ki], [1.0, 0.0]) if pid.ki != 0 else 0)
     bandwidth = closed_loop_bandwidth(control.tf(closed) * c_r)
-    margins = open_loop_margins(ctrl * plant, float(model.delay_s), bandwidth)
-    if np.any(poles.real >= 0):
-        worst = poles[np.argmax(poles.real)]
-        warnings.append(f"UNSTABLE: the closed loop on the full model{' with its dead time' if pade else ''} has a "
-                        f"pole at {worst:.4g}; ask for a slower loop (a larger --tau-c or a smaller --wn)")
-    elif math.isfinite(margins.ms) and margins.ms > 2.0:
-        warnings.append(f"the sensitivity peak Ms = {margins.ms:.3g} is above 2: little robustness; ask for a "
-                        "slower loop (a larger --tau-c or a smaller --wn)")
-    return replace(pid, margins=margins, closed_loop_poles=poles, warnings=tuple(warnings))
+    margins = open_loop_margins(ctrl * plant, pid.dead_time_s, bandwidth)
+    return replace(pid, margins=margins, closed_loop_poles=poles)
 
 
 def pid_loop_frequency_response(model: MotorModel, pid: PidDesign, points: int = 800) -> tuple[np.ndarray, np.ndarray]:
