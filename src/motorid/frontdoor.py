@@ -52,6 +52,7 @@ __all__ = [
     "ParameterEstimate",
     "Provenance",
     "design",
+    "design_pid",
     "identify",
     "identify_levels",
     "read_experiment",
@@ -679,6 +680,55 @@ def design(
     return design_controller(_model_of(model), settings)
 
 
+@speaks_as_called("design_pid")
+def design_pid(
+    model: MotorModel | IdentificationResult,
+    *,
+    loop: str = "velocity",
+    rule: str = "simc",
+    integral: bool = False,
+    tau_c: float | None = None,
+    derivative_filter: float = 10.0,
+    damping: float | None = None,
+    wn: float | None = None,
+) -> PidDesign:
+    """Design a PID on the model (``motorid design --pid`` in Python).
+
+    Parameters
+    ----------
+    model : MotorModel or IdentificationResult
+        The plant (first to third order, with or without a dead time).
+    loop : str
+        ``velocity`` (a PI) or ``position`` (a PD; a PID with ``integral``).
+    rule : str
+        ``simc`` (Skogestad 2003) or ``placement`` (closed-loop poles from ``damping``, ``wn``).
+    integral : bool
+        Integral action on the position loop.
+    tau_c : float, optional
+        SIMC's closed-loop time constant [s] (default ``max(θ, 0.25 τ)``).
+    derivative_filter : float
+        ``N`` of the derivative filter ``Td / N``.
+    damping, wn : float, optional
+        ζ and ωn [rad/s] of the placed poles (``rule="placement"``).
+
+    Returns
+    -------
+    PidDesign
+        Gains in the data's units, margins, closed-loop poles, warnings; ``.tf()`` and
+        ``.system()`` are python-control objects, ``.to_json()`` the Design JSON.
+
+    Raises
+    ------
+    OptionError, ControlDesignError
+        Bad settings, a loop the model has no channel for, a model the rules cannot tune.
+    """
+    from motorid.control.pid import PidSettings, design_pid as _design_pid
+
+    settings = PidSettings(loop=loop, rule=rule, tau_c_s=tau_c, derivative_filter=derivative_filter,
+                           integral=True if integral else None, damping=damping, wn=wn)
+    return _design_pid(_model_of(model), settings)
+
+
 @speaks_as_called("simulate")
 def simulate(
     model: MotorModel | IdentificationResult,
@@ -815,7 +865,7 @@ def write_report(
     path: str | PathLike[str],
     fit: IdentificationResult,
     *,
-    design: Design | Mapping[str, Any] | None = None,
+    design: Design | PidDesign | Mapping[str, Any] | None = None,
     validation: Sequence[str | PathLike[str] | Capture] = (),
     overwrite: bool = True,
     simulation: Mapping[str, Any] | None = None,
@@ -828,7 +878,7 @@ def write_report(
         The HTML file; its folder must exist.  Written atomically: a failure leaves no file.
     fit : IdentificationResult
         From :func:`identify`.
-    design : Design or Mapping, optional
+    design : Design, PidDesign or Mapping, optional
         A design (or its JSON dict) to show with its closed-loop step response.
     validation : sequence of paths or Captures
         Captures of other inputs (sine, triangle, square…) to validate the model on.
@@ -851,6 +901,7 @@ def write_report(
         ``overwrite=False``, a full disk).
     """
     from motorid.control.design import Design
+    from motorid.control.pid import PidDesign
     from motorid.io import atomic_outputs, check_writable
     from motorid.report.assemble import make_report
 
@@ -858,7 +909,7 @@ def write_report(
         raise OptionError(f"write_report needs the result of mi.identify(...), got {type(fit).__name__}")
     out = Path(path)
     check_writable({"path": out}, force=overwrite, create_parents=False)
-    doc = design.to_json() if isinstance(design, Design) else (None if design is None else dict(design))
+    doc = design.to_json() if isinstance(design, (Design, PidDesign)) else (None if design is None else dict(design))
     run = None
     if simulation is not None:
         from motorid.options import SIMULATE, defaults

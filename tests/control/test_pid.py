@@ -182,6 +182,7 @@ def test_system_has_the_derivative_on_the_measurement():
 def test_design_json_round_trip():
     p = design_pid(_fopdt(), PidSettings(loop="position"))
     doc = json.loads(p.to_json_text())
+    assert doc == json.loads(json.dumps(p.to_json()))
     assert doc["schema"] == "motorid.design/1" and doc["K"] == [] and doc["kr"] is None
     assert {"kp", "ki", "kd", "tf_s", "loop", "rule", "units"} <= set(doc["pid"])
     back = PidDesign.from_json(doc)

@@ -85,3 +85,33 @@ def test_placement_from_the_command_line(fopdt_file, tmp_path):
     # τ s² + (1 + k kp) s + k ki = τ (s² + 2ζωn s + ωn²): kp = (2ζωnτ − 1)/k, ki = ωn² τ / k
     assert pid["kp"] == pytest.approx((2 * 0.8 * 3 * 0.5 - 1) / 2) and pid["ki"] == pytest.approx(9 * 0.5 / 2)
     assert np.isfinite(pid["tf_s"]) and pid["rule"] == "placement"
+
+
+def test_the_declared_pid_options_are_flags_of_design_and_the_front_doors_keywords():
+    import inspect
+
+    import typer.main
+
+    import motorid as mi
+    from motorid import options
+    from motorid.cli.app import app
+
+    flags = {opt for p in typer.main.get_command(app).commands["design"].params for opt in (*p.opts, *p.secondary_opts)}
+    assert {s.flag for s in options.DESIGN_PID} <= flags and "--pid" in flags
+    params = inspect.signature(mi.design_pid).parameters
+    assert [n for n, p in params.items() if p.kind is inspect.Parameter.KEYWORD_ONLY] == list(
+        options.names(options.DESIGN_PID))
+
+
+def test_the_front_door_is_the_library(fopdt_file):
+    import motorid as mi
+    from motorid.control.pid import PidSettings, design_pid
+
+    model = mi.MotorModel.from_json(json.loads(fopdt_file.read_text()))
+    got = mi.design_pid(model, loop="position", integral=True, tau_c=0.2)
+    want = design_pid(model, PidSettings(loop="position", integral=True, tau_c_s=0.2))
+    assert (got.kp, got.ki, got.kd, got.tf_s) == (want.kp, want.ki, want.kd, want.tf_s)
+    with pytest.raises(mi.MotorIdError, match=r"^tau_c must be a finite number > 0"):
+        mi.design_pid(model, tau_c=-1.0)
+    sim = mi.simulate(model, got, duration_s=3.0, level_v=1.0)
+    assert sim.metrics.overshoot_pct < 40

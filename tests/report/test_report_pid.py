@@ -10,7 +10,7 @@ from motorid.report.assemble import make_report
 def test_the_report_shows_a_pid_design(demo_run):
     ident = demo_run.result.identification
     pid = design_pid(ident.model, PidSettings(loop="position", integral=True))
-    html = make_report(ident, {}, design=pid.design_json(), title="PID")
+    html = make_report(ident, {}, design=pid.to_json(), title="PID")
     section = html[html.index('id="design"') if 'id="design"' in html else html.index("id=design"):]
     assert "PID on the position, rule simc" in section
     assert "V per V" in section and "phase margin" in section

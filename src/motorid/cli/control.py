@@ -207,15 +207,13 @@ def design(
                    "--pid-integral": pid_integral, "--tau-c": tau_c is not None,
                    "--derivative-filter": derivative_filter is not None}
     if pid:
-        placement_only = {"--poles": poles is not None, "--k2": k2 is not None,
-                          "--settling-time": settling_time is not None, "--overshoot": overshoot is not None,
-                          "--integral": integral, "--ki": ki is not None, "--integral-pole": integral_pole is not None,
-                          "--observer-poles": observer_poles is not None, "--output": output is not None}
-        clash = next((flag for flag, given in placement_only.items() if given), None)
-        if clash is not None:
-            raise OptionError(f"--pid and {clash} do not go together: {clash} is for state feedback by pole "
-                              "placement (the PID's loop is chosen with --pid-loop, its poles with --pid-rule "
-                              "placement --damping Z --wn W)")
+        from motorid.control.pid import refuse_state_feedback_options
+
+        refuse_state_feedback_options({
+            "--poles": poles is not None, "--k2": k2 is not None, "--settling-time": settling_time is not None,
+            "--overshoot": overshoot is not None, "--integral": integral, "--ki": ki is not None,
+            "--integral-pole": integral_pole is not None, "--observer-poles": observer_poles is not None,
+            "--output": output is not None})
         _design_pid(model_file, json_out, force, pid_loop, pid_rule, pid_integral, tau_c, derivative_filter, damping,
                     wn)
         return

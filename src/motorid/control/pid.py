@@ -18,7 +18,10 @@ Two tuning rules:
   Skogestad's half rule first; the closed-loop time constant is ``τc = max(θ, 0.25 τ)`` unless
   given (θ the effective dead time, τ the dominant lag): SIMC's "tight control" ``τc = θ``
   where the dead time dominates, and a loop four times faster than the motor where it does not
-  (a motor's dead time is often zero, where ``τc = θ`` asks for infinite gain).
+  (a motor's dead time is often zero, where ``τc = θ`` asks for infinite gain).  When that
+  default leaves the full model's loop unstable or with a sensitivity peak Ms above 2 (a lightly
+  damped pair, a zero the approximation handles coarsely), τc is doubled until Ms ≤ 2, and the
+  warnings say so.
 - ``placement``: the closed-loop poles of the same low-order approximation (without its dead
   time) placed at ``ζ``/``ωn`` (the PID's third pole, with integral action on the position, at
   ``−ωn``).
@@ -58,6 +61,7 @@ __all__ = [
     "MS_TARGET",
     "PID_LOOPS",
     "PID_RULES",
+    "STATE_FEEDBACK_OPTIONS",
     "TAU_C_FRACTION",
     "PidDesign",
     "PidSettings",
@@ -65,6 +69,7 @@ __all__ = [
     "design_pid",
     "pid_loop_frequency_response",
     "reduce_half_rule",
+    "refuse_state_feedback_options",
 ]
 
 #: The loops a PID closes: the velocity (PI) or the position (PD, or PID with integral action).
@@ -75,8 +80,37 @@ PID_RULES: tuple[str, ...] = ("simc", "placement")
 TAU_C_FRACTION = 0.25
 #: Default derivative filter ``N`` (``tf = Td / N``); 5–20 is the usual range.
 DERIVATIVE_FILTER_N = 10.0
+#: Largest sensitivity peak SIMC's default τc is allowed to leave (Skogestad 2003 aims at 1.6–2).
+MS_TARGET = 2.0
+#: How many times the default τc may be doubled to reach :data:`MS_TARGET`.
+MAX_DETUNE = 12
 #: The command, as the model's python-control systems name their input.
 _COMMAND = "u [V]"
+
+
+#: The options of state feedback by pole placement that a PID design refuses (by their flags).
+STATE_FEEDBACK_OPTIONS: tuple[str, ...] = ("--poles", "--k2", "--settling-time", "--overshoot", "--integral", "--ki",
+                                           "--integral-pole", "--observer-poles", "--output")
+
+
+def refuse_state_feedback_options(given: Mapping[str, bool]) -> None:
+    """Refuse, in one line naming both, a state-feedback option given with ``--pid``.
+
+    Parameters
+    ----------
+    given : Mapping of str to bool
+        Whether each flag of :data:`STATE_FEEDBACK_OPTIONS` was given.
+
+    Raises
+    ------
+    OptionError
+        For the first one given.
+    """
+    clash = next((flag for flag in STATE_FEEDBACK_OPTIONS if given.get(flag)), None)
+    if clash is not None:
+        raise OptionError(f"--pid and {clash} do not go together: {clash} is for state feedback by pole placement "
+                          "(the PID's loop is chosen with --pid-loop, its poles with --pid-rule placement "
+                          "--damping Z --wn W)")
 
 
 def _finite(v: Any) -> bool:
@@ -498,7 +532,7 @@ class PidDesign:
         """
         return [(k, float(getattr(self, k)), self.units[k]) for k in ("kp", "ki", "kd", "tf_s")]
 
-    def to_json(self) -> dict[str, Any]:
+    def pid_json(self) -> dict[str, Any]:
         """The Design JSON's ``pid`` object.
 
         Returns
@@ -514,11 +548,12 @@ class PidDesign:
                 "derivative_filter": self.derivative_filter, "dead_time_s": self.dead_time_s,
                 "approximation": self.approximation.to_json()}
 
-    def design_json(self) -> dict[str, Any]:
-        """The whole Design JSON (``motorid.design/1``) of this PID.
+    def to_json(self) -> dict[str, Any]:
+        """The whole Design JSON (``motorid.design/1``) of this PID, as :meth:`Design.to_json` gives a design's.
 
         No state feedback: ``states`` and ``K`` are empty, ``kr``, ``ki`` (the state-feedback
-        integrator's), ``L`` and ``observer_poles`` null; the controller is under ``pid``.
+        integrator's), ``L`` and ``observer_poles`` null; the controller is the ``pid`` object
+        (:meth:`pid_json`).
 
         Returns
         -------
@@ -530,7 +565,7 @@ class PidDesign:
         doc: dict[str, Any] = {
             "schema": SCHEMA, "states": [], "output": self.output, "K": [], "kr": None, "ki": None, "L": None,
             "closed_loop_poles": _pairs(self.closed_loop_poles), "observer_poles": None, "routh": [],
-            "warnings": list(self.warnings), "pid": self.to_json(),
+            "warnings": list(self.warnings), "pid": self.pid_json(),
         }
         if self.model_units:
             doc["units"] = dict(self.model_units)
@@ -538,18 +573,28 @@ class PidDesign:
             doc["margins"] = self.margins.to_json()
         return doc
 
+    def to_dict(self) -> dict[str, Any]:
+        """The Design JSON as a dict (the same as :meth:`to_json`).
+
+        Returns
+        -------
+        dict
+            JSON-able.
+        """
+        return self.to_json()
+
     def to_json_text(self) -> str:
-        """:meth:`design_json` as indented text.
+        """:meth:`to_json` as indented text.
 
         Returns
         -------
         str
         """
-        return json.dumps(self.design_json(), indent=2)
+        return json.dumps(self.to_json(), indent=2)
 
     @classmethod
     def from_json(cls, data: Any, *, file: str | None = None) -> PidDesign:
-        """Rebuild from a Design JSON with a ``pid`` object (:meth:`design_json`).
+        """Rebuild from a Design JSON with a ``pid`` object (:meth:`to_json`).
 
         Parameters
         ----------
@@ -747,12 +792,6 @@ def design_pid(model: MotorModel, settings: PidSettings) -> PidDesign:
         warnings.append(f"the sensitivity peak Ms = {margins.ms:.3g} is above {MS_TARGET:g}: little robustness; ask "
                         "for a slower loop (a larger --tau-c or a smaller --wn)")
     return replace(pid, warnings=tuple(warnings))
-
-
-#: Largest sensitivity peak SIMC's default τc is allowed to leave (Skogestad 2003 aims at 1.6–2).
-MS_TARGET = 2.0
-#: How many times the default τc may be doubled to reach :data:`MS_TARGET`.
-MAX_DETUNE = 12
 
 
 def _robust(pid: PidDesign) -> bool:
