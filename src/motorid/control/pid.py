@@ -230,7 +230,7 @@ class ReducedModel:
         Returns
         -------
         str
-            E.g. ``0.905 V/V · e^(−0.0279 s·s) / (0.401 s·s + 1)``.
+            E.g. ``2 rpm/V · e^(−0.1·s) / (0.5·s + 1)``.
         """
         from motorid.numfmt import sig
 
@@ -625,14 +625,15 @@ class PidDesign:
             raise OptionError(f"not a motorid PID design: a {SCHEMA} object with a 'pid' object expected")
         p = data["pid"]
 
-        def number(key: str, *, positive: bool = False) -> float:
+        def number(key: str) -> float:
             v = p.get(key)
-            if not _finite(v) or (positive and not v > 0) or (not positive and v < 0 and key == "tf_s"):
-                raise OptionError(f"not a motorid PID design: pid.{key} must be a finite number"
-                                  + (" > 0" if positive else ""))
+            if not _finite(v):
+                raise OptionError(f"not a motorid PID design: pid.{key} must be a finite number")
             return float(v)
 
         kp, ki, kd, tf_s = number("kp"), number("ki"), number("kd"), number("tf_s")
+        if tf_s < 0:
+            raise OptionError("not a motorid PID design: pid.tf_s must be ≥ 0")
         if kd != 0 and not tf_s > 0:
             raise OptionError("not a motorid PID design: pid.tf_s must be > 0 with a derivative (kd ≠ 0)")
         loop = p.get("loop")
