@@ -61,3 +61,16 @@ def test_anti_windup_holds_the_integrator_on_the_rails():
     assert held.metrics.overshoot_pct < wound.metrics.overshoot_pct
     assert np.max(held.integrator) < np.max(wound.integrator)
     assert any("saturated" in w for w in held.warnings)
+
+
+def test_a_pid_runs_on_the_virtual_trainer():
+    from motorid.control.params import MotorParams, model_from_params
+    from motorid.trainer.closed_loop import simulate_on_trainer
+
+    # the lab report's motor (the trainer's lab-report preset) and a position PD on it
+    model = model_from_params(MotorParams(km=249.3, kT=3.61e-3, gear=1 / 36, k0=0.25, Tm_s=0.55))
+    p = design_pid(model, PidSettings(loop="position"))
+    res = simulate_on_trainer(model, p, SimulationSettings(duration_s=3.0, dt_s=2e-3, saturation_v=10.0,
+                                                           reference=ReferenceSignal(level_v=2.0)))
+    assert not any("diverged" in w for w in res.warnings)
+    assert abs(res.output_v[-1] - 2.0) < 0.1  # the trainer's friction and dead-zone leave a small error
