@@ -606,6 +606,14 @@ def _model_of(model: Any, param: str = "model") -> MotorModel:
     raise OptionError(f"{param}= must be a MotorModel or an IdentificationResult, got {type(model).__name__}")
 
 
+def _names(param: str, values: Any) -> tuple[str, ...]:
+    if isinstance(values, str):
+        values = [v.strip() for v in values.split(",") if v.strip()]
+    if not isinstance(values, Sequence) or not all(isinstance(v, str) for v in values):
+        raise OptionError(f"{param}={values!r}: give channel names, e.g. ['position', 'velocity']")
+    return tuple(values)
+
+
 def _poles(param: str, values: Any) -> tuple[complex, ...] | None:
     if values is None:
         return None
@@ -630,6 +638,8 @@ def design(
     integral_pole: complex | None = None,
     observer_poles: Sequence[complex] | None = None,
     output: str | None = None,
+    robust_samples: int = 2000,
+    sensors: Sequence[str] | None = None,
 ) -> Design:
     """Design state feedback, integral action and an observer (``motorid design`` in Python).
 
@@ -658,6 +668,12 @@ def design(
         Luenberger observer poles.
     output : str, optional
         Measured channel ``y`` (default: position if the model has it, else velocity).
+    robust_samples : int
+        Plausible motors, drawn from the model's uncertainty, the design is checked on
+        (``design.robust``); 0: no check.
+    sensors : sequence of str, optional
+        What the rig measures (``position``, ``velocity``, ``current``; default: the model's
+        channels); the other states are estimated by a reduced-order observer.
 
     Returns
     -------
@@ -675,7 +691,8 @@ def design(
     settings = DesignSettings(
         poles=_poles("poles", poles), damping=damping, k2=k2, wn=wn, settling_time_s=settling_time,
         overshoot_pct=overshoot, integral=integral, ki=ki, integral_pole=integral_pole,
-        observer_poles=_poles("observer_poles", observer_poles), output=output,
+        observer_poles=_poles("observer_poles", observer_poles), output=output, robust_samples=robust_samples,
+        sensors=None if sensors is None else _names("sensors", sensors),
     )
     return design_controller(_model_of(model), settings)
 

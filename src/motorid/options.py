@@ -114,6 +114,8 @@ DESIGN: tuple[OptionSpec, ...] = (
     OptionSpec("integral_pole", "--integral-pole", None, "rad/s", "the integrator's extra pole"),
     OptionSpec("observer_poles", "--observer-poles", None, "rad/s", "Luenberger observer poles"),
     OptionSpec("output", "--output", None, "", "measured channel"),
+    OptionSpec("robust_samples", "--robust-samples", 2000, "", "plausible motors the design is checked on (0: none)"),
+    OptionSpec("sensors", "--sensors", None, "", "what the rig measures, e.g. position,velocity"),
 )
 
 #: :func:`motorid.design_pid`'s options (``motorid design --pid``).

@@ -28,7 +28,24 @@ def _independent(model, des):
     n = a.shape[0]
     k = des.K.reshape(1, n)
     motor = control.ss(a, b, c, 0.0)
-    if des.L is None:  # every state measured: the loop is K (sI − A)⁻¹ B (+ ki/s · G)
+    if des.reduced is not None:  # the reduced observer reads the sensors: controller from z_m to u
+        red = des.reduced
+        idx = {s: i for i, s in enumerate(des.states)}
+        k_m, k_u = k[:, [idx[x] for x in red.measured]], k[:, [idx[x] for x in red.estimated]]
+        kz, kw = -(k_m + k_u @ red.L), -k_u
+        sel = np.eye(n)[[idx[x] for x in red.measured]]
+        sensors = control.ss(a, b, sel, np.zeros((sel.shape[0], 1)))
+        nu = red.F.shape[0]
+        if des.ki is None:
+            ctrl = control.ss(red.F + red.H @ kw, red.G + red.H @ kz, -kw, -kz)
+        else:  # states [w, z]: ż = y (r = 0), y a measured state
+            y_row = np.zeros((1, len(red.measured)))
+            y_row[0, list(red.measured).index(des.output)] = 1.0
+            a_c = np.block([[red.F + red.H @ kw, -red.H * des.ki], [np.zeros((1, nu)), np.zeros((1, 1))]])
+            b_c = np.vstack([red.G + red.H @ kz, y_row])
+            ctrl = control.ss(a_c, b_c, np.hstack([-kw, [[des.ki]]]), -np.hstack([kz]))
+        loop = ctrl * sensors
+    elif des.L is None:  # every state measured: the loop is K (sI − A)⁻¹ B (+ ki/s · G)
         loop = control.tf(control.ss(a, b, k, 0.0))
         if des.ki is not None:
             loop = loop + control.tf([des.ki], [1, 0]) * control.tf(motor)
@@ -42,6 +59,9 @@ def _independent(model, des):
             ctrl = control.ss(a_c, np.vstack([l_col, [[1.0]]]), np.hstack([k, [[des.ki]]]), 0.0)
         loop = control.tf(ctrl) * control.tf(motor)
     gm, pm, sm, _, wgc, _ = control.stability_margins(loop)
+    if not math.isfinite(sm):  # |1 + L| has no minimum inside: its smallest value on a wide grid
+        omega = np.logspace(-4, 5, 20000)
+        sm = float(np.min(np.abs(1 + np.ravel(loop(1j * omega)))))
     return gm, pm, sm, wgc
 
 

@@ -177,9 +177,16 @@ def design(
     ki: Annotated[float | None, typer.Option("--ki", help="Given integral gain (Routh-checked).")] = None,
     integral_pole: Annotated[float | None, typer.Option(
         "--integral-pole", help="Extra real pole placed with the integrator.")] = None,
-    observer_poles: Annotated[str | None,
-                              typer.Option("--observer-poles", help="Observer poles, e.g. -50,-40.")] = None,
+    observer_poles: Annotated[str | None, typer.Option(
+        "--observer-poles", help="Observer poles, e.g. -50,-40: one per state for a full observer from --output, "
+        "one per state the sensors do not measure for a reduced-order one.")] = None,
+    sensors: Annotated[str | None, typer.Option(
+        "--sensors", help="What the rig measures, e.g. position,velocity (default: the model's channels); "
+        "the other states are estimated.")] = None,
     output: Annotated[str | None, typer.Option("--output", help="Measured channel y (default position).")] = None,
+    robust_samples: Annotated[int, typer.Option(
+        "--robust-samples", help="Plausible motors, drawn from the model's uncertainty, the design is checked on "
+        "(0: no check).")] = 2000,
     pid: Annotated[bool, typer.Option(
         "--pid", help="A PID instead of state feedback: velocity PI, position PD (PID with --pid-integral), "
                       "tuned on the model (SIMC, or --pid-rule placement with --damping and --wn).")] = False,
@@ -194,15 +201,24 @@ def design(
     derivative_filter: Annotated[float | None, typer.Option(
         "--derivative-filter", help="N of the derivative filter Td/N (default 10).")] = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the Design JSON here.")] = None,
-    force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
+    discrete: Annotated[float | None, typer.Option(
+        "--discrete", help="Sample the controller every TS seconds (python-control c2d); the JSON gains "
+                           "'discrete' with its difference equations.")] = None,
+    discrete_method: Annotated[str | None, typer.Option(
+        "--discrete-method", help="How to discretise: zoh (default), foh, tustin, euler or backward_diff.")] = None,
+    emit: Annotated[str | None, typer.Option(
+        "--emit", help="Write the sampled controller as code: c, python or matlab (to the terminal, the rest "
+                       "of the printout then going to stderr, or to --emit-file).")] = None,
+    emit_file: Annotated[Path | None, typer.Option("--emit-file", help="Write the --emit code here.")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
-    """State feedback, integral action and observer design (Tsiolakis 2022, §2-4), or a PID (--pid)."""
+    """State feedback, integral action and observer (Tsiolakis 2022, §2-4) or a PID (--pid); code for a controller."""
     from motorid.control.design import DesignSettings, design_controller
     from motorid.control.feedback import parse_poles
     from motorid.io import atomic_outputs
     from motorid.model.serialize import load_model
 
-    _check_outputs([(json_out, "--json", None)], force)
+    _check_outputs([(json_out, "--json", None), (emit_file, "--emit-file", None)], force)
     pid_options = {"--pid-loop": pid_loop is not None, "--pid-rule": pid_rule is not None,
                    "--pid-integral": pid_integral, "--tau-c": tau_c is not None,
                    "--derivative-filter": derivative_filter is not None}
@@ -213,19 +229,32 @@ def design(
             "--poles": poles is not None, "--k2": k2 is not None, "--settling-time": settling_time is not None,
             "--overshoot": overshoot is not None, "--integral": integral, "--ki": ki is not None,
             "--integral-pole": integral_pole is not None, "--observer-poles": observer_poles is not None,
-            "--output": output is not None})
+            "--output": output is not None, "--sensors": sensors is not None})
+        code_option = next((flag for flag, v in (("--discrete", discrete), ("--discrete-method", discrete_method),
+                                                 ("--emit", emit), ("--emit-file", emit_file)) if v is not None), None)
+        if code_option is not None:
+            raise OptionError(f"--pid and {code_option} do not go together yet: the PID's code is not emitted "
+                              "(PidDesign.system() is its python-control system, for control.c2d)")
         _design_pid(model_file, json_out, force, pid_loop, pid_rule, pid_integral, tau_c, derivative_filter, damping,
                     wn)
         return
     given = next((flag for flag, on in pid_options.items() if on), None)
     if given is not None:
         raise OptionError(f"{given} goes with --pid")
+    _check_code_options(discrete, discrete_method, emit, emit_file)
+    # code on the terminal is the standard output alone (``> controller.c``); the printout goes to stderr
+    code_to_stdout = emit is not None and emit_file is None
+
+    def say(text: str) -> None:
+        typer.echo(text, err=code_to_stdout)
+
     settings = DesignSettings(
         poles=None if poles is None else tuple(parse_poles(poles, "--poles")),
         damping=damping, k2=k2, wn=wn, settling_time_s=settling_time, overshoot_pct=overshoot,
         integral=integral, ki=ki, integral_pole=integral_pole,
         observer_poles=None if observer_poles is None else tuple(parse_poles(observer_poles, "--observer-poles")),
-        output=output,
+        output=output, robust_samples=robust_samples,
+        sensors=None if sensors is None else tuple(x.strip() for x in sensors.split(",") if x.strip()),
     )
     model = load_model(model_file)
     try:
@@ -233,40 +262,108 @@ def design(
     except OptionError as exc:
         raise exc.with_file(str(model_file)) from None
     if d.model_states is not None:
-        typer.echo("states: the model's " + ", ".join(d.model_states) + " re-expressed as the measured "
-                   + ", ".join(d.states) + " (gains on the model's own states: K_model in the JSON)")
+        say("states: the model's " + ", ".join(d.model_states) + " re-expressed as the measured "
+            + ", ".join(d.states) + " (gains on the model's own states: K_model in the JSON)")
     for i, k in enumerate(d.K):
-        typer.echo(f"k{i + 1} = {sig(k)}    ({d.states[i]})")
-    typer.echo("gains per sensor: " + ", ".join(f"k_{name} = {sig(g)} {unit}" for name, g, unit in d.sensor_gains()))
+        say(f"k{i + 1} = {sig(k)}    ({d.states[i]})")
+    estimated = set(d.reduced.estimated) if d.reduced is not None else set()
+    say("gains per sensor: " + ", ".join(f"k_{name} = {sig(g)} {unit}" + (" (on its estimate)" if name in
+                                                                               estimated else "")
+                                                for name, g, unit in d.sensor_gains()))
+    if d.reduced is not None:
+        r = d.reduced
+        say(f"sensors: {', '.join(r.measured)}; {', '.join(r.estimated)} estimated by a reduced-order observer "
+                   f"(poles {roots_text(r.poles)}; ẇ = F w + G·[{', '.join(r.measured)}] + H u, "
+                   f"{', '.join(r.estimated)} = w + L·[{', '.join(r.measured)}]; F, G, H, L in the JSON)")
+    elif d.sensors is not None:
+        say(f"sensors: {', '.join(d.sensors)}")
     if d.kr is not None:
-        typer.echo(f"kr = {sig(d.kr)}")
+        say(f"kr = {sig(d.kr)}")
     if d.ki is not None:
-        typer.echo(f"ki = {sig(d.ki)}")
+        say(f"ki = {sig(d.ki)}")
     cl_poles = sorted(d.closed_loop_poles, key=lambda p: (p.real, p.imag))
-    typer.echo("closed-loop poles: " + roots_text(cl_poles))
+    say("closed-loop poles: " + roots_text(cl_poles))
     if d.L is not None:
         # design_controller sets L, observer_poles and output_feedback_poles together
-        typer.echo("L = [" + ", ".join(sig(v) for v in d.L) + "]")
-        typer.echo("observer poles: " + roots_text(cast("np.ndarray", d.observer_poles)))
+        say("L = [" + ", ".join(sig(v) for v in d.L) + "]")
+        say("observer poles: " + roots_text(cast("np.ndarray", d.observer_poles)))
         ofb_poles = sorted(cast("np.ndarray", d.output_feedback_poles), key=lambda p: (p.real, p.imag))
-        typer.echo("plant + observer + feedback poles (separation): " + roots_text(ofb_poles))
-    typer.echo("Routh-Hurwitz: " + "; ".join(d.routh))
+        say("plant + observer + feedback poles (separation): " + roots_text(ofb_poles))
+    say("Routh-Hurwitz: " + "; ".join(d.routh))
     if d.margins is not None:
-        typer.echo("margins: " + d.margins.text())
+        say("margins: " + d.margins.text())
+    if d.robust is not None:
+        say("robust: " + d.robust.text())
     if d.dead_zone_v is not None:
         info = d.dead_zone_info()
         bound = info["steady_state_error_bound_v"]
-        typer.echo(f"dead-zone: u0 = {sig(d.dead_zone_v)} V in the model"
-                   + ("" if bound is None else
-                      f"; without compensation a position step may stop anywhere within ±{sig(bound)} V "
-                      "(u0 / k_position)")
-                   + "; simulate --compensate-dead-zone adds u0·sign(u) to the command (inverse dead-zone)")
+        say(f"dead-zone: u0 = {sig(d.dead_zone_v)} V in the model"
+            + ("" if bound is None else
+               f"; without compensation a position step may stop anywhere within ±{sig(bound)} V "
+               "(u0 / k_position)")
+            + "; simulate --compensate-dead-zone adds u0·sign(u) to the command (inverse dead-zone)")
     for w in d.warnings:
-        typer.echo(f"warning: {w}")
+        say(f"warning: {w}")
+    data = d.to_json()
+    code = None
+    if discrete is not None:
+        from motorid.control.emit import discretise_design
+        from motorid.control.emit import emit as emit_code
+
+        dc = discretise_design(model, d, discrete, discrete_method or "zoh")
+        data["discrete"] = dc.to_json()
+        _print_discrete(dc, say)
+        if emit is not None:
+            code = emit_code(dc, emit, source=f"From: motorid design {model_file.name} --discrete {discrete:g} "
+                                              f"--discrete-method {dc.method}")
+    with atomic_outputs(exclusive=not force) as outs:  # the JSON and the code appear together, or none
+        if json_out is not None:
+            outs.write_text(json_out, json.dumps(data, indent=2) + "\n")
+        if emit_file is not None and code is not None:
+            outs.write_text(emit_file, code)
     if json_out is not None:
-        with atomic_outputs(exclusive=not force) as outs:
-            outs.write_text(json_out, d.to_json_text() + "\n")
-        typer.echo(f"design JSON: {json_out}")
+        say(f"design JSON: {json_out}")
+    if emit_file is not None:
+        say(f"{_LANGUAGE_NAMES[cast(str, emit)]} code: {emit_file}")
+    elif code is not None:
+        typer.echo(code, nl=False)
+
+
+#: How the printout names each --emit language.
+_LANGUAGE_NAMES = {"c": "C", "python": "Python", "matlab": "MATLAB"}
+
+
+def _check_code_options(discrete: float | None, method: str | None, emit: str | None, emit_file: Path | None) -> None:
+    """Refuse, before any work, the code options that do not go together or name nothing known."""
+    from motorid.control.emit import LANGUAGES, METHODS
+
+    _check_numbers({"--discrete": discrete}, positive=("--discrete",))
+    if method is not None and method not in METHODS:
+        raise OptionError(f"--discrete-method {method!r}: use one of {', '.join(METHODS)}")
+    if emit is not None and emit not in LANGUAGES:
+        raise OptionError(f"--emit {emit!r}: use one of {', '.join(LANGUAGES)}")
+    if discrete is None:
+        for given, option in ((method, "--discrete-method"), (emit, "--emit")):
+            if given is not None:
+                raise OptionError(f"{option} needs --discrete TS, the sampling interval in seconds")
+    if emit_file is not None and emit is None:
+        raise OptionError("--emit-file needs --emit c, python or matlab")
+
+
+def _print_discrete(dc, say) -> None:
+    """The sampled controller's summary and its sample-rate limits (``dc``: a DiscreteController)."""
+    line = f"discrete controller: TS = {sig(dc.ts_s)} s ({sig(1 / dc.ts_s)} Hz), {dc.method} (python-control c2d)"
+    if dc.fastest_pole_rad_s is not None:
+        line += (f"; fastest loop pole |p| = {sig(dc.fastest_pole_rad_s)} rad/s, TS·|p| = "
+                 f"{sig(dc.ts_s * dc.fastest_pole_rad_s)} (rule of thumb ≤ 0.2), Nyquist limit TS < π/|p| = "
+                 f"{sig(dc.ts_max_s)} s")
+    if dc.loop_spectral_radius is not None:
+        line += f"; sampled loop's largest |z| = {sig(dc.loop_spectral_radius)}"
+    say(line)
+    for w in dc.warnings:
+        say(f"warning: {w}")
+
+
 
 
 def _design_pid(model_file: Path, json_out: Path | None, force: bool, loop: str | None, rule: str | None,

@@ -1,8 +1,22 @@
-"""Controller design on a motor model: state feedback, integral action, observer (Tsiolakis 2022)."""
+"""Controller design on a motor model: state feedback, integral action, observer (Tsiolakis 2022).
+
+The designed controller as one system (:func:`controller_system`), sampled and written as code
+for a microcontroller (:mod:`.emit`: :func:`discretise_design`, :func:`emit_c`, :func:`emit_python`,
+:func:`emit_matlab`).
+"""
 
 from motorid.control.approx import dominant_second_order
+from motorid.control.controller import controller_system
 from motorid.control.coordinates import MeasurableRealisation, measurable_realisation, realise_in, sensor_unit
 from motorid.control.design import SCHEMA, Design, DesignSettings, design_controller, design_model, output_row
+from motorid.control.emit import (
+    DiscreteController,
+    discretise,
+    discretise_design,
+    emit_c,
+    emit_matlab,
+    emit_python,
+)
 from motorid.control.feedback import (
     POLE_RATIO_MAX,
     UNCONTROLLABLE_TOL,
@@ -32,6 +46,7 @@ __all__ = [
     "ControlDesignError",
     "Design",
     "DesignSettings",
+    "DiscreteController",
     "MeasurableRealisation",
     "MotorParams",
     "PidDesign",
@@ -42,10 +57,16 @@ __all__ = [
     "check_observable",
     "check_pole_range",
     "check_poles",
+    "controller_system",
     "design_controller",
     "design_model",
     "design_pid",
+    "discretise",
+    "discretise_design",
     "dominant_second_order",
+    "emit_c",
+    "emit_matlab",
+    "emit_python",
     "integral_gains",
     "integral_poly",
     "k1_for_damping",

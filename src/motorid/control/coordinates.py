@@ -33,6 +33,7 @@ __all__ = [
     "MeasurableRealisation",
     "measurable_realisation",
     "realise_in",
+    "sensor_transform",
     "sensor_unit",
 ]
 
@@ -140,9 +141,51 @@ def _candidates(model: MotorModel) -> list[tuple[str, np.ndarray]]:
     r = out["velocity"]
     for k in range(1, a.shape[0]):
         r = r @ a
-        name = {1: "acceleration", 2: "jerk"}.get(k, f"velocity_d{k}")
-        rows.append((name, r.copy()))
+        rows.append((_derivative_name(k), r.copy()))
     return rows
+
+
+def _derivative_name(k: int) -> str:
+    """The coordinate that is the velocity's ``k``-th derivative."""
+    return {1: "acceleration", 2: "jerk"}.get(k, f"velocity_d{k}")
+
+
+def sensor_transform(a: np.ndarray, c: np.ndarray, outputs: tuple[str, ...], states: tuple[str, ...]
+                     ) -> np.ndarray | None:
+    """``T`` of ``z = T x`` for the named measurable coordinates, for many models at once.
+
+    The rows :func:`measurable_realisation` chooses from: a channel's output row, or the velocity
+    row times ``A^k`` for its ``k``-th derivative (``acceleration``, ``jerk``, ``velocity_d<k>``).
+
+    Parameters
+    ----------
+    a : ndarray, shape (..., n, n)
+        State matrices (stacked on leading axes).
+    c : ndarray, shape (..., outputs, n)
+        Output matrices, rows in the order of ``outputs``.
+    outputs : tuple of str
+        The output channels' names.
+    states : tuple of str
+        The coordinates wanted (a design's ``states``).
+
+    Returns
+    -------
+    ndarray, shape (..., n, n), or None
+        None when a name is no measurable coordinate of these models.
+    """
+    derivative = {_derivative_name(k): k for k in range(1, a.shape[-1])}
+    rows = []
+    for name in states:
+        if name in outputs:
+            rows.append(c[..., outputs.index(name), :])
+        elif name in derivative and "velocity" in outputs:
+            r = c[..., outputs.index("velocity"), :]
+            for _ in range(derivative[name]):
+                r = np.einsum("...i,...ij->...j", r, a)
+            rows.append(r)
+        else:
+            return None
+    return np.stack(rows, axis=-2)
 
 
 def _select_rows(

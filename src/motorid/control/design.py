@@ -33,6 +33,8 @@ from motorid.control.feedback import (
 from motorid.control.integral import integral_gains, integral_poly, routh_violations
 from motorid.control.margins import LoopMargins, loop_margins
 from motorid.control.observer import observer_gain, output_feedback_matrix
+from motorid.control.reduced_observer import ReducedObserver, default_poles, reduced_loop_matrix, reduced_observer
+from motorid.control.robust import RobustCheck, RobustCheckUnavailable, RobustSpec, robust_check
 from motorid.control.routh import affine_char_poly, routh_conditions
 from motorid.errors import OptionError
 from motorid.model import MotorModel
@@ -72,6 +74,14 @@ class DesignSettings:
         Luenberger observer poles (report §4).
     output : str, optional
         Measured channel ``y`` (default: position if the model has it, else velocity).
+    robust_samples : int
+        Plausible motors the design is checked on (:mod:`.robust`); 0 (the default here): no
+        check.  The command line and :func:`motorid.design` check
+        :data:`~motorid.control.robust.DEFAULT_SAMPLES`.
+    sensors : tuple of str, optional
+        What the rig measures (``position``, ``velocity``, ``current``); default: the channels
+        the model was identified from.  States that are not measured (an acceleration) are
+        estimated by a reduced-order observer (:mod:`.reduced_observer`), never differentiated.
     """
 
     poles: tuple[complex, ...] | None = None
@@ -85,6 +95,8 @@ class DesignSettings:
     integral_pole: complex | None = None
     observer_poles: tuple[complex, ...] | None = None
     output: str | None = None
+    robust_samples: int = 0
+    sensors: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
         for name, option in (("damping", "--damping"), ("wn", "--wn"), ("settling_time_s", "--settling-time")):
@@ -120,6 +132,14 @@ class DesignSettings:
             raise OptionError("--ki and --integral-pole need --integral")
         if self.output is not None and self.output not in ("position", "velocity", "current"):
             raise OptionError(f"--output {self.output!r}: use position, velocity or current")
+        if self.sensors is not None:
+            bad = [x for x in self.sensors if x not in ("position", "velocity", "current")]
+            if bad or not self.sensors or len(set(self.sensors)) != len(self.sensors):
+                raise OptionError(f"--sensors {','.join(map(str, self.sensors))}: give distinct channels among "
+                                  "position, velocity and current (what the rig measures; derivatives are estimated)")
+        n = self.robust_samples
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not (n == 0 or 10 <= n <= 1_000_000):
+            raise OptionError(f"--robust-samples must be 0 (no check) or a whole number from 10 to 1000000, got {n!r}")
 
 
 def _pairs(values: np.ndarray | None) -> list[list[float]] | None:
@@ -174,6 +194,14 @@ class Design:
     margins : LoopMargins or None
         Gain, phase and delay margins, sensitivity peak and bandwidth of the loop on the model
         it was designed for (:mod:`.margins`); None for a design read from a JSON without them.
+    robust : RobustCheck or None
+        The design on the motors the model's uncertainty allows (:mod:`.robust`); None when
+        not checked (a warning says why, when it was asked for).
+    sensors : tuple of str or None
+        The channels the controller reads (None: every state, the older designs' assumption).
+    reduced : ReducedObserver or None
+        The reduced-order observer of the states the sensors do not measure:
+        ``u = −K_m z_m − K_u ẑ_u (+ kr r | − ki z)``.
     """
 
     states: tuple[str, ...]
@@ -192,6 +220,9 @@ class Design:
     dead_zone_v: float | None = None
     units: Mapping[str, str] = field(default_factory=dict)
     margins: LoopMargins | None = None
+    robust: RobustCheck | None = None
+    sensors: tuple[str, ...] | None = None
+    reduced: ReducedObserver | None = None
 
     @property
     def K_model(self) -> np.ndarray:
@@ -260,7 +291,10 @@ class Design:
             "warnings": list(self.warnings),
         } | ({} if self.dead_zone_v is None else {"dead_zone": self.dead_zone_info()}) | (
             {"units": dict(self.units)} if self.units else {}) | (
-            {} if self.margins is None else {"margins": self.margins.to_json()})
+            {} if self.margins is None else {"margins": self.margins.to_json()}) | (
+            {} if self.robust is None else {"robust": self.robust.to_json()}) | (
+            {} if self.sensors is None else {"sensors": list(self.sensors)}) | (
+            {} if self.reduced is None else {"reduced_observer": self.reduced.to_json()})
 
     def dead_zone_info(self) -> dict[str, Any]:
         """The dead-zone and the steady-state error it leaves, with and without compensation.
@@ -384,7 +418,21 @@ class Design:
                    cl_poles if cl_poles is not None else np.zeros(0, complex),
                    poles("observer_poles"), poles("output_feedback_poles"), strings("routh"), strings("warnings"),
                    model_states, transform, number_of(data.get("dead_zone")), _units(data.get("units")),
-                   _margins(data.get("margins")))
+                   _margins(data.get("margins")), _robust(data.get("robust")),
+                   None if data.get("sensors") is None else strings("sensors"),
+                   None if data.get("reduced_observer") is None
+                   else ReducedObserver.from_json(data["reduced_observer"], states))
+
+
+def _robust(entry: Any) -> RobustCheck | None:
+    if entry is None:
+        return None
+    if not isinstance(entry, dict):
+        raise OptionError("not a motorid design: key 'robust' must be an object")
+    try:
+        return RobustCheck.from_json(entry)
+    except ValueError as exc:
+        raise OptionError(f"not a motorid design: {exc}") from None
 
 
 def _margins(entry: Any) -> LoopMargins | None:
@@ -626,15 +674,60 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
                         "amplifier can use (noise × that gain; a sampled loop needs a much shorter interval); "
                         "check the model's open-loop poles or ask for slower closed-loop poles")
     l_col = obs = ofb = None
-    if s.observer_poles is not None:
+    reduced = None
+    sensors = _sensors(s, model, tuple(work.states))
+    unmeasured = 0 if sensors is None else n - len(sensors)
+    if s.observer_poles is not None and (len(s.observer_poles) == n or unmeasured == 0):
         l_col, obs, ofb = _observer(s, a, b, c, k, ki, cl, out_name, warnings)
+        sensors = (out_name,)
+    elif sensors is not None and set(sensors) != set(work.states):
+        if s.observer_poles is not None and len(s.observer_poles) != unmeasured:
+            raise OptionError(f"--observer-poles: give {n} poles (a full observer from {out_name}) or "
+                              f"{unmeasured}, one per state the sensors do not measure (a reduced-order observer of "
+                              f"{', '.join(x for x in work.states if x not in sensors)})")
+        poles = (default_poles(cl, unmeasured) if s.observer_poles is None
+                 else np.asarray(s.observer_poles, dtype=complex))
+        if s.integral and out_name not in sensors:
+            raise OptionError(f"integral action integrates the measured {out_name}: add it to --sensors "
+                              f"(given: {','.join(sensors)})")
+        reduced = reduced_observer(a, b, tuple(work.states), sensors, poles)
+        obs = reduced.poles
+        ofb = np.linalg.eigvals(reduced_loop_matrix(a, b, c, k, ki, reduced, tuple(work.states)))
+    elif s.observer_poles is not None:
+        raise OptionError(f"--observer-poles: give {n} poles (a full observer from {out_name}) or one per "
+                          "state the sensors do not measure (a reduced-order observer)")
     warnings += _dead_time_warnings(model.delay_s, a, b, c, k, ki)
     changed = mr.changed
     nl = model.static_nonlinearity
     design = Design(tuple(work.states), out_name, k_row, kr, ki, l_col, cl, obs, ofb, tuple(routh),
                     tuple(warnings), mr.source_states if changed else None, mr.transform if changed else None,
-                    None if nl is None else nl.dead_zone_v, dict(model.units))
-    return replace(design, margins=loop_margins(model, design))
+                    None if nl is None else nl.dead_zone_v, dict(model.units), sensors=sensors, reduced=reduced)
+    design = replace(design, margins=loop_margins(model, design))
+    if s.robust_samples:
+        spec = RobustSpec(s.overshoot_pct, s.settling_time_s)
+        try:
+            design = replace(design, robust=robust_check(model, design, samples=s.robust_samples, spec=spec))
+        except RobustCheckUnavailable as exc:
+            design = replace(design, warnings=(*design.warnings, f"robustness not checked: {exc}"))
+    return design
+
+
+def _sensors(s: DesignSettings, model: MotorModel, states: tuple[str, ...]) -> tuple[str, ...] | None:
+    """The states the rig measures, in the design's state order (None: the states are not sensors)."""
+    physical = ("position", "velocity", "current", "acceleration", "jerk")
+    if not all(x in physical or x.startswith("velocity_d") for x in states):
+        if s.sensors is not None:
+            raise OptionError(f"--sensors: this model's states ({', '.join(states)}) are not quantities a sensor "
+                              "measures (its realisation could not be re-expressed in them)")
+        return None
+    wanted = s.sensors if s.sensors is not None else tuple(o for o in model.outputs
+                                                            if o in ("position", "velocity", "current"))
+    missing = [x for x in wanted if x not in states]
+    if missing and s.sensors is not None:
+        raise OptionError(f"--sensors {','.join(s.sensors)}: the model has no {' or '.join(missing)} state "
+                          f"(its states: {', '.join(states)})")
+    measured = tuple(x for x in states if x in wanted)
+    return measured or None
 
 
 def _requested_poles(s: DesignSettings, a: np.ndarray, b: np.ndarray, n: int, n_pair: int,

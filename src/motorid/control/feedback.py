@@ -260,14 +260,14 @@ def place_gains(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
     ----------
     a : ndarray, shape (n, n)
         State matrix ``A``.
-    b : ndarray, shape (n, 1)
-        Input column ``B``.
+    b : ndarray, shape (n, 1) or (n, m)
+        Input column ``B`` (``m`` columns: an observer placed on several outputs' dual).
     poles : ndarray
         The ``n`` closed-loop poles (complex ones in conjugate pairs).
 
     Returns
     -------
-    ndarray, shape (1, n)
+    ndarray, shape (1, n) or (m, n)
         The gain row ``K``.
 
     Raises
@@ -289,7 +289,7 @@ def place_gains(a: np.ndarray, b: np.ndarray, poles: np.ndarray) -> np.ndarray:
         raise ControlDesignError(f"pole placement failed for poles {list(np.round(p, 6))} ({exc}); "
                                  "choose other poles") from None
     # x = diag(scale) x_b, so K x = K_b x_b gives K = K_b diag(scale)⁻¹
-    k = np.real(np.asarray(kb, dtype=float).reshape(1, -1)) / scale[None, :]
+    k = np.real(np.asarray(kb, dtype=float).reshape(b.shape[1], -1)) / scale[None, :]
     return k
 
 

@@ -147,11 +147,16 @@ def _loop_matrices(a: np.ndarray, b: np.ndarray, c: np.ndarray, design: Design, 
     """``(A, B, C)`` of ``L(s)``: from a signal added to the motor's input to minus the controller's command.
 
     States ``[x, x̂, z]``: the motor, the observer's estimate (with ``observer``; it is fed the
-    controller's own command and the measured output) and the integrator ``ż = y`` (``r = 0``).
+    controller's own command and the measured output) and the integrator ``ż = y`` (``r = 0``);
+    with a reduced-order observer ``[x, w, z]`` (:func:`.reduced_observer.reduced_loop`).
     """
     n = a.shape[0]
     k = design.K.reshape(1, n)
     ki = design.ki
+    if observer and design.reduced is not None:
+        from motorid.control.reduced_observer import reduced_loop
+
+        return reduced_loop(a, b, c, k, ki, design.reduced, tuple(design.states))
     if observer and design.L is not None:
         lc = design.L.reshape(n, 1) @ c
         blocks_a = [[a, np.zeros((n, n))], [lc, a - b @ k - lc]]

@@ -90,7 +90,7 @@ _COMMAND = "u [V]"
 
 #: The options of state feedback by pole placement that a PID design refuses (by their flags).
 STATE_FEEDBACK_OPTIONS: tuple[str, ...] = ("--poles", "--k2", "--settling-time", "--overshoot", "--integral", "--ki",
-                                           "--integral-pole", "--observer-poles", "--output")
+                                           "--integral-pole", "--observer-poles", "--output", "--sensors")
 
 
 def refuse_state_feedback_options(given: Mapping[str, bool]) -> None:

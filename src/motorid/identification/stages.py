@@ -14,7 +14,6 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
-import scipy.signal
 
 from motorid.conditioning.edge import noise_level, quantisation_step
 from motorid.conditioning.pipeline import ConditionedExperiment
@@ -29,6 +28,7 @@ from motorid.identification.output_error import (  # _block_mean: the fit's own 
 from motorid.identification.result import IdentificationError
 from motorid.identification.srivc import SrivcSettings, srivc_fit
 from motorid.model import MotorModel
+from motorid.model.motor import realise_tfs
 
 __all__ = [
     "STRUCTURES",
@@ -385,34 +385,10 @@ def _init_from(model: MotorModel, n_poles: int, n_zeros: int) -> tuple[list[floa
 def _oe_to_model(
     res: OeResult, cond: ConditionedExperiment, structure: tuple[int, int], noise: NoiseModel | None = None
 ) -> MotorModel:
-    num, den = np.asarray(res.velocity_num, float), np.asarray(res.velocity_den, float)
-    a, b, c, d = scipy.signal.tf2ss(num, den)
-    n = a.shape[0]
-    states = tuple(f"x{i + 1}" for i in range(n))
-    rows = [c[0]]
-    drows = [d[0, 0]]
-    outputs = ["velocity"]
-    if res.current_num is not None:
-        _, _, ci, di = scipy.signal.tf2ss(np.asarray(res.current_num, float), den)
-        rows.append(ci[0])
-        drows.append(di[0, 0])
-        outputs.append("current")
-    big_a, big_b = a, b
-    cmat = np.array(rows)
-    dmat = np.array(drows).reshape(-1, 1)
-    if res.position_scale is not None:
-        # position = c·∫velocity: an integrator state fed by the velocity row
-        big_a = np.zeros((n + 1, n + 1))
-        big_a[0, 1:] = res.position_scale * c[0]
-        big_a[1:, 1:] = a
-        big_b = np.vstack([[[res.position_scale * d[0, 0]]], b])
-        cmat = np.hstack([np.zeros((cmat.shape[0], 1)), cmat])
-        cmat = np.vstack([np.eye(1, n + 1), cmat])
-        dmat = np.vstack([[[0.0]], dmat])
-        states = ("position", *states)
-        outputs = ["position", *outputs]
+    r = realise_tfs(res.velocity_num, res.velocity_den, current_num=res.current_num,
+                    position_scale=res.position_scale)
     return MotorModel(
-        A=big_a, B=big_b, C=cmat, D=dmat, states=states, outputs=tuple(outputs),
+        A=r.A, B=r.B, C=r.C, D=r.D, states=r.states, outputs=r.outputs,
         step_volts=cond.step_volts, method="oe",
         # the record's length: first_order() cancels only pole-zero pairs the record cannot show
         # (a candidate with a pole at the sampling rate otherwise had its dominant pole cancelled
@@ -462,7 +438,34 @@ def uncertainty_json(res: OeResult) -> dict[str, Any]:
                               "damping": item(f"pair_{i}_zeta", res_value(res, f"pair_{i}_zeta"))} for i in pairs]
     if res.delay_s is not None:
         out["delay"] = item("delay", res.delay_s)
+    out["joint"] = joint_json(res)
     return out
+
+
+def joint_json(res: OeResult) -> dict[str, Any]:
+    """The motor's parameters and their joint covariance, as the model JSON's ``uncertainty.joint``.
+
+    The chosen structure's Gauss–Newton covariance restricted to the parameters that define
+    the motor (a Gaussian's marginal is that sub-matrix): what a robustness check samples
+    plausible motors from (:func:`motorid.model.motor.realise_tfs` rebuilds each).
+
+    Parameters
+    ----------
+    res : OeResult
+        An output-error result.
+
+    Returns
+    -------
+    dict
+        ``parameters`` (``K``, ``log_tau_i``, ``Tz_j``, ``delay``, ``c``, ``cur_j``), ``values``,
+        ``covariance`` (rows in the same order).
+    """
+    keep = [i for i, name in enumerate(res.param_names)
+            if name in ("K", "delay", "c") or name.startswith(("log_tau_", "Tz_", "cur_"))]
+    cov = np.asarray(res.cov, float)[np.ix_(keep, keep)]
+    return {"parameters": [res.param_names[i] for i in keep],
+            "values": [float(res.params[i]) for i in keep],
+            "covariance": [[float(x) for x in row] for row in cov]}
 
 
 def res_value(res: OeResult, key: str) -> float:

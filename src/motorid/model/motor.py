@@ -54,7 +54,10 @@ __all__ = [
     "FirstOrder",
     "ModelFormatError",
     "MotorModel",
+    "TfRealisation",
     "model_from_velocity_tf",
+    "realise_tfs",
+    "realise_tfs_stacked",
 ]
 
 CHANNELS = ("position", "velocity", "current")
@@ -100,6 +103,123 @@ def _as_matrix(name: str, value: Any, shape: tuple[int | None, int | None]) -> n
 
 def _state_names(n: int) -> tuple[str, ...]:
     return tuple(f"x{i + 1}" for i in range(n))
+
+
+@dataclass(frozen=True, slots=True)
+class TfRealisation:
+    """State-space matrices of an output-error fit's transfer functions (see :func:`realise_tfs`).
+
+    Attributes
+    ----------
+    A, B, C, D : ndarray
+        The realisation.
+    states, outputs : tuple of str
+        State and output names.
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    states: tuple[str, ...]
+    outputs: tuple[str, ...]
+
+
+def _companion(num: np.ndarray, den: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The controller canonical form (scipy's ``tf2ss``) of stacked monic TFs: ``num``, ``den`` of shape (S, n + 1).
+
+    The same arithmetic as :func:`scipy.signal.tf2ss`, so a single system's matrices are
+    bit-identical to it, for many systems at once.
+    """
+    s, k = den.shape
+    a = np.zeros((s, k - 1, k - 1))
+    a[:, 0, :] = -den[:, 1:]
+    a[:, 1:, :-1] = np.eye(k - 2, k - 2)
+    b = np.zeros((s, k - 1, 1))
+    b[:, 0, 0] = 1.0
+    c = num[:, 1:] - num[:, :1] * den[:, 1:]
+    return a, b, c[:, None, :], num[:, :1, None]
+
+
+def realise_tfs_stacked(velocity_num: Any, den: Any, *, current_num: Any = None,
+                        position_scale: Any = None) -> TfRealisation:
+    """:func:`realise_tfs` of many motors of one structure at once (matrices stacked on a first axis).
+
+    Parameters
+    ----------
+    velocity_num, den : array_like, shape (S, n + 1)
+        Velocity TFs (``den[:, 0] == 1``; numerators padded with leading zeros to ``n + 1``).
+    current_num : array_like, shape (S, n + 1), optional
+        Current numerators over ``den``.
+    position_scale : array_like, shape (S,), optional
+        ``c`` of ``position = c·∫velocity`` of each motor.
+
+    Returns
+    -------
+    TfRealisation
+        ``A`` of shape (S, N, N), ``B`` (S, N, 1), ``C`` and ``D`` (S, outputs, N) and (S, outputs, 1).
+    """
+    dd = np.atleast_2d(np.asarray(den, float))
+    num = np.atleast_2d(np.asarray(velocity_num, float))
+    if dd.shape[1] < 2 or num.shape != dd.shape:
+        raise ModelFormatError("stacked transfer functions need numerators padded to their denominators' length")
+    a, b, c, d = _companion(num, dd)
+    s, n = a.shape[0], a.shape[1]
+    states: tuple[str, ...] = tuple(f"x{i + 1}" for i in range(n))
+    rows, drows, outputs = [c], [d], ["velocity"]
+    if current_num is not None:
+        _, _, ci, di = _companion(np.atleast_2d(np.asarray(current_num, float)), dd)
+        rows.append(ci)
+        drows.append(di)
+        outputs.append("current")
+    cmat, dmat = np.concatenate(rows, axis=1), np.concatenate(drows, axis=1)
+    if position_scale is not None:
+        # position = c·∫velocity: an integrator state fed by the velocity row
+        scale = np.broadcast_to(np.asarray(position_scale, float), (s,))
+        big_a = np.zeros((s, n + 1, n + 1))
+        big_a[:, 0, 1:] = scale[:, None] * c[:, 0, :]
+        big_a[:, 1:, 1:] = a
+        big_b = np.concatenate([(scale * d[:, 0, 0])[:, None, None], b], axis=1)
+        top = np.zeros((s, 1, n + 1))
+        top[:, 0, 0] = 1.0
+        cmat = np.concatenate([top, np.concatenate([np.zeros((s, cmat.shape[1], 1)), cmat], axis=2)], axis=1)
+        dmat = np.concatenate([np.zeros((s, 1, 1)), dmat], axis=1)
+        return TfRealisation(big_a, big_b, cmat, dmat, ("position", *states), ("position", *outputs))
+    return TfRealisation(a, b, cmat, dmat, states, tuple(outputs))
+
+
+def realise_tfs(velocity_num: Any, den: Any, *, current_num: Any = None,
+                position_scale: float | None = None) -> TfRealisation:
+    """Realise the velocity TF, with the current TF over the same denominator and a position state.
+
+    The output-error fit's models and every motor sampled from its covariance are built this
+    one way (:func:`realise_tfs_stacked`), so that a sampled motor has the identified model's states.
+
+    Parameters
+    ----------
+    velocity_num, den : array_like
+        Velocity transfer function, highest power first (``den[0] == 1``).
+    current_num : array_like, optional
+        Numerator of the current TF over ``den``.
+    position_scale : float, optional
+        ``c`` of ``position = c·∫velocity``: adds a ``position`` state (first) and output.
+
+    Returns
+    -------
+    TfRealisation
+        Companion states ``x1…xn`` (as scipy's ``tf2ss``), ``position`` first when asked for;
+        outputs ``[position,] velocity[, current]``.
+    """
+    dd = np.asarray(den, float)
+
+    def padded(x: Any) -> np.ndarray:
+        x = np.atleast_1d(np.asarray(x, float))
+        return np.concatenate([np.zeros(dd.size - x.size), x])[None]
+
+    r = realise_tfs_stacked(padded(velocity_num), dd[None],
+                            current_num=None if current_num is None else padded(current_num),
+                            position_scale=None if position_scale is None else [position_scale])
+    return TfRealisation(r.A[0], r.B[0], r.C[0], r.D[0], r.states, r.outputs)
 
 
 def model_from_velocity_tf(

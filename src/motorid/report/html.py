@@ -13,6 +13,8 @@ instructor can hand out.
 
 from __future__ import annotations
 
+import contextlib
+
 import datetime as _dt
 import functools
 from collections.abc import Callable, Mapping
@@ -551,6 +553,12 @@ def design_section(inp: ReportInputs) -> dict[str, Any]:
         from motorid.errors import MotorIdError
 
         gain_rows.append(["margins", LoopMargins.from_json(d["margins"]).text()])
+        if isinstance(d.get("robust"), dict):
+            from motorid.control.robust import RobustCheck
+
+            # a malformed robust object in a hand-edited design: its row is left out
+            with contextlib.suppress(ValueError):
+                gain_rows.append(["on plausible motors", RobustCheck.from_json(d["robust"]).text()])
         try:
             des = controller_from_json(d)
             model = inp.identification.model

@@ -420,6 +420,58 @@ def _sampled_loop_radius(phi: np.ndarray, gam: np.ndarray, c: np.ndarray, k: np.
     return float(np.max(np.abs(ev)))
 
 
+def _reduced_loop_radius(phi: np.ndarray, gam: np.ndarray, c: np.ndarray, ki: float | None, dt: float,
+                         reduced: _Reduced) -> float:
+    """Spectral radius of the sampled loop with a reduced-order observer, states ``[x, w(, z)]``."""
+    n, nu = phi.shape[0], reduced.phi.shape[0]
+    g = gam[:, :1]
+    size = n + nu + (1 if ki is not None else 0)
+    f = np.zeros((1, size))  # the held command u_k as a row on the states
+    f[:, :n] = reduced.kz @ reduced.sel
+    f[:, n:n + nu] = reduced.kw
+    if ki is not None:
+        f[0, -1] = -float(ki)
+    gm, gu = reduced.gam[:, :-1], reduced.gam[:, -1:]
+    m = np.zeros((size, size))
+    m[:n, :n] = phi
+    m[:n] += g @ f
+    m[n:n + nu, :n] = gm @ reduced.sel
+    m[n:n + nu, n:n + nu] = reduced.phi
+    m[n:n + nu] += gu @ f
+    if ki is not None:
+        m[-1, :n] = dt * c.ravel()
+        m[-1, -1] = 1.0
+    with np.errstate(all="ignore"):
+        ev = np.linalg.eigvals(m) if np.all(np.isfinite(m)) else np.array([np.inf])
+    return float(np.max(np.abs(ev)))
+
+
+@dataclass(frozen=True, slots=True)
+class _Reduced:
+    """A reduced-order observer as the simulation runs it: the held-input ZOH of ``ẇ = F w + G z_m + H u``."""
+
+    measured: list[int]
+    estimated: list[int]
+    sel: np.ndarray  # z_m = sel · x
+    gain: np.ndarray  # ẑ_u = w + gain · z_m
+    kz: np.ndarray
+    kw: np.ndarray
+    phi: np.ndarray
+    gam: np.ndarray  # on [z_m, u]
+
+    @classmethod
+    def of(cls, design: Design, n: int, dt: float) -> _Reduced | None:
+        red = design.reduced
+        if red is None:
+            return None
+        from motorid.control.reduced_observer import command_rows
+
+        mi, ui = red.split(tuple(design.states))
+        kz, kw, _ = command_rows(design.K, design.ki, red, tuple(design.states))
+        phi, gam = _zoh(red.F, np.hstack([red.G, red.H]), dt)
+        return cls(mi, ui, np.eye(n)[mi], red.L, kz, kw, phi, gam)
+
+
 def _zoh(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     n, m = b.shape
     aug = np.zeros((n + m, n + m))
@@ -528,7 +580,13 @@ def simulate_closed_loop(model: MotorModel, design: Design | PidDesign, settings
                         f"({lag} step(s) of {s.dt_s:g} s)")
     if l_col is not None:  # (use_obs)
         phi_o, gam_o = _zoh(a - l_col @ c, np.hstack([b, l_col]), s.dt_s)
-    rho = _sampled_loop_radius(phi, gam, c, k, ki, s.dt_s, (phi_o, gam_o) if l_col is not None else None)
+    reduced = _Reduced.of(design, n, s.dt_s)
+    if reduced is not None:
+        rho = _reduced_loop_radius(phi, gam, c, ki, s.dt_s, reduced)
+        # the estimate starts at xhat0 (default: the motor at rest, so exact)
+        w = _vector(s.xhat0, n, "--xhat0")[reduced.estimated] - reduced.gain @ x[reduced.measured]
+    else:
+        rho = _sampled_loop_radius(phi, gam, c, k, ki, s.dt_s, (phi_o, gam_o) if l_col is not None else None)
     if rho > 1.0 + 1e-9 and s.plant != "trainer":
         warnings.append(f"at dt = {s.dt_s:g} s the sampled loop is unstable (spectral radius {rho:.4g}) although the "
                         "continuous design is stable: the controller or observer gains are too large for this rate "
@@ -547,12 +605,14 @@ def simulate_closed_loop(model: MotorModel, design: Design | PidDesign, settings
                               "motorid.trainer.closed_loop.simulate_on_trainer")
         trainer = plant
         warnings += plant.start(model, s, x)
-        if not use_obs and any(name not in ("position", "velocity") for name in model.states):
-            raise OptionError("the trainer measures only position and velocity; this model's states "
-                              f"{list(model.states)} need an observer (--observer-poles in the design)")
+        read = ([model.states[i] for i in reduced.measured] if reduced is not None
+                else [] if use_obs else list(model.states))
+        if any(name not in ("position", "velocity") for name in read):
+            raise OptionError("the trainer measures only position and velocity; this design reads "
+                              f"{read} (design with --sensors position,velocity, or an observer)")
 
     xs = np.empty((steps + 1, n))
-    xhs = np.empty((steps + 1, n)) if use_obs else None
+    xhs = np.empty((steps + 1, n)) if use_obs or reduced is not None else None
     zs = np.empty(steps + 1) if ki is not None else None
     ys = np.empty(steps + 1)
     us = np.empty(steps + 1)
@@ -563,13 +623,16 @@ def simulate_closed_loop(model: MotorModel, design: Design | PidDesign, settings
             y = float((c @ meas)[0]) if trainer is None else trainer.output(design.output)
             xs[i], ys[i] = meas, y
             fb = xh if use_obs else meas
+            if reduced is not None:  # the measured states, and the estimate of the others
+                fb = meas.copy()
+                fb[reduced.estimated] = w + reduced.gain @ meas[reduced.measured]
             u_req = float(-(k @ fb)[0]) + (-ki * z if ki is not None else kr * r[i])
             if s.dead_zone_compensation and nl is not None and math.isfinite(u_req):
                 u_req = float(nl.compensate(u_req))
             u = min(max(u_req, -sat), sat) if math.isfinite(u_req) else u_req
             us[i], uraw[i] = u, u_req
-            if xhs is not None:  # (use_obs)
-                xhs[i] = xh
+            if xhs is not None:  # (use_obs, or the reduced observer's measured + estimated states)
+                xhs[i] = xh if use_obs else fb
             if zs is not None:
                 zs[i] = z
             if i == steps:
@@ -591,6 +654,9 @@ def simulate_closed_loop(model: MotorModel, design: Design | PidDesign, settings
             if use_obs:
                 u_obs = u if nl is None else float(nl.effective_input(u))
                 xh = phi_o @ xh + gam_o @ np.array([u_obs, y])
+            if reduced is not None:
+                u_obs = u if nl is None else float(nl.effective_input(u))
+                w = reduced.phi @ w + reduced.gam @ np.append(meas[reduced.measured], u_obs)
     if not np.all(np.isfinite(ys)):
         warnings.append("the response diverged (non-finite values): the closed loop is unstable")
     elif (np.max(np.abs(ys))

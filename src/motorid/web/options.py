@@ -215,6 +215,16 @@ def design_options(body: Mapping[str, Any]) -> dict[str, Any]:
         if not isinstance(body["output"], str):
             raise OptionError(f"output={body['output']!r}: give position, velocity or current")
         out["output"] = body["output"]
+    if body.get("sensors") is not None:
+        sensors = body["sensors"]
+        if not isinstance(sensors, list) or not all(isinstance(x, str) for x in sensors):
+            raise OptionError(f"sensors={sensors!r}: give a list of channels, e.g. [\"position\", \"velocity\"]")
+        out["sensors"] = sensors
+    if "robust_samples" in body:
+        n = body["robust_samples"]
+        if isinstance(n, bool) or not isinstance(n, int):
+            raise OptionError(f"robust_samples={n!r}: give a whole number (0: no check)")
+        out["robust_samples"] = n
     return out
 
 
