@@ -170,7 +170,7 @@ def test_a_too_fast_placement_on_a_dead_time_is_called_unstable():
 def test_system_has_the_derivative_on_the_measurement():
     p = design_pid(_fopdt(), PidSettings(loop="position", integral=True))
     sys = p.system()
-    assert sys.input_labels == ["r", "position [rev]"] and sys.output_labels == ["u [V]"]
+    assert sys.input_labels == ["r", "position"] and sys.output_labels == ["u"]
     w = 1j * np.array([0.3, 2.0, 15.0])
     from_r = np.array([complex(sys[0, 0](x)) for x in w])
     from_y = np.array([complex(sys[0, 1](x)) for x in w])
@@ -225,3 +225,16 @@ def test_simc_slows_down_until_the_full_models_loop_is_robust():
     assert any(w.startswith("τc raised from 0.25 s") for w in p.warnings)
     given = design_pid(m, PidSettings(tau_c_s=0.25))  # a τc given is kept, and called unstable
     assert given.tau_c_s == 0.25 and any(w.startswith("UNSTABLE") for w in given.warnings)
+
+
+def test_the_emitter_takes_the_pid_system():
+    # the same signal names as a state-feedback controller's: the emitter discretises and writes it
+    from motorid.control.emit import discretise, emit_c
+
+    p = design_pid(_fopdt(), PidSettings(loop="position", integral=True))
+    dc = discretise(p.system(), 0.002, "zoh", units={"r": "rev", "position": "rev", "u": "V"})
+    code = emit_c(dc)
+    assert "position" in code and "_step(" in code
+    # its difference equations are python-control's c2d of the system
+    want = control.c2d(p.system(), 0.002, method="zoh")
+    assert np.allclose(dc.Ad, want.A) and np.allclose(dc.Bd, want.B)

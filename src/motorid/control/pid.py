@@ -46,6 +46,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from motorid.control.controller import COMMAND, REFERENCE
 from motorid.control.design import SCHEMA, output_row
 from motorid.control.feedback import ControlDesignError
 from motorid.control.margins import LoopMargins, closed_loop_bandwidth, dead_time_pade, open_loop_margins
@@ -84,7 +85,7 @@ DERIVATIVE_FILTER_N = 10.0
 MS_TARGET = 2.0
 #: How many times the default τc may be doubled to reach :data:`MS_TARGET`.
 MAX_DETUNE = 12
-#: The command, as the model's python-control systems name their input.
+#: The command, as the model's python-control systems name their input (the plant's input here).
 _COMMAND = "u [V]"
 
 
@@ -488,19 +489,22 @@ class PidDesign:
         """The controller as a python-control state space: inputs ``r`` and ``y``, output ``u``.
 
         The derivative acts on the measurement ``y`` only (filtered by ``1/(tf s + 1)``), the
-        proportional and integral terms on the error ``r − y``.
+        proportional and integral terms on the error ``r − y``.  The signals are named as
+        :func:`motorid.control.controller_system` names a state-feedback controller's, so
+        :mod:`motorid.control.emit` discretises and emits either.
 
         Returns
         -------
         control.StateSpace
-            Inputs ``["r", "<channel> [<unit>]"]``, output ``["u [V]"]``, states ``z`` (the
-            integral of the error) and ``w`` (the filtered measurement) as present.
+            Inputs ``["r", "<channel>"]`` (``r`` and ``y`` in the channel's unit,
+            :attr:`output_unit`), output ``["u"]`` (V), states ``z`` (the integral of the
+            error) and ``w`` (the filtered measurement) as present.
         """
         import control
 
         a, b, c, d, i_z = self.matrices()
         states = (["z"] if i_z is not None else []) + (["w"] if self.kd != 0 else [])
-        return control.ss(a, b, c, d, inputs=["r", self.measured_signal], outputs=[_COMMAND], states=states)
+        return control.ss(a, b, c, d, inputs=[REFERENCE, self.output], outputs=[COMMAND], states=states)
 
     def tf(self) -> control.TransferFunction:
         """The PID as a python-control transfer function from the error: ``kp + ki/s + kd s/(tf s + 1)``.
@@ -511,7 +515,7 @@ class PidDesign:
         Returns
         -------
         control.TransferFunction
-            Input ``e``, output ``u [V]``.
+            Input ``e``, output ``u``.
         """
         import control
 
@@ -521,7 +525,7 @@ class PidDesign:
             c = c + self.ki / s
         if self.kd != 0:
             c = c + self.kd * s / (self.tf_s * s + 1)
-        return control.tf(c.num[0][0], c.den[0][0], inputs=["e"], outputs=[_COMMAND])
+        return control.tf(c.num[0][0], c.den[0][0], inputs=["e"], outputs=[COMMAND])
 
     def gains(self) -> list[tuple[str, float, str]]:
         """``(name, value, unit)`` of ``kp``, ``ki``, ``kd`` and ``tf_s``.
