@@ -19,6 +19,7 @@ Front door
    identify         -- identify the motor model (``motorid identify``)
    identify_levels  -- dead-zone, gain, rails and shared dynamics from several step levels
    design           -- state feedback, integral action, observer (``motorid design``)
+   design_pid       -- a PID tuned by SIMC or pole placement (``motorid design --pid``)
    simulate         -- closed-loop run on the model or the virtual trainer (``motorid simulate``)
    write_report     -- the self-contained HTML report (``motorid report``)
 
@@ -33,6 +34,7 @@ Results
    Provenance           -- motorid version, input files' SHA-256, settings
    MotorModel           -- the identified state-space model (python-control objects inside)
    Design               -- a designed controller (gains, poles, observer)
+   PidDesign            -- a designed PID (gains in the data's units, margins, python-control objects)
    SimulationResult     -- closed-loop time series and metrics; plot() returns a Figure
 
 Data and errors
@@ -66,11 +68,13 @@ from motorid.errors import MotorIdError
 if TYPE_CHECKING:  # what type checkers see; at run time each name loads on first use (below)
     from motorid.capture import Capture, ChannelInfo, ScopeInfo
     from motorid.control.design import Design
+    from motorid.control.pid import PidDesign
     from motorid.frontdoor import (
         Experiment,
         IdentificationResult,
         Provenance,
         design,
+        design_pid,
         identify,
         identify_levels,
         read_experiment,
@@ -90,10 +94,12 @@ __all__ = [
     "MotorIdError",
     "MotorModel",
     "ParameterEstimate",
+    "PidDesign",
     "Provenance",
     "ScopeInfo",
     "SimulationResult",
     "design",
+    "design_pid",
     "identify",
     "identify_levels",
     "read_experiment",
@@ -112,6 +118,7 @@ _LAZY: dict[str, str] = {
     "simulate": "motorid.frontdoor",
     "identify_levels": "motorid.frontdoor",
     "design": "motorid.frontdoor",
+    "design_pid": "motorid.frontdoor",
     "write_report": "motorid.frontdoor",
     "Experiment": "motorid.frontdoor",
     "IdentificationResult": "motorid.frontdoor",
@@ -119,6 +126,7 @@ _LAZY: dict[str, str] = {
     "Provenance": "motorid.frontdoor",
     "MotorModel": "motorid.model",
     "Design": "motorid.control.design",
+    "PidDesign": "motorid.control.pid",
     "SimulationResult": "motorid.simulation.closed_loop",
 }
 

@@ -38,6 +38,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
     from motorid.control.design import Design
+    from motorid.control.pid import PidDesign
     from motorid.identification.hammerstein import MultiLevelResult
     from motorid.identification.pipeline import Identification
     from motorid.identification.sanity import SanityReport
@@ -51,6 +52,7 @@ __all__ = [
     "ParameterEstimate",
     "Provenance",
     "design",
+    "design_pid",
     "identify",
     "identify_levels",
     "read_experiment",
@@ -699,10 +701,59 @@ def design(
     return design_controller(_model_of(model), settings)
 
 
+@speaks_as_called("design_pid")
+def design_pid(
+    model: MotorModel | IdentificationResult,
+    *,
+    loop: str = "velocity",
+    rule: str = "simc",
+    integral: bool = False,
+    tau_c: float | None = None,
+    derivative_filter: float = 10.0,
+    damping: float | None = None,
+    wn: float | None = None,
+) -> PidDesign:
+    """Design a PID on the model (``motorid design --pid`` in Python).
+
+    Parameters
+    ----------
+    model : MotorModel or IdentificationResult
+        The plant (first to third order, with or without a dead time).
+    loop : str
+        ``velocity`` (a PI) or ``position`` (a PD; a PID with ``integral``).
+    rule : str
+        ``simc`` (Skogestad 2003) or ``placement`` (closed-loop poles from ``damping``, ``wn``).
+    integral : bool
+        Integral action on the position loop.
+    tau_c : float, optional
+        SIMC's closed-loop time constant [s] (default ``max(θ, 0.25 τ)``).
+    derivative_filter : float
+        ``N`` of the derivative filter ``Td / N``.
+    damping, wn : float, optional
+        ζ and ωn [rad/s] of the placed poles (``rule="placement"``).
+
+    Returns
+    -------
+    PidDesign
+        Gains in the data's units, margins, closed-loop poles, warnings; ``.tf()`` and
+        ``.system()`` are python-control objects, ``.to_json()`` the Design JSON.
+
+    Raises
+    ------
+    OptionError, ControlDesignError
+        Bad settings, a loop the model has no channel for, a model the rules cannot tune.
+    """
+    from motorid.control.pid import PidSettings, design_pid as _design_pid
+
+    settings = PidSettings(loop=loop, rule=rule, tau_c_s=tau_c, derivative_filter=derivative_filter,
+                           integral=True if integral else None, damping=damping, wn=wn)
+    return _design_pid(_model_of(model), settings)
+
+
 @speaks_as_called("simulate")
 def simulate(
     model: MotorModel | IdentificationResult,
-    design: Design,
+    design: Design | PidDesign,
     *,
     duration_s: float = 3.0,
     reference: str | ReferenceSignal = "step",
@@ -724,8 +775,8 @@ def simulate(
     ----------
     model : MotorModel or IdentificationResult
         The plant (``plant="linear"``) and the observer's model.
-    design : Design
-        From :func:`design`.
+    design : Design or PidDesign
+        From :func:`design`, or a PID from :func:`motorid.control.design_pid`.
     duration_s : float
         Record length [s].
     reference : str or ReferenceSignal
@@ -765,10 +816,11 @@ def simulate(
         Bad settings, or a design for other states than the model's.
     """
     from motorid.control.design import Design
+    from motorid.control.pid import PidDesign
     from motorid.simulation.closed_loop import simulate_closed_loop
 
-    if not isinstance(design, Design):
-        raise OptionError(f"design= must be the Design of mi.design(...), got {type(design).__name__}")
+    if not isinstance(design, (Design, PidDesign)):
+        raise OptionError(f"design= must be the Design of mi.design(...) or a PidDesign, got {type(design).__name__}")
     settings = _simulation_settings(
         duration_s=duration_s, reference=reference, level_v=level_v, saturation=saturation, disturbance=disturbance,
         disturbance_start_s=disturbance_start_s, plant=plant, dt_s=dt_s, x0=x0, z0=z0, xhat0=xhat0,
@@ -834,7 +886,7 @@ def write_report(
     path: str | PathLike[str],
     fit: IdentificationResult,
     *,
-    design: Design | Mapping[str, Any] | None = None,
+    design: Design | PidDesign | Mapping[str, Any] | None = None,
     validation: Sequence[str | PathLike[str] | Capture] = (),
     overwrite: bool = True,
     simulation: Mapping[str, Any] | None = None,
@@ -847,7 +899,7 @@ def write_report(
         The HTML file; its folder must exist.  Written atomically: a failure leaves no file.
     fit : IdentificationResult
         From :func:`identify`.
-    design : Design or Mapping, optional
+    design : Design, PidDesign or Mapping, optional
         A design (or its JSON dict) to show with its closed-loop step response.
     validation : sequence of paths or Captures
         Captures of other inputs (sine, triangle, square…) to validate the model on.
@@ -870,6 +922,7 @@ def write_report(
         ``overwrite=False``, a full disk).
     """
     from motorid.control.design import Design
+    from motorid.control.pid import PidDesign
     from motorid.io import atomic_outputs, check_writable
     from motorid.report.assemble import make_report
 
@@ -877,7 +930,7 @@ def write_report(
         raise OptionError(f"write_report needs the result of mi.identify(...), got {type(fit).__name__}")
     out = Path(path)
     check_writable({"path": out}, force=overwrite, create_parents=False)
-    doc = design.to_json() if isinstance(design, Design) else (None if design is None else dict(design))
+    doc = design.to_json() if isinstance(design, (Design, PidDesign)) else (None if design is None else dict(design))
     run = None
     if simulation is not None:
         from motorid.options import SIMULATE, defaults

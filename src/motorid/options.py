@@ -24,6 +24,7 @@ from motorid.errors import MotorIdError
 __all__ = [
     "COMMANDS",
     "DESIGN",
+    "DESIGN_PID",
     "IDENTIFY",
     "READ",
     "SIMULATE",
@@ -118,6 +119,17 @@ DESIGN: tuple[OptionSpec, ...] = (
     OptionSpec("robust_fraction", "--robust", None, "", "tune until this fraction of plausible motors meets the spec"),
 )
 
+#: :func:`motorid.design_pid`'s options (``motorid design --pid``).
+DESIGN_PID: tuple[OptionSpec, ...] = (
+    OptionSpec("loop", "--pid-loop", "velocity", "", "velocity (a PI) or position (a PD; a PID with integral)"),
+    OptionSpec("rule", "--pid-rule", "simc", "", "simc (Skogestad's rules) or placement (damping and wn)"),
+    OptionSpec("integral", "--pid-integral", False, "", "integral action on the position loop (a PID)"),
+    OptionSpec("tau_c", "--tau-c", None, "s", "SIMC's closed-loop time constant (default max(θ, 0.25 τ))"),
+    OptionSpec("derivative_filter", "--derivative-filter", 10.0, "", "N of the derivative filter Td/N"),
+    OptionSpec("damping", "--damping", None, "", "damping ratio ζ of the placed poles"),
+    OptionSpec("wn", "--wn", None, "rad/s", "natural frequency of the placed poles"),
+)
+
 #: :func:`motorid.simulate`'s options.
 SIMULATE: tuple[OptionSpec, ...] = (
     OptionSpec("duration_s", "--duration", 3.0, "s", "record length"),
@@ -139,6 +151,7 @@ SIMULATE: tuple[OptionSpec, ...] = (
 #: Each front-door function's options, by the command's name.
 COMMANDS: dict[str, tuple[OptionSpec, ...]] = {
     "read_experiment": ROLES + READ, "identify": ROLES + READ + IDENTIFY, "design": DESIGN, "simulate": SIMULATE,
+    "design_pid": DESIGN_PID,
 }
 
 _FLAG = re.compile(r"(?<![\w-])--[A-Za-z][\w-]*")

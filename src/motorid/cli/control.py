@@ -190,6 +190,19 @@ def design(
     robust_samples: Annotated[int, typer.Option(
         "--robust-samples", help="Plausible motors, drawn from the model's uncertainty, the design is checked on "
         "(0: no check).")] = 2000,
+    pid: Annotated[bool, typer.Option(
+        "--pid", help="A PID instead of state feedback: velocity PI, position PD (PID with --pid-integral), "
+                      "tuned on the model (SIMC, or --pid-rule placement with --damping and --wn).")] = False,
+    pid_loop: Annotated[str | None, typer.Option(
+        "--pid-loop", help="velocity (a PI on the tacho; default) or position (a PD on the position).")] = None,
+    pid_rule: Annotated[str | None, typer.Option(
+        "--pid-rule", help="simc (Skogestad's rules; default) or placement (poles from --damping and --wn).")] = None,
+    pid_integral: Annotated[bool, typer.Option(
+        "--pid-integral", help="Integral action on the position loop (a PID instead of a PD).")] = False,
+    tau_c: Annotated[float | None, typer.Option(
+        "--tau-c", help="SIMC's closed-loop time constant τc, s (default max(θ, 0.25 τ)).")] = None,
+    derivative_filter: Annotated[float | None, typer.Option(
+        "--derivative-filter", help="N of the derivative filter Td/N (default 10).")] = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the Design JSON here.")] = None,
     discrete: Annotated[float | None, typer.Option(
         "--discrete", help="Sample the controller every TS seconds (python-control c2d); the JSON gains "
@@ -202,13 +215,35 @@ def design(
     emit_file: Annotated[Path | None, typer.Option("--emit-file", help="Write the --emit code here.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
-    """State feedback, integral action and observer design (Tsiolakis 2022, §2-4); code for a microcontroller."""
+    """State feedback, integral action and observer (Tsiolakis 2022, §2-4) or a PID (--pid); code for a controller."""
     from motorid.control.design import DesignSettings, design_controller
     from motorid.control.feedback import parse_poles
     from motorid.io import atomic_outputs
     from motorid.model.serialize import load_model
 
     _check_outputs([(json_out, "--json", None), (emit_file, "--emit-file", None)], force)
+    pid_options = {"--pid-loop": pid_loop is not None, "--pid-rule": pid_rule is not None,
+                   "--pid-integral": pid_integral, "--tau-c": tau_c is not None,
+                   "--derivative-filter": derivative_filter is not None}
+    if pid:
+        from motorid.control.pid import refuse_state_feedback_options
+
+        refuse_state_feedback_options({
+            "--poles": poles is not None, "--k2": k2 is not None, "--settling-time": settling_time is not None,
+            "--overshoot": overshoot is not None, "--integral": integral, "--ki": ki is not None,
+            "--integral-pole": integral_pole is not None, "--observer-poles": observer_poles is not None,
+            "--output": output is not None, "--sensors": sensors is not None, "--robust": robust is not None})
+        code_option = next((flag for flag, v in (("--discrete", discrete), ("--discrete-method", discrete_method),
+                                                 ("--emit", emit), ("--emit-file", emit_file)) if v is not None), None)
+        if code_option is not None:
+            raise OptionError(f"--pid and {code_option} do not go together yet: the PID's code is not emitted "
+                              "(PidDesign.system() is its python-control system, for control.c2d)")
+        _design_pid(model_file, json_out, force, pid_loop, pid_rule, pid_integral, tau_c, derivative_filter, damping,
+                    wn)
+        return
+    given = next((flag for flag, on in pid_options.items() if on), None)
+    if given is not None:
+        raise OptionError(f"{given} goes with --pid")
     _check_code_options(discrete, discrete_method, emit, emit_file)
     # code on the terminal is the standard output alone (``> controller.c``); the printout goes to stderr
     code_to_stdout = emit is not None and emit_file is None
@@ -334,6 +369,54 @@ def _print_discrete(dc, say) -> None:
 
 
 
+def _design_pid(model_file: Path, json_out: Path | None, force: bool, loop: str | None, rule: str | None,
+                integral: bool, tau_c: float | None, derivative_filter: float | None, damping: float | None,
+                wn: float | None) -> None:
+    """``motorid design --pid``: tune, print the gains, the controller, margins, poles and a step's metrics."""
+    from motorid.control.pid import DERIVATIVE_FILTER_N, PidSettings, design_pid
+    from motorid.io import atomic_outputs
+    from motorid.model.serialize import load_model
+    from motorid.simulation.closed_loop import step_check
+
+    settings = PidSettings(loop=loop or "velocity", rule=rule or "simc", tau_c_s=tau_c,
+                           derivative_filter=DERIVATIVE_FILTER_N if derivative_filter is None else derivative_filter,
+                           integral=True if integral else None, damping=damping, wn=wn)
+    model = load_model(model_file)
+    try:
+        p = design_pid(model, settings)
+    except OptionError as exc:
+        raise exc.with_file(str(model_file)) from None
+    how = "SIMC (Skogestad 2003)" if p.rule == "simc" else "pole placement"
+    typer.echo(f"{p.kind} on the {p.loop} ({p.output_unit}), tuned by {how} on "
+               f"{p.approximation.text(p.output_unit)}"
+               + (f", τc = {sig(p.tau_c_s)} s" if p.tau_c_s is not None else ""))
+    typer.echo("gains: " + ", ".join(f"{name} = {sig(v)} {unit}" for name, v, unit in p.gains()))
+    typer.echo(f"u = kp·(r − y) + ki·∫(r − y)dt − kd·s/(tf·s + 1)·y   (y = {p.measured_signal}; "
+               "the derivative acts on the measurement)")
+    from motorid.model.notation import poly_text
+
+    c = p.tf()
+    typer.echo(f"C(s) = ({poly_text(c.num[0][0])}) / ({poly_text(c.den[0][0])})   "
+               "(python-control: PidDesign.tf(); PidDesign.system() takes r and y)")
+    if p.margins is not None:
+        typer.echo("margins: " + p.margins.text())
+    delay = f", the {sig(model.delay_s)} s dead time by a Padé approximant" if model.delay_s > 0 else ""
+    cl = sorted(p.closed_loop_poles, key=lambda z: (z.real, z.imag))
+    typer.echo(f"closed-loop poles (full model{delay}): " + roots_text(cl))
+    res = step_check(model, p)
+    m = res.metrics
+    settled = f"{sig(m.settling_time_s)} s" if math.isfinite(m.settling_time_s) else "not within the record"
+    typer.echo(f"step response (simulated, no rails): overshoot {sig(m.overshoot_pct)} %, settling time (2 %) "
+               f"{settled}, rise time {sig(m.rise_time_s)} s, peak |u| {sig(m.peak_control_v)} V per "
+               f"{p.output_unit} of step")
+    for w in (*p.warnings, *(w for w in res.warnings if "dead time" not in w)):
+        typer.echo(f"warning: {w}")
+    if json_out is not None:
+        with atomic_outputs(exclusive=not force) as outs:
+            outs.write_text(json_out, p.to_json_text() + "\n")
+        typer.echo(f"design JSON: {json_out}")
+
+
 #: The simulation metrics printed, in order, with their units (``output``: the output channel's).
 _METRIC_UNITS: tuple[tuple[str, str], ...] = (
     ("rise_time_s", "s"), ("settling_time_s", "s"), ("overshoot_pct", "%"), ("steady_state_error_v", "output"),
@@ -374,7 +457,7 @@ def simulate(
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Closed-loop simulation of a design: metrics, time series and a plot."""
-    from motorid.control.design_io import load_design as _load_design
+    from motorid.control.design_io import load_controller
     from motorid.io import atomic_outputs
     from motorid.model.serialize import load_model
     from motorid.simulation.closed_loop import (
@@ -404,7 +487,7 @@ def simulate(
         dead_zone_compensation=compensate_dead_zone, anti_windup=anti_windup,
     )
     model = load_model(model_file)
-    d = _load_design(design_file)
+    d = load_controller(design_file)
     try:
         if plant == "trainer":
             from motorid.trainer.closed_loop import simulate_on_trainer

@@ -34,6 +34,7 @@ from motorid.control.feedback import (
 )
 from motorid.control.integral import augment_integral, integral_gains, integral_poly, routh_violations
 from motorid.control.observer import check_observable, observer_gain, output_feedback_matrix
+from motorid.control.pid import PidDesign, PidSettings, design_pid
 from motorid.control.params import MotorParams, model_from_params, params_from_step_test, parse_ratio
 from motorid.control.routh import AffinePoly, affine_char_poly, routh_array, routh_conditions, routh_stable
 
@@ -48,6 +49,8 @@ __all__ = [
     "DiscreteController",
     "MeasurableRealisation",
     "MotorParams",
+    "PidDesign",
+    "PidSettings",
     "affine_char_poly",
     "augment_integral",
     "check_controllable",
@@ -57,6 +60,7 @@ __all__ = [
     "controller_system",
     "design_controller",
     "design_model",
+    "design_pid",
     "discretise",
     "discretise_design",
     "dominant_second_order",

@@ -14,8 +14,9 @@ from motorid.io.jsonfile import read_json
 
 if TYPE_CHECKING:
     from motorid.control.design import Design
+    from motorid.control.pid import PidDesign
 
-__all__ = ["load_design", "read_design_json"]
+__all__ = ["controller_from_json", "load_controller", "load_design", "read_design_json"]
 
 
 def read_design_json(path: Path) -> dict[str, Any]:
@@ -65,3 +66,50 @@ def load_design(path: Path) -> Design:
     from motorid.control.design import Design
 
     return Design.from_json(read_json(path, "design"), file=str(path))
+
+
+def controller_from_json(data: Any, *, file: str | None = None) -> Design | PidDesign:
+    """The controller of a design JSON: a :class:`~motorid.control.pid.PidDesign` when it has a ``pid`` object.
+
+    Parameters
+    ----------
+    data : Any
+        The decoded design JSON.
+    file : str, optional
+        Named in errors.
+
+    Returns
+    -------
+    Design or PidDesign
+
+    Raises
+    ------
+    OptionError
+        One-line errors naming the key (and ``file``).
+    """
+    from motorid.control.design import Design
+    from motorid.control.pid import PidDesign
+
+    if isinstance(data, dict) and "pid" in data:
+        return PidDesign.from_json(data, file=file)
+    return Design.from_json(data, file=file)
+
+
+def load_controller(path: Path) -> Design | PidDesign:
+    """Read a design JSON file as the controller it holds (state feedback or a PID).
+
+    Parameters
+    ----------
+    path : Path
+        The design JSON file.
+
+    Returns
+    -------
+    Design or PidDesign
+
+    Raises
+    ------
+    ModelFormatError, OptionError
+        One-line errors naming the file.
+    """
+    return controller_from_json(read_json(path, "design"), file=str(path))

@@ -25,7 +25,15 @@ if TYPE_CHECKING:
     from motorid.control.design import Design
     from motorid.model import MotorModel
 
-__all__ = ["PADE_ORDER", "LoopMargins", "loop_frequency_response", "loop_margins"]
+__all__ = [
+    "PADE_ORDER",
+    "LoopMargins",
+    "closed_loop_bandwidth",
+    "dead_time_pade",
+    "loop_frequency_response",
+    "loop_margins",
+    "open_loop_margins",
+]
 
 #: Order of the Padé approximant of the model's dead time in the loop.
 PADE_ORDER = 8
@@ -190,14 +198,59 @@ def loop_margins(model: MotorModel, design: Design) -> LoopMargins:
 
     a, b, c = _design_plant(model, design)
     a_l, b_l, c_l = _loop_matrices(a, b, c, design, observer=True)
-    fastest = _fastest(a_l)
-    tau = float(model.delay_s)
-    # a dead time far below the loop's time scales (an identified 1e-11 s) turns no phase; its
-    # Padé approximant would only put coefficients of 1e-88 into the polynomials
-    pade = control.tf(*control.pade(tau, PADE_ORDER)) if tau * fastest > 1e-6 else None
     loop = control.ss(a_l, b_l, c_l, 0.0)
+    pade = dead_time_pade(float(model.delay_s), _fastest(a_l))
+    return open_loop_margins(loop, float(model.delay_s), _bandwidth(a, b, c, design, pade))
+
+
+def dead_time_pade(delay_s: float, fastest_rad_s: float) -> Any:
+    """The Padé approximant (order :data:`PADE_ORDER`) of a dead time in a loop, or None.
+
+    Parameters
+    ----------
+    delay_s : float
+        The dead time (s).
+    fastest_rad_s : float
+        The loop's fastest pole magnitude (rad/s).
+
+    Returns
+    -------
+    control.StateSpace or None
+        None when the dead time turns no phase at the loop's time scales (an identified
+        1e-11 s), where its approximant would only put coefficients of 1e-88 into the polynomials.
+    """
+    import control
+
+    if not delay_s * fastest_rad_s > 1e-6:
+        return None
+    return control.ss(control.tf(*control.pade(delay_s, PADE_ORDER)))
+
+
+def open_loop_margins(loop: Any, delay_s: float, bandwidth_rad_s: float) -> LoopMargins:
+    """The margins of an open loop ``L(s)`` (without its dead time) closed by negative feedback.
+
+    The dead time is put in by :func:`dead_time_pade`; python-control computes the margins.
+
+    Parameters
+    ----------
+    loop : control.StateSpace
+        ``L(s)`` without the dead time, SISO.
+    delay_s : float
+        The dead time in the loop (s).
+    bandwidth_rad_s : float
+        The closed loop's −3 dB bandwidth (computed by the caller; NaN when undefined).
+
+    Returns
+    -------
+    LoopMargins
+    """
+    import control
+
+    loop = control.ss(loop)
+    fastest = _fastest(np.asarray(loop.A, float))
+    pade = dead_time_pade(delay_s, fastest)
     if pade is not None:
-        loop = loop * control.ss(pade)
+        loop = loop * pade
     try:
         gm, pm, sm, _wpc, wgc, _wms = control.stability_margins(loop)
     except (np.linalg.LinAlgError, ValueError, FloatingPointError):
@@ -214,8 +267,8 @@ def loop_margins(model: MotorModel, design: Design) -> LoopMargins:
     with np.errstate(divide="ignore", invalid="ignore"):
         grid_ms = float(np.nanmax(1.0 / np.abs(1.0 + _response(loop, omega))))
     ms = max(grid_ms, 1.0 / float(sm) if sm is not None and math.isfinite(sm) and float(sm) > 0 else 0.0)
-    used = tau if pade is not None else 0.0
-    return LoopMargins(gain_db, phase, delay, wgc, ms, _bandwidth(a, b, c, design, pade), used)
+    used = delay_s if pade is not None else 0.0
+    return LoopMargins(gain_db, phase, delay, wgc, ms, bandwidth_rad_s, used)
 
 
 def loop_frequency_response(model: MotorModel, design: Design, points: int = 800) -> tuple[np.ndarray, np.ndarray]:
@@ -281,11 +334,29 @@ def _bandwidth(a: np.ndarray, b: np.ndarray, c: np.ndarray, design: Design, pade
         ref = control.tf([design.kr if design.kr is not None else 1.0], [1.0])
     # as a transfer function: minreal of a state-space model needs slycot; the integrator of the
     # reference path cancels against the zero at s = 0 the loop's integrator puts in ``command``
+    return closed_loop_bandwidth(control.tf(motor) * control.tf(command) * ref)
+
+
+def closed_loop_bandwidth(closed: Any) -> float:
+    """−3 dB bandwidth (rad/s) of a reference-to-output transfer function, after cancelling common factors.
+
+    Parameters
+    ----------
+    closed : control.TransferFunction
+        The closed loop, SISO (products leave pole-zero pairs that :func:`control.minreal` removes).
+
+    Returns
+    -------
+    float
+        python-control's :func:`control.bandwidth`; NaN when the closed loop has no finite DC gain.
+    """
+    import control
+
     with warnings.catch_warnings():
         # the conversion leaves numerator coefficients at rounding level, which scipy flags
         # (here and where python-control takes the poles of the result)
         warnings.simplefilter("ignore", scipy.signal.BadCoefficients)
-        closed = control.minreal(control.tf(motor) * control.tf(command) * ref, verbose=False)
+        closed = control.minreal(control.tf(closed), verbose=False)
         try:
             bw = float(control.bandwidth(closed))
         except (ValueError, TypeError, ZeroDivisionError):  # no finite DC gain

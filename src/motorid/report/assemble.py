@@ -102,15 +102,18 @@ def _design_view(ident: Identification, design: Mapping[str, Any] | None,
     """
     if design is None:
         return None
-    from motorid.control.design import Design
+    from motorid.control.design_io import controller_from_json
+    from motorid.control.pid import PidDesign
 
     view: dict[str, Any] = dict(design)
-    des = Design.from_json(design)
+    des = controller_from_json(design)
     run = settings if settings is not None else SimulationSettings(saturation_v=REPORT_RAILS_V)
     try:
         view["simulation"] = _closed_loop_view(ident, des, run)
     except MotorIdError as exc:
-        view["note"] = (f"the design (states {list(des.states)}) cannot be simulated on the identified model "
+        what = f"the {des.kind} on the {des.loop}" if isinstance(des, PidDesign) else f"the design (states " \
+            f"{list(des.states)})"
+        view["note"] = (f"{what} cannot be simulated on the identified model "
                         f"(states {list(ident.model.states)}): {exc.message}")
     try:
         view["mode_maps"] = _mode_maps(ident)
@@ -157,6 +160,8 @@ def _design_gains(des: Any) -> tuple[float, float] | None:
     The map's loop is ``u = sat(Kp (r − θ) − Kv θ̇)``: a design on (position, velocity) without
     integral action is exactly that loop.
     """
+    if not hasattr(des, "states"):  # a PID: its filtered derivative is not the map's loop
+        return None
     if tuple(des.states) == ("position", "velocity") and des.ki is None:
         return float(des.K[0]), float(des.K[1])
     return None

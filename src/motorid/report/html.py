@@ -534,12 +534,22 @@ def design_section(inp: ReportInputs) -> dict[str, Any]:
     d = inp.design
     if not d:
         return {"given": False}
-    gain_rows = [["states", ", ".join(map(str, d.get("states") or []))]]
-    gain_rows += [[words, _value_text(d.get(key))] for key, words in _DESIGN_ROWS if d.get(key) is not None]
+    pid = d.get("pid") if isinstance(d.get("pid"), dict) else None
+    if pid is not None:
+        units = pid.get("units") or {}
+        gain_rows = [["PID", f"{pid.get('kind', '')} on the {pid.get('loop')}, rule {pid.get('rule')} "
+                             "(the derivative on the measurement)"]]
+        gain_rows += [[name, f"{_cell(pid.get(name))} {units.get(name, '')}".strip()]
+                      for name in ("kp", "ki", "kd", "tf_s") if pid.get(name) is not None]
+        gain_rows.append(["closed-loop poles (1/s)", _value_text(d.get("closed_loop_poles") or [])])
+    else:
+        gain_rows = [["states", ", ".join(map(str, d.get("states") or []))]]
+        gain_rows += [[words, _value_text(d.get(key))] for key, words in _DESIGN_ROWS if d.get(key) is not None]
     loop_png = robust_png = ""
     if isinstance(d.get("margins"), dict):
-        from motorid.control.design import Design
+        from motorid.control.design_io import controller_from_json
         from motorid.control.margins import LoopMargins, loop_frequency_response
+        from motorid.control.pid import PidDesign, pid_loop_frequency_response
         from motorid.errors import MotorIdError
 
         gain_rows.append(["margins", LoopMargins.from_json(d["margins"]).text()])
@@ -554,7 +564,10 @@ def design_section(inp: ReportInputs) -> dict[str, Any]:
                     unit = inp.identification.model.units.get(str(d.get("output") or "position")) or "V"
                     robust_png = figures.data_uri(figures.robust_band(d["robust"]["band"], unit, check.text()))
         try:
-            response = loop_frequency_response(inp.identification.model, Design.from_json(d))
+            des = controller_from_json(d)
+            model = inp.identification.model
+            response = (pid_loop_frequency_response(model, des) if isinstance(des, PidDesign)
+                        else loop_frequency_response(model, des))
         except MotorIdError:  # a design for another model's states: its margins row stays, no plot
             response = None
         if response is not None:

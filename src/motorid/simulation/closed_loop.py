@@ -24,6 +24,7 @@ import scipy.linalg
 
 from motorid._threads import single_blas_thread
 from motorid.control.design import Design, design_model, output_row
+from motorid.control.pid import PidDesign
 from motorid.errors import OptionError
 from motorid.model import MotorModel
 
@@ -41,6 +42,7 @@ __all__ = [
     "response_metrics",
     "simulate_closed_loop",
     "simulation_figure",
+    "step_check",
 ]
 
 #: Reference waveforms: a step (report §2.2.1), a sinusoid (§2.2.3) and the trainer's test signals.
@@ -508,9 +510,12 @@ class ClosedLoopPlant(Protocol):
 
 
 @single_blas_thread
-def simulate_closed_loop(model: MotorModel, design: Design, settings: SimulationSettings, *,
+def simulate_closed_loop(model: MotorModel, design: Design | PidDesign, settings: SimulationSettings, *,
                          plant: ClosedLoopPlant | None = None) -> SimulationResult:
     """Run the designed controller in closed loop.
+
+    A :class:`~motorid.control.pid.PidDesign` runs as its state space (:meth:`PidDesign.matrices`),
+    sampled like state feedback, its integrator held against the rails the same way.
 
     Parameters
     ----------
@@ -519,8 +524,8 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
         in measurable coordinates (:func:`motorid.control.design_controller`) runs on the
         model re-expressed in them (:func:`motorid.control.design.design_model`), so the
         states, ``x0`` and ``xhat0`` are the design's (position, velocity, …).
-    design : Design
-        Gains (``K``, ``kr`` or ``ki``, optional ``L``) for this model.
+    design : Design or PidDesign
+        Gains (``K``, ``kr`` or ``ki``, optional ``L``) for this model, or a PID.
     settings : SimulationSettings
     plant : ClosedLoopPlant, optional
         The plant of a ``plant='trainer'`` run (required then; see
@@ -541,6 +546,8 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
     Tsiolakis 2022, §2.2 (step, brake, sinusoid), §3.2 (integral action, z(0)), §4.2 (observer).
     """
     s = settings
+    if isinstance(design, PidDesign):
+        return _simulate_pid(model, design, s, plant)
     # a design in measurable coordinates runs on the model re-expressed in them
     model = design_model(model, design)
     a, b = model.A, model.B
@@ -662,6 +669,139 @@ def simulate_closed_loop(model: MotorModel, design: Design, settings: Simulation
     metrics = response_metrics(t, ys, r, us, s.reference.kind == "step")
     return SimulationResult(t, r, ys, us, uraw, xs, xhs, zs, tuple(model.states), design.output, metrics,
                             tuple(warnings), dict(model.units), bool(hold))
+
+
+def _simulate_pid(model: MotorModel, pid: PidDesign, s: SimulationSettings,
+                  plant: ClosedLoopPlant | None) -> SimulationResult:
+    """:func:`simulate_closed_loop` of a PID: its state space advanced exactly for a held ``r`` and ``y``.
+
+    ``u = C_c x_c + D_c [r, y]``; the integrator ``z`` of ``r − y`` holds (conditional
+    integration) while the command is beyond a rail and ``r − y`` would push it further.
+    """
+    a, b = model.A, model.B
+    n = a.shape[0]
+    if pid.output not in model.outputs:
+        raise OptionError(f"the PID reads the {pid.output}, and the model has no {pid.output} output "
+                          f"(its outputs are {list(model.outputs)})")
+    _, c = output_row(model, pid.output)
+    ac, bc, cc, dc, i_z = pid.matrices()
+    nc = ac.shape[0]
+    steps = round(s.duration_s / s.dt_s)
+    t = np.arange(steps + 1) * s.dt_s
+    r = reference_values(s.reference, t)
+    d = np.where(t >= s.disturbance_start_s, -s.disturbance_v, 0.0)
+    x = _vector(s.x0, n, "--x0")
+    xc = np.zeros(nc)
+    if i_z is not None:
+        xc[i_z] = float(s.z0)
+    sat = math.inf if s.saturation_v is None else float(s.saturation_v)
+    hold = i_z is not None and (s.anti_windup if s.anti_windup is not None else s.saturation_v is not None)
+    warnings: list[str] = []
+    phi, gam = _zoh(a, b, s.dt_s)
+    phi_c, gam_c = _zoh(ac, bc, s.dt_s)
+    lag = round(model.delay_s / s.dt_s) if s.plant != "trainer" else 0
+    if lag:
+        warnings.append(f"the model's dead time of {1e3 * model.delay_s:.3g} ms is applied to the plant input "
+                        f"({lag} step(s) of {s.dt_s:g} s)")
+    # the linear sampled loop (no rails, no dead time): states [x, x_c]
+    g = gam[:, :1]
+    loop = np.block([[phi + g @ dc[:, 1:] @ c, g @ cc], [gam_c[:, 1:] @ c, phi_c]])
+    with np.errstate(all="ignore"):
+        rho = float(np.max(np.abs(np.linalg.eigvals(loop)))) if np.all(np.isfinite(loop)) else math.inf
+    continuous_stable = bool(np.all(np.asarray(pid.closed_loop_poles).real < 0))
+    if rho > 1.0 + 1e-9 and s.plant != "trainer" and continuous_stable:
+        warnings.append(f"at dt = {s.dt_s:g} s the sampled loop is unstable (spectral radius {rho:.4g}) although the "
+                        "continuous design is stable: the PID's gains (or its derivative filter) are too fast for "
+                        "this rate; use a smaller --dt")
+    nl = model.static_nonlinearity
+    if s.dead_zone_compensation and nl is None:
+        raise OptionError("dead-zone compensation needs a model with a static nonlinearity (identify several "
+                          "step levels: --velocity once per level)")
+    if nl is not None and nl.dead_zone_v > 0:
+        warnings.append(f"the model's dead-zone of {nl.dead_zone_v:.3g} V acts on the plant input"
+                        + (" and is compensated by feed-forward" if s.dead_zone_compensation else ""))
+    trainer = None
+    if s.plant == "trainer":
+        if plant is None:
+            raise OptionError("plant='trainer' needs the trainer's loop: use "
+                              "motorid.trainer.closed_loop.simulate_on_trainer")
+        trainer = plant
+        warnings += plant.start(model, s, x)
+    xs = np.empty((steps + 1, n))
+    zs = np.empty(steps + 1) if i_z is not None else None
+    ys = np.empty(steps + 1)
+    us = np.empty(steps + 1)
+    uraw = np.empty(steps + 1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        for i in range(steps + 1):
+            meas = trainer.measured() if trainer is not None else x
+            y = float((c @ meas)[0]) if trainer is None else trainer.output(pid.output)
+            xs[i], ys[i] = meas, y
+            u_req = float((cc @ xc)[0]) + float(dc[0, 0]) * r[i] + float(dc[0, 1]) * y
+            if s.dead_zone_compensation and nl is not None and math.isfinite(u_req):
+                u_req = float(nl.compensate(u_req))
+            u = min(max(u_req, -sat), sat) if math.isfinite(u_req) else u_req
+            us[i], uraw[i] = u, u_req
+            if zs is not None and i_z is not None:
+                zs[i] = xc[i_z]
+            if i == steps:
+                break
+            if trainer is not None:
+                trainer.advance(u, t[i])
+            else:
+                u_plant = u if not lag else (us[i - lag] if i >= lag else 0.0)
+                if nl is not None:
+                    u_plant = float(nl.effective_input(u_plant))
+                x = phi @ x + gam[:, 0] * (u_plant + d[i])
+            if nc:
+                e = r[i] - y
+                new = phi_c @ xc + gam_c @ np.array([r[i], y])
+                # conditional integration: ż = e moves the command by ki·e·dt; hold z while the
+                # command is beyond a rail and e would push it further
+                if hold and i_z is not None and ((u_req > sat and pid.ki * e > 0) or (u_req < -sat and pid.ki * e < 0)):
+                    new[i_z] = xc[i_z]
+                xc = new
+    if not np.all(np.isfinite(ys)):
+        warnings.append("the response diverged (non-finite values): the closed loop is unstable")
+    elif (np.max(np.abs(ys))
+          > 1e3 * max(float(np.max(np.abs(r))), 1.0) + 1e3 * float(np.max(np.abs(xs[0]), initial=0.0))):
+        warnings.append("the response diverged (it grew a thousandfold beyond the reference): the closed loop is "
+                        "unstable")
+    if s.saturation_v is not None and np.any(np.abs(uraw) > sat):
+        warnings.append(f"the actuator saturated (|u| reached {np.nanmax(np.abs(uraw)):.3g} V > {sat:g} V)")
+        warnings += _rail_to_rail(us, sat, integral=i_z is not None, held=hold)
+    metrics = response_metrics(t, ys, r, us, s.reference.kind == "step")
+    return SimulationResult(t, r, ys, us, uraw, xs, None, zs, tuple(model.states), pid.output, metrics,
+                            tuple(warnings), dict(model.units), bool(hold))
+
+
+def step_check(model: MotorModel, pid: PidDesign, level: float = 1.0) -> SimulationResult:
+    """A unit step of the reference through the linear loop (no rails), long enough to settle.
+
+    The record is ten times the closed loop's slowest time constant (1–120 s), the control
+    interval at most 1 ms and a tenth of the derivative filter's time constant.
+
+    Parameters
+    ----------
+    model : MotorModel
+        The model the PID was designed for (its dead time applied).
+    pid : PidDesign
+    level : float
+        The step, in the output's unit.
+
+    Returns
+    -------
+    SimulationResult
+        Its ``metrics`` hold the overshoot and the settling time.
+    """
+    poles = np.asarray(pid.closed_loop_poles, complex)
+    stable = poles[poles.real < 0]
+    slowest = float(np.min(-stable.real)) if stable.size else 1.0
+    duration = min(max(10.0 / slowest, 1.0), 120.0)
+    dt = min(1e-3, pid.tf_s / 10 if pid.tf_s > 0 else 1e-3)
+    dt = max(dt, duration / 300_000)
+    return simulate_closed_loop(model, pid, SimulationSettings(duration_s=duration, dt_s=dt,
+                                                               reference=ReferenceSignal(level_v=level)))
 
 
 #: Rail-to-rail swings of the applied command in the last half of a run that make a limit cycle

@@ -12,6 +12,7 @@ from dataclasses import replace
 import numpy as np
 
 from motorid.control.design import Design
+from motorid.control.pid import PidDesign
 from motorid.model import MotorModel
 from motorid.simulation.closed_loop import SimulationResult, SimulationSettings, simulate_closed_loop
 from motorid.trainer.plant import simulate_plant
@@ -147,7 +148,7 @@ def _same_motor(model: MotorModel, cfg: TrainerConfig, name: str) -> list[str]:
     return []
 
 
-def simulate_on_trainer(model: MotorModel, design: Design, settings: SimulationSettings, *,
+def simulate_on_trainer(model: MotorModel, design: Design | PidDesign, settings: SimulationSettings, *,
                         config: TrainerConfig | None = None) -> SimulationResult:
     """Run the design in closed loop on the trainer's nonlinear plant (``settings.plant='trainer'``).
 
@@ -155,7 +156,7 @@ def simulate_on_trainer(model: MotorModel, design: Design, settings: SimulationS
     ----------
     model : MotorModel
         The observer's model (the design's states).
-    design : Design
+    design : Design or PidDesign
         The controller.
     settings : SimulationSettings
         Its ``trainer_preset`` names the plant (noise-free ``quiet()`` variant).

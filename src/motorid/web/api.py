@@ -16,7 +16,7 @@ from fastapi import APIRouter, Request
 from starlette.concurrency import run_in_threadpool
 
 from motorid.errors import OptionError, UploadError
-from motorid.web.options import design_options, identify_options, simulate_options
+from motorid.web.options import design_options, design_pid_options, identify_options, simulate_options
 from motorid.web.uploads import as_uploaded, group_captures, receive_form
 from motorid.web.work import run_bounded
 
@@ -112,7 +112,8 @@ def _identify(paths: dict[str, Any], read_kw: dict[str, Any], ident_kw: dict[str
 async def api_design(request: Request) -> dict[str, Any]:
     """Design a controller: body ``{"model": <model JSON>, "damping": 0.7, "wn": 5, …}``.
 
-    The keys besides ``model`` are :func:`motorid.design`'s parameters.
+    The keys besides ``model`` are :func:`motorid.design`'s parameters; with ``"pid": true``,
+    :func:`motorid.design_pid`'s (``loop``, ``rule``, ``tau_c``, …).
 
     Returns
     -------
@@ -123,7 +124,13 @@ async def api_design(request: Request) -> dict[str, Any]:
 
     body = await _json_body(request)
     model = _model(body)
-    opts = design_options({k: v for k, v in body.items() if k != "model"})
+    pid = body.get("pid", False)
+    if not isinstance(pid, bool):
+        raise OptionError(f"pid={pid!r}: give true or false")
+    if pid:
+        pid_opts = design_pid_options({k: v for k, v in body.items() if k not in ("model", "pid")})
+        return (await run_in_threadpool(lambda: mi.design_pid(model, **pid_opts))).to_json()
+    opts = design_options({k: v for k, v in body.items() if k not in ("model", "pid")})
     des = await run_in_threadpool(lambda: mi.design(model, **opts))
     return des.to_json()
 
@@ -140,13 +147,13 @@ async def api_simulate(request: Request) -> dict[str, Any]:
         The simulation JSON (``motorid simulate --json``: metrics, warnings, series).
     """
     import motorid as mi
-    from motorid.control.design import Design
+    from motorid.control.design_io import controller_from_json
 
     body = await _json_body(request)
     model = _model(body)
     if "design" not in body:
         raise OptionError('the body needs "design": the design JSON of motorid design --json or POST /api/design')
-    des = Design.from_json(body["design"], file="design")
+    des = controller_from_json(body["design"], file="design")
     opts = simulate_options({k: v for k, v in body.items() if k not in ("model", "design")})
     sim = await run_in_threadpool(lambda: mi.simulate(model, des, **opts))
     return sim.to_json()

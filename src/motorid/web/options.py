@@ -17,10 +17,12 @@ from motorid.options import names
 
 __all__ = [
     "DESIGN_OPTIONS",
+    "DESIGN_PID_OPTIONS",
     "IDENTIFY_OPTIONS",
     "READ_OPTIONS",
     "SIMULATE_OPTIONS",
     "design_options",
+    "design_pid_options",
     "identify_options",
     "simulate_options",
 ]
@@ -31,6 +33,8 @@ READ_OPTIONS: tuple[str, ...] = names(options.READ)
 IDENTIFY_OPTIONS: tuple[str, ...] = names(options.IDENTIFY)
 #: Keys of the ``POST /api/design`` body besides ``model``.
 DESIGN_OPTIONS: tuple[str, ...] = names(options.DESIGN)
+#: Keys of a ``POST /api/design`` body with ``"pid": true`` besides ``model`` and ``pid``.
+DESIGN_PID_OPTIONS: tuple[str, ...] = names(options.DESIGN_PID)
 #: Keys of the ``POST /api/simulate`` body besides ``model`` and ``design``.
 SIMULATE_OPTIONS: tuple[str, ...] = names(options.SIMULATE)
 
@@ -221,6 +225,44 @@ def design_options(body: Mapping[str, Any]) -> dict[str, Any]:
         if isinstance(n, bool) or not isinstance(n, int):
             raise OptionError(f"robust_samples={n!r}: give a whole number (0: no check)")
         out["robust_samples"] = n
+    return out
+
+
+def design_pid_options(body: Mapping[str, Any]) -> dict[str, Any]:
+    """``POST /api/design`` body with ``"pid": true`` (without ``model``, ``pid``) → :func:`motorid.design_pid` options.
+
+    Parameters
+    ----------
+    body : Mapping
+        The decoded JSON object.
+
+    Returns
+    -------
+    dict
+        Keyword options.
+
+    Raises
+    ------
+    OptionError
+        A state-feedback key, an unknown key or a value of the wrong kind (named).
+    """
+    clash = next((k for k in DESIGN_OPTIONS if k in body and k not in DESIGN_PID_OPTIONS), None)
+    if clash is not None:
+        raise OptionError(f"pid and {clash} do not go together: {clash} is for state feedback by pole placement")
+    _unknown(body, DESIGN_PID_OPTIONS, "design (pid)")
+    out: dict[str, Any] = {}
+    for name in ("tau_c", "derivative_filter", "damping", "wn"):
+        if body.get(name) is not None:
+            out[name] = _json_number(name, body[name])
+    for name in ("loop", "rule"):
+        if body.get(name) is not None:
+            if not isinstance(body[name], str):
+                raise OptionError(f"{name}={body[name]!r}: give a word")
+            out[name] = body[name]
+    if "integral" in body:
+        if not isinstance(body["integral"], bool):
+            raise OptionError(f"integral={body['integral']!r}: give true or false")
+        out["integral"] = body["integral"]
     return out
 
 
