@@ -165,6 +165,28 @@ def test_slider_moves_change_the_design(client, demo_files):
     assert all(c > 0 for c in cpu) and all(w > 0 for w in wall)
 
 
+def test_the_design_panel_shows_the_plausible_motors(client, demo_files):
+    import base64
+    import urllib.parse
+
+    tab = _identified_tab(client, demo_files)
+    res = client.post(f"/tab/{tab}/design", data={"damping": "1", "wn": "8", "level": "5", "duration": "3"})
+    assert res.status_code == 200
+    assert re.search(r"robust: stable for [\d.]+ % of 200 plausible motors", res.text)
+    assert "margins: gain margin" in res.text
+    src = re.search(r'id="closed-loop-plot" alt="[^"]*" src="([^"]+)"', res.text).group(1)
+    head, data = src.split(",", 1)
+    svg = base64.b64decode(data).decode() if head.endswith("base64") else urllib.parse.unquote(data)
+    assert "plausible motors 2.5 %" in svg and "plausible motors 97.5 %" in svg
+    # with rails the band (a linear loop's) is not drawn
+    res = client.post(f"/tab/{tab}/design", data={"damping": "1", "wn": "8", "level": "5", "duration": "3",
+                                                  "saturation": "2"})
+    src = re.search(r'id="closed-loop-plot" alt="[^"]*" src="([^"]+)"', res.text).group(1)
+    head, data = src.split(",", 1)
+    svg = base64.b64decode(data).decode() if head.endswith("base64") else urllib.parse.unquote(data)
+    assert "plausible motors" not in svg
+
+
 def test_tab_close_deletes_its_folder_and_session(client, demo_files, web_root):
     tab = _identified_tab(client, demo_files)
     folder = next(web_root.iterdir()) / f"tab-{tab}"

@@ -358,10 +358,12 @@ def design_update(model: MotorModel, form: DesignForm, maps: ModeMapView | None,
     observer = None
     if form.observer_poles:
         observer = [complex(p) for p in parse_poles(form.observer_poles, "observer poles")]
-    des = mi.design(model, damping=form.damping, wn=form.wn, integral=form.integral, observer_poles=observer)
+    des = mi.design(model, damping=form.damping, wn=form.wn, integral=form.integral, observer_poles=observer,
+                    robust_samples=WEB_ROBUST_SAMPLES)
     sim = mi.simulate(model, des, **form.simulate_options())
     cols = sim.columns()
     series = {"reference": cols["reference"], f"output ({sim.output})": cols["output"], "u (control)": cols["u"]}
+    series.update(_robust_band(des, cols["time"], form))
     sat = f", rails ±{form.saturation_v:g} V" if form.saturation_v else ""
     canvas = canvas if canvas is not None else figures.ClosedLoopCanvas()
     plot = figures.data_uri(canvas.svg(cols["time"], series,
@@ -370,6 +372,27 @@ def design_update(model: MotorModel, form: DesignForm, maps: ModeMapView | None,
     markers = mark(maps, kp, kv) if maps is not None else []
     return DesignView(des, sim, plot, markers, (kp, kv, what), 1e3 * (time.perf_counter() - t0),
                       1e3 * (time.thread_time() - c0))
+
+
+#: Plausible motors a slider move checks the design on (the command line checks 2000): about
+#: 60 ms of the 100 ms a move may take (``bench/web_update_speed.py``).
+WEB_ROBUST_SAMPLES = 200
+
+
+def _robust_band(des: Any, time_s: Any, form: DesignForm) -> dict[str, Any]:
+    """The output's 95 % band over the plausible motors, for the plot.
+
+    A step without rails only: the band is the linear loop's.
+    """
+    import numpy as np
+
+    robust = getattr(des, "robust", None)
+    if robust is None or not robust.band[0] or form.saturation_v is not None:
+        return {}
+    t = np.asarray(robust.band[0])
+    level = float(form.level_v)
+    return {f"plausible motors {q}": level * np.interp(time_s, t, np.asarray(robust.band[i]), right=np.nan)
+            for i, q in ((1, "2.5 %"), (3, "97.5 %"))}
 
 
 def map_limits(model: MotorModel, ranges: SliderRanges) -> tuple[float, float]:
