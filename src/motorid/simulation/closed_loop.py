@@ -335,6 +335,10 @@ def reference_values(ref: ReferenceSignal, time_s: np.ndarray) -> np.ndarray:
     return ref.level_v + np.where(t >= ref.start_s, wave, 0.0)
 
 
+#: Relative size below which a steady-state or tracking error is the simulation's rounding.
+ROUNDING = 1e-9
+
+
 def response_metrics(time_s: np.ndarray, output_v: np.ndarray, reference_v: np.ndarray,
                      control_v: np.ndarray, step: bool) -> ResponseMetrics:
     """Rise/settling time, overshoot, steady-state error, tracking RMS and peak control.
@@ -367,6 +371,11 @@ def response_metrics(time_s: np.ndarray, output_v: np.ndarray, reference_v: np.n
     peak_u = float(np.max(np.abs(control_v)))
     rf = float(r[-1])
     ess = float(rf - np.mean(y[-max(1, n // 20):]))
+    # an error below a billionth of the reference is the simulation's rounding (a loop with
+    # integral action ends on r to 1e-15): it is 0, not "1.776e-15 rpm"
+    scale = float(np.max(np.abs(r), initial=0.0))
+    ess = 0.0 if abs(ess) <= ROUNDING * scale else ess
+    rms = 0.0 if rms <= ROUNDING * scale else rms
     nan = float("nan")
     if not step or not np.all(np.isfinite(y)):
         return ResponseMetrics(nan, nan, nan, ess if step else nan, rms, peak_u)
