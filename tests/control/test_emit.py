@@ -362,6 +362,8 @@ def test_the_sampled_loop_check_includes_the_models_dead_time():
     motor = control.ss(m.A, m.B, m.C, m.D, ts, inputs=["u"], outputs=plant.output_labels)
     exact = control.interconnect([motor, dc.system], inplist=["r"], outlist=["u"], check_unused=False)
     rho = np.max(np.abs(np.linalg.eigvals(exact.A)))
-    assert dc.loop_spectral_radius == pytest.approx(rho, rel=1e-6)
+    # the check's Padé approximant against the exact z⁻²: 4e-8 apart with numpy 2.4 / scipy 1.17, 4e-5
+    # with numpy 2.5 / scipy 1.18 (the order-8 approximant's coefficients are ill-conditioned)
+    assert dc.loop_spectral_radius == pytest.approx(rho, abs=1e-4)
     without = discretise_design(REPORT_MODEL, design, ts).loop_spectral_radius
-    assert abs(rho - without) > 1e-4  # the delay is in the check, not left out
+    assert abs(rho - without) > 3e-4  # the delay is in the check, not left out (3.5e-4 here)
