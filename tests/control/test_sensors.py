@@ -100,3 +100,26 @@ def test_the_command_line_prints_the_sensors_the_observer_the_margins_and_the_ro
                           str(tmp_path / "d.json")], capture_output=True, text=True, timeout=300)
     assert sim.returncode == 0, sim.stderr
     assert "diverged" not in sim.stdout + sim.stderr
+
+
+def test_the_rig_logs_model_gets_a_design_on_its_tacho_with_margins_and_the_robust_fraction(tmp_path):
+    """The L298N rig's rpm log (a velocity-only model with a dead time) as a user runs it."""
+    from motorid.trainer.realsetups import write_real_setup
+
+    rec = write_real_setup("l298n-rpm", tmp_path / "rig", seed=0)
+    model = tmp_path / "m.json"
+    run = [sys.executable, "-m", "motorid"]
+    ident = subprocess.run([*run, "identify", *map(str, rec.cli_args), "--json", str(model)], capture_output=True,
+                           text=True, timeout=300)
+    assert ident.returncode == 0, ident.stderr
+    out = subprocess.run([*run, "design", str(model), "--damping", "1", "--wn", "8", "--integral", "--json",
+                          str(tmp_path / "d.json")], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert "sensors: velocity" in out.stdout and "acceleration" not in out.stdout
+    assert "margins: gain margin" in out.stdout and "dead time included" in out.stdout
+    assert "robust: stable for 100 % of 2000 plausible motors" in out.stdout
+    assert "per rpm of the tacho" in out.stdout
+    sim = subprocess.run([*run, "simulate", str(model), str(tmp_path / "d.json"), "--level", "500"],
+                         capture_output=True, text=True, timeout=300)
+    assert sim.returncode == 0, sim.stderr
+    assert "overshoot" in sim.stdout and "diverged" not in sim.stdout + sim.stderr
