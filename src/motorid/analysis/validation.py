@@ -107,6 +107,20 @@ class ValidationResult:
     notes: tuple[str, ...] = ()
     warnings: tuple[str, ...] = ()
 
+    def to_dataframe(self) -> Any:
+        """The scored time series as a pandas DataFrame (pandas is optional).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Indexed by time on the file's axis (s): ``input`` (V), ``measured`` and ``simulated``
+            (the channel's recorded volts), units in ``attrs["units"]``.
+        """
+        from motorid.frames import to_dataframe
+
+        return to_dataframe({"time": self.time_s, "input": self.input_v, "measured": self.measured_v,
+                             "simulated": self.simulated_v}, {"input": "V", "measured": "V", "simulated": "V"})
+
     def to_dict(self) -> dict[str, Any]:
         """The scalar results as a JSON-able dict (non-finite numbers as ``None``).
 

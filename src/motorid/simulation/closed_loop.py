@@ -239,6 +239,22 @@ class SimulationResult:
             cols["z"] = self.integrator
         return cols
 
+    def to_dataframe(self) -> Any:
+        """The time series of :meth:`columns` as a pandas DataFrame (pandas is optional).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Indexed by time (s); the units in ``attrs["units"]`` (reference, output and the
+            output's state in the model's unit, ``u`` in V).
+        """
+        from motorid.frames import to_dataframe
+
+        cols = self.columns()
+        units = {name: (self.units.get(name) or "V") for name in cols}
+        units.update({"reference": self.output_unit, "output": self.output_unit, "u": "V", "u_raw": "V", "z": ""})
+        return to_dataframe(cols, units)
+
     def to_csv_text(self) -> str:
         """The time series as CSV with a header row.
 
