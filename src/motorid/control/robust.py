@@ -29,7 +29,6 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import scipy.linalg
-import scipy.stats
 
 if TYPE_CHECKING:
     from motorid.control.design import Design
@@ -335,6 +334,8 @@ def _matches(model: MotorModel, a: np.ndarray, b: np.ndarray, c: np.ndarray, d: 
 
 def _draws(joint: _Joint, samples: int, rng: np.random.Generator) -> np.ndarray:
     """Parameter vectors from the joint Gaussian, inside its 95 % region."""
+    import scipy.stats  # scipy.stats costs a command's start-up: only when motors are drawn
+
     k = joint.values.size
     w, v = np.linalg.eigh(joint.cov)
     root = v * np.sqrt(np.clip(w, 0.0, None))
