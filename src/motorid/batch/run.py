@@ -8,6 +8,8 @@ the stored records, so a resumed batch gives the same summary as an uninterrupte
 
 from __future__ import annotations
 
+import errno
+
 import json
 import os
 import time
@@ -74,6 +76,27 @@ def _hash(spec: ExperimentSpec, fingerprint: dict[str, Any]) -> str | None:
         return None
 
 
+def _in_symlink_loop(path: Path) -> bool:
+    """Whether ``path`` (or the ancestor that exists) lies in a loop of symbolic links.
+
+    Python < 3.13 raises RuntimeError from ``resolve()``; 3.13 resolves such a path without a
+    word and the loop shows as ``ELOOP`` when the path is used: ask the file system.
+    """
+    try:
+        path.resolve(strict=False)
+    except RuntimeError:
+        return True
+    for p in (path, *path.parents):
+        try:
+            p.stat()
+            return False
+        except FileNotFoundError:
+            continue
+        except OSError as exc:
+            return exc.errno == errno.ELOOP
+    return False
+
+
 def run_batch(
     roots: Sequence[str | os.PathLike[str]],
     out: str | os.PathLike[str],
@@ -123,10 +146,8 @@ def run_batch(
     settings = BatchSettings() if settings is None else settings
     out = Path(out)
     check_writable({"--out": out}, force=True, folder=True)
-    try:
-        out.resolve(strict=False)
-    except RuntimeError:  # a symlink loop on the way (Python < 3.13 raises RuntimeError)
-        raise OptionError("lies in a loop of symbolic links: give --out a real folder", file=str(out)) from None
+    if _in_symlink_loop(out):
+        raise OptionError("lies in a loop of symbolic links: give --out a real folder", file=str(out))
     specs = discover_experiments(roots, skip=out)
     for spec in specs:  # an experiment's folder beside the summary must not be one of the batch's own files
         top = spec.name.split("/")[0]
