@@ -18,6 +18,7 @@ Front door
    read_experiment  -- read the captures of one step experiment, one per role
    identify         -- identify the motor model (``motorid identify``)
    identify_levels  -- dead-zone, gain, rails and shared dynamics from several step levels
+   advise           -- how to record the next capture: each scope setting's predicted intervals
    design           -- state feedback, integral action, observer (``motorid design``)
    simulate         -- closed-loop run on the model or the virtual trainer (``motorid simulate``)
    write_report     -- the self-contained HTML report (``motorid report``)
@@ -70,6 +71,7 @@ if TYPE_CHECKING:  # what type checkers see; at run time each name loads on firs
         Experiment,
         IdentificationResult,
         Provenance,
+        advise,
         design,
         identify,
         identify_levels,
@@ -93,6 +95,7 @@ __all__ = [
     "Provenance",
     "ScopeInfo",
     "SimulationResult",
+    "advise",
     "design",
     "identify",
     "identify_levels",
@@ -113,6 +116,7 @@ _LAZY: dict[str, str] = {
     "identify_levels": "motorid.frontdoor",
     "design": "motorid.frontdoor",
     "write_report": "motorid.frontdoor",
+    "advise": "motorid.frontdoor",
     "Experiment": "motorid.frontdoor",
     "IdentificationResult": "motorid.frontdoor",
     "ParameterEstimate": "motorid.identification.result",

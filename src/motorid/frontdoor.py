@@ -37,6 +37,7 @@ from motorid.options import speaks_as_called
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
+    from motorid.analysis.advice import Advice
     from motorid.control.design import Design
     from motorid.identification.hammerstein import MultiLevelResult
     from motorid.identification.pipeline import Identification
@@ -50,6 +51,7 @@ __all__ = [
     "IdentificationResult",
     "ParameterEstimate",
     "Provenance",
+    "advise",
     "design",
     "identify",
     "identify_levels",
@@ -589,6 +591,38 @@ def identify(
         experiment=experiment,
         identification=ident,
     )
+
+
+@speaks_as_called("advise")
+def advise(fit: IdentificationResult, *, threshold: float = 0.2) -> Advice:
+    """How to record the next capture of the experiment (``motorid advise`` in Python).
+
+    Parameters
+    ----------
+    fit : IdentificationResult
+        From :func:`identify` (``method="auto"`` or ``"oe"``) on oscilloscope captures.
+    threshold : float
+        Narrowing of the DC gain's or the time constant's 95 % interval a change must bring to be
+        worth it (0.2: 20 %).
+
+    Returns
+    -------
+    Advice
+        The current predicted widths, the suggestions one setting at a time and the combined
+        one; ``.to_dict()`` is the advice JSON, ``.summary_line()`` one line.
+
+    Raises
+    ------
+    OptionError
+        A capture without the scope's header, a model of a paper method, a bad threshold.
+    """
+    from motorid.analysis.advice import AdviceSettings
+    from motorid.analysis.advice import advise as _advise
+
+    if not isinstance(fit, IdentificationResult):
+        raise OptionError(f"advise needs the IdentificationResult of identify(...), got {type(fit).__name__}")
+    settings = AdviceSettings(threshold=threshold)
+    return _advise(fit.identification, fit.experiment.captures, settings)
 
 
 # ---------------------------------------------------------------------------- design, simulate

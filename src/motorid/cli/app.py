@@ -849,12 +849,13 @@ def sweep(
 
 
 # the other command groups register themselves after the app's own commands (help order)
+from motorid.cli import advise as _advise  # noqa: E402
 from motorid.cli import batch as _batch  # noqa: E402
 from motorid.cli import control as _control  # noqa: E402
 from motorid.cli import scope as _scope  # noqa: E402
 from motorid.cli import serve as _serve  # noqa: E402
 
-for _group in (_control, _scope, _serve, _batch):
+for _group in (_advise, _control, _scope, _serve, _batch):
     _group.register(app)
 
 
