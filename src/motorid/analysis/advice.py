@@ -341,8 +341,8 @@ class Advice:
 
     @property
     def most_important(self) -> Suggestion | None:
-        """The suggestion that narrows τ's interval most (``None``: nothing worth changing)."""
-        return self.suggestions[0] if self.suggestions else None
+        """The free setting that narrows τ's interval most (``None``: nothing worth changing)."""
+        return next((s for s in self.suggestions if s.cost is None), None)
 
     def summary_line(self) -> str:
         """One line: what to change first and how much it narrows the intervals, or that nothing is worth it.
@@ -548,9 +548,10 @@ class _Planner:
             change = abs(self.res.dc_gain * u)
             pre = ch.pre_var / s.averages
             pre_bias = 0.0 if _one_code(q, pre) and ch.baseline_v == 0.0 else _bias(q, pre)
-            # a coarse scale hides a ripple under a code that a finer one shows (and that dithers it): the
-            # rising part's residuals see it at any scale
-            settled = ch.settled_var if q == ch.q else max(ch.settled_var, ch.residual_var)
+            # the capture's own settled samples for its own settings (what identify measures); for another
+            # record the fit's residuals: a coarse scale hides a ripple under a code that a finer one
+            # shows (and that dithers it), a short record's "settled" part is still rising
+            settled = ch.settled_var if s == self.now else ch.residual_var
             level = math.hypot(pre_bias, _bias(q, settled / s.averages))
             terms += (level / change) ** 2 if change > 0 else 0.0
         return math.sqrt(terms)
@@ -699,13 +700,9 @@ def _fit_again(ident: Identification) -> tuple[OeResult, NoiseModel]:
 
 
 def _time_candidates(planner: _Planner, now: RecordSettings) -> list[float]:
-    out = []
-    for tpd in time_per_div_ladder():
-        trial = replace(now, time_per_div_s=tpd)
-        span = planner.record_t63(trial)
-        if tpd == now.time_per_div_s or MIN_RECORD_T63 <= span <= MAX_RECORD_T63:
-            out.append(tpd)
-    return out
+    """The ladder's time/div whose record after the step spans :data:`MIN_RECORD_T63` to :data:`MAX_RECORD_T63`."""
+    return [tpd for tpd in time_per_div_ladder()
+            if MIN_RECORD_T63 <= planner.record_t63(replace(now, time_per_div_s=tpd)) <= MAX_RECORD_T63]
 
 
 def _score(w: Widths, ref: Widths) -> float:
@@ -798,7 +795,10 @@ def advise(ident: Identification, captures: Mapping[str, Capture],
     # trigger position: samples before the step pin the offsets, the rest records the response
     scored = []
     for pct in TRIGGER_POSITIONS_PCT:
-        w = planner.widths(replace(now, trigger_position_pct=pct))
+        trial = replace(now, trigger_position_pct=pct)
+        if planner.record_t63(trial) < min(MIN_RECORD_T63, planner.record_t63(now)):
+            continue
+        w = planner.widths(trial)
         if w is not None and pct != now.trigger_position_pct:
             scored.append((_score(w, ref), pct))
     if scored:
@@ -860,6 +860,8 @@ def _combine(planner: _Planner, now: RecordSettings, ref: Widths, thr: float) ->
     for tpd in _time_candidates(planner, now):
         for pct in sorted({*TRIGGER_POSITIONS_PCT, now.trigger_position_pct}):
             trial = _fit_screen(planner, replace(now, time_per_div_s=tpd, trigger_position_pct=pct))
+            if planner.record_t63(trial) < MIN_RECORD_T63:
+                continue
             w = planner.widths(trial)
             if w is None:
                 continue

@@ -971,7 +971,7 @@ class PlannedUncertainty:
         The derived quantities at the fitted parameters (``dc_gain``, ``time_constant``,
         ``pole_i``, ``delay``…), as :attr:`OeResult.std` names them.
     std : dict[str, float]
-        Their predicted standard deviations (inf where the record cannot determine them).
+        Their predicted standard deviations.
     responses : dict[str, ndarray]
         Each channel's model increment on the planned grid (for a check of the screen's range).
     condition : float
@@ -1053,7 +1053,7 @@ def planned_uncertainty(
     jtj = jac_m.T @ jac_m
     cond = float(np.linalg.cond(jtj)) if np.all(np.isfinite(jtj)) else float("inf")
     cov = (np.linalg.pinv(jtj) * variance_scale + prob._instant_covariance(th, jac_m, jtj))
+    # an ill-conditioned information matrix is inverted as the fit's own is (pseudo-inverse): its
+    # poorly determined directions come out with large variances, as the fit would report them
     d0, std, _ = _delta_method(prob.layout, th, cov, step_rel_std)
-    if not np.isfinite(cond) or cond > MAX_FISHER_CONDITION:
-        std = {k: float("inf") for k in std}
     return PlannedUncertainty(d0, std, {c: v - th[prob.layout.idx[f"off_{c}"]] for c, v in resp.items()}, cond)
