@@ -53,3 +53,11 @@ def test_refusals_are_one_line(short_record):
     assert res.code == 2 and "auto or oe" in res.err and "Traceback" not in res.err
     res = run_motorid("advise", "--velocity", short_record, "--threshold", "20")
     assert res.code == 2 and "--threshold" in res.err
+
+
+def test_identify_prints_one_line_of_advice(short_record, tmp_path):
+    res = motorid_ok("identify", "--velocity", short_record)
+    line = [x for x in res.out.splitlines() if x.startswith("advice:")]
+    assert len(line) == 1 and "time/div" in line[0]
+    good = motorid_ok("identify", "--velocity", _record(tmp_path, sec_per_div=0.25, trigger_position_pct=10.0))
+    assert "advice: nothing worth changing" in good.out

@@ -356,8 +356,9 @@ class Advice:
             return (f"nothing worth changing: no scope setting narrows the gain's or τ's 95 % interval by more "
                     f"than {100 * self.threshold:.0f} %")
         s = next(x for x in self.suggestions if x.cost is None)
-        what = f"{s.setting} of {s.channel}" if s.channel else s.setting
-        return (f"record again with {what} {sig(s.suggested)} (now {sig(s.now)}): τ's interval "
+        name, unit = _LABELS[s.setting]
+        name = name.format(channel=s.channel)
+        return (f"record again with {name} {sig(s.suggested)}{unit} (now {sig(s.now)}{unit}): τ's interval "
                 f"{_pct(self.now.time_constant)} → {_pct(s.predicted.time_constant)}, the gain's "
                 f"{_pct(self.now.dc_gain)} → {_pct(s.predicted.dc_gain)}; all together: τ "
                 f"{_pct(self.combined_predicted.time_constant)} (motorid advise)")
@@ -375,6 +376,17 @@ class Advice:
                 "suggestions": [s.to_dict() for s in self.suggestions],
                 "combined": {"settings": self.combined.to_dict(), "predicted": self.combined_predicted.to_dict()},
                 "worth_changing": self.worth_changing, "threshold": self.threshold, "notes": list(self.notes)}
+
+
+#: How a setting reads in a sentence: its name and unit.
+_LABELS: dict[str, tuple[str, str]] = {
+    "volts_per_div": ("the {channel} channel at", " V/div"),
+    "time_per_div_s": ("time/div", " s"),
+    "trigger_position_pct": ("the trigger position at", " % of the record"),
+    "sample_interval_s": ("a sample interval of", " s"),
+    "step_volts": ("a step of", " V"),
+    "averages": ("Average mode over", " acquisitions"),
+}
 
 
 def _pct(width: float) -> str:
