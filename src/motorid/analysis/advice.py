@@ -137,7 +137,8 @@ class AdviceSettings:
     ----------
     threshold : float
         A setting is worth changing when it narrows the DC gain's or the time constant's
-        predicted 95 % interval by more than this fraction (0.2: 20 %).
+        predicted 95 % interval by more than this fraction (0.2: 20 %) and widens neither by as
+        much.
     """
 
     threshold: float = 0.2
@@ -336,7 +337,7 @@ class Advice:
 
     @property
     def worth_changing(self) -> bool:
-        """Whether any free setting narrows an interval by more than the threshold."""
+        """Whether any free setting narrows the gain's or τ's interval by more than the threshold."""
         return any(s.cost is None for s in self.suggestions)
 
     @property
@@ -721,6 +722,12 @@ def _score(w: Widths, ref: Widths) -> float:
     return w.time_constant / ref.time_constant + w.dc_gain / ref.dc_gain
 
 
+def _worth(w: Widths, ref: Widths, threshold: float) -> bool:
+    """A change narrows the gain's or τ's interval by more than ``threshold`` and widens neither by as much."""
+    worse = max(w.time_constant / ref.time_constant, w.dc_gain / ref.dc_gain)
+    return w.gain_over(ref) > threshold and worse <= 1.0 + threshold
+
+
 def _fit_screen(planner: _Planner, s: RecordSettings) -> RecordSettings:
     """``s`` with each channel at the smallest volts/div that keeps its trace on the screen."""
     return replace(s, volts_per_div={c: planner.smallest_scale(s, c) for c in s.volts_per_div})
@@ -773,7 +780,7 @@ def advise(ident: Identification, captures: Mapping[str, Capture],
         if w is None:
             return
         forced = channel is not None and channel in clipped_now
-        if forced or w.gain_over(ref) > thr:
+        if forced or _worth(w, ref, thr):
             suggestions.append(Suggestion(setting, channel, float(_value_now(now, setting, channel)), float(value),
                                           why, w, cost))
 
@@ -796,7 +803,7 @@ def advise(ident: Identification, captures: Mapping[str, Capture],
         if tpd == now.time_per_div_s:
             continue
         w = planner.widths(replace(now, time_per_div_s=tpd))
-        if w is not None:
+        if w is not None and _worth(w, ref, thr):
             scored.append((_score(w, ref), tpd))
     if scored:
         tpd = min(scored)[1]
@@ -811,7 +818,7 @@ def advise(ident: Identification, captures: Mapping[str, Capture],
         if planner.record_t63(trial) < min(MIN_RECORD_T63, planner.record_t63(now)):
             continue
         w = planner.widths(trial)
-        if w is not None and pct != now.trigger_position_pct:
+        if w is not None and pct != now.trigger_position_pct and _worth(w, ref, thr):
             scored.append((_score(w, ref), pct))
     if scored:
         pct = min(scored)[1]
@@ -820,7 +827,7 @@ def advise(ident: Identification, captures: Mapping[str, Capture],
               f"{now.samples_before}: the offsets against the record after the step")
     # averaging: the smallest count that gets within 10 % of the most averaging's τ width
     avg = [(n, planner.widths(replace(now, averages=n))) for n in AVERAGES if n > now.averages]
-    avg_ok = [(n, w) for n, w in avg if w is not None]
+    avg_ok = [(n, w) for n, w in avg if w is not None and _worth(w, ref, thr)]
     if avg_ok:
         best_tau = min(w.time_constant for _, w in avg_ok)
         n = next(n for n, w in avg_ok if w.time_constant <= 1.1 * best_tau)
@@ -832,7 +839,7 @@ def advise(ident: Identification, captures: Mapping[str, Capture],
     scored = []
     for u in steps:
         w = planner.widths(replace(now, step_volts=u))
-        if w is not None:
+        if w is not None and _worth(w, ref, thr):
             scored.append((_score(w, ref), u))
     if scored:
         u = min(scored)[1]
@@ -878,8 +885,8 @@ def _combine(planner: _Planner, now: RecordSettings, ref: Widths, thr: float) ->
             if w is None:
                 continue
             score = _score(w, ref)
-            if best is None or score < best[0]:
+            if _worth(w, ref, thr) and (best is None or score < best[0]):
                 best = (score, trial, w)
-    if best is None or best[2].gain_over(ref) <= thr:
+    if best is None:
         return now, ref
     return best[1], best[2]
