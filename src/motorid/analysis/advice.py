@@ -408,6 +408,7 @@ class _Channel:
     settled_var: float  # raw settled variance beyond the quantiser's
     residual_var: float  # the fit's residual variance beyond the quantiser's (the dither a finer scale shows)
     wrapping: float | None  # a wrapping position's largest |V| (the sawtooth's range), else None
+    travelled_v: float  # the largest change the capture recorded after the step
 
 
 class _Planner:
@@ -451,7 +452,7 @@ class _Planner:
                         settled_var=max(float(np.var(settled)) - q2, 0.0) if settled.size > 1 else 0.0,
                         residual_var=max(float(np.var(self.res.residuals[role])) - q2, 0.0)
                         if role in self.fitted else 0.0,
-                        wrapping=wrapping)
+                        wrapping=wrapping, travelled_v=float(np.max(np.abs(y[~pre]))) if (~pre).any() else 0.0)
 
     def _input(self, captures: Mapping[str, Capture]) -> tuple[float, float, float]:
         """The input channel's raw baseline, its random variance and its noise margin (V)."""
@@ -524,6 +525,11 @@ class _Planner:
         if inc is None:
             return False
         top = max(abs(ch.baseline_v + float(np.max(inc))), abs(ch.baseline_v + float(np.min(inc))), abs(ch.baseline_v))
+        if channel == "position" and float(np.max(np.abs(inc))) > ch.travelled_v + ch.margin_v \
+                and vpd < self.now.volts_per_div[channel]:
+            # farther than the capture went: a potentiometer may wrap at a span the capture never showed, so
+            # its trace is not known to fit a finer scale than the capture's
+            return True
         return top + ch.margin_v > limit
 
     def any_clips(self, s: RecordSettings) -> bool:

@@ -116,7 +116,8 @@ def model_view(fit: IdentificationResult) -> dict[str, Any]:
     dict
         ``params`` rows (name, value, stderr, 95 % interval), ``fit`` rows, ``warnings``,
         ``reason``, ``summary`` text, ``stages`` rows, ``figures`` (title → data URI),
-        ``laguerre`` (rows or None), ``sanity``.
+        ``laguerre`` (rows or None), ``sanity``, ``advice`` (how to record the next capture, one
+        line, or ``None`` for captures without a scope header or a model of a paper method).
     """
     from motorid.report import figures
 
@@ -171,7 +172,20 @@ def model_view(fit: IdentificationResult) -> dict[str, Any]:
         "figures": figs,
         "laguerre": laguerre,
         "sanity": "all passed" if fit.sanity.passed else "FAILED (see the warnings)",
+        "advice": _advice_line(fit),
     }
+
+
+def _advice_line(fit: IdentificationResult) -> str | None:
+    """``identify``'s advice line (``motorid advise``): on oscilloscope captures of an output-error fit."""
+    from motorid.frontdoor import advise
+
+    if fit.model.method != "oe":
+        return None
+    try:
+        return advise(fit).summary_line()
+    except MotorIdError:  # a log without a scope header: nothing to advise on its scope
+        return None
 
 
 # ------------------------------------------------------------------------------------ design
