@@ -389,18 +389,45 @@ class IdentificationResult:
 
         return step_fit_figure(self.model, self.identification.conditioned)
 
-    def summary(self) -> str:
+    def summary(self, *, advice: bool = True) -> str:
         """The text ``motorid identify`` prints for the same captures and options.
+
+        Parameters
+        ----------
+        advice : bool
+            End with the ``advice:`` line (:meth:`advice_line`) when there is one.
 
         Returns
         -------
         str
             Model, transfer functions, poles, intervals, stages, fit, checks and warnings
-            (lines not wrapped), then the ``choice:`` line.
+            (lines not wrapped), then the ``choice:`` line and the ``advice:`` line.
         """
         from motorid.report.summary import model_summary
 
-        return "\n".join([*model_summary(self.model, "identified model"), f"choice: {self.reason}"])
+        lines = [*model_summary(self.model, "identified model"), f"choice: {self.reason}"]
+        line = self.advice_line() if advice else None
+        return "\n".join(lines if line is None else [*lines, f"advice: {line}"])
+
+    def advice_line(self) -> str | None:
+        """How to record the next capture, in one line (:func:`advise`'s ``summary_line``).
+
+        Returns
+        -------
+        str or None
+            The line; ``None`` for captures without an oscilloscope header (volts/div, time/div)
+            or a model not from the output-error fit, which the advice cannot plan for.
+        """
+        from motorid.errors import MotorIdError
+
+        caps = list(self.experiment.captures.values())
+        if self.model.method != "oe" or not all(c.scope.horizontal_scale_s and c.output_info.vertical_scale
+                                                for c in caps):
+            return None
+        try:
+            return advise(self).summary_line()
+        except MotorIdError:
+            return None
 
     def to_dict(self) -> dict[str, Any]:
         """The model JSON as a dict (:meth:`to_json` is the older name of the same).

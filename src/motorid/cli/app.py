@@ -524,7 +524,7 @@ def identify(
     con = _console()
     _print_model(con, result.model, "identified model")
     con.print(f"choice: {result.reason}")
-    _print_advice_line(con, fit, method)
+    _print_advice_line(con, fit)
     # all outputs appear together, or none (a failing report leaves no JSON); without --force the
     # commit itself refuses a file another run wrote since the check
     with atomic_outputs(exclusive=not force) as outs:
@@ -543,19 +543,11 @@ def identify(
     _strict_exit(result, strict)
 
 
-def _print_advice_line(con: Console, fit, method: str) -> None:
+def _print_advice_line(con: Console, fit) -> None:
     """One line on how to record the next capture (``motorid advise`` has the table): scope captures only."""
-    from motorid import frontdoor
-
-    caps = list(fit.experiment.captures.values())
-    if method not in ("auto", "oe") or not all(c.scope.horizontal_scale_s and c.output_info.vertical_scale
-                                               for c in caps):
-        return
-    try:
-        advice = frontdoor.advise(fit)
-    except MotorIdError:  # a capture the advice cannot plan for: identify's own output is complete without it
-        return
-    con.print(f"advice: {advice.summary_line()}", markup=False)
+    line = fit.advice_line()
+    if line is not None:
+        con.print(f"advice: {line}", markup=False)
 
 
 def _segments(caps: dict, segment: int | None) -> tuple[list, bool] | None:

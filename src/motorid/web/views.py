@@ -154,6 +154,7 @@ def model_view(fit: IdentificationResult) -> dict[str, Any]:
                          enumerate(zip(ex["laguerre_coefficients"], ex["laguerre_coefficients_std"], strict=False))],
                 "note": str(ex.get("markov_choice", "")),
             }
+    advice = fit.advice_line()
     stages = [(st.get("stage", ""), st.get("method", ""), st.get("order", ""),
                f"{_fmt(st.get('dc_gain', ''))} {model.dc_gain_unit}" if st.get("dc_gain") is not None else "",
                _fmt(st.get("time_constant", "")),
@@ -167,25 +168,13 @@ def model_view(fit: IdentificationResult) -> dict[str, Any]:
         "fit": fit_rows,
         "warnings": list(fit.warnings) + errors,
         "reason": fit.reason,
-        "summary": fit.summary(),
+        "summary": fit.summary(advice=False) + ("" if advice is None else f"\nadvice: {advice}"),
         "stages": stages,
         "figures": figs,
         "laguerre": laguerre,
         "sanity": "all passed" if fit.sanity.passed else "FAILED (see the warnings)",
-        "advice": _advice_line(fit),
+        "advice": advice,
     }
-
-
-def _advice_line(fit: IdentificationResult) -> str | None:
-    """``identify``'s advice line (``motorid advise``): on oscilloscope captures of an output-error fit."""
-    from motorid.frontdoor import advise
-
-    if fit.model.method != "oe":
-        return None
-    try:
-        return advise(fit).summary_line()
-    except MotorIdError:  # a log without a scope header: nothing to advise on its scope
-        return None
 
 
 # ------------------------------------------------------------------------------------ design
