@@ -849,10 +849,12 @@ def advise(ident: Identification, captures: Mapping[str, Capture],
             scored.append((_score(w, ref), u))
     if scored:
         u = min(scored)[1]
+        levels = ", ".join(sig(round(u * f, 1)) for f in (0.25, 0.5, 0.75, 1.0))
         offer("step_volts", None, u, replace(now, step_volts=u),
-              f"a step of {sig(u)} V instead of {sig(now.step_volts)} V changes the signal against the noise",
+              f"a step of {sig(u)} V instead of {sig(now.step_volts)} V: more signal against the same noise",
               cost="another operating point: keep the step clear of the dead-zone and the amplifier's rails, which a "
-                   "linear model cannot see; record several levels for the static characteristic")
+                   f"linear model cannot see; for the static characteristic record several levels ({levels} V: "
+                   "motorid identify --velocity A --velocity B ...)")
     suggestions.sort(key=lambda x: (x.cost is not None, x.predicted.time_constant))
     combined, combined_w = _combine(planner, now, ref, thr)
     return Advice(now, ref, tuple(suggestions), combined, combined_w, thr, tuple(notes))
