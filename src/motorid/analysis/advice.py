@@ -354,8 +354,13 @@ class Advice:
             The line ``identify`` prints under ``advice:``.
         """
         if not self.worth_changing:
-            return (f"nothing worth changing: no scope setting narrows the gain's or τ's 95 % interval by more "
+            line = (f"nothing worth changing: no scope setting narrows the gain's or τ's 95 % interval by more "
                     f"than {100 * self.threshold:.0f} %")
+            costly = next((x for x in self.suggestions if x.setting == "averages"), None)
+            if costly is not None:
+                line += (f" (Average mode over {sig(costly.suggested)} steps would: τ {_pct(self.now.time_constant)} → "
+                         f"{_pct(costly.predicted.time_constant)})")
+            return line
         s = next(x for x in self.suggestions if x.cost is None)
         name, unit = _LABELS[s.setting]
         name = name.format(channel=s.channel)
