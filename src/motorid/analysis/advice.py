@@ -58,6 +58,7 @@ __all__ = [
     "Suggestion",
     "Widths",
     "advise",
+    "current_settings",
     "time_per_div_ladder",
     "volts_per_div_ladder",
 ]
