@@ -18,6 +18,7 @@ Front door
    read_experiment  -- read the captures of one step experiment, one per role
    identify         -- identify the motor model (``motorid identify``)
    identify_levels  -- dead-zone, gain, rails and shared dynamics from several step levels
+   advise           -- how to record the next capture: each scope setting's predicted intervals
    design           -- state feedback, integral action, observer (``motorid design``)
    design_pid       -- a PID tuned by SIMC or pole placement (``motorid design --pid``)
    simulate         -- closed-loop run on the model or the virtual trainer (``motorid simulate``)
@@ -73,6 +74,7 @@ if TYPE_CHECKING:  # what type checkers see; at run time each name loads on firs
         Experiment,
         IdentificationResult,
         Provenance,
+        advise,
         design,
         design_pid,
         identify,
@@ -98,6 +100,7 @@ __all__ = [
     "Provenance",
     "ScopeInfo",
     "SimulationResult",
+    "advise",
     "design",
     "design_pid",
     "identify",
@@ -120,6 +123,7 @@ _LAZY: dict[str, str] = {
     "design": "motorid.frontdoor",
     "design_pid": "motorid.frontdoor",
     "write_report": "motorid.frontdoor",
+    "advise": "motorid.frontdoor",
     "Experiment": "motorid.frontdoor",
     "IdentificationResult": "motorid.frontdoor",
     "ParameterEstimate": "motorid.identification.result",

@@ -37,6 +37,7 @@ from motorid.options import speaks_as_called
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
+    from motorid.analysis.advice import Advice
     from motorid.control.design import Design
     from motorid.control.pid import PidDesign
     from motorid.identification.hammerstein import MultiLevelResult
@@ -51,6 +52,7 @@ __all__ = [
     "IdentificationResult",
     "ParameterEstimate",
     "Provenance",
+    "advise",
     "design",
     "design_pid",
     "identify",
@@ -389,18 +391,45 @@ class IdentificationResult:
 
         return step_fit_figure(self.model, self.identification.conditioned)
 
-    def summary(self) -> str:
+    def summary(self, *, advice: bool = True) -> str:
         """The text ``motorid identify`` prints for the same captures and options.
+
+        Parameters
+        ----------
+        advice : bool
+            End with the ``advice:`` line (:meth:`advice_line`) when there is one.
 
         Returns
         -------
         str
             Model, transfer functions, poles, intervals, stages, fit, checks and warnings
-            (lines not wrapped), then the ``choice:`` line.
+            (lines not wrapped), then the ``choice:`` line and the ``advice:`` line.
         """
         from motorid.report.summary import model_summary
 
-        return "\n".join([*model_summary(self.model, "identified model"), f"choice: {self.reason}"])
+        lines = [*model_summary(self.model, "identified model"), f"choice: {self.reason}"]
+        line = self.advice_line() if advice else None
+        return "\n".join(lines if line is None else [*lines, f"advice: {line}"])
+
+    def advice_line(self) -> str | None:
+        """How to record the next capture, in one line (:func:`advise`'s ``summary_line``).
+
+        Returns
+        -------
+        str or None
+            The line; ``None`` for captures without an oscilloscope header (volts/div, time/div)
+            or a model not from the output-error fit, which the advice cannot plan for.
+        """
+        from motorid.errors import MotorIdError
+
+        caps = list(self.experiment.captures.values())
+        if self.model.method != "oe" or not all(c.scope.horizontal_scale_s and c.output_info.vertical_scale
+                                                for c in caps):
+            return None
+        try:
+            return advise(self).summary_line()
+        except MotorIdError:
+            return None
 
     def to_dict(self) -> dict[str, Any]:
         """The model JSON as a dict (:meth:`to_json` is the older name of the same).
@@ -591,6 +620,38 @@ def identify(
         experiment=experiment,
         identification=ident,
     )
+
+
+@speaks_as_called("advise")
+def advise(fit: IdentificationResult, *, threshold: float = 0.2) -> Advice:
+    """How to record the next capture of the experiment (``motorid advise`` in Python).
+
+    Parameters
+    ----------
+    fit : IdentificationResult
+        From :func:`identify` (``method="auto"`` or ``"oe"``) on oscilloscope captures.
+    threshold : float
+        Narrowing of the DC gain's or the time constant's 95 % interval a change must bring to be
+        worth it (0.2: 20 %).
+
+    Returns
+    -------
+    Advice
+        The current predicted widths, the suggestions one setting at a time and the combined
+        one; ``.to_dict()`` is the advice JSON, ``.summary_line()`` one line.
+
+    Raises
+    ------
+    OptionError
+        A capture without the scope's header, a model of a paper method, a bad threshold.
+    """
+    from motorid.analysis.advice import AdviceSettings
+    from motorid.analysis.advice import advise as _advise
+
+    if not isinstance(fit, IdentificationResult):
+        raise OptionError(f"advise needs the IdentificationResult of identify(...), got {type(fit).__name__}")
+    settings = AdviceSettings(threshold=threshold)
+    return _advise(fit.identification, fit.experiment.captures, settings)
 
 
 # ---------------------------------------------------------------------------- design, simulate

@@ -22,6 +22,7 @@ from typing import Any, ParamSpec, TypeVar
 from motorid.errors import MotorIdError
 
 __all__ = [
+    "ADVISE",
     "COMMANDS",
     "DESIGN",
     "DESIGN_PID",
@@ -148,10 +149,16 @@ SIMULATE: tuple[OptionSpec, ...] = (
                "hold the integrator against the rails (default: on with saturation and integral action)"),
 )
 
+#: :func:`motorid.advise`'s options (``motorid advise`` takes the captures' and identify's too).
+ADVISE: tuple[OptionSpec, ...] = (
+    OptionSpec("threshold", "--threshold", 0.2, "",
+               "narrowing of the gain's or τ's 95 % interval a change must bring to be worth it (0.2: 20 %)"),
+)
+
 #: Each front-door function's options, by the command's name.
 COMMANDS: dict[str, tuple[OptionSpec, ...]] = {
     "read_experiment": ROLES + READ, "identify": ROLES + READ + IDENTIFY, "design": DESIGN, "simulate": SIMULATE,
-    "design_pid": DESIGN_PID,
+    "design_pid": DESIGN_PID, "advise": ADVISE,
 }
 
 _FLAG = re.compile(r"(?<![\w-])--[A-Za-z][\w-]*")

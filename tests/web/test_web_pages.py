@@ -3,6 +3,7 @@ design → downloads — checked against the front door run on the same files.""
 
 from __future__ import annotations
 
+import html
 import io
 import re
 import zipfile
@@ -237,3 +238,12 @@ def test_numbers_on_the_page_are_written_as_in_the_terminal(client, demo_files):
     assert f"closed-loop poles: {roots_text(sorted(poles, key=lambda p: (p.real, p.imag)))}" in res.text
     assert "(double)" in res.text and "± 0.000j" not in res.text
     assert "margins: gain margin" in res.text and "phase margin" in res.text
+
+
+def test_the_model_panel_says_how_to_record_the_next_capture(client, demo_files, demo_fit):
+    pages: list[str] = []
+    _identified_tab(client, demo_files, pages)
+    # the same line as the front door's advice on the same files (the demo records at 1 s/div)
+    want = mi.advise(demo_fit).summary_line()
+    assert '<p id="advice">' in pages[0]
+    assert want in html.unescape(pages[0])

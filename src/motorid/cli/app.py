@@ -524,6 +524,7 @@ def identify(
     con = _console()
     _print_model(con, result.model, "identified model")
     con.print(f"choice: {result.reason}")
+    _print_advice_line(con, fit)
     # all outputs appear together, or none (a failing report leaves no JSON); without --force the
     # commit itself refuses a file another run wrote since the check
     with atomic_outputs(exclusive=not force) as outs:
@@ -540,6 +541,13 @@ def identify(
         if path is not None:
             con.print(f"{label}: {path}")
     _strict_exit(result, strict)
+
+
+def _print_advice_line(con: Console, fit) -> None:
+    """One line on how to record the next capture (``motorid advise`` has the table): scope captures only."""
+    line = fit.advice_line()
+    if line is not None:
+        con.print(f"advice: {line}", markup=False)
 
 
 def _segments(caps: dict, segment: int | None) -> tuple[list, bool] | None:
@@ -849,12 +857,13 @@ def sweep(
 
 
 # the other command groups register themselves after the app's own commands (help order)
+from motorid.cli import advise as _advise  # noqa: E402
 from motorid.cli import batch as _batch  # noqa: E402
 from motorid.cli import control as _control  # noqa: E402
 from motorid.cli import scope as _scope  # noqa: E402
 from motorid.cli import serve as _serve  # noqa: E402
 
-for _group in (_control, _scope, _serve, _batch):
+for _group in (_advise, _control, _scope, _serve, _batch):
     _group.register(app)
 
 

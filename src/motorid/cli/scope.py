@@ -15,15 +15,19 @@ import shlex
 import sys
 import tempfile
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.console import Console
 from rich.table import Table
 
 from motorid.errors import OptionError
+
+if TYPE_CHECKING:
+    from motorid.io.acquire import Acquisition
+    from motorid.io.acquire.setup import ScopeSetup
 
 __all__ = ["ROLE_NAMES", "parse_channels", "parse_roles", "register"]
 
@@ -125,7 +129,7 @@ class _Target:
 
 @contextlib.contextmanager
 def _target(visa_library: str, resource: str | None, simulate: bool, *, sim_role: str = "velocity",
-            sim_seed: int = 0, sim_preset: str = "paper") -> Iterator[_Target]:
+            sim_seed: int = 0, sim_preset: str = "paper", sim_record: dict | None = None) -> Iterator[_Target]:
     if not simulate:
         yield _Target(visa_library, resource)
         return
@@ -140,7 +144,9 @@ def _target(visa_library: str, resource: str | None, simulate: bool, *, sim_role
     from motorid.trainer.scope_sim import simulated_tds2012
 
     with tempfile.TemporaryDirectory(prefix="motorid-sim-") as tmp:
-        sim = simulated_tds2012(tmp, role=sim_role, preset=sim_preset, seed=sim_seed)
+        # with --apply-advice the simulated scope accepts the settings, and its records are the trainer's
+        # recorded at them
+        sim = simulated_tds2012(tmp, role=sim_role, preset=sim_preset, seed=sim_seed, **(sim_record or {}))
         yield _Target(sim.visa_library, resource or sim.resource,
                       f"simulated TDS 2012C: virtual trainer '{sim_preset}', seed {sim_seed}, CH2 = {sim_role}")
 
@@ -236,6 +242,53 @@ def _role_specs(folder: Path, index: int, channels: tuple[int, ...], roles: dict
     return given
 
 
+def _advice_setup(path: Path, chans: tuple[int, ...], roles: dict[int, str], simulate: bool,
+                  sim_role: str) -> tuple[ScopeSetup, dict | None]:
+    """The advice's settings by channel (a channel without ``--role`` takes the advice's one measured role)."""
+    from motorid.io.acquire.setup import read_advice_setup
+    from motorid.io.jsonfile import read_json
+
+    doc = read_json(path, "advice")
+    combined = (doc.get("combined") or {}).get("settings") if isinstance(doc, dict) else None
+    advised = combined.get("volts_per_div") if isinstance(combined, dict) else None
+    measured = [r for r in (advised if isinstance(advised, dict) else {}) if r != "input"]
+    named = dict(roles)
+    unnamed = [n for n in chans if n not in named]
+    if simulate and 2 in unnamed:
+        named[2] = sim_role  # the simulated scope's CH2 is the trainer's --sim-role
+    elif len(unnamed) == 1 and len(measured) == 1:
+        named[unnamed[0]] = measured[0]
+    setup, settings = read_advice_setup(path, named)
+    if not simulate:
+        return setup, None
+    vpd = {("input" if named.get(n) == "input" else sim_role): v for n, v in setup.volts_per_div.items()}
+    record = {"volts_per_div": vpd, "settable": True}
+    if setup.time_per_div_s is not None:
+        record["sec_per_div"] = setup.time_per_div_s
+    if setup.trigger_position_pct is not None:
+        record["trigger_position_pct"] = setup.trigger_position_pct
+    if setup.averages is not None:
+        record["averages"] = setup.averages
+    if isinstance(settings.get("step_volts"), (int, float)):
+        record["step_volts"] = float(settings["step_volts"])
+    return setup, record
+
+
+def _not_taken(acq: Acquisition, setup: ScopeSetup | None) -> list[str]:
+    """Settings the scope reports back otherwise than they were sent."""
+    if setup is None:
+        return []
+    notes = []
+    tpd = setup.time_per_div_s
+    if tpd is not None and abs(acq.horizontal_scale_s - tpd) > 1e-6 * tpd:
+        notes.append(f"the scope reports {acq.horizontal_scale_s:g} s/div, not the advised {tpd:g}")
+    for w in acq.waveforms:
+        want = setup.volts_per_div.get(w.channel)
+        if want is not None and abs(w.volts_per_div - want) > 1e-6 * want:
+            notes.append(f"{w.name} reports {w.volts_per_div:g} V/div, not the advised {want:g}")
+    return notes
+
+
 def acquire(
     out: Annotated[Path, typer.Option(
         "--out", help="ALLnnnn folder to save into, or a folder to create the next free ALLnnnn in.")],
@@ -265,6 +318,9 @@ def acquire(
     sim_seed: Annotated[int, typer.Option(
         "--sim-seed", help="--simulate: seed of the trainer's noise and trigger point.")] = 0,
     sim_preset: Annotated[str, typer.Option("--sim-preset", help="--simulate: virtual trainer preset.")] = "paper",
+    apply_advice: Annotated[Path | None, typer.Option(
+        "--apply-advice", help="An advice JSON (motorid advise --json): set its volts/div, time/div, trigger "
+                               "position and Average mode on the scope, then acquire a fresh record.")] = None,
 ) -> None:
     """Acquire channels from the oscilloscope and save them as ALLnnnn/FnnnnCH<n>.CSV."""
     from motorid.io import check_writable
@@ -288,16 +344,31 @@ def acquire(
 
         if sim_preset not in PRESET_NAMES:
             raise OptionError(f"--sim-preset {sim_preset!r} is unknown: use one of {', '.join(PRESET_NAMES)}")
+    setup: ScopeSetup | None = None
+    sim_record: dict | None = None
+    if apply_advice is not None:
+        setup, sim_record = _advice_setup(apply_advice, chans, roles, simulate, sim_role)
+        # the record on the screen was taken at the old settings: arm a fresh one
+        settings = replace(settings, single=True)
     folder, index = save_all_folder(out)
     check_writable([channel_file(folder, index, n) for n in chans], force=force)
     check_writable({"--json": json_out}, force=force, create_parents=False)
+    sent: tuple[str, ...] = ()
     with _target(visa_library, resource, simulate, sim_role=sim_role, sim_seed=sim_seed,
-                 sim_preset=sim_preset) as target, _manager(target.visa_library) as rm:
+                 sim_preset=sim_preset, sim_record=sim_record) as target, _manager(target.visa_library) as rm:
         name = _pick_resource(rm, target)
         with open_instrument(rm, name) as inst:
+            if setup is not None:
+                from motorid.io.acquire.setup import apply_setup
+
+                sent = apply_setup(inst, setup)
             acq = acquire_waveforms(inst, settings, resource=name)
     saved = save_acquisition(acq, folder, force=force)
     con = _console()
+    if sent:
+        con.print(f"applied ({apply_advice}): {'; '.join(sent)}", markup=False)
+        for note in _not_taken(acq, setup):
+            con.print(f"[yellow]warning:[/yellow] {note}")
     title = f"{acq.identity.model or 'scope'} {acq.identity.serial} ({target.note or name})"
     table = Table(title=title)
     for head in ("channel", "file", "V/div", "points", "Δt (s)", "min (V)", "max (V)"):

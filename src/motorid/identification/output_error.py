@@ -16,7 +16,7 @@ this module.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -39,8 +39,10 @@ __all__ = [
     "FRACTION_63",
     "OeResult",
     "OeSettings",
+    "PlannedUncertainty",
     "ar_noise_model",
     "output_error_fit",
+    "planned_uncertainty",
     "position_closed_form",
     "position_scale_fit",
     "step_63_time",
@@ -957,3 +959,101 @@ def position_scale_fit(
         y = np.r_[y, np.asarray(pre, dtype=float)]
     coef, *_ = np.linalg.lstsq(a, y, rcond=None)
     return float(coef[0])
+
+
+@dataclass(frozen=True, slots=True)
+class PlannedUncertainty:
+    """What a fit of the same model would know from a record not yet taken.
+
+    Attributes
+    ----------
+    values : dict[str, float]
+        The derived quantities at the fitted parameters (``dc_gain``, ``time_constant``,
+        ``pole_i``, ``delay``…), as :attr:`OeResult.std` names them.
+    std : dict[str, float]
+        Their predicted standard deviations.
+    responses : dict[str, ndarray]
+        Each channel's model increment on the planned grid (for a check of the screen's range).
+    condition : float
+        Condition number of the planned Fisher information.
+    """
+
+    values: dict[str, float]
+    std: dict[str, float]
+    responses: dict[str, np.ndarray]
+    condition: float
+
+
+def planned_uncertainty(
+    res: OeResult,
+    time_s: Mapping[str, np.ndarray],
+    step_volts: float,
+    sigma: Mapping[str, float],
+    *,
+    whiten: Mapping[str, np.ndarray] | None = None,
+    pre_samples: Mapping[str, int] | None = None,
+    pre_sigma: Mapping[str, float] | None = None,
+    instant_std: tuple[tuple[str, float], ...] = (),
+    step_rel_std: float = 0.0,
+    variance_scale: float = 1.0,
+) -> PlannedUncertainty:
+    """Intervals of the fitted model's quantities predicted for another record of the same motor.
+
+    The Fisher information of the fit's own problem (:func:`output_error_fit`'s residuals and
+    analytic Jacobian, whitened and weighted the same way) at the fitted parameters, on the
+    planned sample times and noise levels: its inverse, with the step instants' covariance and
+    the delta method of the fit itself, is the covariance a fit of that record would report.
+
+    Parameters
+    ----------
+    res : OeResult
+        The fit on the record in hand.
+    time_s : Mapping[str, ndarray]
+        Each fitted channel's planned sample times from the step (as the fit takes them).
+    step_volts : float
+        The planned step level.
+    sigma : Mapping[str, float]
+        Each channel's planned innovation standard deviation.
+    whiten : Mapping[str, ndarray], optional
+        AR whitening polynomials per channel.
+    pre_samples : Mapping[str, int], optional
+        Samples before the step per channel (they pin its offset).
+    pre_sigma : Mapping[str, float], optional
+        Noise level of those samples.
+    instant_std : tuple of (str, float)
+        Step instants known to within a sample interval: :attr:`OeSettings.instant_std` of the
+        planned sampling.
+    step_rel_std : float
+        Relative standard error of the measured step (and of the velocity's level) that scales the DC gain.
+    variance_scale : float
+        Factor of the covariance (the fit's residual variance over the noise model's, ``s²``).
+
+    Returns
+    -------
+    PlannedUncertainty
+        Values, predicted standard deviations, the model's increments on the grid.
+
+    Raises
+    ------
+    IdentificationError
+        A grid too short for the parameters.
+    """
+    names = [c for c in ("velocity", "position", "current") if c in time_s]
+    settings = replace(res.settings, instant_std=instant_std, shift_bound_s=None)
+    # the model's own increments stand in for the data: the Jacobian does not depend on them
+    layout0 = _Layout(res.settings, names)
+    th0 = np.array([res.params[res.param_names.index(n)] if n in res.param_names else 0.0 for n in layout0.names])
+    resp = _predict(layout0, th0, {c: np.asarray(time_s[c], dtype=float) for c in names}, step_volts, names)
+    pre = {c: np.zeros(int((pre_samples or {}).get(c, 0))) for c in names}
+    prob = _OeProblem.build(dict(time_s), step_volts, resp, sigma, settings, pre=pre, block=None, whiten=whiten,
+                            pre_sigma=pre_sigma, wrap_count=None)
+    th = np.array([res.params[res.param_names.index(n)] if n in res.param_names else 0.0
+                   for n in prob.layout.names])
+    jac_m = prob.jacobian(th)
+    jtj = jac_m.T @ jac_m
+    cond = float(np.linalg.cond(jtj)) if np.all(np.isfinite(jtj)) else float("inf")
+    cov = (np.linalg.pinv(jtj) * variance_scale + prob._instant_covariance(th, jac_m, jtj))
+    # an ill-conditioned information matrix is inverted as the fit's own is (pseudo-inverse): its
+    # poorly determined directions come out with large variances, as the fit would report them
+    d0, std, _ = _delta_method(prob.layout, th, cov, step_rel_std)
+    return PlannedUncertainty(d0, std, {c: v - th[prob.layout.idx[f"off_{c}"]] for c, v in resp.items()}, cond)

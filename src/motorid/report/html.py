@@ -26,6 +26,7 @@ import numpy as np
 from markupsafe import Markup
 
 from motorid.capture import Capture
+from motorid.errors import MotorIdError
 from motorid.identification.pipeline import Identification
 from motorid.model.notation import poly_text
 from motorid.model.units import physical_gain
@@ -41,7 +42,7 @@ __all__ = [
 #: Section ids, in page order (the headless-browser test checks they all render).
 SECTIONS: tuple[str, ...] = (
     "summary", "captures", "conditioning", "current", "model", "fit", "order", "stages",
-    "sensitivity", "validation", "design",
+    "sensitivity", "advice", "validation", "design",
 )
 #: Significant figures of the numbers on the page (full precision stays in the JSON).
 SIGNIFICANT = DIGITS
@@ -474,6 +475,48 @@ def sensitivity_section(inp: ReportInputs) -> dict[str, Any]:
             "png": figures.data_uri(figures.sweep_maps(sw.lengths_s, sw.intervals_s, sw.k, sw.tau_s))}
 
 
+def _widths_text(w: Any) -> str:
+    def one(x: float | None) -> str:
+        return "—" if x is None else ("undetermined" if not np.isfinite(x) else f"±{sig(50 * x, 2)} %")
+
+    return f"gain {one(w.dc_gain)}, τ {one(w.time_constant)}" + (
+        f", dead time {one(w.dead_time)}" if w.dead_time is not None else "") + (
+        f", electrical pole {one(w.electrical_pole)}" if w.electrical_pole is not None else "")
+
+
+def advice_section(inp: ReportInputs) -> dict[str, Any]:
+    """The experiment advisor: each scope setting's predicted interval widths (``motorid advise``).
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        The report's inputs.
+
+    Returns
+    -------
+    dict
+        The names ``sections/advice.html`` shows.
+    """
+    from motorid.analysis.advice import advise
+
+    how = ("Predicted from the Fisher information of the fitted output-error model on a record taken at each "
+           "setting: the noise model measured on this capture, the 8-bit quantiser's step (volts/div / 25), the "
+           "record length and the sampling; widths are the full 95 % interval over the estimate.")
+    try:
+        adv = advise(inp.identification, inp.captures)
+    except MotorIdError as exc:
+        return {"line": f"No advice for these captures: {exc.message}", "rows": [], "how": how}
+    rows = [[f"{s.setting} ({s.channel})" if s.channel else s.setting, s.now, s.suggested,
+             _widths_text(s.predicted), s.why + (f" (costs: {s.cost})" if s.cost else "")] for s in adv.suggestions]
+    c = adv.combined.to_dict()
+    combined = (", ".join(f"{k} {sig(v)} V/div" for k, v in c["volts_per_div"].items())
+                + f"; {sig(c['time_per_div_s'])} s/div; {sig(c['trigger_position_pct'])} % before the trigger")
+    return {"line": f"Now: {_widths_text(adv.now)}. {adv.summary_line()}.", "how": how,
+            "head": ["setting", "now", "suggested", "predicted 95 % widths", "why"], "rows": rows,
+            "combined": combined if adv.worth_changing else "",
+            "combined_widths": _widths_text(adv.combined_predicted)}
+
+
 def validation_section(inp: ReportInputs) -> dict[str, Any]:
     """The model driven by other recorded inputs, scored and overlaid.
 
@@ -488,7 +531,6 @@ def validation_section(inp: ReportInputs) -> dict[str, Any]:
         The names ``sections/validation.html`` shows.
     """
     from motorid.analysis.validation import validate_capture
-    from motorid.errors import MotorIdError
 
     rows: list[list[Any]] = []
     overlays: list[tuple[str, str]] = []
@@ -613,6 +655,7 @@ SECTION_BUILDERS: tuple[tuple[str, str, Callable[[ReportInputs], Mapping[str, An
     ("order", "Order evidence: Hankel singular values", order_section),
     ("stages", "Stages of the identification", stages_section),
     ("sensitivity", "Sensitivity to record length and sample interval", sensitivity_section),
+    ("advice", "How to record the next capture", advice_section),
     ("validation", "Validation on other inputs", validation_section),
     ("design", "Controller", design_section),
 )

@@ -12,6 +12,7 @@ schema name            the document
 ``modes``              ``motorid modes --json`` (``motorid.modes/1``)
 ``simulation``         ``motorid simulate --json`` (``motorid.simulation/1``)
 ``batch-summary``      one row of ``motorid batch``'s ``summary.csv``
+``advice``             ``motorid advise --json`` (``motorid.advice/1``)
 =====================  ==========================================================
 """
 
@@ -24,7 +25,7 @@ from typing import Any
 __all__ = ["SCHEMA_NAMES", "schema"]
 
 #: The documents with a schema file ``<name>.schema.json`` in this package.
-SCHEMA_NAMES: tuple[str, ...] = ("model", "design", "inspect", "modes", "simulation", "batch-summary")
+SCHEMA_NAMES: tuple[str, ...] = ("model", "design", "inspect", "modes", "simulation", "batch-summary", "advice")
 
 
 def schema(name: str) -> dict[str, Any]:

@@ -8,7 +8,7 @@ and square validation runs (Masoud 2019, sections V and VI-B).
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from types import MappingProxyType
 
 import numpy as np
@@ -19,12 +19,13 @@ from motorid.errors import OptionError
 from motorid.trainer.plant import PlantResponse, simulate_plant
 from motorid.trainer.presets import TrainerConfig
 from motorid.trainer.presets import preset as _preset_config
-from motorid.trainer.scope import ScopeSettings, acquire, draw_trigger_index, record_time
+from motorid.trainer.scope import RECORD_LENGTH, ScopeSettings, acquire, draw_trigger_index, quantise as to_codes
+from motorid.trainer.scope import record_time
 from motorid.trainer.sensors import current_v, position_v, tacho_v
 from motorid.trainer.signals import TEST_SIGNALS, step_signal, test_signal
 from motorid.trainer.truth import Truth, truth_of
 
-__all__ = ["VOLTS_PER_DIV", "CaptureTruth", "TrainerExperiment", "run_experiment"]
+__all__ = ["AVERAGE_COUNTS", "VOLTS_PER_DIV", "CaptureTruth", "TrainerExperiment", "run_experiment"]
 
 #: CH2 vertical scale per measured channel (CH1, the input, is at 2 V/div).
 VOLTS_PER_DIV: Mapping[str, float] = MappingProxyType({"position": 5.0, "velocity": 2.0, "current": 2.0})
@@ -81,15 +82,49 @@ class TrainerExperiment:
 
 
 def _measure(
-    role: str, cfg: TrainerConfig, plant: PlantResponse, rng: np.random.Generator
+    role: str, cfg: TrainerConfig, plant: PlantResponse, rng: np.random.Generator, offset_v: float | None = None
 ) -> tuple[np.ndarray, int]:
     if role == "velocity":
         return tacho_v(cfg, plant, rng), 0
     if role == "current":
         return current_v(cfg, plant, rng), 0
     # the output shaft rests wherever the last run left it
-    offset = float(rng.uniform(-0.4, 0.4) * cfg.pot_span_v)
+    offset = float(rng.uniform(-0.4, 0.4) * cfg.pot_span_v) if offset_v is None else offset_v
     return position_v(cfg, plant, offset, rng)
+
+
+#: Average-mode counts of the TDS1000/2000 (``ACQuire:NUMAVg``); 1 is Sample mode.
+AVERAGE_COUNTS: tuple[int, ...] = (1, 4, 16, 64, 128)
+
+
+def _averaged(role: str, cfg: TrainerConfig, settings: ScopeSettings, t: np.ndarray, step_volts: float,
+              averages: int, rng: np.random.Generator, quantise: bool) -> tuple[np.ndarray, np.ndarray, float, int]:
+    """Average mode: ``averages`` acquisitions of a repeating step, averaged, kept as 8-bit records.
+
+    Each acquisition has its own step instant between two samples, its own noise and the rotor at its
+    own resting angle (so the commutator ripple has its own phase); the position's shaft starts where
+    the first one left it for all of them.  The TDS1000/2000 averages the acquisitions' codes and keeps
+    the average on the 8-bit grid (``DATa:WIDth 2`` pads a zero byte: TDS1000/TDS2000 Programmer
+    Manual, DATa:WIDth), so the quantiser's step stays while the random noise averages down.
+    """
+    dt = settings.sample_interval_s
+    offset = float(rng.uniform(-0.4, 0.4) * cfg.pot_span_v) if role == "position" else None
+    plants: dict[int, PlantResponse] = {}
+    acc_u = np.zeros(t.size)
+    acc_y = np.zeros(t.size)
+    steps, wraps = [], 0
+    for _ in range(averages):
+        k = int(rng.integers(0, cfg.substeps))
+        step_t = -k * dt / cfg.substeps
+        if k not in plants:  # the plant is deterministic: one simulation per sub-step phase
+            plants[k] = _simulate_between_samples(cfg, t, step_t, step_volts)
+        plant = replace(plants[k], motor_angle_rad=plants[k].motor_angle_rad + float(rng.uniform(0, 2 * np.pi)))
+        y, wraps = _measure(role, cfg, plant, rng, offset)
+        u = step_signal(t, step_t, step_volts) + rng.normal(0.0, cfg.noise_v, t.size)
+        acc_u += to_codes(u, settings.ch1_volts_per_div) if quantise else u
+        acc_y += to_codes(y, settings.ch2_volts_per_div) if quantise else y
+        steps.append(step_t)
+    return acc_u / averages, acc_y / averages, float(np.mean(steps)), wraps
 
 
 def _simulate_between_samples(cfg: TrainerConfig, t: np.ndarray, step_t: float, step_volts: float) -> PlantResponse:
@@ -118,6 +153,9 @@ def run_experiment(
     roles: tuple[str, ...] = ("position", "velocity", "current"),
     validation: bool = True,
     quantised: bool | None = None,
+    volts_per_div: Mapping[str, float] | None = None,
+    trigger_position_pct: float | None = None,
+    averages: int = 1,
 ) -> TrainerExperiment:
     """Record a step experiment (and optionally the validation runs) on the virtual trainer.
 
@@ -148,6 +186,14 @@ def run_experiment(
         Also record the sine, triangle and square runs (velocity on CH2).
     quantised : bool, optional
         Older spelling of ``quantise``; overrides it when given.
+    volts_per_div : Mapping[str, float], optional
+        Vertical scales: ``input`` (CH1 of every step capture, default 2 V/div) and each role's
+        CH2 (default :data:`VOLTS_PER_DIV`).
+    trigger_position_pct : float, optional
+        Part of the record before the trigger point, % (default: each acquisition draws its own,
+        as an operator's horizontal position differs between captures).
+    averages : int
+        Average mode of the step captures: 1 (Sample mode), 4, 16, 64 or 128 acquisitions.
 
     Returns
     -------
@@ -173,6 +219,14 @@ def run_experiment(
     unknown = [r for r in roles if r not in VOLTS_PER_DIV]
     if unknown:
         raise OptionError(f"unknown role {unknown[0]!r}; use any of {', '.join(VOLTS_PER_DIV)}")
+    scales = dict(volts_per_div or {})
+    odd = [k for k in scales if k != "input" and k not in VOLTS_PER_DIV]
+    if odd:
+        raise OptionError(f"volts_per_div: unknown channel {odd[0]!r}; use input or {', '.join(VOLTS_PER_DIV)}")
+    if averages not in AVERAGE_COUNTS:
+        raise OptionError(f"averages must be one of {', '.join(map(str, AVERAGE_COUNTS))}, got {averages!r}")
+    if trigger_position_pct is not None and not 0.0 <= trigger_position_pct < 100.0:
+        raise OptionError(f"trigger position must be within 0 and 100 % of the record, got {trigger_position_pct!r}")
     rng = np.random.default_rng(seed)
     # one child generator per acquisition, always for all six, so that a capture does not
     # change when another one is left out
@@ -182,9 +236,19 @@ def run_experiment(
     truth: dict[str, CaptureTruth] = {}
     for role in roles:
         child = children[role]
-        settings = ScopeSettings(sec_per_div=sec_per_div, ch2_volts_per_div=VOLTS_PER_DIV[role])
+        settings = ScopeSettings(sec_per_div=sec_per_div, ch1_volts_per_div=scales.get("input", 2.0),
+                                 ch2_volts_per_div=scales.get(role, VOLTS_PER_DIV[role]))
         dt = settings.sample_interval_s
         trig = draw_trigger_index(settings, child)
+        if trigger_position_pct is not None:  # drawn all the same: the noise does not depend on it
+            trig = round(trigger_position_pct / 100.0 * RECORD_LENGTH)
+        if averages > 1:
+            t = record_time(settings, trig)
+            u_avg, y_avg, step_t, wraps = _averaged(role, cfg, settings, t, step_volts, averages, child, quantise)
+            captures[role] = acquire(settings, trig, u_avg, y_avg, role=role, source=f"<trainer:{role}>",
+                                     quantised=quantise)
+            truth[role] = CaptureTruth(step_t, float(step_volts), int(wraps))
+            continue
         # the scope triggers on the first sample after the CH1 edge; the switch is thrown at a
         # random instant in the sample interval before it, which the motor sees (the plant runs
         # on its integration sub-steps, so the step falls on one of them)

@@ -10,6 +10,7 @@ against the demo's files and the trainer's truth.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -99,6 +100,11 @@ def simulated_tds2012(
     step_volts: float = 5.92,
     triggers: bool = True,
     displayed: tuple[int, ...] = (1, 2),
+    volts_per_div: Mapping[str, float] | None = None,
+    sec_per_div: float = 1.0,
+    trigger_position_pct: float | None = None,
+    averages: int = 1,
+    settable: bool = False,
 ) -> SimulatedScope:
     """Record one acquisition on the virtual trainer and write the simulated scope holding it.
 
@@ -118,6 +124,17 @@ def simulated_tds2012(
         ``False``: a scope that never triggers (``ACQuire:STATE?`` stays 1).
     displayed : tuple of int
         Channels switched on.
+    volts_per_div : Mapping[str, float], optional
+        Vertical scales of ``input`` (CH1) and of the role (CH2) the trainer records at.
+    sec_per_div : float
+        Horizontal scale the trainer records at.
+    trigger_position_pct : float, optional
+        Part of the record before the trigger (default: drawn, as the demo's).
+    averages : int
+        Average mode's count the trainer records with (1: Sample mode).
+    settable : bool
+        The scope accepts those settings over SCPI and answers their queries with the values set
+        (``acquire --apply-advice``): fill it with the trainer recorded at the settings that will be sent.
 
     Returns
     -------
@@ -131,12 +148,14 @@ def simulated_tds2012(
     """
     if role not in VOLTS_PER_DIV:
         raise OptionError(f"--sim-role {role!r} is unknown: use one of {', '.join(VOLTS_PER_DIV)}")
-    exp = run_experiment(preset, step_volts=step_volts, seed=seed, roles=(role,), validation=False)
+    exp = run_experiment(preset, step_volts=step_volts, seed=seed, roles=(role,), validation=False,
+                         volts_per_div=volts_per_div, sec_per_div=sec_per_div,
+                         trigger_position_pct=trigger_position_pct, averages=averages)
     capture = exp.captures[role]
     scope = capture.scope
     idn = f"TEKTRONIX,{scope.model},{scope.serial},CF:91.1CT {scope.firmware}"
     # a trainer capture always records its horizontal scale; else the record's 10 divisions
     scale = scope.horizontal_scale_s or float(capture.time_s[-1] - capture.time_s[0]) / 10
     spec = write_sim_device(Path(folder) / "tds2012-sim.yaml", capture_channels(capture, displayed=displayed),
-                            horizontal_scale_s=float(scale), idn=idn, triggers=triggers)
+                            horizontal_scale_s=float(scale), idn=idn, triggers=triggers, settable=settable)
     return SimulatedScope(spec, sim_resource(spec), capture, role)

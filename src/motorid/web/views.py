@@ -116,7 +116,8 @@ def model_view(fit: IdentificationResult) -> dict[str, Any]:
     dict
         ``params`` rows (name, value, stderr, 95 % interval), ``fit`` rows, ``warnings``,
         ``reason``, ``summary`` text, ``stages`` rows, ``figures`` (title → data URI),
-        ``laguerre`` (rows or None), ``sanity``.
+        ``laguerre`` (rows or None), ``sanity``, ``advice`` (how to record the next capture, one
+        line, or ``None`` for captures without a scope header or a model of a paper method).
     """
     from motorid.report import figures
 
@@ -153,6 +154,7 @@ def model_view(fit: IdentificationResult) -> dict[str, Any]:
                          enumerate(zip(ex["laguerre_coefficients"], ex["laguerre_coefficients_std"], strict=False))],
                 "note": str(ex.get("markov_choice", "")),
             }
+    advice = fit.advice_line()
     stages = [(st.get("stage", ""), st.get("method", ""), st.get("order", ""),
                f"{_fmt(st.get('dc_gain', ''))} {model.dc_gain_unit}" if st.get("dc_gain") is not None else "",
                _fmt(st.get("time_constant", "")),
@@ -166,11 +168,12 @@ def model_view(fit: IdentificationResult) -> dict[str, Any]:
         "fit": fit_rows,
         "warnings": list(fit.warnings) + errors,
         "reason": fit.reason,
-        "summary": fit.summary(),
+        "summary": fit.summary(advice=False) + ("" if advice is None else f"\nadvice: {advice}"),
         "stages": stages,
         "figures": figs,
         "laguerre": laguerre,
         "sanity": "all passed" if fit.sanity.passed else "FAILED (see the warnings)",
+        "advice": advice,
     }
 
 

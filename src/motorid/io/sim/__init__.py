@@ -115,6 +115,7 @@ def write_sim_device(
     horizontal_scale_s: float,
     idn: str | None = None,
     triggers: bool = True,
+    settable: bool = False,
 ) -> str:
     """Write a device file with the records filled in; return its ``--visa-library`` spec.
 
@@ -131,6 +132,11 @@ def write_sim_device(
         on a real scope.
     triggers : bool
         ``False``: ``ACQuire:STATE?`` answers 1 for ever (a scope that never triggers).
+    settable : bool
+        Also accept the front-panel settings ``acquire --apply-advice`` sends (``CH<n>:SCAle``,
+        ``HORizontal:MAIn:SCAle``, ``HORizontal:MAIn:POSition``, ``ACQuire:MODe``,
+        ``ACQuire:NUMAVg``) and answer their queries with the value set (the records are the ones
+        given: fill them at those settings).
 
     Returns
     -------
@@ -169,6 +175,28 @@ def write_sim_device(
         record.append({"q": "WFMPre:NR_Pt?", "r": str(ch.codes.size)})
         record.append({"q": "CURVe?", "r": ",".join(str(int(c)) for c in ch.codes)})
         device["channels"][f"ch{n}"]["dialogues"] = record
+    if settable:
+        _settable(device, channels, horizontal_scale_s)
     target = Path(path)
     target.write_text(yaml.safe_dump(doc, sort_keys=False, width=1 << 30), encoding="utf-8")
     return f"{target}@sim"
+
+
+def _settable(device: dict[str, Any], channels: Mapping[int, SimChannel], horizontal_scale_s: float) -> None:
+    """The scale, position and acquisition-mode queries as pyvisa-sim properties: set, then read back."""
+    top = device["dialogues"]
+    props = device.setdefault("properties", {})
+
+    def prop(name: str, command: str, default: str) -> None:
+        top[:] = [d for d in top if d["q"] != f"{command}?"]
+        props[name] = {"default": default, "getter": {"q": f"{command}?", "r": "{:s}"},
+                       "setter": {"q": f"{command} {{:s}}"}, "specs": {"type": "str"}}
+
+    prop("horizontal_scale", "HORizontal:MAIn:SCAle", repr(float(horizontal_scale_s)))
+    first = next(iter(channels.values()), None)
+    pt_off = first.preamble.pt_off / max(first.codes.size, 1) if first is not None else 0.5
+    prop("horizontal_position", "HORizontal:MAIn:POSition", repr((0.5 - pt_off) * 10.0 * float(horizontal_scale_s)))
+    for n, ch in channels.items():
+        prop(f"ch{n}_scale", f"CH{n}:SCAle", repr(float(ch.volts_per_div)))
+    prop("acquire_mode", "ACQuire:MODe", "SAMple")
+    prop("average_count", "ACQuire:NUMAVg", "16")
