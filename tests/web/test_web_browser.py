@@ -231,3 +231,52 @@ def test_a_page_from_another_origin_gets_nothing_while_the_real_page_works(chrom
     finally:
         server.should_exit = True
         evil.shutdown()
+
+
+def test_the_page_never_shows_a_result_of_other_captures(chromium, live_server, demo_files):
+    """Captures → model → design as one chain: clearing or replacing the captures, or a failed
+    identification, leaves no older model on screen (screenshots in tests/artefacts/web/state-*)."""
+    from playwright.sync_api import sync_playwright
+
+    url, _, _ = live_server
+    ARTEFACTS.mkdir(parents=True, exist_ok=True)
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
+        page = browser.new_page(viewport={"width": 1280, "height": 900})
+        page.goto(url + "/")
+        page.set_input_files("#files", [str(f) for f in demo_files])
+        page.wait_for_selector("#inspect-table tr#row-c5", timeout=60_000)
+        page.click("#identify-button")
+        page.wait_for_selector("#model-panel", timeout=120_000)
+        page.wait_for_selector("#closed-loop-plot", timeout=60_000)
+        page.screenshot(path=str(ARTEFACTS / "state-1-model.png"), full_page=True)
+
+        # a failed identification (no capture in the velocity or position role) takes the old model away
+        for i in range(6):
+            page.select_option(f"select[name=role_c{i}]", "validation")
+        page.click("#identify-button")
+        page.wait_for_selector("#errors p.error", timeout=60_000)
+        assert "no capture has the role velocity or position" in page.text_content("#errors")
+        assert page.locator("#model-panel").count() == 0 and page.locator("#closed-loop-plot").count() == 0
+        page.screenshot(path=str(ARTEFACTS / "state-2-failed.png"), full_page=True)
+
+        # the right roles again: a model; then new captures: the model goes until identified again
+        for i, role in enumerate(("position", "velocity", "current")):
+            page.select_option(f"select[name=role_c{i}]", role)
+        page.click("#identify-button")
+        page.wait_for_selector("#model-panel", timeout=120_000)
+        assert page.text_content("#errors").strip() == ""
+        page.set_input_files("#files", [str(f) for f in demo_files[:2]])
+        page.wait_for_selector("#inspect-table tr#row-c6", timeout=60_000)
+        assert page.locator("#model-panel").count() == 0
+        page.screenshot(path=str(ARTEFACTS / "state-3-new-captures.png"), full_page=True)
+
+        # clearing the captures clears the model and the design with them
+        page.click("#identify-button")
+        page.wait_for_selector("#model-panel", timeout=120_000)
+        page.click("text=Clear captures")
+        page.wait_for_selector("#inspect-table", state="detached", timeout=30_000)
+        assert page.locator("#model-panel").count() == 0 and page.locator("#design-form").count() == 0
+        assert page.locator("#dl-report").count() == 0  # no download link to a model that is gone
+        page.screenshot(path=str(ARTEFACTS / "state-4-cleared.png"), full_page=True)
+        browser.close()

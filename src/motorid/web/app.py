@@ -158,8 +158,15 @@ def create_app(settings: WebSettings | None = None) -> FastAPI:
         line = error_line(exc)
         if request.url.path.startswith("/api/"):
             return JSONResponse({"detail": line}, status_code=422)
-        # htmx swaps this into the page's error box (HX-Retarget), whatever the request's target
-        return HTMLResponse(f'<p class="error">{html.escape(line)}</p>', status_code=422,
+        # htmx swaps this into the page's error box (HX-Retarget), whatever the request's target;
+        # a failed step empties the panel it would have filled (out of band), so that no older
+        # result stays on screen under the error
+        stale = ""
+        if request.url.path.endswith("/identify"):
+            stale = '<section id="model" hx-swap-oob="true"></section>'
+        elif request.url.path.endswith("/design"):
+            stale = '<div id="design-result" hx-swap-oob="true"></div>'
+        return HTMLResponse(f'<p class="error">{html.escape(line)}</p>{stale}', status_code=422,
                             headers={"HX-Retarget": "#errors", "HX-Reswap": "innerHTML"})
 
     @app.exception_handler(RequestGoneError)

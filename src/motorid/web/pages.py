@@ -82,13 +82,22 @@ async def upload(request: Request, tab_id: str) -> HTMLResponse:
         tab.ignored.extend(ignored)
         roles = default_roles(tab.captures)
         tab.roles = {cid: tab.roles.get(cid, role) for cid, role in roles.items()}
-    return _captures(request, tab)
+        _forget_model(tab)  # a model of other captures is not shown under these
+    return _captures(request, tab, clear_model=True)
 
 
-def _captures(request: Request, tab: Tab) -> HTMLResponse:
+def _forget_model(tab: Tab) -> None:
+    """Drop what depended on the captures: the model, the design, their runs (under ``tab.lock``)."""
+    tab.fit, tab.design, tab.simulation = None, None, {}
+    tab.mode_maps.clear()
+
+
+def _captures(request: Request, tab: Tab, *, clear_model: bool = False) -> HTMLResponse:
     from motorid.identification.pipeline import METHODS
 
-    return _render(request, "_captures.html", tab=tab, roles=PAGE_ROLES, methods=METHODS)
+    # captures → model → design: new or no captures empty the model panel too (htmx's
+    # out-of-band swap), so no older result stays on screen
+    return _render(request, "_captures.html", tab=tab, roles=PAGE_ROLES, methods=METHODS, clear_model=clear_model)
 
 
 @router.post("/tab/{tab_id}/clear", response_class=HTMLResponse)
@@ -99,7 +108,7 @@ async def clear(request: Request, tab_id: str) -> HTMLResponse:
         for sub in tab.folder.iterdir():
             shutil.rmtree(sub, ignore_errors=True) if sub.is_dir() else sub.unlink(missing_ok=True)
         tab.reset()
-    return _captures(request, tab)
+    return _captures(request, tab, clear_model=True)
 
 
 @router.post("/tab/{tab_id}/identify", response_class=HTMLResponse)
@@ -134,6 +143,7 @@ async def identify(request: Request, tab_id: str) -> HTMLResponse:
         raise OptionError("no capture has the role velocity or position: choose the roles in the table")
     with tab.lock:
         tab.roles.update(roles)
+        _forget_model(tab)  # a failed identification leaves no older model behind
     paths = {role: entry.files.reader_argument() for role, entry in chosen.items()}
     fit = await run_bounded(request, request.app.state.settings.work, "the identification", _identify, paths,
                             read_kw, ident_kw, tab.folder)
