@@ -60,7 +60,7 @@ def live_server(tmp_path):
 def test_lab_page_in_headless_chromium(chromium, live_server, demo_files):
     from playwright.sync_api import sync_playwright
 
-    url, app, _ = live_server
+    url, app, root = live_server
     ARTEFACTS.mkdir(parents=True, exist_ok=True)
     console: list[str] = []
     foreign: list[str] = []
@@ -138,6 +138,8 @@ def test_lab_page_in_headless_chromium(chromium, live_server, demo_files):
         for sid in SECTIONS:
             assert f'<section id="{sid}">' in report, sid
         assert "no controller design given" not in report
+        # the files by the names they were uploaded under, never the server's folders
+        assert str(root) not in report and "/tmp" not in report and "F0001CH2.CSV" in report
         with page.expect_download() as dl:
             page.click("#dl-design")
         assert '"schema": "motorid.design/1"' in Path(dl.value.path()).read_text(encoding="utf-8")

@@ -247,3 +247,18 @@ def test_the_model_panel_says_how_to_record_the_next_capture(client, demo_files,
     want = mi.advise(demo_fit).summary_line()
     assert '<p id="advice">' in pages[0]
     assert want in html.unescape(pages[0])
+
+
+def test_test_signals_in_the_validation_role_carry_no_step_warning(client, demo_files):
+    from motorid.conditioning.inspect import describe_capture
+    from motorid.io import read_capture
+
+    # the library does warn about the sine's missing step (it is what identify needs) …
+    sine = read_capture([f for f in demo_files if f.parent.name == "ALL0003"])
+    assert any("open-loop step" in w for w in describe_capture(sine).warnings)
+    # … the page, where the sine sits in the validation role, does not
+    tab = open_tab(client)
+    res = client.post(f"/tab/{tab}/upload", files=multipart("files", demo_files))
+    assert res.status_code == 200
+    row = re.search(r'<tr id="row-c3">(.*?)</tr>', res.text, flags=re.S).group(1)
+    assert 'value="validation" selected' in row and "open-loop step" not in row

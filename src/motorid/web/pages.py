@@ -218,9 +218,9 @@ async def download(request: Request, tab_id: str, name: str) -> Response:
         raise OptionError("identify a model first: the downloads are the model, its design and the report")
     path = tab.folder / f"motorid-{name}"
     if name == "model.json":
-        path.write_text(tab.fit.model.to_json_text() + "\n", encoding="utf-8")
+        path.write_text(_uploaded_names(tab.fit.model.to_json_text() + "\n", tab.folder), encoding="utf-8")
     elif name == "model.m":
-        path.write_text(tab.fit.model.to_matlab(), encoding="utf-8")
+        path.write_text(_uploaded_names(tab.fit.model.to_matlab(), tab.folder), encoding="utf-8")
     elif name == "design.json":
         if tab.design is None:
             raise OptionError("design a controller first (move a slider in the design panel)")
@@ -230,7 +230,18 @@ async def download(request: Request, tab_id: str, name: str) -> Response:
                       if tab.roles.get(e.cid) == "validation" and e.summary is not None]
         await run_bounded(request, request.app.state.settings.work, "the report", _report, path, tab.fit,
                           tab.design, validation, tab.simulation or None, tab.folder)
+        path.write_text(_uploaded_names(path.read_text(encoding="utf-8"), tab.folder), encoding="utf-8")
     return FileResponse(path, media_type=DOWNLOADS[name], filename=path.name)
+
+
+def _uploaded_names(text: str, folder: Path) -> str:
+    """``text`` with the files named as they were uploaded, not by their place on the server.
+
+    ``ALL0001/F0001CH2.CSV`` instead of ``/tmp/…/tab-…/upload-3/ALL0001/F0001CH2.CSV``.
+    """
+    import re
+
+    return re.sub(re.escape(str(folder)) + r"[/\\](?:upload-\d+[/\\])?", "", text)
 
 
 def _report(path: Path, fit: Any, design: Any, validation: list[Any], simulation: dict[str, Any] | None,
