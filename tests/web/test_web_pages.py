@@ -262,3 +262,13 @@ def test_test_signals_in_the_validation_role_carry_no_step_warning(client, demo_
     assert res.status_code == 200
     row = re.search(r'<tr id="row-c3">(.*?)</tr>', res.text, flags=re.S).group(1)
     assert 'value="validation" selected' in row and "open-loop step" not in row
+
+
+def test_identify_on_captures_without_a_step_explains_itself_as_the_command_line(client, demo_files):
+    tab = open_tab(client)
+    sines = [f for f in demo_files if f.parent.name == "ALL0003"]
+    assert client.post(f"/tab/{tab}/upload", files=multipart("files", sines)).status_code == 200
+    res = client.post(f"/tab/{tab}/identify", data={"role_c0": "validation", "method": "auto"})
+    assert res.status_code == 422
+    assert "no step in the input channel: identify needs an open-loop step" in res.text
+    assert "motorid validate" in res.text

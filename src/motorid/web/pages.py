@@ -140,7 +140,14 @@ async def identify(request: Request, tab_id: str) -> HTMLResponse:
                                   f"{by_id[cid].files.label}): give one of them another role")
             chosen[role] = by_id[cid]
     if "velocity" not in chosen and "position" not in chosen:
-        raise OptionError("no capture has the role velocity or position: choose the roles in the table")
+        stepless = [e.files.label for e in tab.captures if e.summary is not None and e.summary.step is None]
+        why = ""
+        if stepless:  # the command line's words for such a file (a closed-loop record, a sine)
+            why = (f"; {', '.join(stepless[:3])}{' …' if len(stepless) > 3 else ''} "
+                   f"{'has' if len(stepless) == 1 else 'have'} no step in the input channel: identify needs an "
+                   "open-loop step (a closed-loop record, a sine or a ramp is not one; motorid validate scores a "
+                   "model on any input)")
+        raise OptionError("no capture has the role velocity or position: choose the roles in the table" + why)
     with tab.lock:
         tab.roles.update(roles)
         _forget_model(tab)  # a failed identification leaves no older model behind
