@@ -306,7 +306,7 @@ class IdentificationResult:
     Attributes
     ----------
     model : MotorModel
-        The model (python-control objects inside: ``model.velocity_tf``, ``model.ss()``).
+        The model (python-control objects inside: ``model.velocity_tf``, ``model.state_space``).
     params : Mapping[str, ParameterEstimate]
         ``dc_gain`` [V/V], ``time_constant`` [s], ``delay`` [s] (when fitted), ``pole_1``…,
         ``zero_1``… [1/s] (read-only).

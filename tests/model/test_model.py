@@ -186,6 +186,7 @@ def test_python_control_systems_carry_named_signals_with_units():
     m = model_from_velocity_tf([2.0], [0.5, 1.0], with_position=True).replace(units={"velocity": "rpm"})
     assert m.velocity_tf.input_labels == ["u [V]"] and m.velocity_tf.output_labels == ["velocity [rpm]"]
     assert m.position_tf.output_labels == ["position [V]"]
-    sys = m.ss()
+    sys = m.state_space  # a property, as the transfer functions are
     assert sys.input_labels == ["u [V]"]
     assert sys.output_labels == [f"{ch} [{'rpm' if ch == 'velocity' else 'V'}]" for ch in m.outputs]
+    np.testing.assert_array_equal(m.ss().A, sys.A)  # the call kept for older code

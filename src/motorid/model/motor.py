@@ -438,18 +438,32 @@ class MotorModel:
         """
         return dataclasses.replace(self, **changes)
 
-    def ss(self) -> control.StateSpace:
+    @property
+    def state_space(self) -> control.StateSpace:
         """The model as a python-control ``StateSpace`` (one output per channel).
+
+        A property, as :attr:`velocity_tf`, :attr:`position_tf` and :attr:`current_tf` are: the
+        model's python-control systems are all read the same way.
 
         Returns
         -------
         control.StateSpace
-            Outputs in the order of :attr:`outputs`.
+            Outputs in the order of :attr:`outputs`, named with their units (``velocity [rpm]``).
         """
         import control
 
         return control.ss(self.A, self.B, self.C, self.D, inputs=[INPUT_SIGNAL],
                           outputs=[self.signal_name(ch) for ch in self.outputs], states=list(self.states))
+
+    def ss(self) -> control.StateSpace:
+        """:attr:`state_space`, as a call (kept for code written before the property).
+
+        Returns
+        -------
+        control.StateSpace
+            The same system as :attr:`state_space`.
+        """
+        return self.state_space
 
     def signal_name(self, channel: str) -> str:
         """A channel's name with its unit, as the python-control systems carry it (``velocity [rpm]``).
