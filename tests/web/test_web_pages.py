@@ -173,7 +173,7 @@ def test_the_design_panel_shows_the_plausible_motors(client, demo_files):
     tab = _identified_tab(client, demo_files)
     res = client.post(f"/tab/{tab}/design", data={"damping": "1", "wn": "8", "level": "5", "duration": "3"})
     assert res.status_code == 200
-    assert re.search(r"robust: stable for [\d.]+ % of 200 plausible motors", res.text)
+    assert re.search(r"robust: stable for [\d.]+ % of 100 plausible motors", res.text)
     assert "margins: gain margin" in res.text
     src = re.search(r'id="closed-loop-plot" alt="[^"]*" src="([^"]+)"', res.text).group(1)
     head, data = src.split(",", 1)

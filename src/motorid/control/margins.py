@@ -12,6 +12,7 @@ python-control computes the margins (:func:`control.stability_margins`) and the 
 
 from __future__ import annotations
 
+import contextlib
 import math
 import warnings
 from collections.abc import Mapping
@@ -313,10 +314,31 @@ def _fastest(a_l: np.ndarray) -> float:
 
 
 def _response(system: Any, omega: np.ndarray) -> np.ndarray:
-    """A SISO system's ``G(jω)`` on ``omega``; NaN where a pole sits on the axis (an integrator)."""
+    """A SISO system's ``G(jω)`` on ``omega``; NaN where a pole sits on the axis (an integrator).
+
+    ``C (jωI − A)⁻¹ B + D`` for every frequency in one stacked solve: python-control's own
+    evaluation (``system(jω)``, one Horner step per frequency) was 40 ms of every design's
+    2000-point grid; the test of the margins compares with python-control.
+    """
+    import control
+
+    ss = control.ss(system)
+    a, b, c, d = (np.asarray(m, dtype=float) for m in (ss.A, ss.B, ss.C, ss.D))
+    if a.size == 0:
+        return np.full(omega.shape, complex(d[0, 0]))
+    s = 1j * np.asarray(omega, dtype=float)
     with np.errstate(divide="ignore", invalid="ignore"), warnings.catch_warnings():
-        warnings.filterwarnings("ignore", "singular matrix in frequency response", RuntimeWarning)
-        return np.ravel(system(1j * omega))
+        warnings.simplefilter("ignore", RuntimeWarning)
+        m = s[:, None, None] * np.eye(a.shape[0]) - a
+        try:
+            x = np.linalg.solve(m, np.broadcast_to(b, (s.size, *b.shape)))
+            return (c @ x)[:, 0, 0] + d[0, 0]
+        except np.linalg.LinAlgError:  # a pole on the axis at a grid point: NaN there
+            out = np.full(s.shape, np.nan + 0j)
+            for i in range(s.size):
+                with contextlib.suppress(np.linalg.LinAlgError):
+                    out[i] = (c @ np.linalg.solve(m[i], b))[0, 0] + d[0, 0]
+            return out
 
 
 def _bandwidth(a: np.ndarray, b: np.ndarray, c: np.ndarray, design: Design, pade: Any) -> float:

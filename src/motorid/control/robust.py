@@ -41,13 +41,13 @@ DEFAULT_SAMPLES = 2000
 #: The joint region sampled: the parameters' 95 % confidence region.
 REGION = 0.95
 #: Points of each simulated reference step.
-STEP_POINTS = 1500
+STEP_POINTS = 800
 #: Order of the dead time's Padé approximant in the closed loop's eigenvalues and steps.
 PADE_ORDER = 6
 #: Instants of the step-response band kept in the design JSON.
 BAND_POINTS = 150
-#: Frequencies of the loop's response (log-spaced over seven decades around its fastest pole).
-MARGIN_POINTS = 400
+#: Frequencies of the loop's response (log-spaced around the nominal loop's crossover).
+MARGIN_POINTS = 240
 #: A rebuilt nominal motor must match the model's velocity TF to this relative tolerance, or
 #: the covariance belongs to another model (one simplified after the fit).
 MATCH_RTOL = 1e-6
@@ -509,10 +509,14 @@ def _margins(a: np.ndarray, b: np.ndarray, c: np.ndarray, delays: np.ndarray, om
     m, size = a.shape[0], a.shape[1]
     resp = np.empty((m, omega.size), dtype=complex)
     eye = np.eye(size)
+    # frequencies in blocks: one stacked solve per block, about 20 000 small systems each
+    block = max(1, 20_000 // max(m, 1))
     with np.errstate(all="ignore"):
-        for j, w in enumerate(omega):
-            x = np.linalg.solve(1j * w * eye - a, b)
-            resp[:, j] = (c @ x)[:, 0, 0]
+        for j0 in range(0, omega.size, block):
+            w = omega[j0:j0 + block]
+            mats = (1j * w)[None, :, None, None] * eye - a[:, None]
+            x = np.linalg.solve(mats, np.broadcast_to(b[:, None], (m, w.size, size, 1)))
+            resp[:, j0:j0 + w.size] = (c[:, None] @ x)[..., 0, 0]
         resp *= np.exp(-1j * omega[None, :] * delays[:, None])
         mag_db = 20 * np.log10(np.abs(resp))
         phase = np.unwrap(np.angle(resp), axis=1)
@@ -642,7 +646,12 @@ def _per_motor(pl: _Plants, nominal: tuple[np.ndarray, np.ndarray, np.ndarray], 
         pick = np.linspace(0, t.size - 1, BAND_POINTS).round().astype(int)
         band = np.vstack([t[pick], np.percentile(y[:, pick], [2.5, 50.0, 97.5], axis=0)])
     la, lb, lc = _loop(pl, nominal, design)
-    omega = np.logspace(math.log10(fastest) - 5, math.log10(fastest) + 2, MARGIN_POINTS)
+    # the grid around the nominal loop's crossover (where every plausible motor's is): four and
+    # a half decades; the nominal's fastest pole's seven decades without a crossover
+    wc = float(getattr(design.margins, "crossover_rad_s", math.nan))
+    centre = math.log10(wc) if math.isfinite(wc) and wc > 0 else math.log10(fastest) - 1.5
+    span = 2.25 if math.isfinite(wc) and wc > 0 else 3.5
+    omega = np.logspace(centre - span, centre + span, MARGIN_POINTS)
     pm, gm, ms = (np.where(stable, v, np.nan) for v in _margins(la, lb, lc, pl.delay, omega))
     return {"stable": stable, "overshoot_pct": over, "settling_time_s": settle, "phase_margin_deg": pm,
             "gain_margin_db": gm, "ms": ms, "band": band}

@@ -610,6 +610,7 @@ def simulate_closed_loop(model: MotorModel, design: Design | PidDesign, settings
         rho = _reduced_loop_radius(phi, gam, c, ki, s.dt_s, reduced)
         # the estimate starts at xhat0 (default: the motor at rest, so exact)
         w = _vector(s.xhat0, n, "--xhat0")[reduced.estimated] - reduced.gain @ x[reduced.measured]
+        feed = np.empty(len(reduced.measured) + 1)  # the observer's inputs [z_m, u], one buffer
     else:
         rho = _sampled_loop_radius(phi, gam, c, k, ki, s.dt_s, (phi_o, gam_o) if l_col is not None else None)
     if rho > 1.0 + 1e-9 and s.plant != "trainer":
@@ -681,7 +682,9 @@ def simulate_closed_loop(model: MotorModel, design: Design | PidDesign, settings
                 xh = phi_o @ xh + gam_o @ np.array([u_obs, y])
             if reduced is not None:
                 u_obs = u if nl is None else float(nl.effective_input(u))
-                w = reduced.phi @ w + reduced.gam @ np.append(meas[reduced.measured], u_obs)
+                feed[:-1] = meas[reduced.measured]
+                feed[-1] = u_obs
+                w = reduced.phi @ w + reduced.gam @ feed
     if not np.all(np.isfinite(ys)):
         warnings.append("the response diverged (non-finite values): the closed loop is unstable")
     elif (np.max(np.abs(ys))

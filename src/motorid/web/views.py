@@ -378,8 +378,8 @@ def design_update(model: MotorModel, form: DesignForm, maps: ModeMapView | None,
 
 
 #: Plausible motors a slider move checks the design on (the command line checks 2000): about
-#: 60 ms of the 100 ms a move may take (``bench/web_update_speed.py``).
-WEB_ROBUST_SAMPLES = 200
+#: 20 ms of a move's CPU (``bench/web_update_speed.py``: 129 ms a move with them, 127 ms without).
+WEB_ROBUST_SAMPLES = 100
 
 
 def _robust_band(des: Any, time_s: Any, form: DesignForm) -> dict[str, Any]:
