@@ -520,7 +520,8 @@ def _margins(a: np.ndarray, b: np.ndarray, c: np.ndarray, delays: np.ndarray, om
         resp *= np.exp(-1j * omega[None, :] * delays[:, None])
         mag_db = 20 * np.log10(np.abs(resp))
         phase = np.unwrap(np.angle(resp), axis=1)
-        ms = np.nanmax(1.0 / np.abs(1.0 + resp), axis=1)
+        # |S(j∞)| = 1 (the loop has no direct term): the peak is at least 1 beyond the grid's end
+        ms = np.maximum(np.nanmax(1.0 / np.abs(1.0 + resp), axis=1), 1.0)
     # gain crossovers: grid intervals where |L| passes through 1; python-control's choice, the one
     # with the smallest |phase margin|
     cross = (mag_db[:, :-1] >= 0) != (mag_db[:, 1:] >= 0)
