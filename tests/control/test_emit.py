@@ -367,3 +367,31 @@ def test_the_sampled_loop_check_includes_the_models_dead_time():
     assert dc.loop_spectral_radius == pytest.approx(rho, abs=1e-4)
     without = discretise_design(REPORT_MODEL, design, ts).loop_spectral_radius
     assert abs(rho - without) > 3e-4  # the delay is in the check, not left out (3.5e-4 here)
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler (cc) on PATH")
+@pytest.mark.parametrize("loop", ["velocity", "position"])
+def test_a_pid_is_emitted_as_c_that_computes_its_discretised_controller(loop, tmp_path):
+    from motorid.control.emit import discretise_pid
+    from motorid.control.pid import PidSettings, design_pid
+    from motorid.model import model_from_velocity_tf
+
+    model = model_from_velocity_tf([2.0], [0.5, 1.0], with_position=True, delay_s=0.05)
+    pid = design_pid(model, PidSettings(loop=loop, integral=True if loop == "position" else None))
+    dc = discretise_pid(model, pid, 0.005)
+    assert list(dc.inputs) == ["r", loop]
+    # the sampled controller is python-control's c2d of the PID's own system
+    want = control.c2d(pid.system(), 0.005, method="zoh")
+    np.testing.assert_allclose(np.asarray(dc.system.A), np.asarray(want.A), rtol=1e-12, atol=1e-15)
+    (tmp_path / "controller.c").write_text(emit_c(dc, source="a test"))
+    n = len(dc.inputs)
+    (tmp_path / "main.c").write_text(MAIN_C % {"n": n, "args": ", ".join(f"in[{i}]" for i in range(n))})
+    exe = tmp_path / "ctl"
+    subprocess.run([CC, "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-O2", "-o", str(exe),
+                    str(tmp_path / "main.c")], check=True, capture_output=True, cwd=tmp_path)
+    w = _inputs(dc)
+    stdin = "\n".join(" ".join(format(v, ".17g") for v in row) for row in w) + "\n"
+    run = subprocess.run([str(exe)], input=stdin, capture_output=True, text=True, check=True)
+    u = np.array([float(v) for v in run.stdout.split()])
+    assert np.max(np.abs(u - _reference(dc, w))) <= 1e-9
+    assert "PI" in emit_c(dc) and "kp = " in emit_c(dc)

@@ -115,3 +115,28 @@ def test_the_front_door_is_the_library(fopdt_file):
         mi.design_pid(model, tau_c=-1.0)
     sim = mi.simulate(model, got, duration_s=3.0, level_v=1.0)
     assert sim.metrics.overshoot_pct < 40
+
+
+def test_a_pid_emitted_as_c_from_the_command_line_compiles(tmp_path):
+    import json
+    import shutil
+    import subprocess
+    import sys
+
+    from motorid.model import model_from_velocity_tf
+
+    cc = shutil.which("cc")
+    if cc is None:
+        pytest.skip("no C compiler (cc) on PATH")
+    model = tmp_path / "m.json"
+    model.write_text(json.dumps(model_from_velocity_tf([2.0], [0.5, 1.0], with_position=True, delay_s=0.05).to_json()))
+    out = subprocess.run([sys.executable, "-m", "motorid", "design", str(model), "--pid", "--discrete", "0.005",
+                          "--emit", "c", "--json", str(tmp_path / "d.json")], capture_output=True, text=True,
+                         timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert "discrete controller: TS = 0.005 s" in out.stderr  # the printout leaves stdout to the code
+    (tmp_path / "pid.c").write_text(out.stdout)
+    subprocess.run([cc, "-std=c99", "-Wall", "-Werror", "-c", str(tmp_path / "pid.c"), "-o", str(tmp_path / "pid.o")],
+                   check=True)
+    data = json.loads((tmp_path / "d.json").read_text())
+    assert data["pid"]["kind"] == "PI" and data["discrete"]["inputs"] == ["r", "velocity"]

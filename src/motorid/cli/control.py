@@ -218,7 +218,6 @@ def design(
     """State feedback, integral action and observer (Tsiolakis 2022, §2-4) or a PID (--pid); code for a controller."""
     from motorid.control.design import DesignSettings, design_controller
     from motorid.control.feedback import parse_poles
-    from motorid.io import atomic_outputs
     from motorid.model.serialize import load_model
 
     _check_outputs([(json_out, "--json", None), (emit_file, "--emit-file", None)], force)
@@ -233,13 +232,9 @@ def design(
             "--overshoot": overshoot is not None, "--integral": integral, "--ki": ki is not None,
             "--integral-pole": integral_pole is not None, "--observer-poles": observer_poles is not None,
             "--output": output is not None, "--sensors": sensors is not None, "--robust": robust is not None})
-        code_option = next((flag for flag, v in (("--discrete", discrete), ("--discrete-method", discrete_method),
-                                                 ("--emit", emit), ("--emit-file", emit_file)) if v is not None), None)
-        if code_option is not None:
-            raise OptionError(f"--pid and {code_option} do not go together yet: the PID's code is not emitted "
-                              "(PidDesign.system() is its python-control system, for control.c2d)")
+        _check_code_options(discrete, discrete_method, emit, emit_file)
         _design_pid(model_file, json_out, force, pid_loop, pid_rule, pid_integral, tau_c, derivative_filter, damping,
-                    wn)
+                    wn, code=(discrete, discrete_method, emit, emit_file))
         return
     given = next((flag for flag, on in pid_options.items() if on), None)
     if given is not None:
@@ -307,13 +302,26 @@ def design(
             + "; simulate --compensate-dead-zone adds u0·sign(u) to the command (inverse dead-zone)")
     for w in d.warnings:
         say(f"warning: {w}")
-    data = d.to_json()
+    from motorid.control.emit import discretise_design
+
+    _write_with_code(d.to_json(), lambda ts, how: discretise_design(model, d, ts, how), model_file, json_out,
+                     force, discrete, discrete_method, emit, emit_file, say)
+
+
+def _write_with_code(data: dict, discretised, model_file: Path, json_out: Path | None, force: bool,
+                     discrete: float | None, discrete_method: str | None, emit: str | None, emit_file: Path | None,
+                     say) -> None:
+    """The design JSON (with ``discrete``) and the emitted code, written together or not at all.
+
+    ``discretised(ts, method)`` samples the controller (a DiscreteController); ``say`` prints
+    the summary lines (to stderr when the code goes to the terminal).
+    """
+    from motorid.control.emit import emit as emit_code
+    from motorid.io import atomic_outputs
+
     code = None
     if discrete is not None:
-        from motorid.control.emit import discretise_design
-        from motorid.control.emit import emit as emit_code
-
-        dc = discretise_design(model, d, discrete, discrete_method or "zoh")
+        dc = discretised(discrete, discrete_method or "zoh")
         data["discrete"] = dc.to_json()
         _print_discrete(dc, say)
         if emit is not None:
@@ -371,10 +379,19 @@ def _print_discrete(dc, say) -> None:
 
 def _design_pid(model_file: Path, json_out: Path | None, force: bool, loop: str | None, rule: str | None,
                 integral: bool, tau_c: float | None, derivative_filter: float | None, damping: float | None,
-                wn: float | None) -> None:
-    """``motorid design --pid``: tune, print the gains, the controller, margins, poles and a step's metrics."""
+                wn: float | None, code: tuple[float | None, str | None, str | None, Path | None] = (None,) * 4,
+                ) -> None:
+    """``motorid design --pid``: tune, print the gains, the controller, margins, poles and a step's metrics.
+
+    ``code``: ``--discrete``, ``--discrete-method``, ``--emit``, ``--emit-file``.
+    """
+    discrete, discrete_method, emit, emit_file = code
+    code_to_stdout = emit is not None and emit_file is None
+
+    def say(text: str) -> None:
+        typer.echo(text, err=code_to_stdout)
+
     from motorid.control.pid import DERIVATIVE_FILTER_N, PidSettings, design_pid
-    from motorid.io import atomic_outputs
     from motorid.model.serialize import load_model
     from motorid.simulation.closed_loop import step_check
 
@@ -387,34 +404,34 @@ def _design_pid(model_file: Path, json_out: Path | None, force: bool, loop: str 
     except OptionError as exc:
         raise exc.with_file(str(model_file)) from None
     how = "SIMC (Skogestad 2003)" if p.rule == "simc" else "pole placement"
-    typer.echo(f"{p.kind} on the {p.loop} ({p.output_unit}), tuned by {how} on "
+    say(f"{p.kind} on the {p.loop} ({p.output_unit}), tuned by {how} on "
                f"{p.approximation.text(p.output_unit)}"
                + (f", τc = {sig(p.tau_c_s)} s" if p.tau_c_s is not None else ""))
-    typer.echo("gains: " + ", ".join(f"{name} = {sig(v)} {unit}" for name, v, unit in p.gains()))
-    typer.echo(f"u = kp·(r − y) + ki·∫(r − y)dt − kd·s/(tf·s + 1)·y   (y = {p.measured_signal}; "
+    say("gains: " + ", ".join(f"{name} = {sig(v)} {unit}" for name, v, unit in p.gains()))
+    say(f"u = kp·(r − y) + ki·∫(r − y)dt − kd·s/(tf·s + 1)·y   (y = {p.measured_signal}; "
                "the derivative acts on the measurement)")
     from motorid.model.notation import poly_text
 
     c = p.tf()
-    typer.echo(f"C(s) = ({poly_text(c.num[0][0])}) / ({poly_text(c.den[0][0])})   "
+    say(f"C(s) = ({poly_text(c.num[0][0])}) / ({poly_text(c.den[0][0])})   "
                "(python-control: PidDesign.tf(); PidDesign.system() takes r and y)")
     if p.margins is not None:
-        typer.echo("margins: " + p.margins.text())
+        say("margins: " + p.margins.text())
     delay = f", the {sig(model.delay_s)} s dead time by a Padé approximant" if model.delay_s > 0 else ""
     cl = sorted(p.closed_loop_poles, key=lambda z: (z.real, z.imag))
-    typer.echo(f"closed-loop poles (full model{delay}): " + roots_text(cl))
+    say(f"closed-loop poles (full model{delay}): " + roots_text(cl))
     res = step_check(model, p)
     m = res.metrics
     settled = f"{sig(m.settling_time_s)} s" if math.isfinite(m.settling_time_s) else "not within the record"
-    typer.echo(f"step response (simulated, no rails): overshoot {sig(m.overshoot_pct)} %, settling time (2 %) "
+    say(f"step response (simulated, no rails): overshoot {sig(m.overshoot_pct)} %, settling time (2 %) "
                f"{settled}, rise time {sig(m.rise_time_s)} s, peak |u| {sig(m.peak_control_v)} V per "
                f"{p.output_unit} of step")
     for w in (*p.warnings, *(w for w in res.warnings if "dead time" not in w)):
-        typer.echo(f"warning: {w}")
-    if json_out is not None:
-        with atomic_outputs(exclusive=not force) as outs:
-            outs.write_text(json_out, p.to_json_text() + "\n")
-        typer.echo(f"design JSON: {json_out}")
+        say(f"warning: {w}")
+    from motorid.control.emit import discretise_pid
+
+    _write_with_code(p.to_json(), lambda ts, how: discretise_pid(model, p, ts, how), model_file, json_out, force,
+                     discrete, discrete_method, emit, emit_file, say)
 
 
 #: The simulation metrics printed, in order, with their units (``output``: the output channel's).

@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from motorid.control.controller import COMMAND, controller_system, signal_unit
+from motorid.control.controller import COMMAND, REFERENCE, controller_system, signal_unit
 from motorid.control.margins import PADE_ORDER
 from motorid.errors import OptionError
 
@@ -39,6 +39,7 @@ if TYPE_CHECKING:
     import control
 
     from motorid.control.design import Design
+    from motorid.control.pid import PidDesign
     from motorid.model import MotorModel
 
 __all__ = [
@@ -48,6 +49,7 @@ __all__ = [
     "DiscreteController",
     "discretise",
     "discretise_design",
+    "discretise_pid",
     "emit",
     "emit_c",
     "emit_matlab",
@@ -293,8 +295,6 @@ def discretise_design(model: MotorModel, design: Design, ts: float, method: str 
     Åström & Wittenmark, *Computer-Controlled Systems*, 3rd ed. (1997): the rule of thumb
     ``ω h ≈ 0.1–0.6`` for the sampling period.
     """
-    import control
-
     _check_ts(ts, method)
     designed = design.output_feedback_poles if design.output_feedback_poles is not None else design.closed_loop_poles
     if designed is not None and np.size(designed) and float(np.max(np.real(designed))) >= 0:
@@ -306,19 +306,75 @@ def discretise_design(model: MotorModel, design: Design, ts: float, method: str 
     poles = [np.asarray(p, dtype=complex).ravel() for p in
              (design.closed_loop_poles, design.observer_poles, design.output_feedback_poles, csys.poles())
              if p is not None]
-    fastest = float(np.max(np.abs(np.concatenate(poles)), initial=0.0))
+    units = {name: signal_unit(name, design.units, output=design.output)
+             for name in (*csys.input_labels, *csys.output_labels)}
+    return _sampled(csys, plant_system(model, design), float(model.delay_s), poles, ts, method, units,
+                    _design_notes(model, design))
+
+
+def discretise_pid(model: MotorModel, pid: PidDesign, ts: float, method: str = "zoh") -> DiscreteController:
+    """A PID design sampled at ``ts``, checked as :func:`discretise_design` checks state feedback.
+
+    The controller is :meth:`~motorid.control.pid.PidDesign.system` (inputs ``r`` and the channel).
+
+    Parameters
+    ----------
+    model : MotorModel
+        The model the PID was tuned for.
+    pid : PidDesign
+    ts : float
+        Sampling interval, s.
+    method : str
+        One of :data:`METHODS`.
+
+    Returns
+    -------
+    DiscreteController
+
+    Raises
+    ------
+    OptionError
+        As :func:`discretise_design`.
+    """
+    import control
+
+    from motorid.control.pid import channel_system
+
+    _check_ts(ts, method)
+    csys = pid.system()
+    plant = channel_system(model, pid.loop)[0]
+    # the loop's poles without the dead time's Padé poles (they are not the controller's business)
+    closed = control.interconnect([control.ss(plant.A, plant.B, plant.C, plant.D, inputs=[COMMAND],
+                                              outputs=[pid.output]), csys],
+                                  inplist=[REFERENCE], outlist=[COMMAND], check_unused=False)
+    designed = np.linalg.eigvals(np.asarray(closed.A, dtype=float)) if closed.nstates else np.zeros(0)
+    if designed.size and float(np.max(designed.real)) >= 0:
+        raise OptionError("--discrete: the PID loop itself is unstable without its dead time; fix the design "
+                          "before sampling it")
+    units = {REFERENCE: pid.output_unit, pid.output: pid.output_unit, COMMAND: "V"}
+    motor = control.ss(plant.A, plant.B, plant.C, plant.D, inputs=[COMMAND], outputs=[pid.output], name="motor")
+    notes = (f"Model: {model.method}, order {model.A.shape[0]}, outputs {', '.join(model.outputs)}",
+             f"Design: {pid.kind} on the {pid.loop}, u = kp (r - y) + ki integral(r - y) - kd s/(tf s + 1) y; "
+             f"y = {pid.output}",
+             f"  kp = {pid.kp:.6g}, ki = {pid.ki:.6g}, kd = {pid.kd:.6g}, tf = {pid.tf_s:.6g} s")
+    return _sampled(csys, motor, float(model.delay_s), [designed, csys.poles()], ts, method, units, notes)
+
+
+def _sampled(csys: control.StateSpace, motor_c: control.StateSpace, tau: float, poles: list[np.ndarray],
+             ts: float, method: str, units: dict[str, str], notes: tuple[str, ...]) -> DiscreteController:
+    """``csys`` discretised, with the sample-rate limits of ``poles`` and the sampled loop's check."""
+    import control
+
+    fastest = float(np.max(np.abs(np.concatenate([np.asarray(p, dtype=complex).ravel() for p in poles])),
+                           initial=0.0))
     ts_max = math.pi / fastest if fastest > 0 else None
     if ts_max is not None and ts >= ts_max:
         raise OptionError(f"--discrete {ts:g} s is at or beyond the Nyquist limit pi/|p| = {ts_max:.3g} s of the "
                           f"loop's fastest pole (|p| = {fastest:.3g} rad/s); sample faster, e.g. --discrete "
                           f"{SAMPLING_RULE / fastest:.2g}")
-    units = {name: signal_unit(name, design.units, output=design.output)
-             for name in (*csys.input_labels, *csys.output_labels)}
     dc = discretise(csys, ts, method, units=units)
     # the sampled loop: the motor (its dead time as a Padé approximant, as in the margins) behind a
     # zero-order hold (the DAC), read every TS
-    motor_c = plant_system(model, design)
-    tau = float(model.delay_s)
     delayed = tau * max(fastest, 1.0) > 1e-6
     if delayed:
         with_delay = motor_c * control.ss(control.tf(*control.pade(tau, PADE_ORDER)))
@@ -336,7 +392,6 @@ def discretise_design(model: MotorModel, design: Design, ts: float, method: str 
         warnings.append(f"TS*|p| = {ts * fastest:.2g} for the loop's fastest pole (|p| = {fastest:.3g} rad/s) is "
                         f"above {SAMPLING_RULE} (the rule of thumb, {RULE_SOURCE}): the sampled loop departs from "
                         f"the design; TS <= {SAMPLING_RULE / fastest:.2g} s keeps to it")
-    notes = _design_notes(model, design)
     return DiscreteController(dc.system, dc.ts_s, method, units, fastest if fastest > 0 else None, ts_max, rho,
                               notes, tuple(warnings))
 

@@ -368,7 +368,7 @@ def reduce_half_rule(num: np.ndarray, den: np.ndarray, delay_s: float, *, integr
     return ReducedModel(gain, tau, theta, integrating, order, tuple(notes))
 
 
-def _channel_system(model: MotorModel, channel: str) -> tuple[control.StateSpace, np.ndarray, np.ndarray]:
+def channel_system(model: MotorModel, channel: str) -> tuple[control.StateSpace, np.ndarray, np.ndarray]:
     """The command → ``channel`` transfer function as ``(minimal state space, num, den)``.
 
     From the transfer function (states the channel cannot see, such as the position
@@ -746,7 +746,7 @@ def design_pid(model: MotorModel, settings: PidSettings) -> PidDesign:
     """
     s = settings
     channel = s.loop
-    plant, num, den = _channel_system(model, channel)
+    plant, num, den = channel_system(model, channel)
     red = reduce_half_rule(num, den, model.delay_s, integrating=channel == "position", channel=channel)
     unit = model.units.get(channel) or "V"
 
@@ -845,7 +845,7 @@ def pid_loop_frequency_response(model: MotorModel, pid: PidDesign, points: int =
 
     from motorid.control.margins import _response
 
-    plant, _num, _den = _channel_system(model, pid.loop)
+    plant, _num, _den = channel_system(model, pid.loop)
     loop = control.ss(pid.tf()) * plant
     fastest = max(float(np.max(np.abs(np.linalg.eigvals(np.asarray(loop.A, float))), initial=0.0)), 1.0)
     omega = np.logspace(np.log10(fastest) - 4, np.log10(fastest) + 1, points)
