@@ -5,7 +5,7 @@ from pathlib import Path
 
 import matplotlib
 
-sys.path.insert(0, str(Path(__file__).parent))  # docs/_cli.py: the click command of the typer app
+sys.path.insert(0, str(Path(__file__).parent))  # docs/_cli.py, a local extension
 
 matplotlib.use("Agg")  # the gallery's figures are rendered without a display
 
@@ -18,7 +18,7 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "numpydoc",
-    "sphinx_click",
+    "_cli",  # docs/_cli.py: the command line reference from the commands
     "sphinx_gallery.gen_gallery",
 ]
 
