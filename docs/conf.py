@@ -5,13 +5,13 @@ from pathlib import Path
 
 import matplotlib
 
-sys.path.insert(0, str(Path(__file__).parent))  # docs/_cli.py, a local extension
+sys.path.insert(0, str(Path(__file__).parent))  # docs/_cli.py, docs/_tutorial.py: local extensions
 
 matplotlib.use("Agg")  # the gallery's figures are rendered without a display
 
 project = "motorid"
 author = "motorid contributors"
-copyright = "motorid contributors"  # noqa: A001 - Sphinx's name
+copyright = "motorid contributors"
 
 extensions = [
     "myst_parser",
@@ -19,6 +19,7 @@ extensions = [
     "sphinx.ext.autosummary",
     "numpydoc",
     "_cli",  # docs/_cli.py: the command line reference from the commands
+    "_tutorial",  # docs/_tutorial.py: runs the tutorial's code blocks during the build
     "sphinx_gallery.gen_gallery",
 ]
 

@@ -42,5 +42,8 @@ def test_the_documentation_builds_without_warnings_and_runs_the_gallery(tmp_path
     api = (html / "python-api.html").read_text(encoding="utf-8")
     assert "motorid.identify" in api and "sample_interval" in api and "Parameters" in api
 
+    tutorial = (html / "tutorial.html").read_text(encoding="utf-8")
+    assert "ran when this documentation was built" in tutorial  # docs/_tutorial.py ran its blocks
+
     for page in ("getting-started", "tutorial", "formats", "laguerre", "batch"):
         assert (html / f"{page}.html").is_file(), page
