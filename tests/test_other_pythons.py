@@ -21,12 +21,13 @@ OFFLINE = ("Could not find a version", "No matching distribution", "Failed to es
 
 
 def _interpreter(version: str) -> str | None:
-    """``python3.12`` on the PATH, else a pyenv build of that version."""
-    found = shutil.which(f"python{version}")
-    if found:
-        return found
+    """A working ``python3.12``: on the PATH, or a pyenv build (a pyenv shim of an inactive version
+    is on the PATH but does not run, so each candidate is tried)."""
     builds = sorted(glob.glob(str(Path.home() / ".pyenv" / "versions" / f"{version}.*" / "bin" / "python")))
-    return builds[-1] if builds else None
+    for exe in (*reversed(builds), shutil.which(f"python{version}")):
+        if exe and subprocess.run([exe, "-c", "import venv"], capture_output=True, timeout=60).returncode == 0:
+            return exe
+    return None
 
 
 @pytest.mark.slow

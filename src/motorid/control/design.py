@@ -723,12 +723,13 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
             raise OptionError(f"--observer-poles: give {n} poles (a full observer from {out_name}) or "
                               f"{unmeasured}, one per state the sensors do not measure (a reduced-order observer of "
                               f"{', '.join(x for x in work.states if x not in sensors)})")
-        poles = (default_poles(cl, unmeasured) if s.observer_poles is None
-                 else np.asarray(s.observer_poles, dtype=complex))
         if s.integral and out_name not in sensors:
             raise OptionError(f"integral action integrates the measured {out_name}: add it to --sensors "
                               f"(given: {','.join(sensors)})")
-        reduced = reduced_observer(a, b, tuple(work.states), sensors, poles)
+        if s.observer_poles is None:
+            reduced = _default_reduced_observer(a, b, c, k, ki, cl, tuple(work.states), sensors, warnings)
+        else:
+            reduced = reduced_observer(a, b, tuple(work.states), sensors, np.asarray(s.observer_poles, dtype=complex))
         obs = reduced.poles
         ofb = np.linalg.eigvals(reduced_loop_matrix(a, b, c, k, ki, reduced, tuple(work.states)))
     elif s.observer_poles is not None:
@@ -767,6 +768,40 @@ def _sensors(s: DesignSettings, model: MotorModel, states: tuple[str, ...]) -> t
                           f"(its states: {', '.join(states)})")
     measured = tuple(x for x in states if x in wanted)
     return measured or None
+
+
+#: The default reduced observer is made faster (×2 each time, up to :data:`OBSERVER_SPEED_MAX`
+#: times the controller's fastest pole) until the loop's sensitivity peak is at most this
+#: (Skogestad's upper limit for a robust loop): an estimate fed back with a large gain (a
+#: model whose velocity follows the command at once) costs phase a slow observer cannot give.
+OBSERVER_MS_MAX = 2.0
+OBSERVER_SPEED_MAX = 64.0
+
+
+def _default_reduced_observer(a: np.ndarray, b: np.ndarray, c: np.ndarray, k: np.ndarray, ki: float | None,
+                              cl: np.ndarray, states: tuple[str, ...], sensors: tuple[str, ...],
+                              warnings: list[str]) -> ReducedObserver:
+    """The reduced observer with default poles, fast enough that the loop keeps Ms ≤ :data:`OBSERVER_MS_MAX`."""
+    from motorid.control.margins import sensitivity_peak
+    from motorid.control.reduced_observer import OBSERVER_SPEED, reduced_loop
+
+    speed, best = OBSERVER_SPEED, None
+    while True:
+        obs = reduced_observer(a, b, states, sensors, default_poles(cl, len(states) - len(sensors), speed))
+        ms = sensitivity_peak(*reduced_loop(a, b, c, k, ki, obs, states))
+        if best is None or ms < best[0]:
+            best = (ms, speed, obs)
+        if ms <= OBSERVER_MS_MAX or speed >= OBSERVER_SPEED_MAX:
+            break
+        speed *= 2.0
+    ms, speed, obs = best
+    if speed > OBSERVER_SPEED or ms > OBSERVER_MS_MAX:
+        warnings.append(f"the observer's poles are {speed:g}× the controller's fastest, where the loop's sensitivity "
+                        f"peak is {ms:.3g}" + (
+                            f" ≤ {OBSERVER_MS_MAX:g}" if ms <= OBSERVER_MS_MAX else
+                            f", still above {OBSERVER_MS_MAX:g}: the estimate is fed back with a large gain; "
+                            "ask for slower closed-loop poles or measure that state"))
+    return obs
 
 
 def _requested_poles(s: DesignSettings, a: np.ndarray, b: np.ndarray, n: int, n_pair: int,

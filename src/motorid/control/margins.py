@@ -272,6 +272,30 @@ def open_loop_margins(loop: Any, delay_s: float, bandwidth_rad_s: float) -> Loop
     return LoopMargins(gain_db, phase, delay, wgc, ms, bandwidth_rad_s, used)
 
 
+def sensitivity_peak(a_l: np.ndarray, b_l: np.ndarray, c_l: np.ndarray) -> float:
+    """``max |1/(1 + L(jω))|`` of a loop ``(A, B, C)`` broken at the motor's input (without dead time).
+
+    On a log grid over nine decades around the loop's fastest pole (at least 1: ``|S(j∞)| = 1``).
+
+    Parameters
+    ----------
+    a_l, b_l, c_l : ndarray
+        The loop's matrices (:func:`_loop_matrices`, :func:`.reduced_observer.reduced_loop`).
+
+    Returns
+    -------
+    float
+        The sensitivity peak Ms (``inf`` where ``1 + L`` vanishes on the grid).
+    """
+    import control
+
+    fastest = _fastest(a_l)
+    omega = np.logspace(np.log10(fastest) - 6, np.log10(fastest) + 3, 1000)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s_mag = 1.0 / np.abs(1.0 + _response(control.ss(a_l, b_l, c_l, 0.0), omega))
+    return max(float(np.nanmax(s_mag)), 1.0)
+
+
 def loop_frequency_response(model: MotorModel, design: Design, points: int = 800) -> tuple[np.ndarray, np.ndarray]:
     """``L(jω)`` of the loop :func:`loop_margins` checks, the model's dead time exact (``e^{−jωτ}``).
 

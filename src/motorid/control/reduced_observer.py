@@ -134,8 +134,8 @@ class ReducedObserver:
         return [states.index(s) for s in self.measured], [states.index(s) for s in self.estimated]
 
 
-def default_poles(controller_poles: np.ndarray, count: int) -> np.ndarray:
-    """``count`` real observer poles :data:`OBSERVER_SPEED` times faster than the controller's fastest.
+def default_poles(controller_poles: np.ndarray, count: int, speed: float = OBSERVER_SPEED) -> np.ndarray:
+    """``count`` real observer poles ``speed`` times faster than the controller's fastest.
 
     Parameters
     ----------
@@ -143,6 +143,8 @@ def default_poles(controller_poles: np.ndarray, count: int) -> np.ndarray:
         The closed loop's (state feedback's) poles.
     count : int
         How many states are estimated.
+    speed : float
+        The factor (default :data:`OBSERVER_SPEED`).
 
     Returns
     -------
@@ -150,7 +152,7 @@ def default_poles(controller_poles: np.ndarray, count: int) -> np.ndarray:
         Distinct negative real poles.
     """
     fastest = max(float(np.max(np.abs(np.asarray(controller_poles).real), initial=0.0)), 1.0)
-    return -OBSERVER_SPEED * fastest * (1.0 + 0.15 * np.arange(count))
+    return -speed * fastest * (1.0 + 0.15 * np.arange(count))
 
 
 def reduced_observer(a: np.ndarray, b: np.ndarray, states: tuple[str, ...], measured: tuple[str, ...],
