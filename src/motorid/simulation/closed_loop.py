@@ -617,20 +617,8 @@ def simulate_closed_loop(model: MotorModel, design: Design | PidDesign, settings
         warnings.append(f"at dt = {s.dt_s:g} s the sampled loop is unstable (spectral radius {rho:.4g}) although the "
                         "continuous design is stable: the controller or observer gains are too large for this rate "
                         "(observer poles slower than a plant pole need such gains); use a smaller --dt, or other poles")
-    nl = model.static_nonlinearity
-    if s.dead_zone_compensation and nl is None:
-        raise OptionError("dead-zone compensation needs a model with a static nonlinearity (identify several "
-                          "step levels: --velocity once per level)")
-    if nl is not None and nl.dead_zone_v > 0:
-        warnings.append(f"the model's dead-zone of {nl.dead_zone_v:.3g} V acts on the plant input"
-                        + (" and is compensated by feed-forward" if s.dead_zone_compensation else ""))
-    trainer = None
-    if s.plant == "trainer":
-        if plant is None:
-            raise OptionError("plant='trainer' needs the trainer's loop: use "
-                              "motorid.trainer.closed_loop.simulate_on_trainer")
-        trainer = plant
-        warnings += plant.start(model, s, x)
+    nl, trainer = _plant_setup(model, s, plant, x, warnings)
+    if trainer is not None:
         read = ([model.states[i] for i in reduced.measured] if reduced is not None
                 else [] if use_obs else list(model.states))
         if any(name not in ("position", "velocity") for name in read):
@@ -685,18 +673,45 @@ def simulate_closed_loop(model: MotorModel, design: Design | PidDesign, settings
                 feed[:-1] = meas[reduced.measured]
                 feed[-1] = u_obs
                 w = reduced.phi @ w + reduced.gam @ feed
-    if not np.all(np.isfinite(ys)):
-        warnings.append("the response diverged (non-finite values): the closed loop is unstable")
-    elif (np.max(np.abs(ys))
-          > 1e3 * max(float(np.max(np.abs(r))), 1.0) + 1e3 * float(np.max(np.abs(xs[0]), initial=0.0))):
-        warnings.append("the response diverged (it grew a thousandfold beyond the reference): the closed loop is "
-                        "unstable")
-    if s.saturation_v is not None and np.any(np.abs(uraw) > sat):
-        warnings.append(f"the actuator saturated (|u| reached {np.nanmax(np.abs(uraw)):.3g} V > {sat:g} V)")
-        warnings += _rail_to_rail(us, sat, integral=ki is not None, held=hold)
+    warnings += _run_warnings(ys, r, xs, us, uraw, s, sat, integral=ki is not None, held=hold)
     metrics = response_metrics(t, ys, r, us, s.reference.kind == "step")
     return SimulationResult(t, r, ys, us, uraw, xs, xhs, zs, tuple(model.states), design.output, metrics,
                             tuple(warnings), dict(model.units), bool(hold))
+
+
+def _plant_setup(model: MotorModel, s: SimulationSettings, plant: ClosedLoopPlant | None, x: np.ndarray,
+                 warnings: list[str]) -> tuple[Any, ClosedLoopPlant | None]:
+    """The model's static nonlinearity and the trainer's loop, checked and started (either controller's run)."""
+    nl = model.static_nonlinearity
+    if s.dead_zone_compensation and nl is None:
+        raise OptionError("dead-zone compensation needs a model with a static nonlinearity (identify several "
+                          "step levels: --velocity once per level)")
+    if nl is not None and nl.dead_zone_v > 0:
+        warnings.append(f"the model's dead-zone of {nl.dead_zone_v:.3g} V acts on the plant input"
+                        + (" and is compensated by feed-forward" if s.dead_zone_compensation else ""))
+    if s.plant != "trainer":
+        return nl, None
+    if plant is None:
+        raise OptionError("plant='trainer' needs the trainer's loop: use "
+                          "motorid.trainer.closed_loop.simulate_on_trainer")
+    warnings += plant.start(model, s, x)
+    return nl, plant
+
+
+def _run_warnings(ys: np.ndarray, r: np.ndarray, xs: np.ndarray, us: np.ndarray, uraw: np.ndarray,
+                  s: SimulationSettings, sat: float, *, integral: bool, held: bool) -> list[str]:
+    """What a finished run says: divergence, saturation and a limit cycle between the rails."""
+    out: list[str] = []
+    if not np.all(np.isfinite(ys)):
+        out.append("the response diverged (non-finite values): the closed loop is unstable")
+    elif (np.max(np.abs(ys))
+          > 1e3 * max(float(np.max(np.abs(r))), 1.0) + 1e3 * float(np.max(np.abs(xs[0]), initial=0.0))):
+        out.append("the response diverged (it grew a thousandfold beyond the reference): the closed loop is "
+                   "unstable")
+    if s.saturation_v is not None and np.any(np.abs(uraw) > sat):
+        out.append(f"the actuator saturated (|u| reached {np.nanmax(np.abs(uraw)):.3g} V > {sat:g} V)")
+        out += _rail_to_rail(us, sat, integral=integral, held=held)
+    return out
 
 
 def _simulate_pid(model: MotorModel, pid: PidDesign, s: SimulationSettings,
@@ -741,20 +756,7 @@ def _simulate_pid(model: MotorModel, pid: PidDesign, s: SimulationSettings,
         warnings.append(f"at dt = {s.dt_s:g} s the sampled loop is unstable (spectral radius {rho:.4g}) although the "
                         "continuous design is stable: the PID's gains (or its derivative filter) are too fast for "
                         "this rate; use a smaller --dt")
-    nl = model.static_nonlinearity
-    if s.dead_zone_compensation and nl is None:
-        raise OptionError("dead-zone compensation needs a model with a static nonlinearity (identify several "
-                          "step levels: --velocity once per level)")
-    if nl is not None and nl.dead_zone_v > 0:
-        warnings.append(f"the model's dead-zone of {nl.dead_zone_v:.3g} V acts on the plant input"
-                        + (" and is compensated by feed-forward" if s.dead_zone_compensation else ""))
-    trainer = None
-    if s.plant == "trainer":
-        if plant is None:
-            raise OptionError("plant='trainer' needs the trainer's loop: use "
-                              "motorid.trainer.closed_loop.simulate_on_trainer")
-        trainer = plant
-        warnings += plant.start(model, s, x)
+    nl, trainer = _plant_setup(model, s, plant, x, warnings)
     xs = np.empty((steps + 1, n))
     zs = np.empty(steps + 1) if i_z is not None else None
     ys = np.empty(steps + 1)
@@ -789,15 +791,7 @@ def _simulate_pid(model: MotorModel, pid: PidDesign, s: SimulationSettings,
                 if hold and i_z is not None and ((u_req > sat and pid.ki * e > 0) or (u_req < -sat and pid.ki * e < 0)):
                     new[i_z] = xc[i_z]
                 xc = new
-    if not np.all(np.isfinite(ys)):
-        warnings.append("the response diverged (non-finite values): the closed loop is unstable")
-    elif (np.max(np.abs(ys))
-          > 1e3 * max(float(np.max(np.abs(r))), 1.0) + 1e3 * float(np.max(np.abs(xs[0]), initial=0.0))):
-        warnings.append("the response diverged (it grew a thousandfold beyond the reference): the closed loop is "
-                        "unstable")
-    if s.saturation_v is not None and np.any(np.abs(uraw) > sat):
-        warnings.append(f"the actuator saturated (|u| reached {np.nanmax(np.abs(uraw)):.3g} V > {sat:g} V)")
-        warnings += _rail_to_rail(us, sat, integral=i_z is not None, held=hold)
+    warnings += _run_warnings(ys, r, xs, us, uraw, s, sat, integral=i_z is not None, held=hold)
     metrics = response_metrics(t, ys, r, us, s.reference.kind == "step")
     return SimulationResult(t, r, ys, us, uraw, xs, None, zs, tuple(model.states), pid.output, metrics,
                             tuple(warnings), dict(model.units), bool(hold))
