@@ -264,9 +264,7 @@ def open_loop_margins(loop: Any, delay_s: float, bandwidth_rad_s: float) -> Loop
     delay = math.radians(phase) / wgc if math.isfinite(phase) and math.isfinite(wgc) else math.inf
     # the sensitivity peak also on a grid: python-control finds the stationary points of |1 + L|,
     # and a loop whose |1 + L| only falls towards ω → 0 or ∞ has none
-    omega = np.logspace(np.log10(fastest) - 6, np.log10(fastest) + 3, 2000)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        grid_ms = float(np.nanmax(1.0 / np.abs(1.0 + _response(loop, omega))))
+    grid_ms = _grid_sensitivity_peak(loop, fastest, 2000)
     ms = max(grid_ms, 1.0 / float(sm) if sm is not None and math.isfinite(sm) and float(sm) > 0 else 0.0)
     used = delay_s if pade is not None else 0.0
     return LoopMargins(gain_db, phase, delay, wgc, ms, bandwidth_rad_s, used)
@@ -289,11 +287,14 @@ def sensitivity_peak(a_l: np.ndarray, b_l: np.ndarray, c_l: np.ndarray) -> float
     """
     import control
 
-    fastest = _fastest(a_l)
-    omega = np.logspace(np.log10(fastest) - 6, np.log10(fastest) + 3, 1000)
+    return max(_grid_sensitivity_peak(control.ss(a_l, b_l, c_l, 0.0), _fastest(a_l), 1000), 1.0)
+
+
+def _grid_sensitivity_peak(loop: Any, fastest: float, points: int) -> float:
+    """``max |1/(1 + L(jω))|`` on ``points`` frequencies over nine decades around ``fastest``."""
+    omega = np.logspace(np.log10(fastest) - 6, np.log10(fastest) + 3, points)
     with np.errstate(divide="ignore", invalid="ignore"):
-        s_mag = 1.0 / np.abs(1.0 + _response(control.ss(a_l, b_l, c_l, 0.0), omega))
-    return max(float(np.nanmax(s_mag)), 1.0)
+        return float(np.nanmax(1.0 / np.abs(1.0 + _response(loop, omega))))
 
 
 def loop_frequency_response(model: MotorModel, design: Design, points: int = 800) -> tuple[np.ndarray, np.ndarray]:
