@@ -176,21 +176,26 @@ int main(void)
 """
 
 
-@pytest.mark.skipif(CC is None, reason="no C compiler (cc) on PATH")
-@pytest.mark.parametrize("method", ["zoh", "tustin"])
-def test_the_emitted_c_computes_the_discretised_controller(case, method, tmp_path):
-    model, design = case
-    dc = discretise_design(model, design, 0.002, method)
+def _run_c(dc: DiscreteController, w: np.ndarray, tmp_path) -> np.ndarray:
+    """The emitted C compiled with a small main() and fed ``w`` row by row: its ``u`` per row."""
     (tmp_path / "controller.c").write_text(emit_c(dc, source="a test"))
     n = len(dc.inputs)
     (tmp_path / "main.c").write_text(MAIN_C % {"n": n, "args": ", ".join(f"in[{i}]" for i in range(n))})
     exe = tmp_path / "ctl"
     subprocess.run([CC, "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-O2", "-o", str(exe),
                     str(tmp_path / "main.c")], check=True, capture_output=True, cwd=tmp_path)
-    w = _inputs(dc)
     stdin = "\n".join(" ".join(format(v, ".17g") for v in row) for row in w) + "\n"
     run = subprocess.run([str(exe)], input=stdin, capture_output=True, text=True, check=True)
-    u = np.array([float(v) for v in run.stdout.split()])
+    return np.array([float(v) for v in run.stdout.split()])
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler (cc) on PATH")
+@pytest.mark.parametrize("method", ["zoh", "tustin"])
+def test_the_emitted_c_computes_the_discretised_controller(case, method, tmp_path):
+    model, design = case
+    dc = discretise_design(model, design, 0.002, method)
+    w = _inputs(dc)
+    u = _run_c(dc, w, tmp_path)
     assert u.shape == (w.shape[0],)
     assert np.max(np.abs(u - _reference(dc, w))) <= 1e-9
 
@@ -383,15 +388,7 @@ def test_a_pid_is_emitted_as_c_that_computes_its_discretised_controller(loop, tm
     # the sampled controller is python-control's c2d of the PID's own system
     want = control.c2d(pid.system(), 0.005, method="zoh")
     np.testing.assert_allclose(np.asarray(dc.system.A), np.asarray(want.A), rtol=1e-12, atol=1e-15)
-    (tmp_path / "controller.c").write_text(emit_c(dc, source="a test"))
-    n = len(dc.inputs)
-    (tmp_path / "main.c").write_text(MAIN_C % {"n": n, "args": ", ".join(f"in[{i}]" for i in range(n))})
-    exe = tmp_path / "ctl"
-    subprocess.run([CC, "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-O2", "-o", str(exe),
-                    str(tmp_path / "main.c")], check=True, capture_output=True, cwd=tmp_path)
     w = _inputs(dc)
-    stdin = "\n".join(" ".join(format(v, ".17g") for v in row) for row in w) + "\n"
-    run = subprocess.run([str(exe)], input=stdin, capture_output=True, text=True, check=True)
-    u = np.array([float(v) for v in run.stdout.split()])
+    u = _run_c(dc, w, tmp_path)
     assert np.max(np.abs(u - _reference(dc, w))) <= 1e-9
     assert "PI" in emit_c(dc) and "kp = " in emit_c(dc)
