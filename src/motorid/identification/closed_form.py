@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 __all__ = [
+    "PartialFractions",
     "ResponseBasis",
     "position_closed_form",
     "residue_derivatives",
@@ -64,31 +65,74 @@ def _horner(num: np.ndarray, x: np.ndarray) -> np.ndarray:
     return y
 
 
-def residues(num: ArrayLike, taus: ArrayLike) -> tuple[np.ndarray, np.ndarray, float]:
+class PartialFractions:
+    """The partial fractions of ``N(s)/(s·D(s))`` for one ``D(s) = Π(1 + τ_i s)``, any numerator.
+
+    The poles and the denominators of the residues depend on the time constants only: computed
+    once here, every numerator's residues are one polynomial evaluation (a Jacobian of the
+    output-error fit takes a dozen numerators' residues on the same time constants).
+
+    Parameters
+    ----------
+    taus : array_like
+        Time constants τ_i (equal ones are split by :func:`separate`).
+    """
+
+    __slots__ = ("denom", "f", "p", "taus")
+
+    def __init__(self, taus: ArrayLike) -> None:
+        t = separate(taus)
+        p = -1.0 / t
+        f = 1.0 + p[:, None] * t[None, :]  # f[i, k] = 1 + τ_k p_i
+        np.fill_diagonal(f, 1.0)
+        self.taus, self.p, self.f = t, p, f
+        self.denom = p * t * f.prod(axis=1)
+
+    def residues(self, num: ArrayLike) -> tuple[np.ndarray, np.ndarray, float]:
+        """Poles, residues of ``N(s)/(s·D(s))`` and ``N(0)``: :func:`residues`."""
+        num = np.atleast_1d(np.asarray(num, dtype=float))
+        return self.p, _horner(num, self.p) / self.denom, float(num[-1])
+
+    def derivatives(self, num: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        """``∂p_i/∂ln τ_i`` and ``∂R_i/∂ln τ_j``: :func:`residue_derivatives`."""
+        num = np.atleast_1d(np.asarray(num, dtype=float))
+        taus, p, f = self.taus, self.p, self.f
+        _, r, _ = self.residues(num)
+        n = taus.size
+        # the residue with N'(p_i) in place of N(p_i): no division by N(p_i), which a zero may cancel
+        dnum = _horner(num[:-1] * np.arange(num.size - 1, 0, -1), p) if num.size > 1 else np.zeros(n)
+        rd = dnum / self.denom
+        # j ≠ i: only the factor (1 + τ_j p_i) moves
+        dr = -r[:, None] * taus[None, :] * p[:, None] / f
+        for i in range(n):
+            # p_i moves (∂p_i/∂ln τ_i = −p_i) while p_i·τ_i = −1 stays
+            dr[i, i] = -p[i] * (rd[i] - r[i] * float((taus / f[i]).sum() - taus[i]))  # f[i, i] = 1: k ≠ i
+        return -p, dr
+
+
+def _fractions(taus: ArrayLike | PartialFractions) -> PartialFractions:
+    return taus if isinstance(taus, PartialFractions) else PartialFractions(taus)
+
+
+def residues(num: ArrayLike, taus: ArrayLike | PartialFractions) -> tuple[np.ndarray, np.ndarray, float]:
     """Poles p_i, residues of N(s)/(s·D(s)) at p_i, and N(0), for D(s) = Π(1 + τ_i s).
 
     Parameters
     ----------
     num : array_like
         Numerator ``N(s)``, highest power first.
-    taus : array_like
-        Time constants τ_i (equal ones are split by :func:`separate`).
+    taus : array_like or PartialFractions
+        Time constants τ_i (equal ones are split by :func:`separate`), or their partial fractions.
 
     Returns
     -------
     (ndarray, ndarray, float)
         The poles ``p_i = −1/τ_i``, the residues ``R_i`` and ``N(0)``.
     """
-    num = np.atleast_1d(np.asarray(num, dtype=float))
-    taus = separate(taus)
-    p = -1.0 / taus
-    m = 1.0 + p[:, None] * taus[None, :]  # m[i, k] = 1 + τ_k p_i
-    np.fill_diagonal(m, 1.0)
-    res = _horner(num, p) / (p * taus * m.prod(axis=1))
-    return p, res, float(num[-1])
+    return _fractions(taus).residues(num)
 
 
-def residue_derivatives(num: ArrayLike, taus: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def residue_derivatives(num: ArrayLike, taus: ArrayLike | PartialFractions) -> tuple[np.ndarray, np.ndarray]:
     """``∂p_i/∂ln τ_i`` and ``∂R_i/∂ln τ_j`` of :func:`residues` (``R_i = N(p_i)/(p_i τ_i Π_{k≠i}(1 + τ_k p_i))``).
 
     Analytic: nearly equal time constants have huge residues of opposite sign whose
@@ -99,29 +143,15 @@ def residue_derivatives(num: ArrayLike, taus: ArrayLike) -> tuple[np.ndarray, np
     ----------
     num : array_like
         Numerator ``N(s)``, highest power first.
-    taus : array_like
-        Time constants τ_i.
+    taus : array_like or PartialFractions
+        Time constants τ_i, or their partial fractions.
 
     Returns
     -------
     (ndarray, ndarray)
         ``∂p_i/∂ln τ_i`` (shape ``(n,)``) and ``∂R_i/∂ln τ_j`` (shape ``(n, n)``).
     """
-    num = np.atleast_1d(np.asarray(num, dtype=float))
-    taus = separate(taus)
-    p, r, _ = residues(num, taus)
-    n = taus.size
-    f = 1.0 + p[:, None] * taus[None, :]  # f[i, k] = 1 + τ_k p_i
-    np.fill_diagonal(f, 1.0)
-    # the residue with N'(p_i) in place of N(p_i): no division by N(p_i), which a zero may cancel
-    dnum = _horner(num[:-1] * np.arange(num.size - 1, 0, -1), p) if num.size > 1 else np.zeros(n)
-    rd = dnum / (p * taus * f.prod(axis=1))
-    # j ≠ i: only the factor (1 + τ_j p_i) moves
-    dr = -r[:, None] * taus[None, :] * p[:, None] / f
-    for i in range(n):
-        # p_i moves (∂p_i/∂ln τ_i = −p_i) while p_i·τ_i = −1 stays
-        dr[i, i] = -p[i] * (rd[i] - r[i] * float((taus / f[i]).sum() - taus[i]))  # f[i, i] = 1: k ≠ i
-    return -p, dr
+    return _fractions(taus).derivatives(num)
 
 
 def _exp_basis(t: np.ndarray, p: np.ndarray, block: tuple[int, float] | None,
@@ -256,7 +286,8 @@ class ResponseBasis:
             self._de = de
         return self._de
 
-    def shape(self, kind: str, num: np.ndarray, taus: np.ndarray, dnums: Sequence[np.ndarray] = ()) -> np.ndarray:
+    def shape(self, kind: str, num: np.ndarray, taus: np.ndarray | PartialFractions,
+              dnums: Sequence[np.ndarray] = ()) -> np.ndarray:
         """Derivatives of :meth:`step` (``kind="step"``) or :meth:`position` in each ``ln τ_j``, then each ``dnums``.
 
         The basis functions' derivative in their pole is analytic, the residues' too
@@ -270,8 +301,8 @@ class ResponseBasis:
             ``"step"`` or ``"position"``.
         num : ndarray
             Numerator ``N(s)`` (highest power first).
-        taus : ndarray
-            The time constants whose poles this basis holds.
+        taus : ndarray or PartialFractions
+            The time constants whose poles this basis holds (or their partial fractions).
         dnums : sequence of ndarray
             Numerator directions ``∂N/∂θ`` (e.g. in a zero's time constant).
 
@@ -281,8 +312,9 @@ class ResponseBasis:
             ``(len(time_s), len(taus) + len(dnums))``, per volt of step.
         """
         p = self.p
-        _, r, _ = residues(num, taus)
-        dp, dr = residue_derivatives(num, taus)
+        pf = _fractions(taus)
+        _, r, _ = pf.residues(num)
+        dp, dr = pf.derivatives(num)
         position = kind == "position"
         if position:
             coef = r / p
@@ -292,11 +324,11 @@ class ResponseBasis:
         else:
             cols = [self.e @ dr + self._basis_slope() * (r * dp)]
         for dnum in dnums:
-            _, rn, n0 = residues(dnum, taus)
+            _, rn, n0 = pf.residues(dnum)
             cols.append((n0 * self.lin + (self.e - 1.0) @ (rn / p) if position else n0 + self.e @ rn)[:, None])
         out = self._masked(np.hstack(cols), self.after)
         for i, sub in self.sub:
-            out[i] = sub.shape(kind, num, taus, dnums).mean(axis=0)
+            out[i] = sub.shape(kind, num, pf, dnums).mean(axis=0)
         return out
 
 

@@ -26,6 +26,7 @@ import scipy.optimize
 import scipy.signal
 
 from motorid.identification.closed_form import (
+    PartialFractions,
     ResponseBasis,
     position_closed_form,
     residues,
@@ -327,8 +328,9 @@ class _Layout:
 
 def _predict(
     layout: _Layout, th: np.ndarray, t: np.ndarray | Mapping[str, np.ndarray], step: float, channels: Sequence[str],
-    block: Mapping[str, tuple[int, float]] | None = None,
+    block: Mapping[str, tuple[int, float]] | None = None, bases: Mapping[str, ResponseBasis] | None = None,
 ) -> dict[str, np.ndarray]:
+    """Every channel's response; on ``bases`` (the grids' exponentials for these parameters) when given."""
     q = layout.unpack(th)
     num = _vel_num(q["K"], q["tz"])
     out = {}
@@ -338,6 +340,17 @@ def _predict(
         grid = t[ch] if isinstance(t, Mapping) else t
         return grid - q["delay"] - q["shift"].get(ch, 0.0)
 
+    if bases is not None:
+        pf = PartialFractions(q["taus"])
+        _, r, n0 = pf.residues(num)
+        if "velocity" in channels:
+            out["velocity"] = step * bases["velocity"].step(r, n0)
+        if "position" in channels:
+            out["position"] = q["c"] * (step * bases["position"].position(r, n0))
+        if "current" in channels:
+            _, rc, nc0 = pf.residues(q["cur"])
+            out["current"] = step * bases["current"].step(rc, nc0)
+        return {c: y + q["off"].get(c, 0.0) for c, y in out.items()}
     if "velocity" in channels:
         out["velocity"] = step_response_closed_form(te("velocity"), num, q["taus"], step, blk.get("velocity"))
     if "position" in channels:
@@ -500,13 +513,96 @@ def output_error_fit(
     th0 = np.clip(prob.initial_parameters(init_taus, init_dc_gain, init_zeros, init_delay_s),
                   prob.lower + 1e-9, prob.upper - 1e-9)
     warnings: list[str] = []
+    small = _Compressed(prob)
     with np.errstate(over="ignore", invalid="ignore"):
-        sol = scipy.optimize.least_squares(prob.residuals, th0, jac=prob.jacobian, bounds=(prob.lower, prob.upper),
+        sol = scipy.optimize.least_squares(small.residuals, th0, jac=small.jacobian, bounds=(prob.lower, prob.upper),
                                            x_scale="jac", max_nfev=settings.max_nfev, method="trf",
                                            ftol=settings.tolerance, xtol=settings.tolerance)
+    sol.fun, sol.jac = small.full(sol.x)
     if not sol.success:
         warnings.append(f"output-error fit stopped early: {sol.message}")
     return prob.result(sol, step_std, warnings, level_rel_std=level_rel_std)
+
+
+class _Compressed:
+    """The least-squares problem handed to scipy as ``n + 1`` rows with the same normal equations.
+
+    scipy's ``trf`` takes an SVD of the Jacobian at every iteration: on three captures of 2000
+    samples (6000 rows × a dozen parameters) that SVD alone was a third of a fit.  Each step
+    of the method depends on the residuals ``f`` and the Jacobian ``J`` only through ``JᵀJ``,
+    ``Jᵀf`` and ``‖f‖`` (the trust-region subproblem, the gradient, the predicted and actual
+    reductions, the column scaling), so the fit is the same on the triangular factor ``R`` of
+    ``[J f]`` (``RᵀR = [J f]ᵀ[J f]``): ``J̃ = R[:, :n]``, ``f̃ = R[:, n]``.  ``R`` comes from the
+    Cholesky factor of the column-equilibrated Gram matrix (a few µs) when that is well
+    conditioned, else from a QR decomposition (as accurate as the SVD).  scipy offers no such
+    option (its ``lsmr`` solver is for large sparse problems), hence this class.
+
+    ``f̃`` must agree with the Jacobian at the same point, so :meth:`residuals` computes both;
+    the full ``f`` and ``J`` of the last points are kept for :meth:`full`.
+    """
+
+    __slots__ = ("_cache", "prob")
+
+    #: Equilibrated Gram matrices whose Cholesky factor has a diagonal ratio under this are
+    #: factorised by QR instead (their condition number squared would cost the step digits).
+    MIN_PIVOT = 1e-6
+
+    def __init__(self, prob: _OeProblem) -> None:
+        self.prob = prob
+        self._cache: dict[bytes, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+    def _at(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        key = np.asarray(x, dtype=float).tobytes()
+        hit = self._cache.get(key)
+        if hit is None:
+            f = self.prob.residuals(x)
+            jac = self.prob.jacobian(x)
+            hit = (f, jac, _triangular_factor(jac, f, self.MIN_PIVOT))
+            if len(self._cache) >= 2:
+                self._cache.pop(next(iter(self._cache)))
+            self._cache[key] = hit
+        return hit
+
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        """``f̃``: the last column of the factor."""
+        return self._at(x)[2][:, -1].copy()
+
+    def jacobian(self, x: np.ndarray, *_: Any) -> np.ndarray:
+        """``J̃``: the factor's other columns."""
+        return self._at(x)[2][:, :-1].copy()
+
+    def full(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The full residuals and Jacobian at ``x`` (for the covariance)."""
+        f, jac, _ = self._at(x)
+        return f, jac
+
+
+def _triangular_factor(jac: np.ndarray, f: np.ndarray, min_pivot: float) -> np.ndarray:
+    """Upper-triangular ``R`` (``(n+1)×(n+1)``) with ``RᵀR = AᵀA`` for ``A = [jac f]``."""
+    k = jac.shape[1] + 1
+    gram = np.empty((k, k))
+    gram[:-1, :-1] = jac.T @ jac
+    gram[:-1, -1] = gram[-1, :-1] = jac.T @ f
+    gram[-1, -1] = f @ f
+    if not np.all(np.isfinite(gram)):
+        # the optimiser handles a non-finite point (it shrinks the step): keep it non-finite
+        return np.full((k, k), np.nan)
+    d = np.sqrt(np.diag(gram))
+    if np.all(d > 0):
+        g = gram / np.outer(d, d)
+        try:
+            r = np.linalg.cholesky(g).T
+        except np.linalg.LinAlgError:
+            r = None
+        if r is not None:
+            piv = np.abs(np.diag(r))
+            if piv[:-1].min() >= min_pivot * piv[:-1].max():
+                return r * d[None, :]
+    r = scipy.linalg.qr(np.column_stack([jac, f]), mode="r", check_finite=False)[0]
+    out = np.zeros((k, k))
+    rows = min(r.shape[0], k)
+    out[:rows] = r[:rows]
+    return out
 
 
 #: Relative step of the central differences of the delta method (derived quantities).
@@ -548,6 +644,9 @@ class _OeProblem:
     n_total: int
     lower: np.ndarray
     upper: np.ndarray
+    #: The last parameters' grid exponentials (the residuals and the Jacobian at one point share them).
+    basis_key: bytes = b""
+    basis: dict[str, ResponseBasis] = field(default_factory=dict)
 
     @classmethod
     def build(cls, time_s: np.ndarray | Mapping[str, np.ndarray], step_volts: float,
@@ -663,7 +762,8 @@ class _OeProblem:
 
         On the sample times ``tc`` (default: the channels' own).
         """
-        pred = _predict(self.layout, th, self._grid(tc), self.step_volts, self.names, self.fast)
+        pred = _predict(self.layout, th, self._grid(tc), self.step_volts, self.names, self.fast,
+                        bases=self.bases(th) if tc is None else None)
         pred = {c: v if c in self.fast else _block_mean(v, self.ratio[c]) for c, v in pred.items()}
         if self.wraps is not None:
             pred["position"] = pred["position"] + th[self.layout.idx["span_position"]] * self.wraps
@@ -677,6 +777,18 @@ class _OeProblem:
         parts += [(self.pre_data[c] - th[idx[f"off_{c}"]]) * self.w_pre[c] for c in self.pre_data]
         return np.concatenate(parts)
 
+    def bases(self, th: np.ndarray) -> dict[str, ResponseBasis]:
+        """Each channel's :class:`ResponseBasis` on its own grid for the parameters ``th`` (the last one kept)."""
+        key = np.asarray(th, dtype=float).tobytes()
+        if key != self.basis_key:
+            q = self.layout.unpack(th)
+            poles = -1.0 / separate(q["taus"])  # those of residues()
+            tc = self._grid()
+            self.basis = {c: ResponseBasis(tc[c] - q["delay"] - q["shift"].get(c, 0.0), poles, self.fast.get(c))
+                          for c in self.names}
+            self.basis_key = key
+        return self.basis
+
     def jacobian(self, th: np.ndarray) -> np.ndarray:
         """Jacobian of :meth:`residuals`.
 
@@ -689,12 +801,11 @@ class _OeProblem:
         n, m = self.settings.n_poles, self.settings.n_zeros
         n_par = len(layout.names)
         q = layout.unpack(th)
-        te = {c: tc[c] - q["delay"] - q["shift"].get(c, 0.0) for c in names}
-        taus = q["taus"]
+        taus = PartialFractions(q["taus"])  # every numerator's residues below on the same time constants
         num1 = _vel_num(1.0, q["tz"])
-        poles, r1, n01 = residues(num1, taus)
-        # one basis per channel: every column below is a product with it
-        basis = {c: ResponseBasis(te[c], poles, fast.get(c)) for c in names}
+        _, r1, n01 = residues(num1, taus)
+        # one basis per channel: every column below is a product with it (the residuals' own)
+        basis = self.bases(th)
         d = {c: np.zeros((tc[c].size, n_par)) for c in names}
         slope: dict[str, np.ndarray] = {}
         shape = [layout.idx[f"log_tau_{i}"] for i in range(n)] + [layout.idx[f"Tz_{j}"] for j in range(m)]

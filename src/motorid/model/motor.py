@@ -366,6 +366,10 @@ class MotorModel:
     static_nonlinearity: StaticNonlinearity | None = None
     units: Mapping[str, str] = field(default_factory=dict)
     scales: Mapping[str, ChannelScale] = field(default_factory=dict)
+    #: Each channel's transfer function and the first-order approximations, computed once (the
+    #: model is immutable and its matrices read-only; an identification asks for them dozens of
+    #: times).
+    _tf_cache: dict[Any, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         a = _as_matrix("A", self.A, (None, None))
@@ -485,6 +489,12 @@ class MotorModel:
         return self.C[i:i + 1], self.D[i:i + 1]
 
     def _row_tf(self, channel: str) -> tuple[np.ndarray, np.ndarray]:
+        hit = self._tf_cache.get(channel)
+        if hit is None:
+            hit = self._tf_cache[channel] = self._compute_row_tf(channel)
+        return hit[0].copy(), hit[1].copy()
+
+    def _compute_row_tf(self, channel: str) -> tuple[np.ndarray, np.ndarray]:
         c, d = self._row(channel)
         # scipy's conversion (what python-control runs without slycot) without wrapping it in a
         # TransferFunction first: a model's TFs are taken dozens of times in one identification
@@ -613,6 +623,12 @@ class MotorModel:
             ``dc_gain`` and ``time_constant_s``; both NaN when the DC gain is zero or
             infinite (an integrating or differentiating velocity channel).
         """
+        key = ("first_order", float(cancel_tol_rel))
+        if key not in self._tf_cache:
+            self._tf_cache[key] = self._first_order(cancel_tol_rel)
+        return self._tf_cache[key]
+
+    def _first_order(self, cancel_tol_rel: float) -> FirstOrder:
         num, den = self._row_tf("velocity")
         if cancel_tol_rel > 0:
             record = self.settings.get("record_length_s")
