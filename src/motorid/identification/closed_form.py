@@ -89,12 +89,34 @@ class PartialFractions:
         self.denom = p * t * f.prod(axis=1)
 
     def residues(self, num: ArrayLike) -> tuple[np.ndarray, np.ndarray, float]:
-        """Poles, residues of ``N(s)/(s·D(s))`` and ``N(0)``: :func:`residues`."""
+        """Poles, residues of ``N(s)/(s·D(s))`` and ``N(0)``: :func:`residues`.
+
+        Parameters
+        ----------
+        num : array_like
+            Numerator ``N(s)``, highest power first.
+
+        Returns
+        -------
+        (ndarray, ndarray, float)
+            The poles ``p_i = −1/τ_i``, the residues ``R_i`` and ``N(0)``.
+        """
         num = np.atleast_1d(np.asarray(num, dtype=float))
         return self.p, _horner(num, self.p) / self.denom, float(num[-1])
 
     def derivatives(self, num: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-        """``∂p_i/∂ln τ_i`` and ``∂R_i/∂ln τ_j``: :func:`residue_derivatives`."""
+        """``∂p_i/∂ln τ_i`` and ``∂R_i/∂ln τ_j``: :func:`residue_derivatives`.
+
+        Parameters
+        ----------
+        num : array_like
+            Numerator ``N(s)``, highest power first.
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            ``∂p_i/∂ln τ_i`` (shape ``(n,)``) and ``∂R_i/∂ln τ_j`` (shape ``(n, n)``).
+        """
         num = np.atleast_1d(np.asarray(num, dtype=float))
         taus, p, f = self.taus, self.p, self.f
         _, r, _ = self.residues(num)
