@@ -16,9 +16,10 @@ from motorid.web import options as web_options
 @pytest.mark.parametrize("command", sorted(options.COMMANDS))
 def test_the_front_door_signature_is_the_declared_options(command):
     params = inspect.signature(getattr(mi, command)).parameters
-    # identify takes read_experiment's Experiment; the captures and the progress hook are no options
+    # identify takes read_experiment's Experiment; the captures, the progress hook and the Python-only settings
+    # objects are no options of the command line
     declared = {"identify": options.IDENTIFY, "read_experiment": options.READ}.get(command, options.COMMANDS[command])
-    hooks = (*options.names(options.ROLES), "progress")
+    hooks = (*options.names(options.ROLES), "progress", *options.PYTHON_ONLY)
     keyword = {n: p for n, p in params.items() if p.kind is inspect.Parameter.KEYWORD_ONLY and n not in hooks}
     assert list(keyword) == list(options.names(declared))
     for spec in declared:

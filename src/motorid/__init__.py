@@ -32,6 +32,10 @@ Results
    Experiment           -- the captures of one experiment by role, with the files' SHA-256
    IdentificationResult -- model, params, stages, fit, warnings, sanity, provenance, summary()
    ParameterEstimate    -- value, stderr and 95 % interval of one identified quantity
+   MethodOptions        -- the estimators' own settings for ``identify(method_options=...)``
+   OutputErrorOptions   -- the output-error fit's evaluations and tolerances
+   LaguerreSettings     -- the Laguerre–Hankel (Markov) estimate's basis, terms, orders, noise floor
+   SrivcSettings        -- SRIVC's iterations and tolerance
    Provenance           -- motorid version, input files' SHA-256, settings
    MotorModel           -- the identified state-space model (python-control objects inside)
    Design               -- a designed controller (gains, poles, observer)
@@ -83,7 +87,10 @@ if TYPE_CHECKING:  # what type checkers see; at run time each name loads on firs
         simulate,
         write_report,
     )
+    from motorid.identification.laguerre import LaguerreSettings
+    from motorid.identification.method_options import MethodOptions, OutputErrorOptions
     from motorid.identification.result import ParameterEstimate
+    from motorid.identification.srivc import SrivcSettings
     from motorid.model import MotorModel
     from motorid.simulation.closed_loop import SimulationResult
 
@@ -93,13 +100,17 @@ __all__ = [
     "Design",
     "Experiment",
     "IdentificationResult",
+    "LaguerreSettings",
+    "MethodOptions",
     "MotorIdError",
     "MotorModel",
+    "OutputErrorOptions",
     "ParameterEstimate",
     "PidDesign",
     "Provenance",
     "ScopeInfo",
     "SimulationResult",
+    "SrivcSettings",
     "advise",
     "design",
     "design_pid",
@@ -127,6 +138,10 @@ _LAZY: dict[str, str] = {
     "Experiment": "motorid.frontdoor",
     "IdentificationResult": "motorid.frontdoor",
     "ParameterEstimate": "motorid.identification.result",
+    "MethodOptions": "motorid.identification.method_options",
+    "OutputErrorOptions": "motorid.identification.method_options",
+    "LaguerreSettings": "motorid.identification.laguerre",
+    "SrivcSettings": "motorid.identification.srivc",
     "Provenance": "motorid.frontdoor",
     "MotorModel": "motorid.model",
     "Design": "motorid.control.design",

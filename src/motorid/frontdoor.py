@@ -41,6 +41,7 @@ if TYPE_CHECKING:
     from motorid.control.design import Design
     from motorid.control.pid import PidDesign
     from motorid.identification.hammerstein import MultiLevelResult
+    from motorid.identification.method_options import MethodOptions
     from motorid.identification.pipeline import Identification
     from motorid.identification.sanity import SanityReport
     from motorid.model import MotorModel
@@ -523,6 +524,7 @@ def identify(
     derivative: str = "five_point",
     structure: str = "free",
     sync: str = "interp",
+    method_options: MethodOptions | None = None,
     progress: Callable[[int, int, str], None] | None = None,
 ) -> IdentificationResult:
     """Identify the motor model of an experiment (``motorid identify`` in Python).
@@ -560,6 +562,11 @@ def identify(
         pinv: ``free`` or ``known``.
     sync : str
         ``interp`` or ``index`` (the paper's).
+    method_options : MethodOptions, optional
+        The estimators' own settings, Python only: ``MethodOptions(laguerre=LaguerreSettings(pole=40.0),
+        srivc=SrivcSettings(max_iter=60), output_error=OutputErrorOptions(max_nfev=400))``
+        (:class:`~motorid.identification.method_options.MethodOptions`).  ``markov_params`` and
+        ``order`` set the Laguerre terms and order; asking for other values there is an error.
     progress : callable, optional
         ``progress(done, total, label)`` before each stage (the command line draws its bar
         with it); not an option of the model: it changes nothing in the result.
@@ -578,6 +585,7 @@ def identify(
         Data that cannot give a model (the message names the file and what would fix it).
     """
     from motorid.conditioning.pipeline import ConditioningSettings
+    from motorid.identification.method_options import MethodOptions
     from motorid.identification.pipeline import IdentifySettings, identify_experiment
 
     if not isinstance(experiment, Experiment):
@@ -596,6 +604,7 @@ def identify(
         markov_window_s=markov_window_s,
         delay=delay,
         markov_basis=markov_basis,
+        method_options=MethodOptions() if method_options is None else method_options,
     )
     ident = identify_experiment(experiment.captures, settings, step_volts=experiment.step_volts,
                                 t0_s=experiment.t0_s, progress=progress)

@@ -27,6 +27,7 @@ __all__ = [
     "DESIGN",
     "DESIGN_PID",
     "IDENTIFY",
+    "PYTHON_ONLY",
     "READ",
     "SIMULATE",
     "OptionSpec",
@@ -101,6 +102,11 @@ IDENTIFY: tuple[OptionSpec, ...] = (
     OptionSpec("structure", "--structure", "free", "", "pinv's A-matrix structure"),
     OptionSpec("sync", "--sync", "interp", "", "how captures are put on one time axis"),
 )
+
+#: Keyword arguments of the front door that take Python objects (settings classes), not values a
+#: command line, a form field or a batch setting can carry: declared by the function's signature
+#: alone (``identify(method_options=MethodOptions(...))``).
+PYTHON_ONLY: tuple[str, ...] = ("method_options",)
 
 #: :func:`motorid.design`'s options.
 DESIGN: tuple[OptionSpec, ...] = (

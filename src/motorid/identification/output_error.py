@@ -34,6 +34,7 @@ from motorid.identification.closed_form import (
     slope_closed_form,
     step_response_closed_form,
 )
+from motorid.identification.method_options import FIT_TOLERANCE, MAX_NFEV
 from motorid.identification.result import IdentificationError
 
 __all__ = [
@@ -103,8 +104,8 @@ class OeSettings:
     n_poles: int = 2
     n_zeros: int = 0
     delay: bool = False
-    max_nfev: int = 200
-    tolerance: float = 1e-8
+    max_nfev: int = MAX_NFEV
+    tolerance: float = FIT_TOLERANCE
     shifts: bool = True
     shift_bound_s: float | None = None
     current_direct: bool | None = None

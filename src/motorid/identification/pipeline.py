@@ -21,6 +21,7 @@ from motorid.conditioning.pipeline import ConditionedExperiment, ConditioningSet
 from motorid.errors import OptionError
 from motorid.identification.classic import classic_first_order
 from motorid.identification.markov import MarkovSettings, markov_identify
+from motorid.identification.method_options import MethodOptions, OutputErrorOptions
 from motorid.identification.pinv import PinvSettings, pinv_identify
 from motorid.identification.result import IdentificationError
 from motorid.identification.sanity import SanityReport, sanity_checks
@@ -71,6 +72,9 @@ class IdentifySettings:
         (:mod:`motorid.identification.laguerre`; ``markov_params`` sets the number of terms,
         ``markov_window_s`` the part of the record fitted); ``taylor``: the paper's
         procedure exactly (:mod:`motorid.identification.markov`).
+    method_options : MethodOptions
+        The estimators' own settings (Laguerre, SRIVC, output-error fit), for Python callers:
+        :class:`~motorid.identification.method_options.MethodOptions`.
     """
 
     def __post_init__(self) -> None:
@@ -98,6 +102,14 @@ class IdentifySettings:
             raise OptionError(f"delay must be None, True or False, got {self.delay!r}")
         if not isinstance(self.conditioning, ConditioningSettings):
             raise OptionError(f"conditioning must be a ConditioningSettings, got {type(self.conditioning).__name__}")
+        if not isinstance(self.method_options, MethodOptions):
+            raise OptionError(f"method_options must be a MethodOptions, got {type(self.method_options).__name__}")
+        lag = self.method_options.laguerre
+        if lag is not None and mp is not None and lag.n_terms is not None and lag.n_terms != mp:
+            raise OptionError(f"markov_params={mp} and method_options.laguerre.n_terms={lag.n_terms} disagree: "
+                              "give one")
+        if lag is not None and self.order != "auto" and lag.order != "auto" and int(lag.order) != int(self.order):
+            raise OptionError(f"order={self.order} and method_options.laguerre.order={lag.order} disagree: give one")
 
     method: str = "auto"
     order: str | int = "auto"
@@ -108,6 +120,7 @@ class IdentifySettings:
     markov_window_s: float | None = None
     delay: bool | None = None
     markov_basis: str = "laguerre"
+    method_options: MethodOptions = field(default_factory=MethodOptions)
 
 
 @dataclass(frozen=True, slots=True)
@@ -298,8 +311,11 @@ def _markov_laguerre(cond: ConditionedExperiment, s: IdentifySettings) -> MotorM
     # the channel's offset in the polish
     pre_step = {ch: r.output_v[r.time_s < 0][::max(1, round(float(t[1] - t[0]) / r.sample_interval_s))]
                 for ch in (output, *others) if (r := cond.responses.get(ch)) is not None}
-    lset = LaguerreSettings(n_terms=s.markov_params, polish=s.method in MARKOV_POLISHED_FOR,
-                            order=s.order if s.order == "auto" else int(s.order))
+    given = s.method_options.laguerre or LaguerreSettings()
+    # identify's own parameters set the terms and the order; the method whether the realisation is polished
+    lset = replace(given, n_terms=s.markov_params if s.markov_params is not None else given.n_terms,
+                   polish=given.polish and s.method in MARKOV_POLISHED_FOR,
+                   order=given.order if s.order == "auto" else int(s.order))
     res = laguerre_identify(t, y, cond.step_volts, lset, input_v=u, output=output,
                             response_time_s=cond.response_time_s, dead_time_s=cond.dead_time_s,
                             extra_outputs=dict(zip(others, rest, strict=True)), pre_step=pre_step)
@@ -438,14 +454,14 @@ def _summary(name: str, m: MotorModel) -> dict[str, Any]:
             "velocity_nrmse": m.fit.get("velocity_nrmse")}
 
 
-def _unwhitened(cond: ConditionedExperiment, sel: Any) -> dict[str, float] | None:
+def _unwhitened(cond: ConditionedExperiment, sel: Any, oe: OutputErrorOptions) -> dict[str, float] | None:
     """The chosen structure refitted without the AR noise model (for the sanity gate)."""
-    from motorid.identification.stages import SEARCH_TOLERANCE, oe_stage
+    from motorid.identification.stages import oe_stage
 
     try:
         # compared with the headline within their standard errors: the search's tolerance is plenty
         res, m = oe_stage(cond, sel.model, sel.structure, delay=sel.delay, noise=sel.noise, white=True,
-                          tolerance=SEARCH_TOLERANCE)
+                          tolerance=oe.search_tolerance, max_nfev=oe.max_nfev)
     except (IdentificationError, OptionError):
         return None
     fo = m.first_order()
@@ -463,9 +479,10 @@ def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: Motor
     from motorid.identification.stages import select_order, srivc_stage
 
     orders = (1, 2, 3) if settings.order == "auto" else (int(settings.order),)
-    sel = select_order(cond, init, orders, delay=settings.delay)
+    oe = settings.method_options.oe
+    sel = select_order(cond, init, orders, delay=settings.delay, options=oe)
     model = _with_fit(sel.model, cond)
-    unwhitened = _unwhitened(cond, sel)
+    unwhitened = _unwhitened(cond, sel, oe)
     stages.append({"stage": "output-error", "initialised_from": init_name, "structures": sel.table,
                    "chosen": {"poles": sel.structure[0], "zeros": sel.structure[1], "delay": sel.delay},
                    "runner_up": (None if sel.runner_up is None
@@ -479,7 +496,8 @@ def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: Motor
                        "agree": markov["order"] == sel.structure[0]})
     if settings.method == "auto":
         try:
-            sr = _with_fit(srivc_stage(cond, init, sel.structure, max_samples=500), cond)
+            sr = _with_fit(srivc_stage(cond, init, sel.structure, max_samples=500,
+                                       settings=settings.method_options.srivc), cond)
             stages.append({"stage": "srivc (second opinion)", **_summary("srivc", sr)})
         except (IdentificationError, OptionError) as exc:
             stages.append({"stage": "srivc (second opinion)", "failed": exc.message})
@@ -657,7 +675,7 @@ def _srivc_refined(cond: ConditionedExperiment, settings: IdentifySettings, star
     for order in orders:
         for structure in STRUCTURES[order]:
             try:
-                m = _with_fit(srivc_stage(cond, start.model, structure), cond)
+                m = _with_fit(srivc_stage(cond, start.model, structure, settings=settings.method_options.srivc), cond)
             except (IdentificationError, OptionError):
                 continue
             if np.any(np.real(m.poles()) >= 0) or not np.isfinite(m.fit["velocity_nrmse"]):

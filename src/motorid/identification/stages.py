@@ -25,6 +25,11 @@ from motorid.identification.output_error import (  # _block_mean: the fit's own 
     output_error_fit,
     position_scale_fit,
 )
+from motorid.identification.method_options import (
+    DEFAULT_OUTPUT_ERROR,
+    MAX_NFEV,
+    OutputErrorOptions,
+)
 from motorid.identification.result import IdentificationError
 from motorid.identification.srivc import SrivcSettings, srivc_fit
 from motorid.model import MotorModel
@@ -53,10 +58,6 @@ STRUCTURES: Mapping[int, tuple[tuple[int, int], ...]] = {
     2: ((2, 0), (2, 1)),
     3: ((3, 1), (3, 0)),
 }
-
-#: Stopping tolerance of the structure search's candidate fits (the chosen one is refitted at
-#: the fit's own 1e-8): see :attr:`~motorid.identification.output_error.OeSettings.tolerance`.
-SEARCH_TOLERANCE = 1e-6
 
 #: Longest record (per capture) handed to the nonlinear fit: longer ones are fitted as block
 #: means (the model averaged the same way) down to this many samples, so the fit time stays
@@ -276,7 +277,7 @@ def _sampled_phase(r: Any) -> float:
 
 
 def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, delay: bool = False,
-                tolerance: float = 1e-8) -> OeSettings:
+                tolerance: float = 1e-8, max_nfev: int = MAX_NFEV) -> OeSettings:
     """The output-error settings of one structure on these captures: their timing.
 
     Parameters
@@ -289,6 +290,8 @@ def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, dela
         Fit a dead time.
     tolerance : float
         The fit's stopping tolerance (:attr:`OeSettings.tolerance`).
+    max_nfev : int
+        Most model evaluations (:attr:`OeSettings.max_nfev`).
 
     Returns
     -------
@@ -306,7 +309,7 @@ def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, dela
     sampled = tuple((role, r.sample_interval_s / np.sqrt(12.0)) for role, r in cond.responses.items()
                     if r.timing == "sampled" and role in cond.full_outputs)
     return OeSettings(n_poles=structure[0], n_zeros=structure[1], delay=delay, tolerance=tolerance,
-                      shift_bound_s=_shift_bound(cond),
+                      max_nfev=max_nfev, shift_bound_s=_shift_bound(cond),
                       shift_groups=timing_groups(cond), instant_std=sampled,
                       phase_group=tuple(role for role, _ in sampled))
 
@@ -620,7 +623,8 @@ def _structure_of(res: OeResult) -> tuple[int, int]:
     return res.settings.n_poles, res.settings.n_zeros
 
 
-def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
+def noise_model(cond: ConditionedExperiment, init: MotorModel,
+                options: OutputErrorOptions = DEFAULT_OUTPUT_ERROR) -> NoiseModel:
     """Noise model of each channel for the output-error fit.
 
     The pre-step samples (motor at rest) give each channel's level before the step, with
@@ -637,6 +641,8 @@ def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
         The conditioned captures.
     init : MotorModel
         The model the fit starts from (a paper method's).
+    options : OutputErrorOptions
+        The output-error fit's evaluations and (search) tolerance.
 
     Returns
     -------
@@ -657,7 +663,8 @@ def noise_model(cond: ConditionedExperiment, init: MotorModel) -> NoiseModel:
         taus, dc, zeros = _init_from(init, *structure)
         try:
             res = output_error_fit(data.time_s, cond.step_volts, data.outputs, sigma, taus, dc,
-                                   oe_settings(cond, structure, tolerance=SEARCH_TOLERANCE), pre=data.pre,
+                                   oe_settings(cond, structure, tolerance=options.search_tolerance,
+                                               max_nfev=options.max_nfev), pre=data.pre,
                                    block=data.block, wrap_count=data.wrap_count, init_zeros=zeros)
         except IdentificationError:
             continue
@@ -713,6 +720,7 @@ def oe_stage(
     noise: NoiseModel | None = None,
     white: bool = False,
     tolerance: float = 1e-8,
+    max_nfev: int = MAX_NFEV,
 ) -> tuple[OeResult, MotorModel]:
     """Output-error fit of one structure, initialised from ``init``.
 
@@ -733,7 +741,10 @@ def oe_stage(
         Leave the AR whitening out (weights: the pre-step noise levels): the sanity gate
         compares the two estimates, since an AR model can absorb a structural misfit.
     tolerance : float
-        The fit's stopping tolerance (:data:`SEARCH_TOLERANCE` for the structure search's candidates).
+        The fit's stopping tolerance (:data:`~motorid.identification.method_options.SEARCH_TOLERANCE` for the
+        structure search's candidates).
+    max_nfev : int
+        Most model evaluations of the fit.
 
     Returns
     -------
@@ -741,9 +752,9 @@ def oe_stage(
         The raw result and the model (velocity, and position/current rows when captured).
     """
     data = _channel_data(cond)
-    noise = noise if noise is not None else noise_model(cond, init)
+    noise = noise if noise is not None else noise_model(cond, init, OutputErrorOptions(max_nfev=max_nfev))
     taus, dc, zeros = _init_from(init, *structure)
-    settings = oe_settings(cond, structure, delay=delay, tolerance=tolerance)
+    settings = oe_settings(cond, structure, delay=delay, tolerance=tolerance, max_nfev=max_nfev)
     fitted = {role: y for role, y in data.outputs.items() if role not in noise.scale_only}
     delay0 = init.delay_s if init.delay_s > 0 else cond.dead_time_s
     res = output_error_fit(data.time_s, cond.step_volts, fitted, noise.pre_sigma if white else noise.sigma,
@@ -759,7 +770,8 @@ def oe_stage(
 
 
 def srivc_stage(
-    cond: ConditionedExperiment, init: MotorModel, structure: tuple[int, int], *, max_samples: int = SRIVC_SAMPLES
+    cond: ConditionedExperiment, init: MotorModel, structure: tuple[int, int], *, max_samples: int = SRIVC_SAMPLES,
+    settings: SrivcSettings | None = None,
 ) -> MotorModel:
     """SRIVC estimate of the velocity TF of one structure, initialised from ``init``.
 
@@ -776,6 +788,8 @@ def srivc_stage(
         ``(poles, zeros)`` of the velocity transfer function.
     max_samples : int
         Largest number of samples SRIVC filters (default 1000).
+    settings : SrivcSettings, optional
+        Iterations and tolerance (its poles and zeros are ``structure``'s).
 
     Returns
     -------
@@ -788,7 +802,8 @@ def srivc_stage(
     taus, _, _ = _init_from(init, *structure)
     den0 = np.poly([-1.0 / x for x in taus])
     u = np.full(t.size, cond.step_volts)
-    res = srivc_fit(t, u, outs["velocity"], SrivcSettings(n_poles=structure[0], n_zeros=structure[1]), init_den=den0)
+    given = settings if settings is not None else SrivcSettings()
+    res = srivc_fit(t, u, outs["velocity"], replace(given, n_poles=structure[0], n_zeros=structure[1]), init_den=den0)
     from motorid.model import model_from_velocity_tf
 
     not_converged = () if res.converged else (f"SRIVC did not converge in {res.iterations} iterations",)
@@ -937,14 +952,16 @@ def dead_time_shows(cond: ConditionedExperiment) -> bool:
     return bool(dead >= DEAD_TIME_SAMPLES * dt_rec or (dead >= dt_rec and dead >= DEAD_TIME_FRACTION * t63))
 
 
-def _refit(cond: ConditionedExperiment, fit: Any, noise: NoiseModel) -> tuple[Any, NoiseModel]:
+def _refit(cond: ConditionedExperiment, fit: Any, noise: NoiseModel,
+           options: OutputErrorOptions) -> tuple[Any, NoiseModel]:
     """A fit refitted under the noise model of its own residuals; the fit itself when that fails.
 
     The preliminary two-pole fit may leave model error that the AR model took for noise.
     """
     refined = refine_noise(noise, fit[3])
     try:
-        res, model = oe_stage(cond, fit[4], fit[1], noise=refined, delay=fit[2])
+        res, model = oe_stage(cond, fit[4], fit[1], noise=refined, delay=fit[2], tolerance=options.tolerance,
+                              max_nfev=options.max_nfev)
     except IdentificationError:
         return fit, refined
     if np.isfinite(res.bic) and np.all(np.real(res.poles) < 0):
@@ -1005,6 +1022,7 @@ def select_order(
     orders: tuple[int, ...] = (1, 2, 3),
     *,
     delay: bool | None = False,
+    options: OutputErrorOptions = DEFAULT_OUTPUT_ERROR,
 ) -> OrderSelection:
     """Fit every structure of the given orders and keep the smallest BIC.
 
@@ -1024,6 +1042,9 @@ def select_order(
         ``True``: every structure with a fitted dead time; ``False``: none; ``None``: both
         when the data show an apparent dead time of at least :data:`DEAD_TIME_SAMPLES`
         samples (or :data:`DEAD_TIME_FRACTION` of the 63 % time), BIC deciding.
+    options : OutputErrorOptions
+        Evaluations and tolerances: the candidates stop at ``search_tolerance``, the chosen
+        structure's refit at ``tolerance``.
 
     Returns
     -------
@@ -1037,7 +1058,7 @@ def select_order(
     """
     errors: list[str] = []
     skipped: list[str] = []
-    noise = noise_model(cond, init)
+    noise = noise_model(cond, init, options)
     # every structure starts from the preliminary fit (near its optimum already: a few
     # iterations), except when that had fewer poles than the structure: three poles then
     # start from the paper's model, whose third pole a two-pole fit cannot suggest
@@ -1063,7 +1084,7 @@ def select_order(
                 label = f"{structure}{' + delay' if with_delay else ''}"
                 try:
                     res, model = oe_stage(cond, start, structure, noise=noise, delay=with_delay,
-                                          tolerance=SEARCH_TOLERANCE)
+                                          tolerance=options.search_tolerance, max_nfev=options.max_nfev)
                 except IdentificationError as exc:
                     errors.append(f"{label}: {exc.message}")
                     continue
@@ -1096,13 +1117,13 @@ def select_order(
          **({"delay_s": r.delay_s} if d else {})}
         for (b, s, d, r, _), wt in zip(fits, weights, strict=False)
     ]
-    best, refined = _refit(cond, fits[0], noise)
+    best, refined = _refit(cond, fits[0], noise, options)
     if not resolved(best[3]):
         # refitted under its own noise model, the chosen structure no longer resolves a pole: the
         # next structure the data support, refitted the same way
         for alt in fits[1:]:
             if resolved(alt[3]):
-                cand, cand_noise = _refit(cond, alt, noise)
+                cand, cand_noise = _refit(cond, alt, noise, options)
                 if resolved(cand[3]):
                     unsupported = unsupported or _describe(best[1], best[2])
                     fits = [alt] + [f for f in fits if f is not alt]

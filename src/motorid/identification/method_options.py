@@ -1,0 +1,113 @@
+"""The settings of the estimators inside a method, for Python callers: ``identify(method_options=…)``.
+
+The command line and the web page expose what a student chooses (method, order, dead time,
+Markov terms); an engineer scripting an identification may want the estimators' own knobs too —
+the Laguerre basis pole, SRIVC's iterations, the output-error fit's evaluations and tolerances.
+Each estimator's own settings class is passed as it is (:class:`~motorid.identification.laguerre.LaguerreSettings`,
+:class:`~motorid.identification.srivc.SrivcSettings`); the output-error fit, whose structure the
+order search sets, takes :class:`OutputErrorOptions`.  Fields a method sets itself from
+``identify``'s own parameters (the Laguerre ``n_terms`` from ``markov_params``, the ``order``,
+SRIVC's poles and zeros from the structure search) are taken from those; asking for two different
+values is an error naming both.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from motorid.errors import OptionError
+
+if TYPE_CHECKING:
+    from motorid.identification.laguerre import LaguerreSettings
+    from motorid.identification.srivc import SrivcSettings
+
+__all__ = ["DEFAULT_OUTPUT_ERROR", "FIT_TOLERANCE", "MAX_NFEV", "SEARCH_TOLERANCE", "MethodOptions",
+           "OutputErrorOptions"]
+
+#: Most model evaluations of one output-error fit.
+MAX_NFEV = 200
+#: Stopping tolerance of the chosen structure's fit (``ftol`` and ``xtol``; scipy's default 1e-8).
+FIT_TOLERANCE = 1e-8
+#: Stopping tolerance of the order search's candidate structures (their BIC then moves by about
+#: 1e-6 of the sample count, far under the differences it decides on) and of the sanity gate's refit.
+SEARCH_TOLERANCE = 1e-6
+
+
+def _positive_int(name: str, value: Any) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise OptionError(f"method_options.{name} must be a whole number ≥ 1, got {value!r}")
+
+
+def _tolerance(name: str, value: Any) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0 < float(value) < 1) \
+            or not math.isfinite(float(value)):
+        raise OptionError(f"method_options.{name} must be a number between 0 and 1, got {value!r}")
+
+
+@dataclass(frozen=True, slots=True)
+class OutputErrorOptions:
+    """The output-error fit's own settings (methods ``auto`` and ``oe``).
+
+    Attributes
+    ----------
+    max_nfev : int
+        Most model evaluations of each fit (a fit that reaches it says so in the warnings).
+    tolerance : float
+        Relative change of the cost and of the parameters that ends the chosen structure's fit.
+    search_tolerance : float
+        The same for the candidate structures of the order search and the sanity gate's refit.
+    """
+
+    max_nfev: int = MAX_NFEV
+    tolerance: float = FIT_TOLERANCE
+    search_tolerance: float = SEARCH_TOLERANCE
+
+    def __post_init__(self) -> None:
+        _positive_int("output_error.max_nfev", self.max_nfev)
+        _tolerance("output_error.tolerance", self.tolerance)
+        _tolerance("output_error.search_tolerance", self.search_tolerance)
+
+
+@dataclass(frozen=True, slots=True)
+class MethodOptions:
+    """Settings of the estimators a method runs (``None``: the method's defaults).
+
+    Attributes
+    ----------
+    laguerre : LaguerreSettings or None
+        The Laguerre–Hankel (Markov) estimate: basis pole, terms, orders, noise floor, polish.
+        Used by ``markov`` (Laguerre basis) and by ``auto``/``paper-auto``, which run it among
+        the paper's methods.
+    srivc : SrivcSettings or None
+        SRIVC's iterations and tolerance (method ``srivc``, and ``auto``'s second opinion).
+    output_error : OutputErrorOptions or None
+        The output-error fit (methods ``auto`` and ``oe``).
+    """
+
+    laguerre: LaguerreSettings | None = None
+    srivc: SrivcSettings | None = None
+    output_error: OutputErrorOptions | None = None
+
+    def __post_init__(self) -> None:
+        from motorid.identification.laguerre import LaguerreSettings
+        from motorid.identification.srivc import SrivcSettings
+
+        for name, value, kind in (("laguerre", self.laguerre, LaguerreSettings), ("srivc", self.srivc, SrivcSettings),
+                                  ("output_error", self.output_error, OutputErrorOptions)):
+            if value is not None and not isinstance(value, kind):
+                raise OptionError(f"method_options.{name} must be a {kind.__name__} or None, "
+                                  f"got {type(value).__name__}")
+        if self.srivc is not None:
+            _positive_int("srivc.max_iter", self.srivc.max_iter)
+            _tolerance("srivc.tol", self.srivc.tol)
+
+    @property
+    def oe(self) -> OutputErrorOptions:
+        """The output-error settings in force (the defaults when none were given)."""
+        return self.output_error if self.output_error is not None else DEFAULT_OUTPUT_ERROR
+
+
+#: The output-error fit's default settings.
+DEFAULT_OUTPUT_ERROR = OutputErrorOptions()
