@@ -205,6 +205,89 @@ def _is_step(capture: Capture) -> bool:
     return True
 
 
+def _checked_delay(model: MotorModel, channel: str, warmup_s: float, delay_s: float | None) -> float:
+    """The dead time the model is driven with, after checking the channel and the warm-up."""
+    if channel not in CHANNELS:
+        raise OptionError(f"--channel {channel!r} is not a model output: use one of {', '.join(CHANNELS)}")
+    if channel not in model.outputs and channel != "position":
+        raise OptionError(f"the model has no {channel!r} output (it has {', '.join(model.outputs)}): "
+                          "choose another --channel")
+    if not (math.isfinite(warmup_s) and warmup_s >= 0):
+        raise OptionError(f"--warmup must be a non-negative number of seconds, got {warmup_s!r}")
+    try:
+        delay = model_delay_s(model) if delay_s is None else float(delay_s)
+    except (TypeError, ValueError):
+        raise OptionError(f"delay must be a number of seconds, got {delay_s!r}") from None
+    if not (math.isfinite(delay) and delay >= 0):
+        raise OptionError(f"delay must be a non-negative number of seconds, got {delay_s!r}")
+    return delay
+
+
+@dataclass(frozen=True, slots=True)
+class _Drive:
+    """What the model is driven with and scored against, and how that was read off the capture."""
+
+    t_file: np.ndarray
+    u: np.ndarray
+    y: np.ndarray
+    wraps: int
+    reference: Literal["final", "span"]
+    kind: str
+    step_time: float | None
+
+
+def _step_drive(capture: Capture, channel: str, step_volts: float | None, t0_s: float | None,
+                encoder_span_v: float | None, notes: list[str], warnings: list[str]) -> _Drive:
+    """A step response: the increments from the pre-step baseline, the input as recorded or built."""
+    if capture.input_v is None and step_volts is None:
+        raise StepNotFoundError(
+            "no input channel (CH1) to drive the model with: give the step level with --step-volts",
+            file=capture.source,
+        )
+    if capture.input_v is not None and step_volts is not None:
+        warnings.append("--step-volts ignored: the capture's CH1 gives the input")
+    sr = step_response(capture, channel, step_volts=step_volts, t0_s=t0_s, encoder_span_v=encoder_span_v)
+    warnings.extend(sr.warnings)
+    u, y = np.asarray(sr.input_v, float), np.asarray(sr.output_v, float)
+    step_time = float(sr.edge.time_s)
+    kind = "built step" if capture.input_v is None else "step"
+    how = {"given": "given (--t0)", "onset": "the response's onset", "change-point": "CH1's edge"}
+    after = u[sr.time_s >= 0]
+    varies = float(np.sqrt(np.mean((after - sr.step_volts) ** 2)) / abs(sr.step_volts)) if after.size else 0.0
+    if capture.input_v is not None and varies > INPUT_RMS_REL:
+        # a closed loop's control signal has an edge too: the model is driven by it as recorded
+        kind = "recorded (not a step)"
+        warnings.append(f"the input recorded in {capture.source} varies by {100 * varies:.2g} % (RMS) of its "
+                        f"{sr.step_volts:.4g} V edge after it: not a step (a closed-loop record); the model is "
+                        "driven by the input as recorded, and the NRMSE is over the change from the "
+                        "pre-edge baseline")
+    notes.append(f"step input: {kind} of {sr.step_volts:.4g} V at {step_time + 0.0:.6g} s "
+                 f"(from {how.get(sr.edge.method, sr.edge.method)}); the model is driven by the input "
+                 f"{'as recorded' if capture.input_v is not None else 'built from --step-volts'}; scored on the "
+                 "increments from the pre-step baseline")
+    # a current returns towards 0 after the step: its change is its span, not its end
+    return _Drive(capture.time_s, u, y, sr.wraps, "span" if channel == "current" else "final", kind, step_time)
+
+
+def _recorded_drive(capture: Capture, channel: str, step_volts: float | None, t0_s: float | None,
+                    encoder_span_v: float | None, notes: list[str], warnings: list[str]) -> _Drive:
+    """Any other input (sine, triangle, square, a log): CH1 as recorded, the output as recorded."""
+    if step_volts is not None:
+        warnings.append("--step-volts ignored: the capture's CH1 gives the input")
+    if t0_s is not None:
+        warnings.append("--t0 ignored: the input on CH1 is not a step")
+    warnings.extend(capture.warnings)
+    u = np.asarray(capture.input_v, float)
+    y = np.asarray(capture.output_v, float)
+    wraps = 0
+    if channel == "position":
+        un = unwrap_position(y, span_v=encoder_span_v, file=capture.source)
+        y, wraps = un.position_v, un.wraps
+        warnings.extend(un.warnings)
+    notes.append("input: CH1 as recorded")
+    return _Drive(capture.time_s, u, y, wraps, "span", "recorded", None)
+
+
 @single_blas_thread
 def validate_capture(
     model: MotorModel,
@@ -265,70 +348,15 @@ def validate_capture(
     Masoud 2019, section VI-B (validation on sine, triangle and square inputs); MathWorks
     ``compare`` (fit % and the estimated initial condition).
     """
-    if channel not in CHANNELS:
-        raise OptionError(f"--channel {channel!r} is not a model output: use one of {', '.join(CHANNELS)}")
-    if channel not in model.outputs and channel != "position":
-        raise OptionError(f"the model has no {channel!r} output (it has {', '.join(model.outputs)}): "
-                          "choose another --channel")
-    if not (math.isfinite(warmup_s) and warmup_s >= 0):
-        raise OptionError(f"--warmup must be a non-negative number of seconds, got {warmup_s!r}")
-    try:
-        delay = model_delay_s(model) if delay_s is None else float(delay_s)
-    except (TypeError, ValueError):
-        raise OptionError(f"delay must be a number of seconds, got {delay_s!r}") from None
-    if not (math.isfinite(delay) and delay >= 0):
-        raise OptionError(f"delay must be a non-negative number of seconds, got {delay_s!r}")
+    delay = _checked_delay(model, channel, warmup_s, delay_s)
     notes: list[str] = []
     warnings: list[str] = []
-    wraps = 0
-    step_time: float | None = None
     if capture.input_v is None or _is_step(capture):
-        if capture.input_v is None and step_volts is None:
-            raise StepNotFoundError(
-                "no input channel (CH1) to drive the model with: give the step level with --step-volts",
-                file=capture.source,
-            )
-        if capture.input_v is not None and step_volts is not None:
-            warnings.append("--step-volts ignored: the capture's CH1 gives the input")
-        sr = step_response(capture, channel, step_volts=step_volts, t0_s=t0_s, encoder_span_v=encoder_span_v)
-        warnings.extend(sr.warnings)
-        wraps = sr.wraps
-        t_file = capture.time_s
-        u, y = np.asarray(sr.input_v, float), np.asarray(sr.output_v, float)
-        step_time = float(sr.edge.time_s)
-        # a current returns towards 0 after the step: its change is its span, not its end
-        reference: Literal["final", "span"] = "span" if channel == "current" else "final"
-        kind = "built step" if capture.input_v is None else "step"
-        how = {"given": "given (--t0)", "onset": "the response's onset", "change-point": "CH1's edge"}
-        after = u[sr.time_s >= 0]
-        varies = float(np.sqrt(np.mean((after - sr.step_volts) ** 2)) / abs(sr.step_volts)) if after.size else 0.0
-        if capture.input_v is not None and varies > INPUT_RMS_REL:
-            # a closed loop's control signal has an edge too: the model is driven by it as recorded
-            kind = "recorded (not a step)"
-            warnings.append(f"the input recorded in {capture.source} varies by {100 * varies:.2g} % (RMS) of its "
-                            f"{sr.step_volts:.4g} V edge after it: not a step (a closed-loop record); the model is "
-                            "driven by the input as recorded, and the NRMSE is over the change from the "
-                            "pre-edge baseline")
-        notes.append(f"step input: {kind} of {sr.step_volts:.4g} V at {step_time + 0.0:.6g} s "
-                     f"(from {how.get(sr.edge.method, sr.edge.method)}); the model is driven by the input "
-                     f"{'as recorded' if capture.input_v is not None else 'built from --step-volts'}; scored on the "
-                     "increments from the pre-step baseline")
+        drive = _step_drive(capture, channel, step_volts, t0_s, encoder_span_v, notes, warnings)
     else:
-        if step_volts is not None:
-            warnings.append("--step-volts ignored: the capture's CH1 gives the input")
-        if t0_s is not None:
-            warnings.append("--t0 ignored: the input on CH1 is not a step")
-        warnings.extend(capture.warnings)
-        t_file = capture.time_s
-        u = np.asarray(capture.input_v, float)
-        y = np.asarray(capture.output_v, float)
-        if channel == "position":
-            un = unwrap_position(y, span_v=encoder_span_v, file=capture.source)
-            y, wraps = un.position_v, un.wraps
-            warnings.extend(un.warnings)
-        reference = "span"
-        kind = "recorded"
-        notes.append("input: CH1 as recorded")
+        drive = _recorded_drive(capture, channel, step_volts, t0_s, encoder_span_v, notes, warnings)
+    t_file, u, y, wraps, reference, kind, step_time = (drive.t_file, drive.u, drive.y, drive.wraps, drive.reference,
+                                                      drive.kind, drive.step_time)
     if wraps:
         notes.append(f"position unwrapped: {wraps} encoder wrap(s) removed")
     t = t_file - t_file[0]
