@@ -75,6 +75,11 @@ class SrivcResult:
 
 def _filtered_derivatives(den: np.ndarray, t: np.ndarray, x: np.ndarray, k: int) -> np.ndarray:
     """Rows i = 0..k: ``s^i/A(s)`` applied to x (zero initial state), A monic of degree n ≥ k."""
+    return _filtered_many(den, t, [x], k)[0]
+
+
+def _filtered_many(den: np.ndarray, t: np.ndarray, signals: list[np.ndarray], k: int) -> list[np.ndarray]:
+    """:func:`_filtered_derivatives` of several signals, one discretisation and one filter run per row for all."""
     n = den.size - 1
     a = np.zeros((n, n))
     a[:-1, 1:] = np.eye(n - 1)
@@ -84,7 +89,7 @@ def _filtered_derivatives(den: np.ndarray, t: np.ndarray, x: np.ndarray, k: int)
     c = np.vstack([np.eye(n), -den[1:][::-1]])
     d = np.zeros((n + 1, 1))
     d[-1, 0] = 1.0
-    return _lsim(a, b, c[: k + 1], d[: k + 1], t, x)
+    return _lsim_many(a, b, c[: k + 1], d[: k + 1], t, np.vstack(signals))
 
 
 def _lsim(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, t: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -98,6 +103,16 @@ def _lsim(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, t: np.ndar
     ``C(zI − A_d)⁻¹B_1`` on ``u`` advanced one sample (strictly proper: ``x[k]`` uses ``u`` up
     to ``k``), about 8× faster and equal to ``lsim`` to 1e-8 of the signal.
     """
+    return _lsim_many(a, b, c, d, t, np.asarray(u, dtype=float)[None, :])[0]
+
+
+def _lsim_many(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, t: np.ndarray,
+               inputs: np.ndarray) -> list[np.ndarray]:
+    """:func:`_lsim` of each row of ``inputs`` (shape ``(signals, samples)``): one list entry per signal.
+
+    The discretisation and each output row's two ``lfilter`` runs are shared by every signal
+    (``lfilter`` filters the rows of a 2-D input independently, as one call each would).
+    """
     n = a.shape[0]
     dt = float(t[1] - t[0])
     m = np.zeros((n + 2, n + 2))
@@ -105,17 +120,18 @@ def _lsim(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, t: np.ndar
     e = scipy.linalg.expm(m)
     ad, b1 = e[:n, :n], e[:n, n + 1 : n + 2]
     b0 = e[:n, n : n + 1] - b1
-    u = np.asarray(u, dtype=float)
+    u = np.asarray(inputs, dtype=float)
     if not np.all(np.isfinite(e)):
         # an unstable estimate's exponential overflows: its response is not finite (lsim's too)
-        return np.full((c.shape[0], u.size), np.nan)
-    ahead = np.r_[u[1:], u[-1:]]
+        return [np.full((c.shape[0], u.shape[1]), np.nan) for _ in range(u.shape[0])]
+    ahead = np.concatenate([u[:, 1:], u[:, -1:]], axis=1)
     den = np.real(np.poly(ad))
     n0, n1 = _numerators(ad, b0, c, den), _numerators(ad, b1, c, den)
-    out = np.empty((c.shape[0], u.size))
+    out = np.empty((u.shape[0], c.shape[0], u.shape[1]))
     for i in range(c.shape[0]):
-        out[i] = scipy.signal.lfilter(n0[i], den, u) + scipy.signal.lfilter(n1[i], den, ahead) + d[i, 0] * u
-    return out
+        out[:, i] = (scipy.signal.lfilter(n0[i], den, u, axis=1) + scipy.signal.lfilter(n1[i], den, ahead, axis=1)
+                     + d[i, 0] * u)
+    return list(out)
 
 
 def _numerators(a: np.ndarray, b: np.ndarray, c: np.ndarray, den: np.ndarray) -> np.ndarray:
@@ -189,11 +205,10 @@ def srivc_fit(time_s: np.ndarray, u: np.ndarray, y: np.ndarray, settings: SrivcS
             r = np.roots(den)
             r = np.where(np.real(r) >= 0, -np.abs(np.real(r)) - 1e-6 + 1j * np.imag(r), r)
             den = np.real(np.poly(r))
-        yf = _filtered_derivatives(den, t, y, n)
-        uf = _filtered_derivatives(den, t, u, m)
         # first pass: plain (refined least-squares) prefiltered regression
         x_hat = y if theta_old is None else _simulate(num, den, t, u)
-        xf = _filtered_derivatives(den, t, x_hat, n)
+        yf, uf, xf = _filtered_many(den, t, [y, u, x_hat], n)
+        uf = uf[: m + 1]
         phi = np.vstack([-yf[n - 1 :: -1][:n], uf[::-1]])  # [−y^(n−1)..−y, u^(m)..u]
         zeta = np.vstack([-xf[n - 1 :: -1][:n], uf[::-1]])
         target = yf[n]
