@@ -16,9 +16,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
-import scipy.signal
 
 from motorid.identification.result import IdentificationError
+from motorid.model import lti
 
 __all__ = ["SrivcResult", "SrivcSettings", "srivc_fit"]
 
@@ -114,7 +114,7 @@ def _lsim(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, t: np.ndar
     n0, n1 = _numerators(ad, b0, c, den), _numerators(ad, b1, c, den)
     out = np.empty((c.shape[0], u.size))
     for i in range(c.shape[0]):
-        out[i] = scipy.signal.lfilter(n0[i], den, u) + scipy.signal.lfilter(n1[i], den, ahead) + d[i, 0] * u
+        out[i] = lti.lfilter(n0[i], den, u) + lti.lfilter(n1[i], den, ahead) + d[i, 0] * u
     return out
 
 
@@ -138,7 +138,7 @@ def _numerators(a: np.ndarray, b: np.ndarray, c: np.ndarray, den: np.ndarray) ->
 
 def _simulate(num: np.ndarray, den: np.ndarray, t: np.ndarray, u: np.ndarray) -> np.ndarray:
     """Output of ``num/den`` (proper) to ``u`` from rest: ``scipy.signal.lsim`` through :func:`_lsim`."""
-    a, b, c, d = scipy.signal.tf2ss(num, den)
+    a, b, c, d = lti.tf2ss(num, den)
     return _lsim(a, b, c, d, t, u)[0]
 
 
