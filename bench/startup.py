@@ -1,16 +1,18 @@
 """Start-up cost of the CLI: ``--help``, ``inspect`` and ``identify`` against a bare interpreter and scipy.
 
-Run: ``python3 bench/startup.py [--repeat 7] [--src DIR]``.
+Run: ``python3 bench/startup.py [--repeat 7] [--src DIR] [--before DIR]``.
 
 Each command runs in a fresh process (``python -m motorid ...``, the console script's own code
 path without the pyenv shim in front), in the default environment (no BLAS variables set here),
 ``--repeat`` times; the table shows the median wall time and the median CPU time (user + system
 of the child, from ``getrusage(RUSAGE_CHILDREN)``) and both minus the median of ``python -c pass``
-measured the same way.  Targets: ``--help`` under 0.15 s of CPU more than the bare interpreter;
-``identify``'s start-up (its process CPU minus the same identification run warm in one process,
-measured in a child) at most 1.5× the CPU of ``python -c "import numpy, scipy.optimize,
-scipy.linalg"``.  ``--src DIR`` runs another checkout's source (``PYTHONPATH=DIR/src``), so a copy
-of ``src/`` taken before a change gives the "before" column of the same table.
+measured the same way.  Targets: ``--help`` (and ``identify --help``) under 0.15 s of CPU more
+than the bare interpreter; ``identify``'s start-up (its process CPU minus the same identification
+run warm in one process, measured in a child) at most 1.5× the CPU of ``python -c "import numpy,
+scipy.optimize, scipy.linalg"``.  ``--src DIR`` runs another checkout's source (``PYTHONPATH=DIR/src``);
+``--before DIR`` runs a second source too (a copy of ``src/`` taken before a change), each of its
+runs right after the same run of the first, and prints its table after the first's: on a shared
+machine the two tables then see the same load.
 """
 
 from __future__ import annotations
@@ -73,78 +75,91 @@ def run(argv: list[str], env: dict[str, str]) -> tuple[float, float, int]:
     return wall, cpu, proc.returncode
 
 
-def median_run(argv: list[str], env: dict[str, str], repeat: int) -> tuple[float, float, list[int]]:
-    """Median wall and CPU seconds of ``repeat`` fresh runs, and the exit codes seen.
+def cases(motorid: list[str], demo: Path, tmp: Path) -> list[tuple[str, list[str]]]:
+    """The command lines measured: labels and argv."""
+    out = [
+        ("python -c pass", [sys.executable, "-c", "pass"]),
+        ("import numpy, scipy.optimize, scipy.linalg",
+         [sys.executable, "-c", "import numpy, scipy.optimize, scipy.linalg"]),
+        ("motorid --help", [*motorid, "--help"]),
+        ("motorid identify --help", [*motorid, "identify", "--help"]),
+        ("motorid inspect (demo velocity capture)", [*motorid, "inspect", str(demo / "ALL0001")]),
+        ("motorid identify (demo, 3 captures)",
+         [*motorid, "identify", "--position", str(demo / "ALL0000"), "--velocity", str(demo / "ALL0001"),
+          "--current", str(demo / "ALL0002"), "--json", str(tmp / "m.json"), "--force"]),
+    ]
+    if REAL.exists():
+        out.append(("motorid inspect (HSLU real log)", [*motorid, "inspect", str(REAL)]))
+    return out
 
-    Parameters
-    ----------
-    argv : list of str
-        The command line.
-    env : dict
-        Its environment.
-    repeat : int
-        Number of runs.
 
-    Returns
-    -------
-    tuple of (float, float, list of int)
-        Median wall seconds, median CPU seconds, sorted distinct exit codes.
-    """
-    res = [run(argv, env) for _ in range(repeat)]
-    return (statistics.median(r[0] for r in res), statistics.median(r[1] for r in res),
-            sorted({r[2] for r in res}))
+def table(title: str, cpus: dict[str, list[float]], walls: dict[str, list[float]], codes: dict[str, set[int]],
+          warm: list[float]) -> None:
+    """Print one source's table and its verdicts."""
+    med = statistics.median
+    print(title)
+    print(f"{'command':42s} {'wall (s)':>9s} {'CPU (s)':>8s} {'wall - bare':>12s} {'CPU - bare':>11s} exit")
+    bare_wall, bare_cpu = med(walls["python -c pass"]), med(cpus["python -c pass"])
+    for label in cpus:
+        wall, cpu = med(walls[label]), med(cpus[label])
+        print(f"{label:42s} {wall:9.3f} {cpu:8.3f} {wall - bare_wall:12.3f} {cpu - bare_cpu:11.3f} "
+              f"{sorted(codes[label])}")
+    for label in ("motorid --help", "motorid identify --help"):
+        extra = med(cpus[label]) - bare_cpu
+        verdict = "meets" if extra <= HELP_TARGET_S else "misses"
+        print(f"{label[8:]} costs {extra:.3f} s CPU more than a bare interpreter: {verdict} the "
+              f"{HELP_TARGET_S} s target")
+    ident = med(cpus["motorid identify (demo, 3 captures)"])
+    start = ident - med(warm)
+    scipy_cpu = med(cpus["import numpy, scipy.optimize, scipy.linalg"])
+    verdict = "meets" if start <= IDENTIFY_START_RATIO * scipy_cpu else "misses"
+    print(f"identify: {ident:.3f} s CPU, of which {med(warm):.3f} s the identification itself (warm, in one "
+          f"process): start-up {start:.3f} s = {start / scipy_cpu:.2f}x the numpy/scipy import ({scipy_cpu:.3f} s): "
+          f"{verdict} the {IDENTIFY_START_RATIO}x target")
 
 
 def main() -> None:
-    """Print the start-up table."""
+    """Print the start-up table (one per source, their runs interleaved)."""
     ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     ap.add_argument("--repeat", type=int, default=7)
     ap.add_argument("--src", type=Path, default=None, help="another checkout's src/ parent to run")
+    ap.add_argument("--before", type=Path, default=None,
+                    help="also run this checkout's src/ parent, each run next to the other's (a before/after pair)")
     args = ap.parse_args()
-    env = dict(os.environ)
-    if args.src is not None:
-        env["PYTHONPATH"] = str(args.src.resolve() / "src")
+    sources: list[Path | None] = [args.src] + ([args.before] if args.before is not None else [])
+    envs = []
+    for src in sources:
+        env = dict(os.environ)
+        if src is not None:
+            env["PYTHONPATH"] = str(src.resolve() / "src")
+        envs.append(env)
     motorid = [sys.executable, "-m", "motorid"]
     with tempfile.TemporaryDirectory() as tmp:
         demo = Path(tmp) / "demo"
-        subprocess.run([*motorid, "demo", "--out", str(demo), "--force"], env=env, capture_output=True, check=True)
-        cases = [
-            ("python -c pass", [sys.executable, "-c", "pass"]),
-            ("import numpy, scipy.optimize, scipy.linalg",
-             [sys.executable, "-c", "import numpy, scipy.optimize, scipy.linalg"]),
-            ("motorid --help", [*motorid, "--help"]),
-            ("motorid inspect (demo velocity capture)", [*motorid, "inspect", str(demo / "ALL0001")]),
-            ("motorid identify (demo, 3 captures)",
-             [*motorid, "identify", "--position", str(demo / "ALL0000"), "--velocity", str(demo / "ALL0001"),
-              "--current", str(demo / "ALL0002"), "--json", str(Path(tmp) / "m.json"), "--force"]),
-        ]
-        if REAL.exists():
-            cases.append(("motorid inspect (HSLU real log)", [*motorid, "inspect", str(REAL)]))
-        print(f"source: {args.src.resolve() / 'src' if args.src else 'installed (editable) checkout'}; "
-              f"{args.repeat} runs each, medians")
-        print(f"{'command':42s} {'wall (s)':>9s} {'CPU (s)':>8s} {'wall - bare':>12s} {'CPU - bare':>11s} exit")
-        bare_wall = bare_cpu = 0.0
-        cpus: dict[str, float] = {}
-        for label, argv in cases:
-            wall, cpu, codes = median_run(argv, env, args.repeat)
-            if label == "python -c pass":
-                bare_wall, bare_cpu = wall, cpu
-            cpus[label] = cpu
-            print(f"{label:42s} {wall:9.3f} {cpu:8.3f} {wall - bare_wall:12.3f} {cpu - bare_cpu:11.3f} {codes}")
-        warm = statistics.median(
-            float(subprocess.run([sys.executable, "-c", WARM, str(demo)], env=env, capture_output=True, text=True,
-                                 check=True).stdout.split()[-1]) for _ in range(args.repeat))
-        help_extra = cpus["motorid --help"] - bare_cpu
-        verdict = "meets" if help_extra < HELP_TARGET_S else "misses"
-        print(f"--help costs {help_extra:.3f} s CPU more than a bare interpreter: {verdict} the "
-              f"{HELP_TARGET_S} s target")
-        start = cpus["motorid identify (demo, 3 captures)"] - warm
-        scipy_cpu = cpus["import numpy, scipy.optimize, scipy.linalg"]
-        verdict = "meets" if start <= IDENTIFY_START_RATIO * scipy_cpu else "misses"
-        print(f"identify: {cpus['motorid identify (demo, 3 captures)']:.3f} s CPU, of which {warm:.3f} s the "
-              f"identification itself (warm, in one process): start-up {start:.3f} s = "
-              f"{start / scipy_cpu:.2f}x the numpy/scipy import ({scipy_cpu:.3f} s): {verdict} the "
-              f"{IDENTIFY_START_RATIO}x target")
+        subprocess.run([*motorid, "demo", "--out", str(demo), "--force"], env=envs[0], capture_output=True, check=True)
+        todo = cases(motorid, demo, Path(tmp))
+        cpus: list[dict[str, list[float]]] = [{label: [] for label, _ in todo} for _ in sources]
+        walls: list[dict[str, list[float]]] = [{label: [] for label, _ in todo} for _ in sources]
+        codes: list[dict[str, set[int]]] = [{label: set() for label, _ in todo} for _ in sources]
+        warm: list[list[float]] = [[] for _ in sources]
+        # every run of one source next to the same run of the other: a shared machine's load
+        # changes over minutes, and this keeps it out of the before/after ratio
+        for _ in range(args.repeat):
+            for label, argv in todo:
+                for i, env in enumerate(envs):
+                    wall, cpu, code = run(argv, env)
+                    cpus[i][label].append(cpu)
+                    walls[i][label].append(wall)
+                    codes[i][label].add(code)
+            for i, env in enumerate(envs):
+                out = subprocess.run([sys.executable, "-c", WARM, str(demo)], env=env, capture_output=True, text=True,
+                                     check=True)
+                warm[i].append(float(out.stdout.split()[-1]))
+        for i, src in enumerate(sources):
+            where = src.resolve() / "src" if src is not None else "installed (editable) checkout"
+            if i:
+                print()
+            table(f"source: {where}; {args.repeat} runs each, medians", cpus[i], walls[i], codes[i], warm[i])
 
 
 if __name__ == "__main__":

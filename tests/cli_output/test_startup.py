@@ -47,6 +47,44 @@ def test_help_loads_no_numerical_library(args: list[str]) -> None:
     mods, rc = _modules_after(args)
     assert rc == 0
     assert [h for h in HEAVY if _loaded(mods, h)] == []
+    # typer's rich_utils imports rich.markdown (markdown-it, pygments) and rich.traceback: not for help
+    assert [m for m in ("rich.markdown", "rich.traceback", "typer.rich_utils") if _loaded(mods, m)] == []
+
+
+def test_help_formatter_writes_what_typers_writes() -> None:
+    """motorid.cli._richhelp (typer's help code without its heavy imports) against typer's own module."""
+    code = textwrap.dedent(
+        """
+        import contextlib, io, json
+        import typer._click as click
+        import typer.main
+        import typer.rich_utils
+        from motorid.cli import _richhelp
+        from motorid.cli.app import _conventional_help, app
+
+        root = _conventional_help(typer.main.get_command(app))
+        todo, pairs = [(root, "motorid", None)], []
+        while todo:
+            cmd, name, parent = todo.pop()
+            ctx = click.Context(cmd, info_name=name, parent=parent)
+            texts = []
+            for module in (typer.rich_utils, _richhelp):
+                out = io.StringIO()
+                with contextlib.redirect_stdout(out):
+                    module.rich_format_help(obj=cmd, ctx=ctx, markup_mode="rich")
+                texts.append(out.getvalue())
+            pairs.append([name, *texts])
+            todo.extend((sub, n, ctx) for n, sub in getattr(cmd, "commands", {}).items())
+        print("@@" + json.dumps(pairs))
+        """
+    )
+    env = {**os.environ, "COLUMNS": "100"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    pairs = json.loads(out.stdout.rsplit("@@", 1)[1])
+    assert len(pairs) > 15  # every command and group, nested ones too
+    for name, theirs, ours in pairs:
+        assert "Usage:" in ours, name
+        assert ours == theirs, name
 
 
 def test_import_motorid_loads_no_numpy() -> None:
@@ -63,12 +101,17 @@ def test_inspect_loads_numpy_but_not_scipy_control_or_matplotlib(demo_run) -> No
 
 
 def test_identify_loads_neither_python_control_nor_matplotlib(demo_run, tmp_path) -> None:
-    """``identify`` (auto, printout, model JSON) needs no python-control object and no figure."""
+    """``identify`` (auto, printout, model JSON) needs no python-control object, no figure, no scipy.signal.
+
+    ``scipy.signal`` would bring ``scipy.stats`` (half a second of start-up) for three small
+    functions (``motorid.model.lti``); ``rich.markdown`` is only for help texts.
+    """
     d = demo_run.folder
     mods, rc = _modules_after(["identify", "--position", str(d / "ALL0000"), "--velocity", str(d / "ALL0001"),
                                "--current", str(d / "ALL0002"), "--json", str(tmp_path / "m.json")])
     assert rc == 0 and (tmp_path / "m.json").is_file()
-    assert [h for h in ("control", "matplotlib") if _loaded(mods, h)] == []
+    heavy = ("control", "matplotlib", "scipy.signal", "scipy.stats", "rich.markdown")
+    assert [h for h in heavy if _loaded(mods, h)] == []
 
 
 def test_one_blas_thread_without_importing_scipy_up_front() -> None:

@@ -6,7 +6,6 @@ the settings worth changing, one at a time, and all of them together; ``--json``
 JSON (docs/formats.md).
 """
 
-from __future__ import annotations
 
 import json
 import math

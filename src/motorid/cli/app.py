@@ -4,7 +4,6 @@ Exit codes (docs/formats.md): 0 success, 2 bad input (one line naming the file a
 it), 1 internal error (traceback behind ``--debug``).
 """
 
-from __future__ import annotations
 
 import json
 import math
@@ -903,15 +902,28 @@ def _conventional_help(command: Any) -> Any:
     Flags are shown as flags (typer's help writes ``<bool>`` after ``--force`` and ``--help``) and
     a value by click's word for it (``TEXT``, ``PATH``, ``FLOAT``: typer writes
     ``<list[str]>`` for a repeatable option). Set here, on the built command, because typer has
-    no setting for it; an option's own ``metavar`` is kept.
+    no setting for it; an option's own ``metavar`` is kept. The help is written by
+    :mod:`motorid.cli._richhelp` (typer's layout, without importing ``rich.markdown``).
     """
+    import functools
+
     import typer._click as click
+
+    from motorid.cli._richhelp import format_help
 
     todo = [command]
     while todo:
         cmd = todo.pop()
         todo.extend(getattr(cmd, "commands", {}).values())
+        # typer's help layout without its import of rich.markdown (see motorid.cli._richhelp)
+        cmd.format_help = functools.partial(format_help, cmd)
         helper = cmd.get_help_option(click.Context(cmd))
+        for param in [*cmd.params, *([helper] if helper is not None else [])]:
+            if getattr(param, "is_flag", False) and param.default is None and not param.expose_value:
+                # typer's --help and completion flags have no default: a command run without them
+                # coerces None through a pydantic adapter, importing pydantic (0.08 s) for
+                # ``motorid identify --help``; their callbacks read False as "not given" too
+                param.default = False
         for param in [*cmd.params, *([helper] if helper is not None else [])]:
             if not hasattr(param, "is_flag"):  # an argument: its name (CAPTURES...) says it, no type after it
                 setattr(param, "display_type_rich", lambda ctx: None)  # noqa: B010 - on this instance only

@@ -5,7 +5,6 @@ mistakes raise :class:`~motorid.errors.MotorIdError` subclasses; ``motorid.cli.m
 into one line and exit code 2.  Register everything on the main app with :func:`register`.
 """
 
-from __future__ import annotations
 
 import json
 import math

@@ -18,9 +18,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import scipy.linalg
-import scipy.signal
 
 from motorid.identification.result import IdentificationError
+from motorid.model import lti
 
 if TYPE_CHECKING:
     from motorid.identification.laguerre import _Candidate
@@ -43,8 +43,8 @@ def _state_space(num: np.ndarray, den: np.ndarray) -> _Realisation:
     Without its import cost; a numerator with a tiny leading coefficient is expected here.
     """
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", scipy.signal.BadCoefficients)
-        a, b, c, _ = scipy.signal.tf2ss(num, den)
+        warnings.simplefilter("ignore", lti.BadCoefficients)
+        a, b, c, _ = lti.tf2ss(num, den)
     return _Realisation(a, b, c)
 
 
@@ -53,7 +53,7 @@ def _transfer_function(a: Any, b: Any, c: Any) -> tuple[np.ndarray, np.ndarray]:
 
     What python-control's ``ss2tf`` runs (without slycot), without building its objects.
     """
-    nums, den = scipy.signal.ss2tf(np.asarray(a, float), np.asarray(b, float).reshape(-1, 1),
+    nums, den = lti.ss2tf(np.asarray(a, float), np.asarray(b, float).reshape(-1, 1),
                                    np.asarray(c, float).reshape(1, -1), np.zeros((1, 1)))
     num = np.trim_zeros(np.atleast_1d(np.squeeze(nums[0])).astype(float), "f")
     return num, np.atleast_1d(np.squeeze(den)).astype(float)
@@ -290,11 +290,11 @@ def _delayed_response(a_c: np.ndarray, b_c: np.ndarray, c_rows: np.ndarray, d_co
     den = np.poly(phi)
     for i, c in enumerate(c_rows):
         with warnings.catch_warnings():  # a leading numerator coefficient of zero is expected here
-            warnings.simplefilter("ignore", scipy.signal.BadCoefficients)
-            na = scipy.signal.ss2tf(phi, g_a, c.reshape(1, -1), np.zeros((1, 1)))[0][0]
-            nb = scipy.signal.ss2tf(phi, g_b, c.reshape(1, -1), np.zeros((1, 1)))[0][0]
+            warnings.simplefilter("ignore", lti.BadCoefficients)
+            na = lti.ss2tf(phi, g_a, c.reshape(1, -1), np.zeros((1, 1)))[0][0]
+            nb = lti.ss2tf(phi, g_b, c.reshape(1, -1), np.zeros((1, 1)))[0][0]
         # x_{k+1} = Φ x_k + Γa v_k + Γb v_(k−1): y_k = C x_k (a one-sample lag in both filters)
-        y = scipy.signal.lfilter(np.r_[0.0, na[1:]], den, v) + scipy.signal.lfilter(np.r_[0.0, nb[1:]], den, v_prev)
+        y = lti.lfilter(np.r_[0.0, na[1:]], den, v) + lti.lfilter(np.r_[0.0, nb[1:]], den, v_prev)
         out[:, i] = y + d_col[i] * (v_prev if frac > 0 else v)
     return out
 
@@ -498,8 +498,8 @@ def laguerre_polish(
             post, before = r[mk], np.zeros(0)
         if white and channel in whiten and whiten[channel].size > 1:
             poly = whiten[channel]
-            post = scipy.signal.lfilter(poly, [1.0], post)
-            before = scipy.signal.lfilter(poly, [1.0], before) if before.size else before
+            post = lti.lfilter(poly, [1.0], post)
+            before = lti.lfilter(poly, [1.0], before) if before.size else before
         return np.r_[post, before]
 
     def fit(model: _PolishModel, x0: np.ndarray, w: np.ndarray) -> np.ndarray:

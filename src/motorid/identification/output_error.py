@@ -23,7 +23,6 @@ import numpy as np
 from numpy.typing import ArrayLike
 import scipy.linalg
 import scipy.optimize
-import scipy.signal
 
 from motorid.identification.closed_form import (
     PartialFractions,

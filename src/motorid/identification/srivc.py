@@ -7,7 +7,7 @@ differentiation), and the regression is solved with instruments built from the n
 output of the current model.  It is close to statistically efficient for white output noise
 and needs no nonlinear optimiser — an independent second opinion to the output-error fit.
 No Python library implements it, hence this module; the filtering is ``scipy.signal.lsim``'s
-linear-interpolation discretisation run through ``scipy.signal.lfilter`` (:func:`_lsim`).
+linear-interpolation discretisation run through a compiled recursive filter (:func:`motorid.model.lti.lfilter`, :func:`_lsim`).
 """
 
 from __future__ import annotations
@@ -16,9 +16,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
-import scipy.signal
 
 from motorid.identification.result import IdentificationError
+from motorid.model import lti
 
 __all__ = ["SrivcResult", "SrivcSettings", "srivc_fit"]
 
@@ -110,8 +110,7 @@ def _lsim_many(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, t: np
                inputs: np.ndarray) -> list[np.ndarray]:
     """:func:`_lsim` of each row of ``inputs`` (shape ``(signals, samples)``): one list entry per signal.
 
-    The discretisation and each output row's two ``lfilter`` runs are shared by every signal
-    (``lfilter`` filters the rows of a 2-D input independently, as one call each would).
+    The discretisation and each output row's numerators are shared by every signal.
     """
     n = a.shape[0]
     dt = float(t[1] - t[0])
@@ -129,8 +128,8 @@ def _lsim_many(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, t: np
     n0, n1 = _numerators(ad, b0, c, den), _numerators(ad, b1, c, den)
     out = np.empty((u.shape[0], c.shape[0], u.shape[1]))
     for i in range(c.shape[0]):
-        out[:, i] = (scipy.signal.lfilter(n0[i], den, u, axis=1) + scipy.signal.lfilter(n1[i], den, ahead, axis=1)
-                     + d[i, 0] * u)
+        for j in range(u.shape[0]):
+            out[j, i] = lti.lfilter(n0[i], den, u[j]) + lti.lfilter(n1[i], den, ahead[j]) + d[i, 0] * u[j]
     return list(out)
 
 
@@ -154,7 +153,7 @@ def _numerators(a: np.ndarray, b: np.ndarray, c: np.ndarray, den: np.ndarray) ->
 
 def _simulate(num: np.ndarray, den: np.ndarray, t: np.ndarray, u: np.ndarray) -> np.ndarray:
     """Output of ``num/den`` (proper) to ``u`` from rest: ``scipy.signal.lsim`` through :func:`_lsim`."""
-    a, b, c, d = scipy.signal.tf2ss(num, den)
+    a, b, c, d = lti.tf2ss(num, den)
     return _lsim(a, b, c, d, t, u)[0]
 
 

@@ -25,10 +25,10 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, Literal, overload
 
 import numpy as np
-import scipy.signal
 
 from motorid.frozen import frozen_getstate, frozen_setstate
 from motorid.errors import ModelFormatError, OptionError
+from motorid.model import lti
 from motorid.model.nonlinearity import StaticNonlinearity
 from motorid.model.stage import Stage
 from motorid.model.units import ChannelScale, dc_gain_unit
@@ -271,7 +271,7 @@ def model_from_velocity_tf(
     else:
         # python-control's tf2ss (without slycot) is this call: the same realisation, without
         # importing python-control (half a second of a command's start-up) to build a model
-        a, b_col, c_row, d_val = (np.asarray(m, dtype=float) for m in scipy.signal.tf2ss(num, den))
+        a, b_col, c_row, d_val = (np.asarray(m, dtype=float) for m in lti.tf2ss(num, den))
         vstates = _state_names(a.shape[0])
     if not with_position:
         return MotorModel(A=a, B=b_col, C=c_row, D=d_val, states=vstates,
@@ -498,7 +498,7 @@ class MotorModel:
         c, d = self._row(channel)
         # scipy's conversion (what python-control runs without slycot) without wrapping it in a
         # TransferFunction first: a model's TFs are taken dozens of times in one identification
-        nums, den = scipy.signal.ss2tf(self.A, self.B, c, d)
+        nums, den = lti.ss2tf(self.A, self.B, c, d)
         num, den = _normalise_tf(nums[0], den)
         # ss2tf does not remove states the channel cannot see (e.g. the position integrator
         # seen from the velocity row); cancel pairs that coincide to round-off.
@@ -721,7 +721,7 @@ class MotorModel:
                               "cancel near pole-zero pairs first (cancel_near)")
         import control  # python-control is imported where its objects or algorithms are used
 
-        a, b, c, d = (np.asarray(m, dtype=float) for m in scipy.signal.tf2ss(num, den))
+        a, b, c, d = (np.asarray(m, dtype=float) for m in lti.tf2ss(num, den))
         ab, bb, cb = _balance(a, b, c)
         bal = control.ss(ab, bb, cb, d)
         if ab.shape[0] > order:
