@@ -7,7 +7,8 @@ differentiation), and the regression is solved with instruments built from the n
 output of the current model.  It is close to statistically efficient for white output noise
 and needs no nonlinear optimiser — an independent second opinion to the output-error fit.
 No Python library implements it, hence this module; the filtering is ``scipy.signal.lsim``'s
-linear-interpolation discretisation run through a compiled recursive filter (:func:`motorid.model.lti.lfilter`, :func:`_lsim`).
+linear-interpolation discretisation run through a compiled recursive filter
+(:func:`motorid.model.lti.lfilter`, :func:`_lsim`).
 """
 
 from __future__ import annotations
