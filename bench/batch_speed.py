@@ -1,7 +1,7 @@
 """``motorid batch`` speed: 50 demo experiments, ``--jobs 1`` vs ``--jobs 2`` vs a Dask LocalCluster.
 
-Run: ``python3 bench/batch_speed.py [--n 50] [--data /tmp/motorid-batch-bench] [--no-report]
-[--no-dask]``.  Measure on a quiet machine (``uptime``: load below 0.5): the ratio is the
+Run: ``python3 bench/batch_speed.py [--n 50] [--data /tmp/motorid-batch-bench] [--no-report |
+--reports full|lazy|none] [--no-dask]``.  Measure on a quiet machine (``uptime``: load below 0.5): the ratio is the
 point, and other processes on the two cores take from the parallel run first.
 
 The class: ``--n`` demo folders (:func:`motorid.cli.demo.run_demo`, seeds 0…n−1: the
@@ -81,15 +81,18 @@ def main() -> None:
     ap.add_argument("--n", type=int, default=50)
     ap.add_argument("--data", type=Path, default=Path(tempfile.gettempdir()) / "motorid-batch-bench")
     ap.add_argument("--no-report", action="store_true", help="models only (no HTML report per experiment)")
+    ap.add_argument("--reports", choices=("full", "lazy", "none"), default=None,
+                    help="full reports, lazy ones (a small page each, the report on demand) or none")
     ap.add_argument("--no-dask", action="store_true")
     args = ap.parse_args()
     data = args.data / "class"
     data.mkdir(parents=True, exist_ok=True)
     make_class(data, args.n)
-    settings = BatchSettings(report=not args.no_report)
+    reports = args.reports or ("none" if args.no_report else "full")
+    settings = BatchSettings(report=reports != "none", lazy_reports=reports == "lazy")
     outs = args.data / "out"
     load = os.getloadavg()[0]
-    print(f"{args.n} experiments, reports {'off' if args.no_report else 'on'}; {os.cpu_count()} cores; "
+    print(f"{args.n} experiments, reports {reports}; {os.cpu_count()} cores; "
           f"load average {load:.2f}" + ("  (busy machine: the ratio is not meaningful)" if load > 1 else ""))
     t1 = timed("--jobs 1 (this process)", [data], outs / "jobs1", settings, jobs=1)
     t2 = timed("--jobs 2 (loky, cold start)", [data], outs / "jobs2", settings, jobs=2)
