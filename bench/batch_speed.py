@@ -1,7 +1,7 @@
 """``motorid batch`` speed: 50 demo experiments, ``--jobs 1`` vs ``--jobs 2`` vs a Dask LocalCluster.
 
-Run: ``python3 bench/batch_speed.py [--n 50] [--data /tmp/motorid-batch-bench] [--no-report]
-[--no-dask]``.  Measure on a quiet machine (``uptime``: load below 0.5): the ratio is the
+Run: ``python3 bench/batch_speed.py [--n 50] [--data /tmp/motorid-batch-bench] [--no-report |
+--reports full|lazy|none] [--no-dask]``.  Measure on a quiet machine (``uptime``: load below 0.5): the ratio is the
 point, and other processes on the two cores take from the parallel run first.
 
 The class: ``--n`` demo folders (:func:`motorid.cli.demo.run_demo`, seeds 0…n−1: the
@@ -9,7 +9,9 @@ paper's ALL0000–ALL0005 captures, roles guessed), written once into ``--data``
 Each run writes a fresh output folder (nothing is skipped): every experiment's model JSON
 and report and the class summary, exactly what ``motorid batch`` does.
 
-Printed: wall time and experiments a minute of each engine (``--jobs 2`` twice: cold, then
+Printed: wall time and experiments a minute of each engine (and, for the pools, the batch
+process's own CPU per experiment and the rate two free cores would give from the CPU times:
+comparable on a busy machine, where the wall rates are not) (``--jobs 2`` twice: cold, then
 with loky's workers kept from the first run, the rate of a long class), the ratio to
 ``--jobs 1``, the Dask cluster's start-up (cluster and workers started, separately from the
 batch), and whether the ``summary.csv`` files are identical (they must be: no timings in them).  Per experiment, the
@@ -61,9 +63,9 @@ def make_class(data: Path, n: int) -> None:
 
 def timed(label: str, roots: list[Path], out: Path, settings: BatchSettings, **kw) -> float:
     shutil.rmtree(out, ignore_errors=True)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     result = run_batch(roots, out, settings, **kw)
-    wall = time.perf_counter() - t0
+    wall, parent_cpu = time.perf_counter() - t0, time.process_time() - c0
     counts = {s: sum(r.status == s for r in result.rows) for s in ("ok", "warning", "failed")}
     # each experiment's time in its worker: it grows when other processes share the cores
     recs = [json.loads(p.read_text()) for p in out.rglob("result.json")]
@@ -73,6 +75,12 @@ def timed(label: str, roots: list[Path], out: Path, settings: BatchSettings, **k
           f"{len(result.computed)} computed: {counts['ok']} ok, "
           f"{counts['warning']} warning, {counts['failed']} failed; per experiment in its worker: median "
           f"{per:.2f} s wall, {cpu / len(recs):.2f} s CPU", flush=True)
+    if kw.get("jobs", 1) != 1:
+        # the batch's own process (discovery, hashes, writing, the summary) shares the cores with
+        # the workers: the rate two free cores would give, whatever else the machine runs
+        cap = 2 * 60 / (cpu / len(recs) + parent_cpu / len(recs))
+        print(f"{'':30}batch process {1e3 * parent_cpu / len(recs):.0f} ms CPU per experiment; "
+              f"CPU-bound rate on two free cores {cap:.0f}/min", flush=True)
     return wall
 
 
@@ -81,15 +89,19 @@ def main() -> None:
     ap.add_argument("--n", type=int, default=50)
     ap.add_argument("--data", type=Path, default=Path(tempfile.gettempdir()) / "motorid-batch-bench")
     ap.add_argument("--no-report", action="store_true", help="models only (no HTML report per experiment)")
+    ap.add_argument("--reports", choices=("full", "lazy", "none"), default=None,
+                    help="full reports, lazy ones (a small page each, the report on demand) or none")
     ap.add_argument("--no-dask", action="store_true")
     args = ap.parse_args()
     data = args.data / "class"
     data.mkdir(parents=True, exist_ok=True)
     make_class(data, args.n)
-    settings = BatchSettings(report=not args.no_report)
+    reports = args.reports or ("none" if args.no_report else "full")
+    settings = (BatchSettings(report=True, lazy_reports=True) if reports == "lazy"
+                else BatchSettings(report=reports != "none"))
     outs = args.data / "out"
     load = os.getloadavg()[0]
-    print(f"{args.n} experiments, reports {'off' if args.no_report else 'on'}; {os.cpu_count()} cores; "
+    print(f"{args.n} experiments, reports {reports}; {os.cpu_count()} cores; "
           f"load average {load:.2f}" + ("  (busy machine: the ratio is not meaningful)" if load > 1 else ""))
     t1 = timed("--jobs 1 (this process)", [data], outs / "jobs1", settings, jobs=1)
     t2 = timed("--jobs 2 (loky, cold start)", [data], outs / "jobs2", settings, jobs=2)

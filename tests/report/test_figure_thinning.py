@@ -32,21 +32,30 @@ def test_short_curves_are_drawn_whole():
     assert tt is t and np.array_equal(yy, t**2)
 
 
-def test_closed_loop_canvas_redraws_in_place_and_rebuilds_for_other_curves():
+def test_closed_loop_canvas_redraws_in_place_and_keeps_a_figure_per_set_of_curves():
     from motorid.report.figures import ClosedLoopCanvas
 
     t = np.linspace(0.0, 3.0, 3001)
+    names = ("reference", "output (velocity)", "u (control)")
     canvas = ClosedLoopCanvas()
     first = canvas.svg(t, {"reference": np.ones_like(t), "output (velocity)": 1 - np.exp(-t), "u (control)": np.exp(-t)},
                        "closed loop: ζ = 1")
-    fig = canvas._fig
+    fig, axes, _ = canvas._figures[names]
     second = canvas.svg(t, {"reference": 2 * np.ones_like(t), "output (velocity)": 2 * (1 - np.exp(-3 * t)),
                             "u (control)": 8 * np.exp(-3 * t)}, "closed loop: ζ = 0.7, and a title long enough to wrap "
                            "onto a second line of the heading")
-    assert canvas._fig is fig  # same curves: the figure is reused
+    assert canvas._figures[names][0] is fig  # same curves: the figure is reused
     assert first.startswith(b"<?xml") and second.startswith(b"<?xml") and first != second
-    assert "ζ = 0.7" in canvas._axes[0].get_title(loc="left")
+    assert "ζ = 0.7" in axes[0].get_title(loc="left")
+    # text is SVG text (the browser's fonts), not glyph outlines
+    assert "ζ = 0.7" in second.decode() and "<text" in second.decode()
     # the axes follow the new data: the control axis now reaches 8
-    assert canvas._axes[1].get_ylim()[1] >= 8.0
+    assert axes[1].get_ylim()[1] >= 8.0
     canvas.svg(t, {"reference": np.ones_like(t), "output (position)": t}, "other curves")
-    assert canvas._fig is not fig
+    assert canvas._figures[("reference", "output (position)")][0] is not fig
+    # the first set of curves comes back to its own figure, not a new one
+    canvas.svg(t, {"reference": np.ones_like(t), "output (velocity)": t, "u (control)": t}, "back")
+    assert canvas._figures[names][0] is fig
+    for i in range(ClosedLoopCanvas.KEPT + 2):  # never more than KEPT figures
+        canvas.svg(t, {f"curve {i}": t}, "many")
+    assert len(canvas._figures) == ClosedLoopCanvas.KEPT

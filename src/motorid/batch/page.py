@@ -30,7 +30,9 @@ tr.outlier td{font-weight:bold}.flag{color:#b00}img{max-width:100%}"""
 
 def _png(fig: Figure) -> str:
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=80, bbox_inches="tight", metadata={"Software": None})
+    # no bbox_inches="tight": tight_layout has placed the axes already, and "tight" draws the
+    # whole figure once more (a third of the summary page's time)
+    fig.savefig(buf, format="png", dpi=80, metadata={"Software": None})
     return f'<img alt="class distribution" src="{data_uri(buf.getvalue())}">'
 
 

@@ -14,12 +14,14 @@ import json
 import os
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from fnmatch import fnmatchcase
 from pathlib import Path
 from typing import Any
 
 from motorid.batch.discover import ExperimentSpec, discover_experiments
 from motorid.batch.engine import parallel_map
+from motorid.batch.lazy import render_command, report_stub
 from motorid.batch.page import summary_html
 from motorid.batch.store import load_record, write_outcome
 from motorid.batch.summary import SummaryRow, summary_csv, summary_rows
@@ -107,6 +109,8 @@ def run_batch(
     seed: int = 0,
     force: bool = False,
     progress: ProgressCallback | None = None,
+    only: Sequence[str] | None = None,
+    command: Sequence[str] | None = None,
 ) -> BatchResult:
     """Identify every experiment under ``roots`` into ``out`` (``motorid batch``).
 
@@ -129,6 +133,13 @@ def run_batch(
         Recompute every experiment, even those whose stored result is current.
     progress : callable, optional
         ``progress(done, failed, total, name)`` (see :data:`ProgressCallback`).
+    only : sequence of str, optional
+        Compute only the experiments whose name matches one of these shell patterns
+        (``fnmatch``); the others are kept as stored when current, and left out of this run's
+        summary when not.
+    command : sequence of str, optional
+        The batch's command line without ``--reports``/``--only``: lazy reports show it, with
+        ``--reports full --only NAME``, as the command that renders the full report.
 
     Returns
     -------
@@ -158,13 +169,27 @@ def run_batch(
     fingerprint = settings.fingerprint()
     hashes = {s.name: _hash(s, fingerprint) for s in specs}
     records: dict[str, dict[str, Any]] = {}
-    if not force:
-        for s in specs:
-            rec = load_record(out, s.name, hashes[s.name])
-            if rec is not None:
-                records[s.name] = rec
+    wanted = [s for s in specs if only is None or any(fnmatchcase(s.name, pat) for pat in only)]
+    if only is not None and not wanted:
+        raise OptionError(f"--only {' '.join(only)}: no experiment matches "
+                          f"(found {len(specs)}, e.g. {specs[0].name!r})")
+    full_reports = settings.report and not settings.lazy_reports
+    for s in specs:
+        rec = load_record(out, s.name, hashes[s.name])
+        if rec is not None:
+            records[s.name] = rec
+    chosen = {s.name for s in wanted}
+
+    def current(name: str) -> bool:
+        # a lazy report's stand-in page does not serve a batch that asks for full reports
+        rec = records.get(name)
+        return rec is not None and not (name in chosen and (force or (full_reports and rec.get("report") == "lazy")))
+
+    todo = [s for s in wanted if not current(s.name)]
+    for s in todo:
+        records.pop(s.name, None)
+    specs = [s for s in specs if s.name in records or s.name in chosen]
     skipped = tuple(s.name for s in specs if s.name in records)
-    todo = [s for s in specs if s.name not in records]
     total = len(specs)
     failed = sum(r["status"] == "failed" for r in records.values())
     if progress is not None:
@@ -172,7 +197,12 @@ def run_batch(
     computed: list[str] = []
     items = [(s.name, (s, settings)) for s in todo]
     for name, outcome in parallel_map(run_experiment_task, items, jobs=jobs, scheduler=scheduler, seed=seed):
-        records[name] = write_outcome(out, outcome, hashes[name])
+        kind = "full"
+        if settings.lazy_reports and outcome.status != "failed":
+            outcome = replace(outcome, report_html=report_stub(name, outcome.status, outcome.row,
+                                                               render_command(command, name)))
+            kind = "lazy"
+        records[name] = write_outcome(out, outcome, hashes[name], report_kind=kind)
         computed.append(name)
         failed += outcome.status == "failed"
         if progress is not None:

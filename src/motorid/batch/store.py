@@ -70,7 +70,8 @@ def load_record(out: Path, name: str, input_hash: str | None) -> dict[str, Any] 
     return doc
 
 
-def write_outcome(out: Path, outcome: ExperimentOutcome, input_hash: str | None) -> dict[str, Any]:
+def write_outcome(out: Path, outcome: ExperimentOutcome, input_hash: str | None, *,
+                  report_kind: str = "full") -> dict[str, Any]:
     """Write one experiment's files, then its ``result.json``.
 
     Parameters
@@ -81,6 +82,9 @@ def write_outcome(out: Path, outcome: ExperimentOutcome, input_hash: str | None)
         From the worker.
     input_hash : str or None
         The content hash of its inputs and settings.
+    report_kind : {"full", "lazy"}
+        What ``outcome.report_html`` is: the report, or the page that stands in for it
+        (:mod:`motorid.batch.lazy`); recorded as ``report`` in ``result.json``.
 
     Returns
     -------
@@ -117,6 +121,7 @@ def write_outcome(out: Path, outcome: ExperimentOutcome, input_hash: str | None)
         "row": dict(outcome.row),
         "roles": dict(outcome.roles),
         "files": written,
+        "report": report_kind if "report" in written else None,
         "seconds": round(outcome.seconds, 3),
         "cpu_seconds": round(outcome.cpu_seconds, 3),
     }

@@ -47,6 +47,11 @@ class BatchSettings:
         Plain-CSV column map (an ``experiment.toml`` wins).
     report : bool
         Write each experiment's HTML report.
+    lazy_reports : bool
+        With ``report``: write a small page per experiment in place of its report, with the
+        command that renders the full one on demand (:mod:`motorid.batch.lazy`).  Not part of
+        the resume hash: a lazy batch's results serve a later ``--reports full`` run, which
+        computes again only the experiments whose report is still lazy.
     validate : bool
         Validate each model on the experiment's other captures (sine, triangle, square:
         those named ``validate`` in its roles file, else those whose role is unknown), in
@@ -71,6 +76,7 @@ class BatchSettings:
     t0: float | None = None
     columns: Mapping[str, str] | None = None
     report: bool = True
+    lazy_reports: bool = False
     validate: bool = False
     design: Mapping[str, Any] | None = None
     force_role: bool = False
@@ -84,6 +90,8 @@ class BatchSettings:
             v = getattr(self, name)
             if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v)):
                 raise OptionError(f"{name}={v!r}: give a finite number")
+        if self.lazy_reports and not self.report:
+            raise OptionError("lazy reports need reports: leave --no-report out (or use --reports none alone)")
         if self.step_volts == 0:
             raise OptionError("step_volts must not be 0 V (a negative value is a step down)")
         object.__setattr__(self, "identify", MappingProxyType(dict(self.identify)))
@@ -306,7 +314,7 @@ def _identify_one(spec: ExperimentSpec, settings: BatchSettings) -> ExperimentOu
         except MotorIdError as exc:
             warnings.append(_relative(f"design: {exc}", spec.folder))
     report = None
-    if settings.report:
+    if settings.report and not settings.lazy_reports:
         validation = {}
         if settings.validate:
             validation = {_label(k): read_capture(_paths_arg(folder, k), columns=colmap) for k in others}

@@ -45,6 +45,11 @@ def batch(
     force_role: Annotated[bool, typer.Option(
         "--force-role", help="Keep the roles a roles file names even when a capture looks like another.")] = False,
     report: Annotated[bool, typer.Option("--report/--no-report", help="Write each experiment's HTML report.")] = True,
+    reports: Annotated[str | None, typer.Option(
+        "--reports", help="full (each experiment's report, about 2 s each), lazy (a small page per experiment with "
+                          "the command that renders its report on demand) or none (as --no-report).")] = None,
+    only: Annotated[list[str] | None, typer.Option(
+        "--only", help="Compute only the experiments whose name matches (shell pattern; repeatable).")] = None,
     validate: Annotated[bool, typer.Option(
         "--validate", help="Validate each model on the experiment's other captures (sine, triangle…) in its report.",
     )] = False,
@@ -78,8 +83,13 @@ def batch(
         "structure": structure, "markov_params": markov_params, "markov_window_s": markov_window,
         "markov_basis": markov_basis, "sync": sync, "delay": delay,
     }
+    if reports is not None and reports not in ("full", "lazy", "none"):
+        raise OptionError(f"--reports {reports!r}: use full, lazy or none")
+    if reports is not None:
+        report = reports != "none"
     settings = BatchSettings(
         identify=identify, step_volts=step_volts, t0=t0, columns=_parse_columns(columns), report=report,
+        lazy_reports=reports == "lazy",
         validate=validate, design=None if damping is None else {"damping": damping, "wn": wn}, force_role=force_role,
     )
     show = progress or sys.stderr.isatty()
@@ -92,7 +102,7 @@ def batch(
             bar.update(task, completed=done, total=total, failed=failed)
 
         result = run_batch(roots, out, settings, jobs=jobs, scheduler=scheduler, seed=seed, force=force,
-                           progress=tick)
+                           progress=tick, only=only, command=_own_command(sys.argv))
     con = _console()
     rows = result.rows
     counts = {s: sum(r.status == s for r in rows) for s in ("ok", "warning", "failed")}
@@ -107,6 +117,27 @@ def batch(
                       f"z τ {r.tau_z:.2f})", highlight=False)
     con.print(f"summary: {Path(out) / 'summary.csv'}")
     con.print(f"summary page: {Path(out) / 'summary.html'}")
+
+
+def _own_command(argv: list[str]) -> list[str]:
+    """The batch's command line without ``--reports``, ``--only`` and ``--force`` (for lazy reports' pages)."""
+    import os
+
+    args = ["motorid"]
+    rest = iter(argv[1:])
+    for a in rest:
+        if a in ("--reports", "--only"):
+            next(rest, None)
+        elif a.startswith(("--reports=", "--only=")) or a in ("--force", "--report", "--no-report", "--progress"):
+            continue
+        else:
+            args.append(a)
+    # paths as given are relative to where the batch ran: name them absolutely (the batch folder
+    # may not exist yet)
+    after_out = [i > 0 and args[i - 1] == "--out" for i in range(len(args))]
+    return [os.path.abspath(a) if out_value or (not a.startswith("-") and os.path.exists(a))
+            else ("--out=" + os.path.abspath(a[6:]) if a.startswith("--out=") else a)
+            for a, out_value in zip(args, after_out, strict=True)]
 
 
 def register(app: typer.Typer) -> None:

@@ -665,24 +665,33 @@ class ClosedLoopCanvas:
     constrained layout) was most of a move's CPU, so the figure, its axes and its curves are
     made once and each redraw only replaces the curves' data, rescales and renders (about 36 ms
     instead of 150 ms; ``bench/web_update_speed.py``).  Fixed margins stand in for the
-    constrained layout.  A redraw with other series names builds the figure anew.  Its own lock
-    makes one canvas safe to share between threads.
+    constrained layout.  One figure is kept per set of series names (the page switches between
+    a run with the plausible motors' band and one without), at most :attr:`KEPT` of them.  The
+    SVG's text is text, not glyph outlines (``svg.fonttype: none``): a third less to render
+    and to send.  Its own lock makes one canvas safe to share between threads.
     """
+
+    #: Figures kept, one per set of series names.
+    KEPT = 4
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
-        self._names: tuple[str, ...] = ()
-        self._fig: Figure | None = None
-        self._axes: Any = None
-        self._lines: dict[str, Any] = {}
+        self._figures: dict[tuple[str, ...], tuple[Figure, Any, dict[str, Any]]] = {}
 
-    def _build(self, time_s: np.ndarray, series: Mapping[str, np.ndarray]) -> None:
+    def _build(self, time_s: np.ndarray, series: Mapping[str, np.ndarray]) -> tuple[Figure, Any, dict[str, Any]]:
         fig = Figure(figsize=(FULL_WIDTH_IN, 5.0))
-        axes, self._lines = _closed_loop_axes(fig, time_s, series)
+        axes, lines = _closed_loop_axes(fig, time_s, series)
         for ax in axes:
             if ax.get_lines():  # a panel without curves gets no (empty) legend
                 ax.legend(loc="best")
-        self._fig, self._axes, self._names = fig, axes, tuple(series)
+            # fixed places for the axis labels and the title: matplotlib otherwise measures every
+            # tick label on each redraw to place them (a sixth of a redraw)
+            ax.yaxis.set_label_coords(-0.085, 0.5)
+        axes[-1].xaxis.set_label_coords(0.5, -0.2)
+        if len(self._figures) >= self.KEPT:
+            self._figures.pop(next(iter(self._figures)))
+        self._figures[tuple(series)] = (fig, axes, lines)
+        return fig, axes, lines
 
     def svg(self, time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str) -> bytes:
         """The figure for these curves, as SVG.
@@ -702,23 +711,24 @@ class ClosedLoopCanvas:
             The SVG image (for :func:`data_uri` with ``kind="svg+xml"``).
         """
         t = np.asarray(time_s, dtype=float)
-        with self._lock, matplotlib.rc_context(cast("Any", _STYLE)):
-            if self._fig is None or tuple(series) != self._names:
-                self._build(t, series)
+        with self._lock, matplotlib.rc_context(cast("Any", _STYLE | {"svg.fonttype": "none"})):
+            kept = self._figures.get(tuple(series))
+            if kept is None:
+                fig, axes, _ = self._build(t, series)
             else:
+                fig, axes, lines = kept
                 for name, y in series.items():
-                    self._lines[name].set_data(*thinned(t, np.asarray(y)))
-                for ax in self._axes:
+                    lines[name].set_data(*thinned(t, np.asarray(y)))
+                for ax in axes:
                     ax.relim()
                     ax.autoscale_view()
-            assert self._fig is not None
             heading = _wrapped(title)
-            self._axes[0].set_title(heading, loc="left")
+            axes[0].set_title(heading, loc="left", y=1.0)
             # room for the heading's lines (about 0.2 in each at the style's title size)
             top = 1.0 - (0.2 * (heading.count("\n") + 1) + 0.15) / 5.0
-            self._fig.subplots_adjust(left=0.1, right=0.98, bottom=0.1, top=top, hspace=0.08)
+            fig.subplots_adjust(left=0.1, right=0.98, bottom=0.11, top=top, hspace=0.08)
             buf = io.BytesIO()
-            self._fig.savefig(buf, format="svg")
+            fig.savefig(buf, format="svg")
             return buf.getvalue()
 
 

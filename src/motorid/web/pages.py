@@ -211,8 +211,39 @@ def _design(tab: Tab, dform: Any) -> tuple[Any, Any]:
         canvas = tab.canvas
     view = design_update(model, dform, maps if not isinstance(maps, str) else None, canvas)
     with tab.lock:
-        tab.design, tab.simulation = view.design, dform.simulate_options()
+        tab.design, tab.simulation, tab.design_form = view.design, dform.simulate_options(), dform
     return view, maps
+
+
+@router.post("/tab/{tab_id}/robust", response_class=HTMLResponse)
+async def robust(request: Request, tab_id: str) -> HTMLResponse:
+    """The shown design checked on the plausible motors (the page asks once a move is shown)."""
+    from motorid.web.views import DesignForm
+
+    tab = _tab(request, tab_id)
+    if tab.fit is None:
+        raise OptionError("identify a model first (the design panel works on the identified model)")
+    form = await request.form(max_files=0, max_fields=50)
+    dform = DesignForm.from_fields({k: v for k, v in form.items() if isinstance(v, str)})
+    view = await run_in_threadpool(_robust, tab, dform)
+    return _render(request, "_robust.html", view=view,
+                   headers={"Server-Timing": f"update;dur={view.elapsed_ms:.1f}, cpu;dur={view.cpu_ms:.1f}"})
+
+
+def _robust(tab: Tab, dform: Any) -> Any:
+    from motorid.report.figures import ClosedLoopCanvas
+    from motorid.web.views import robust_update
+
+    assert tab.fit is not None
+    with tab.lock:
+        if tab.canvas is None:
+            tab.canvas = ClosedLoopCanvas()
+        canvas = tab.canvas
+    view = robust_update(tab.fit.model, dform, canvas)
+    with tab.lock:
+        if tab.design_form == dform:  # still the design shown: its download carries the check
+            tab.design = view.design
+    return view
 
 
 @router.get("/tab/{tab_id}/download/{name}")

@@ -70,6 +70,7 @@ class Tab:
         self.simulation = {}
         self.mode_maps.clear()
         self.canvas = None
+        self.design_form = None
 
     def stored_bytes(self) -> int:
         """The bytes of the files this tab keeps.
@@ -95,6 +96,8 @@ class Tab:
     lock: threading.RLock = field(default_factory=threading.RLock)
     #: The closed-loop figure kept between slider moves (a ``report.figures.ClosedLoopCanvas``).
     canvas: Any = None
+    #: The design panel's inputs of :attr:`design` (a ``views.DesignForm``).
+    design_form: Any = None
 
 
 class TabStore:

@@ -263,6 +263,19 @@ class DesignForm:
         """
         return {"duration_s": self.duration_s, "level_v": self.level_v, "saturation": self.saturation_v}
 
+    def fields(self) -> dict[str, str]:
+        """The form fields that :meth:`from_fields` reads back into this form.
+
+        Returns
+        -------
+        dict
+            Field name → text (``repr`` of the floats: the same numbers come back).
+        """
+        return {"damping": repr(self.damping), "wn": repr(self.wn), "integral": "on" if self.integral else "",
+                "observer_poles": self.observer_poles,
+                "saturation": "" if self.saturation_v is None else repr(self.saturation_v),
+                "level": repr(self.level_v), "duration": repr(self.duration_s)}
+
     @classmethod
     def from_fields(cls, fields: Mapping[str, str]) -> DesignForm:
         """Read the form fields.
@@ -329,8 +342,12 @@ class DesignView:
 
 
 def design_update(model: MotorModel, form: DesignForm, maps: ModeMapView | None,
-                  canvas: Any = None) -> DesignView:
+                  canvas: Any = None, *, robust_samples: int = 0) -> DesignView:
     """Design, simulate, draw and mark one slider position.
+
+    The check on the plausible motors is not part of a move by default: the page asks for it
+    in a request of its own once the move is shown (:func:`robust_update`), so that a move
+    stays within its CPU budget.
 
     Parameters
     ----------
@@ -342,6 +359,8 @@ def design_update(model: MotorModel, form: DesignForm, maps: ModeMapView | None,
         The drawn mode maps (None: no marker).
     canvas : ClosedLoopCanvas, optional
         The tab's closed-loop figure, redrawn in place (default: a new one).
+    robust_samples : int
+        Plausible motors the design is checked on (0: none, the page's default).
 
     Returns
     -------
@@ -353,33 +372,100 @@ def design_update(model: MotorModel, form: DesignForm, maps: ModeMapView | None,
         A design that cannot be made (bad observer poles, …).
     """
     import motorid as mi
-    from motorid.control.feedback import parse_poles
     from motorid.report import figures
     from motorid.web.modemap import design_point, mark
 
     t0, c0 = time.perf_counter(), time.thread_time()
-    observer = None
-    if form.observer_poles:
-        observer = [complex(p) for p in parse_poles(form.observer_poles, "observer poles")]
-    des = mi.design(model, damping=form.damping, wn=form.wn, integral=form.integral, observer_poles=observer,
-                    robust_samples=WEB_ROBUST_SAMPLES)
+    des = _design(model, form, robust_samples)
     sim = mi.simulate(model, des, **form.simulate_options())
-    cols = sim.columns()
-    series = {"reference": cols["reference"], f"output ({sim.output})": cols["output"], "u (control)": cols["u"]}
-    series.update(_robust_band(des, cols["time"], form))
-    sat = f", rails ±{form.saturation_v:g} V" if form.saturation_v else ""
-    canvas = canvas if canvas is not None else figures.ClosedLoopCanvas()
-    plot = figures.data_uri(canvas.svg(cols["time"], series,
-                                       f"closed loop: ζ = {form.damping:g}, ωn = {form.wn:g} rad/s{sat}"), "svg+xml")
+    plot = _plot(des, sim, form, canvas if canvas is not None else figures.ClosedLoopCanvas())
     kp, kv, what = design_point(model, des, form.damping, form.wn)
     markers = mark(maps, kp, kv) if maps is not None else []
     return DesignView(des, sim, plot, markers, (kp, kv, what), 1e3 * (time.perf_counter() - t0),
                       1e3 * (time.thread_time() - c0))
 
 
-#: Plausible motors a slider move checks the design on (the command line checks 2000): about
-#: 20 ms of a move's CPU (``bench/web_update_speed.py``: 129 ms a move with them, 127 ms without).
+def _design(model: MotorModel, form: DesignForm, robust_samples: int) -> Any:
+    """The form's design (:func:`motorid.design`, as ``motorid design`` makes it)."""
+    import motorid as mi
+    from motorid.control.feedback import parse_poles
+
+    observer = None
+    if form.observer_poles:
+        observer = [complex(p) for p in parse_poles(form.observer_poles, "observer poles")]
+    return mi.design(model, damping=form.damping, wn=form.wn, integral=form.integral, observer_poles=observer,
+                     robust_samples=robust_samples)
+
+
+def _plot(des: Any, sim: SimulationResult, form: DesignForm, canvas: Any) -> str:
+    """The closed-loop figure of a run (with the plausible motors' band when ``des`` has one), data URI."""
+    from motorid.report import figures
+
+    cols = sim.columns()
+    series = {"reference": cols["reference"], f"output ({sim.output})": cols["output"], "u (control)": cols["u"]}
+    series.update(_robust_band(des, cols["time"], form))
+    sat = f", rails ±{form.saturation_v:g} V" if form.saturation_v else ""
+    return figures.data_uri(canvas.svg(cols["time"], series,
+                                       f"closed loop: ζ = {form.damping:g}, ωn = {form.wn:g} rad/s{sat}"), "svg+xml")
+
+
+#: Plausible motors the page checks a design on (the command line checks 2000), in a request of
+#: its own after each slider move (:func:`robust_update`): about 30 ms of CPU, a third of a move's.
 WEB_ROBUST_SAMPLES = 100
+
+
+@dataclass(frozen=True, slots=True)
+class RobustView:
+    """The check of one design on the plausible motors, shown after the slider move.
+
+    Attributes
+    ----------
+    design : Design
+        The design with its :attr:`~motorid.control.design.Design.robust` check.
+    plot : str or None
+        The closed-loop figure redrawn with the plausible motors' band (a step without rails
+        only), data URI; None when the move's figure stays.
+    elapsed_ms, cpu_ms : float
+        Wall and CPU time of the check on the server [ms].
+    """
+
+    design: Design
+    plot: str | None
+    elapsed_ms: float
+    cpu_ms: float
+
+
+def robust_update(model: MotorModel, form: DesignForm, canvas: Any = None) -> RobustView:
+    """Check a slider position's design on :data:`WEB_ROBUST_SAMPLES` plausible motors.
+
+    Parameters
+    ----------
+    model : MotorModel
+        The identified model.
+    form : DesignForm
+        The panel's inputs (those of the move being shown).
+    canvas : ClosedLoopCanvas, optional
+        The tab's closed-loop figure (default: a new one).
+
+    Returns
+    -------
+    RobustView
+
+    Raises
+    ------
+    OptionError, ControlDesignError
+        A design that cannot be made.
+    """
+    import motorid as mi
+    from motorid.report import figures
+
+    t0, c0 = time.perf_counter(), time.thread_time()
+    des = _design(model, form, WEB_ROBUST_SAMPLES)
+    plot = None
+    if _robust_band(des, [0.0], form):  # the band is drawn: the same run again, with it
+        sim = mi.simulate(model, des, **form.simulate_options())
+        plot = _plot(des, sim, form, canvas if canvas is not None else figures.ClosedLoopCanvas())
+    return RobustView(des, plot, 1e3 * (time.perf_counter() - t0), 1e3 * (time.thread_time() - c0))
 
 
 def _robust_band(des: Any, time_s: Any, form: DesignForm) -> dict[str, Any]:
