@@ -81,11 +81,10 @@ def test_pandas_loadtxt_and_careful_paths_give_the_same_bits(tmp_path, monkeypat
 
 
 @needs_pandas3
-def test_pandas_path_is_taken_and_reads_columns_whole(tmp_path, monkeypatch):
+def test_pandas_path_is_taken_on_a_large_file(tmp_path, monkeypatch):
     path = tmp_path / "log.csv"
     path.write_text(ODD_FILES["crlf"])
     monkeypatch.setattr(_common, "PANDAS_MIN_BYTES", 1)
-    monkeypatch.setattr(_common, "PANDAS_CHUNK_ROWS", 64)  # several blocks, as a large file
     calls = []
     real = _common._load_with_pandas
 

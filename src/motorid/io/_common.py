@@ -441,14 +441,15 @@ def check_samples(
         what = "duplicated" if dt[i - 1] == 0 else "goes backwards"
         raise CaptureDataError(f"{time_name} {what} ({plain_number(t[i - 1])} then {plain_number(t[i])}): "
                                "time must increase", file=file, row=line_of(i))
-    med = float(np.median(dt))
+    scratch = dt.copy()  # the median and the 99th percentile from one copy of the steps
+    med = float(np.median(scratch, overwrite_input=True))
     lo, hi = SAMPLE_INTERVAL_RANGE_S
     if not lo <= med <= hi:
         raise CaptureDataError(
             f"sample interval {plain_number(med)} s is outside {lo:g}…{hi:g} s: the time column is not in "
             "seconds (or not a time axis); map the right column, or give --time-unit ms or us", file=file)
     if jitter_ok:
-        bad = time_gaps(dt)
+        bad = time_gaps(dt, median=med, scratch=scratch)
     else:
         bad = np.flatnonzero(np.abs(dt - med) > rel_jitter * med + 1e-12 * max(1.0, float(np.max(np.abs(t)))))
     if bad.size:
@@ -465,20 +466,26 @@ def check_samples(
 GAP_MEDIANS, GAP_OVER_P99 = 3.0, 1.5
 
 
-def time_gaps(dt: np.ndarray) -> np.ndarray:
+def time_gaps(dt: np.ndarray, *, median: float | None = None, scratch: np.ndarray | None = None) -> np.ndarray:
     """Indices of the time steps that are gaps rather than jitter (see :data:`GAP_MEDIANS`).
 
     Parameters
     ----------
     dt : ndarray
         Time steps (positive).
+    median : float, optional
+        ``np.median(dt)`` when the caller has it.
+    scratch : ndarray, optional
+        A copy of ``dt`` in any order that may be reordered (saves a copy of a long record).
 
     Returns
     -------
     ndarray of int
     """
-    med = float(np.median(dt))
-    limit = max(GAP_MEDIANS * med, GAP_OVER_P99 * float(np.percentile(dt, 99)))
+    if scratch is None:
+        scratch = dt.copy()
+    med = float(np.median(scratch, overwrite_input=True)) if median is None else median
+    limit = max(GAP_MEDIANS * med, GAP_OVER_P99 * float(np.percentile(scratch, 99, overwrite_input=True)))
     return np.flatnonzero(dt > limit)
 
 
@@ -515,15 +522,18 @@ def uniform_grid(time_s: np.ndarray, output: np.ndarray, inp: np.ndarray | None,
         ``(time_s, output, input, extra, note)``.
     """
     t = np.asarray(time_s, dtype=float)
-    dt = np.diff(t)
-    med = float(np.median(dt))
     if t.size < 3:
         return time_s, output, inp, dict(extra), ""
-    deviation = dt - med
-    np.abs(deviation, out=deviation)  # in place: one temporary of the log's length, not two
+    # the steps are reordered by the median and shifted in place: one array of the log's length,
+    # not four (the test below does not depend on their order)
+    deviation = np.diff(t)
+    med = float(np.median(deviation, overwrite_input=True))
+    deviation -= med
+    np.abs(deviation, out=deviation)
     if np.all(deviation <= UNIFORM_REL * med + 1e-12 * max(1.0, abs(float(t[0])), abs(float(t[-1])))):
         return time_s, output, inp, dict(extra), ""
     del deviation
+    dt = np.diff(t)
     step = (t[-1] - t[0]) / (t.size - 1)
     anchor = t[0]
     if inp is not None and inp.size > 1:
@@ -720,57 +730,33 @@ def _pandas_reader(size: int):
     return pandas.read_csv if int(pandas.__version__.split(".")[0]) >= 3 else None
 
 
-#: Rows parsed by pandas at a time: the text of one block is held at once, not the file's.
-PANDAS_CHUNK_ROWS = 1 << 20
-
-
-def _count_lines(path: PathLike) -> int:
-    """Newlines in a file (an upper bound of its rows), streamed in 16 MiB blocks."""
-    n = 0
-    with _open(path) as fh:
-        for block in iter(lambda: fh.read(1 << 24), b""):
-            n += block.count(b"\n") + block.count(b"\r")  # a lone CR ends a line too
-    return n + 1
-
-
 def _load_with_pandas(read_csv, path: PathLike, skiprows: int, delimiter: str,
                       usecols: Sequence[int] | None) -> list[np.ndarray] | None:
     """The numeric columns by pandas' C parser, or ``None`` when ``np.loadtxt`` must decide.
 
     pandas pads a short row with NaN and reads some cells ``np.loadtxt`` refuses, and the reverse;
     any failure, and any NaN in the result, leaves the file to ``np.loadtxt`` so that what is
-    accepted and refused (and where) does not depend on whether pandas is installed.  The rows
-    are parsed in blocks into columns allocated once for the file's number of lines (the pages
-    past the last row are never touched, so they take no memory): the peak is the result plus
-    one block, not the concatenation of all blocks and its copy.
+    accepted and refused (and where) does not depend on whether pandas is installed.  Each column
+    is taken as pandas made it (contiguous, no copy): a (rows, columns) array of the frame would be
+    one more copy of the whole table.
     """
     import warnings as _warnings
 
-    capacity = _count_lines(path)
-    out: list[np.ndarray] = []
-    n = 0
     try:
         with _warnings.catch_warnings():
             _warnings.simplefilter("error")
-            reader = read_csv(path, sep=delimiter, header=None, skiprows=skiprows, usecols=usecols,
-                              dtype=np.float64, engine="c", na_filter=False, comment=None,
-                              quoting=csv.QUOTE_NONE, skip_blank_lines=True, encoding=FAST_ENCODING,
-                              chunksize=PANDAS_CHUNK_ROWS)
-            with reader:
-                for chunk in reader:
-                    if not out:
-                        out = [np.empty(capacity) for _ in range(chunk.shape[1])]
-                    m = chunk.shape[0]
-                    if n + m > capacity:
-                        return None
-                    for k, column in enumerate(out):
-                        column[n : n + m] = chunk.iloc[:, k].to_numpy(dtype=np.float64)
-                        if np.isnan(column[n : n + m]).any():
-                            return None
-                    n += m
-    except (ValueError, Warning):  # pandas' ParserError and EmptyDataError are ValueErrors
+            frame = read_csv(path, sep=delimiter, header=None, skiprows=skiprows, usecols=usecols,
+                             dtype=np.float64, engine="c", na_filter=False, comment=None,
+                             quoting=csv.QUOTE_NONE, skip_blank_lines=True)
+        # (UTF-8, pandas' native decoder: latin-1 would go through Python's codec, 1.5× slower; a
+        # byte that is not UTF-8 is not a number either and fails here)
+    except (ValueError, Warning):  # pandas' ParserError and EmptyDataError, UnicodeDecodeError
         return None
-    return [column[:n] for column in out] if n else None
+    columns = [frame.iloc[:, k].to_numpy(dtype=np.float64, copy=False) for k in range(frame.shape[1])]
+    del frame
+    if not columns or columns[0].size == 0 or any(np.isnan(c).any() for c in columns):
+        return None
+    return columns
 
 
 def load_columns(
