@@ -59,7 +59,17 @@ def _read(path, how: str, monkeypatch):
     file = str(path)
     if how == "pandas":
         monkeypatch.setattr(_common, "PANDAS_MIN_BYTES", 1)
-        return plaincsv._read_fast(path, file, None, None, path.stat().st_size)
+        real = _common._load_with_pandas
+        taken = []
+
+        def spy(*args):
+            taken.append(real(*args) is not None)
+            return real(*args)
+
+        monkeypatch.setattr(_common, "_load_with_pandas", spy)
+        cap = plaincsv._read_fast(path, file, None, None, path.stat().st_size)
+        assert taken == [True], "pandas did not read the file (np.loadtxt did)"
+        return cap
     if how == "loadtxt":
         monkeypatch.setitem(sys.modules, "pandas", None)  # import pandas → ImportError
         return plaincsv._read_fast(path, file, None, None, path.stat().st_size)
