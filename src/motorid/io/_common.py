@@ -786,10 +786,11 @@ def load_column_arrays(
     """Numeric columns of a text table with a C parser, streamed, one array per column.
 
     ``np.loadtxt``, or pandas' C parser on a large file (:data:`PANDAS_MIN_BYTES`) when pandas 3
-    is installed, with the same values: the file is read in blocks, so the memory is the result
-    (8 bytes a value), not the text.  Empty lines are skipped; anything else that is not a number
-    raises :class:`ValueError` (the caller then finds the exact line with a careful, row-by-row
-    reading).
+    is installed, with the same values.  Both read the text in blocks, never the whole file at
+    once: ``np.loadtxt`` holds the result (8 bytes a value), pandas its parsed blocks and their
+    concatenation (twice that, while it parses).  Empty lines are skipped; anything else that is
+    not a number raises :class:`ValueError` (the caller then finds the exact line with a careful,
+    row-by-row reading).
 
     Returns
     -------
