@@ -1,10 +1,10 @@
 """The largest captures, end to end: ``motorid identify`` on long plain-CSV logs.
 
-Run: ``python3 bench/large_capture.py [--rows 100000,1000000,10000000] [--tds 1000000]``.  For
+Run: ``python3 bench/large_capture.py [--rows 100000,1000000,10000000] [--tds 1000000] [--src DIR]``.  For
 each size it writes a 1 kHz log of a first-order motor (τ = 0.3 s, 0.01 V noise) to a temporary
 file, and a Tektronix CH1/CH2 pair of ``--tds`` samples (10 µs sampling, 8-bit codes, τ = 0.4 s:
 the long record of a scope), and runs ``python -m motorid identify --velocity FILE`` in a fresh
-process, printing the size, the wall and CPU (user + system) time and the peak resident memory
+process, printing the size, the wall, user and system CPU time and the peak resident memory
 (``ru_maxrss``) of the child, the exit code and the identified DC gain and τ (truth 2.0 V/V,
 0.3 s for the logs; 0.2534 V/V, 0.4 s for the scope pair).  The readers refuse text captures above
 512 MiB (about 20 million such rows) before reading them.
@@ -40,18 +40,18 @@ def write_log(path: Path, rows: int) -> None:
             np.savetxt(fh, np.column_stack([t, u, y]), fmt="%.6f", delimiter=",")
 
 
-def identify(capture: Path, out: Path) -> tuple[float, float, float, int, dict]:
-    """``motorid identify --velocity CAPTURE`` in a fresh process: wall, CPU (user + system) and
+def identify(capture: Path, out: Path, env: dict[str, str]) -> tuple[float, float, float, float, int, dict]:
+    """``motorid identify --velocity CAPTURE`` in a fresh process: wall, user and system CPU and
     peak RSS of the child, its exit code and the model's ``first_order``."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     proc = subprocess.run([sys.executable, "-m", "motorid", "identify", "--velocity", str(capture),
-                           "--json", str(out)], capture_output=True, text=True, env=dict(os.environ))
+                           "--json", str(out)], capture_output=True, text=True, env=env)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    user, system = after.ru_utime - before.ru_utime, after.ru_stime - before.ru_stime
     fo = json.loads(out.read_text())["first_order"] if proc.returncode == 0 else {}
-    return wall, cpu, max(after.ru_maxrss, before.ru_maxrss) / 1024, proc.returncode, fo
+    return wall, user, system, max(after.ru_maxrss, before.ru_maxrss) / 1024, proc.returncode, fo
 
 
 def main() -> None:
@@ -59,8 +59,13 @@ def main() -> None:
     ap.add_argument("--rows", default="100000,1000000,10000000", help="rows of each plain-CSV log (truth 2.0, 0.3 s)")
     ap.add_argument("--tds", type=int, default=1_000_000,
                     help="samples per channel of a Tektronix CH1/CH2 pair (truth 0.2534, 0.4 s; 0: none)")
+    ap.add_argument("--src", type=Path, default=None, help="run another checkout's DIR/src (the before/after table)")
     args = ap.parse_args()
-    print(f"{'capture':>22} {'MB':>7} {'wall (s)':>9} {'CPU (s)':>8} {'peak RSS (MB)':>14} {'exit':>5} "
+    env = dict(os.environ)
+    if args.src is not None:
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (str(args.src / "src"), env.get("PYTHONPATH", "")) if p)
+        print(f"motorid from {args.src / 'src'}")
+    print(f"{'capture':>22} {'MB':>7} {'wall (s)':>9} {'user (s)':>9} {'sys (s)':>8} {'peak RSS (MB)':>14} {'exit':>5} "
           f"{'dc gain':>8} {'tau (s)':>8}")
     cases: list[tuple[str, int]] = [("log", int(x)) for x in args.rows.split(",") if x]
     if args.tds:
@@ -77,9 +82,10 @@ def main() -> None:
 
                 capture = make_tds(Path(tmp), n)
                 size = sum(f.stat().st_size for f in capture.iterdir())
-            wall, cpu, rss, rc, fo = identify(capture, out)
-            print(f"{f'{kind} {n} samples':>22} {size / 1e6:7.1f} {wall:9.2f} {cpu:8.2f} {rss:14.0f} {rc:>5} "
-                  f"{fo.get('dc_gain', float('nan')):8.4f} {fo.get('time_constant', float('nan')):8.4f}")
+            wall, user, system, rss, rc, fo = identify(capture, out, env)
+            gain, tau = fo.get("dc_gain", float("nan")), fo.get("time_constant", float("nan"))
+            print(f"{f'{kind} {n} samples':>22} {size / 1e6:7.1f} {wall:9.2f} {user:9.2f} {system:8.2f} "
+                  f"{rss:14.0f} {rc:>5} {gain:8.4f} {tau:8.4f}")
 
 
 if __name__ == "__main__":

@@ -1,11 +1,13 @@
-"""Capture readers on large files: rows, MB, seconds and peak memory, against pandas.read_csv.
+"""Capture readers on large files: rows, MB, CPU seconds and peak memory, against pandas.read_csv.
 
 Run: ``python3 bench/read_speed.py [--rows 10000,100000,1000000,2500000,10000000] [--tds 1000000]
 [--src DIR] [--timeout 60] [--dir /tmp/motorid-read-bench]``.
 
-Each read runs in a fresh child process (``python -c``) so that its peak resident memory
+Each read runs in a fresh child process (``python -c``); its CPU time (``time.process_time``,
+from the interpreter's start: the imports are counted, pandas' too when a reader imports it) and its
+peak resident memory
 (``resource.getrusage(RUSAGE_SELF).ru_maxrss`` of the child, includes the interpreter and
-numpy, about 30 MB) is its own.  The files are plain CSVs ``time,input,velocity`` of about 26
+numpy, about 30 MB) are its own.  The files are plain CSVs ``time,input,velocity`` of about 26
 bytes a row (a DAQ log) and one Tektronix "Save All" pair (``ALL0000/F0000CH1.CSV`` +
 ``F0000CH2.CSV``) written by :func:`motorid.io.write_tds_capture`; they are generated once and
 kept in ``--dir``.  ``pandas.read_csv`` (its C engine, the same columns) is the peer when
@@ -29,7 +31,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 CHILD = r"""
 import json, resource, sys, time
-t0 = time.perf_counter()
+t0 = time.process_time()
 kind, path = sys.argv[1], sys.argv[2]
 if kind == "pandas":
     import pandas as pd
@@ -44,7 +46,7 @@ elif kind == "pandas-tds":
 else:
     from motorid.io import read_capture
     n = read_capture(path).n_samples
-dt = time.perf_counter() - t0
+dt = time.process_time() - t0
 print(json.dumps({"n": n, "s": dt, "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
 """
 
@@ -63,8 +65,8 @@ def make_plain(path: Path, rows: int) -> None:
             u = np.where(i >= rows // 10, 5.92, 0.0)
             y = np.where(i >= rows // 10, 1.5 * (1 - np.exp(-(i - rows // 10) * 1e-4 / 0.4)), 0.0)
             y = y + rng.normal(0, 0.002, i.size)
-            rows = zip(t.tolist(), u.tolist(), y.tolist(), strict=False)
-            fh.write("".join(f"{a:.4f},{b:.2f},{c:.6f}\n" for a, b, c in rows))
+            block_rows = zip(t.tolist(), u.tolist(), y.tolist(), strict=True)
+            fh.write("".join(f"{a:.4f},{b:.2f},{c:.6f}\n" for a, b, c in block_rows))
 
 
 def make_tds(folder: Path, n: int) -> Path:
@@ -135,23 +137,23 @@ def main() -> None:
         cases.append((f"tds pair {args.tds}", folder, "pandas-tds"))
 
     print(f"reader: {args.src / 'src'}   pandas: {'yes' if have_pandas else 'not installed'}")
-    head = f"{'file':<20} {'rows':>9} {'MB':>7} {'motorid s':>10} {'RSS MB':>8}"
+    head = f"{'file':<20} {'rows':>9} {'MB':>7} {'motorid CPU s':>13} {'RSS MB':>8}"
     if have_pandas:
-        head += f" {'pandas s':>9} {'RSS MB':>8} {'ratio':>6}"
+        head += f" {'pandas CPU s':>12} {'RSS MB':>8} {'ratio':>6}"
     print(head)
     for name, path, peer in cases:
         mb = sum(p.stat().st_size for p in ([path] if path.is_file() else path.iterdir())) / 1e6
         ours = child("motorid", path, env, args.timeout, args.mem)
         rows = ours.get("n", "")
         line = f"{name:<20} {rows!s:>9} {mb:7.1f} "
-        line += (f"{ours['s']:10.2f} {ours['rss_mb']:8.0f}" if "s" in ours else f"{ours['error']:>19}")
+        line += (f"{ours['s']:13.2f} {ours['rss_mb']:8.0f}" if "s" in ours else f"{ours['error']:>22}")
         if have_pandas:
             theirs = child(peer, path, env, args.timeout, args.mem)
             if "s" in theirs:
                 ratio = f"{ours['s'] / theirs['s']:6.2f}" if "s" in ours else "     -"
-                line += f" {theirs['s']:9.2f} {theirs['rss_mb']:8.0f} {ratio}"
+                line += f" {theirs['s']:12.2f} {theirs['rss_mb']:8.0f} {ratio}"
             else:
-                line += f" {theirs['error']:>18}"
+                line += f" {theirs['error']:>21}"
         print(line, flush=True)
 
 

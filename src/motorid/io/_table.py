@@ -150,9 +150,11 @@ def _time_column(raw: np.ndarray, name: str, time_unit: str | None, file: str, w
     if scale is not None:
         return raw * scale, ""
     steps = np.diff(raw[: min(raw.size, 10_000)])
-    whole = raw.size > 1 and bool(np.all(np.isfinite(raw))) and bool(np.all(raw == np.round(raw)))
     step = float(np.median(steps)) if steps.size else 0.0
-    if not (whole and MS_STEP_MIN <= step <= MS_TO_US_MAX):
+    if not MS_STEP_MIN <= step <= MS_TO_US_MAX:
+        return raw, ""  # decided without the whole-number test (a copy of a 10 M-row column)
+    whole = raw.size > 1 and bool(np.all(np.isfinite(raw))) and bool(np.all(raw == np.round(raw)))
+    if not whole:
         return raw, ""
     if step <= MS_STEP_MAX:
         return raw * 1e-3, (f"{where} {name!r} holds whole numbers stepping by {step:g}, no unit in its name: "

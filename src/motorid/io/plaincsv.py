@@ -25,7 +25,7 @@ from motorid.io._common import (
     read_fast_or_careful,
     decode_text,
     iter_lines,
-    load_columns,
+    load_column_arrays,
     parse_number,
     read_head,
     read_text,
@@ -137,7 +137,8 @@ def read_plain_csv(
     file = str(path)
     size = check_capture_file(path)
     return read_fast_or_careful(
-        file, size, lambda: _read_fast(path, file, columns, role), lambda: _read_careful(path, file, columns, role),
+        file, size, lambda: _read_fast(path, file, columns, role, size),
+        lambda: _read_careful(path, file, columns, role),
         lambda: _first_bad_line(path, file), "save it as a comma-separated CSV with a '.' decimal point")
 
 
@@ -173,8 +174,9 @@ def _comment_between(lines: Sequence[str], h: int, first: int) -> bool:
     return any(lines[k].lstrip().startswith("#") for k in range(h + 1, first))
 
 
-def _read_fast(path: PathLike, file: str, columns: Mapping[str, str] | None, role: str | None) -> Capture:
-    """The common case with numpy's C parser: header, then numbers (16–20× faster)."""
+def _read_fast(path: PathLike, file: str, columns: Mapping[str, str] | None, role: str | None,
+               size: int = 0) -> Capture:
+    """The common case with a C parser (numpy's, or pandas' on a large file): header, then numbers."""
     h, delim, names, first = _fast_layout(path, file)
     width = len(names)
     if not names[-1].strip() and len(first) == width and not first[-1].strip():
@@ -184,12 +186,12 @@ def _read_fast(path: PathLike, file: str, columns: Mapping[str, str] | None, rol
     numeric = [j for j in range(width) if parse_number(first[j]) is not None]
     # all columns numeric: numpy also checks that every line has the same number of fields
     usecols = None if len(numeric) == len(first) else numeric
-    arr = load_columns(path, skiprows=h + 1, delimiter=delim, usecols=usecols)
-    n = arr.shape[0]
+    arrays = load_column_arrays(path, skiprows=h + 1, delimiter=delim, usecols=usecols, size=size)
+    n = arrays[0].shape[0]
     cells: list[Sequence[object] | np.ndarray] = []
     for j in range(width):
         # a text column (a date, a comment) is left out; its first cell tells the table so
-        cells.append(arr[:, numeric.index(j)] if j in numeric else [first[j]])
+        cells.append(arrays[numeric.index(j)] if j in numeric else [first[j]])
     rows = LineOfSample(path, h + 1, n)
     return capture_from_table(names, cells, rows, file=file, fmt=PLAIN_FORMAT, columns=columns, role=role)
 

@@ -1,0 +1,147 @@
+"""The plain-CSV reader's three paths give the same capture: pandas' C parser, np.loadtxt, row by row.
+
+The fast paths are taken on large files only; here they are forced on small odd files, and each
+result is compared with the careful reader's (every cell read with ``float``) and with an
+independent parse (``float`` on the split text, in the test).
+"""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+
+from motorid.errors import CaptureDataError, CaptureFormatError
+from motorid.io import _common, plaincsv
+
+pandas = pytest.importorskip("pandas")
+needs_pandas3 = pytest.mark.skipif(int(pandas.__version__.split(".")[0]) < 3,
+                                   reason="pandas < 3 is not used (its float parser may round differently)")
+
+RNG = np.random.default_rng(7)
+# 17 significant digits: a value whose last bit a less careful parser gets wrong
+T = np.arange(200) * 1e-3
+U = np.where(np.arange(200) >= 20, 5.92, 0.0)
+Y = RNG.normal(0.0, 1.0, 200) * 10.0 ** RNG.integers(-8, 8, 200)
+
+
+def _rows(delim: str = ",", end: str = "\n", trailing: str = "") -> list[str]:
+    return [f"{t!r}{delim}{u!r}{delim}{y!r}{trailing}{end}" for t, u, y in zip(T.tolist(), U.tolist(), Y.tolist(), strict=True)]
+
+
+ODD_FILES = {
+    "crlf": "time,input,velocity\r\n" + "".join(_rows(end="\r\n")),
+    "trailing_comma": "time,input,velocity,\n" + "".join(_rows(trailing=",")),
+    "semicolon": "time;input;velocity\n" + "".join(_rows(";")),
+    "tab": "time\tinput\tvelocity\n" + "".join(_rows("\t")),
+    "comments_and_blank_lines_first": "# DAQ log\n# rate 1 kHz\n\ntime,input,velocity\n" + "".join(_rows()),
+    "blank_lines_in_body": "time,input,velocity\n" + "".join(r + ("\n" if k % 50 == 7 else "")
+                                                         for k, r in enumerate(_rows())),
+    "text_column": "time,date,input,velocity\n" + "".join(
+        r.replace(",", ",2026-01-01,", 1) for r in _rows()),
+    "signs_and_exponents": "time,input,velocity\n" + "".join(
+        f"{t:.6e},+{u:.3f},{y:+.17g}\n" for t, u, y in zip(T, U, Y, strict=True)),
+}
+
+
+def _expected(text: str) -> dict[str, np.ndarray]:
+    """An independent parse: ``float`` on the cells of the lines that hold numbers."""
+    lines = [ln for ln in text.replace("\r", "").split("\n") if ln.strip() and not ln.startswith("#")]
+    delim = max((",", ";", "\t"), key=lines[0].count)
+    names = lines[0].split(delim)
+    cells = [ln.split(delim) for ln in lines[1:]]
+    return {n: np.array([float(c[j]) for c in cells]) for j, n in enumerate(names)
+            if n in ("time", "input", "velocity")}
+
+
+def _read(path, how: str, monkeypatch):
+    file = str(path)
+    if how == "pandas":
+        monkeypatch.setattr(_common, "PANDAS_MIN_BYTES", 1)
+        real = _common._load_with_pandas
+        taken = []
+
+        def spy(*args):
+            taken.append(real(*args) is not None)
+            return real(*args)
+
+        monkeypatch.setattr(_common, "_load_with_pandas", spy)
+        cap = plaincsv._read_fast(path, file, None, None, path.stat().st_size)
+        assert taken == [True], "pandas did not read the file (np.loadtxt did)"
+        return cap
+    if how == "loadtxt":
+        monkeypatch.setitem(sys.modules, "pandas", None)  # import pandas → ImportError
+        return plaincsv._read_fast(path, file, None, None, path.stat().st_size)
+    return plaincsv._read_careful(path, file, None, None)
+
+
+@needs_pandas3
+@pytest.mark.parametrize("name", sorted(ODD_FILES))
+def test_pandas_loadtxt_and_careful_paths_give_the_same_bits(tmp_path, monkeypatch, name):
+    path = tmp_path / f"{name}.csv"
+    path.write_bytes(ODD_FILES[name].encode())
+    want = _expected(ODD_FILES[name])
+    for how in ("pandas", "loadtxt", "careful"):
+        with monkeypatch.context() as m:
+            cap = _read(path, how, m)
+        np.testing.assert_array_equal(cap.time_s, want["time"], err_msg=how)
+        np.testing.assert_array_equal(cap.input_v, want["input"], err_msg=how)
+        np.testing.assert_array_equal(cap.output_v, want["velocity"], err_msg=how)
+
+
+@needs_pandas3
+def test_pandas_path_is_taken_on_a_large_file(tmp_path, monkeypatch):
+    path = tmp_path / "log.csv"
+    path.write_text(ODD_FILES["crlf"])
+    monkeypatch.setattr(_common, "PANDAS_MIN_BYTES", 1)
+    calls = []
+    real = _common._load_with_pandas
+
+    def spy(*args):
+        calls.append(real(*args))
+        return calls[-1]
+
+    monkeypatch.setattr(_common, "_load_with_pandas", spy)
+    cols = _common.load_column_arrays(path, skiprows=1, delimiter=",", usecols=None, size=path.stat().st_size)
+    assert calls and calls[0] is not None and len(cols) == 3
+    np.testing.assert_array_equal(cols[2], Y)
+
+
+def test_small_file_does_not_import_pandas(tmp_path, monkeypatch):
+    path = tmp_path / "log.csv"
+    path.write_text(ODD_FILES["tab"])
+    monkeypatch.delitem(sys.modules, "pandas", raising=False)
+    cap = plaincsv.read_plain_csv(path)
+    assert "pandas" not in sys.modules and cap.n_samples == T.size
+
+
+BAD = {
+    # (text of the bad line, its 1-based line in the file, error type, words of the message)
+    "word": ("0.1,5.92,abc", CaptureFormatError, "cannot read 'abc' as a number"),
+    "short_row": ("0.1,5.92", CaptureFormatError, "2 fields but the header has 3"),
+    "long_row": ("0.1,5.92,1.0,7", CaptureFormatError, "4 fields but the header has 3"),
+    "empty_cell": ("0.1,,1.0", CaptureFormatError, "empty cell"),
+    "nan": ("0.1,5.92,nan", CaptureDataError, "not a finite number"),
+}
+
+
+@pytest.mark.parametrize("careful_max", [None, 1], ids=["small file", "large file (streamed scan)"])
+@pytest.mark.parametrize("name", sorted(BAD))
+def test_a_bad_row_names_the_file_and_its_line_on_every_path(tmp_path, monkeypatch, name, careful_max):
+    bad, exc, words = BAD[name]
+    rows = _rows()
+    rows[100] = bad + "\n"
+    path = tmp_path / "log.csv"
+    path.write_text("time,input,velocity\n" + "".join(rows))
+    line = 102  # header, then rows[0] on line 2
+    if careful_max is not None:
+        monkeypatch.setattr(_common, "CAREFUL_MAX_BYTES", careful_max)
+    for pandas_min in (1, 1 << 62):
+        monkeypatch.setattr(_common, "PANDAS_MIN_BYTES", pandas_min)
+        with pytest.raises(exc) as info:
+            plaincsv.read_plain_csv(path)
+        message = str(info.value)
+        assert str(path) in message and f":{line}:" in message, message
+        if name != "nan" or careful_max is None:
+            assert words in message, message
