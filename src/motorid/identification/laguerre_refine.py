@@ -268,6 +268,11 @@ def _delayed_response(a_c: np.ndarray, b_c: np.ndarray, c_rows: np.ndarray, d_co
     interval at ``f`` (the modified z-transform), so the response is smooth in ``θ`` and the
     fit can move the dead time by fractions of a sample.  Returns shape (len(u), outputs).
     """
+    # scipy.signal loads here, when the Markov method's polish runs (``auto`` does not: start-up);
+    # motorid.model.lti's filter differs from it in the last bits, which the polish's finite
+    # differences feel (8x the evaluations on a first-order record)
+    from scipy.signal import lfilter
+
     ns = a_c.shape[0]
     whole = math.floor(delay / h + 1e-12)
     frac = delay - whole * h
@@ -294,7 +299,7 @@ def _delayed_response(a_c: np.ndarray, b_c: np.ndarray, c_rows: np.ndarray, d_co
             na = lti.ss2tf(phi, g_a, c.reshape(1, -1), np.zeros((1, 1)))[0][0]
             nb = lti.ss2tf(phi, g_b, c.reshape(1, -1), np.zeros((1, 1)))[0][0]
         # x_{k+1} = Φ x_k + Γa v_k + Γb v_(k−1): y_k = C x_k (a one-sample lag in both filters)
-        y = lti.lfilter(np.r_[0.0, na[1:]], den, v) + lti.lfilter(np.r_[0.0, nb[1:]], den, v_prev)
+        y = lfilter(np.r_[0.0, na[1:]], den, v) + lfilter(np.r_[0.0, nb[1:]], den, v_prev)
         out[:, i] = y + d_col[i] * (v_prev if frac > 0 else v)
     return out
 
@@ -450,6 +455,7 @@ def laguerre_polish(
         If the primary channel is missing.
     """
     import scipy.optimize
+    from scipy.signal import lfilter  # as in _delayed_response
 
     t = np.asarray(time_s, dtype=float).ravel()
     if primary not in outputs:
@@ -498,8 +504,8 @@ def laguerre_polish(
             post, before = r[mk], np.zeros(0)
         if white and channel in whiten and whiten[channel].size > 1:
             poly = whiten[channel]
-            post = lti.lfilter(poly, [1.0], post)
-            before = lti.lfilter(poly, [1.0], before) if before.size else before
+            post = lfilter(poly, [1.0], post)
+            before = lfilter(poly, [1.0], before) if before.size else before
         return np.r_[post, before]
 
     def fit(model: _PolishModel, x0: np.ndarray, w: np.ndarray) -> np.ndarray:
