@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from motorid._threads import single_blas_thread
 from motorid.capture import Capture
 from motorid.conditioning.pipeline import ConditionedExperiment
 from motorid.errors import OptionError
@@ -750,6 +751,7 @@ def _describe_record(planner: _Planner, s: RecordSettings) -> str:
             f"{planner.t63 / s.sample_interval_s:.3g} samples per 63 % time")
 
 
+@single_blas_thread
 def advise(ident: Identification, captures: Mapping[str, Capture],
            settings: AdviceSettings = AdviceSettings()) -> Advice:
     """How to record the next capture: each scope setting's predicted interval widths.
