@@ -83,9 +83,10 @@ def test_oe_fits_each_capture_on_its_own_grid_and_block_means_exactly():
 
 @pytest.mark.parametrize(("delay", "blocks"), [(False, (1, 2, 1)), (True, (5, 3, 4))])
 def test_oe_analytic_jacobian_equals_finite_differences(monkeypatch, delay, blocks):
-    """The Jacobian handed to least_squares matches a central difference of the residuals to 1e-6
-    of each column (whitening, block means, wraps, pre-step samples, a dead time all active;
-    every column analytic)."""
+    """The problem's Jacobian matches a central difference of its residuals to 1e-6 of each column
+    (whitening, block means, wraps, pre-step samples, a dead time all active; every column
+    analytic), and what least_squares is handed — the triangular factor of ``[J f]`` — has the
+    same normal equations (``J̃ᵀJ̃ = JᵀJ``, ``J̃ᵀf̃ = Jᵀf``, ``‖f̃‖ = ‖f‖``)."""
     import scipy.optimize
 
     t = np.arange(0.0, 6.0, DT_S)
@@ -98,10 +99,17 @@ def test_oe_analytic_jacobian_equals_finite_differences(monkeypatch, delay, bloc
 
     def spy(fun, x0, jac=None, **kw):
         x = np.clip(x0 * 1.01 + 1e-4, kw["bounds"][0] + 1e-6, kw["bounds"][1] - 1e-6)
-        numeric = approx_derivative(fun, x, method="3-point", bounds=kw["bounds"])
-        analytic = jac(x)
+        prob = fun.__self__.prob  # the compressed problem's full residuals and Jacobian
+        numeric = approx_derivative(prob.residuals, x, method="3-point", bounds=kw["bounds"])
+        analytic = prob.jacobian(x)
         scale = np.abs(numeric).max(axis=0) + 1e-12
         checked.append(np.max(np.abs(analytic - numeric) / scale, axis=0))
+        f_full, j_small, f_small = prob.residuals(x), jac(x), fun(x)
+        gram = analytic.T @ analytic
+        assert np.allclose(j_small.T @ j_small, gram, rtol=1e-9, atol=1e-12 * np.abs(gram).max())
+        assert np.allclose(j_small.T @ f_small, analytic.T @ f_full, rtol=1e-9,
+                           atol=1e-12 * np.abs(analytic.T @ f_full).max())
+        assert np.linalg.norm(f_small) == pytest.approx(np.linalg.norm(f_full), rel=1e-12)
         return original(fun, x0, jac=jac, **kw)
 
     monkeypatch.setattr(scipy.optimize, "least_squares", spy)

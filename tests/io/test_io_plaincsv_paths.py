@@ -145,3 +145,15 @@ def test_a_bad_row_names_the_file_and_its_line_on_every_path(tmp_path, monkeypat
         assert str(path) in message and f":{line}:" in message, message
         if name != "nan" or careful_max is None:
             assert words in message, message
+
+
+def test_a_header_written_twice_is_refused_in_one_line_on_every_path(tmp_path, monkeypatch):
+    """A first data row with no number (the header twice) is a format error naming the file, whichever parser
+    would have read the numbers (it was an IndexError once pandas had been imported)."""
+    path = tmp_path / "log.csv"
+    path.write_text("time,input,velocity\ntime,input,velocity\n" + "".join(_rows()))
+    for pandas_min in (1, 1 << 62):
+        monkeypatch.setattr(_common, "PANDAS_MIN_BYTES", pandas_min)
+        with pytest.raises(CaptureFormatError) as info:
+            plaincsv.read_plain_csv(path)
+        assert str(path) in str(info.value)

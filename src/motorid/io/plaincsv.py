@@ -184,6 +184,9 @@ def _read_fast(path: PathLike, file: str, columns: Mapping[str, str] | None, rol
     if len(first) < width:
         raise ValueError("short first data line")
     numeric = [j for j in range(width) if parse_number(first[j]) is not None]
+    if not numeric:
+        # (a header line twice, a text table): the careful reading names what is wrong
+        raise NoFastPathError("its first data row has no number")
     # all columns numeric: numpy also checks that every line has the same number of fields
     usecols = None if len(numeric) == len(first) else numeric
     arrays = load_column_arrays(path, skiprows=h + 1, delimiter=delim, usecols=usecols, size=size)
