@@ -28,7 +28,6 @@ from motorid.identification.closed_form import (
     PartialFractions,
     ResponseBasis,
     position_closed_form,
-    residues,
     separate,
     slope_closed_form,
     step_response_closed_form,
@@ -326,37 +325,32 @@ class _Layout:
         return out
 
 
+def _channel_bases(q: Mapping[str, Any], t: np.ndarray | Mapping[str, np.ndarray], channels: Sequence[str],
+                   block: Mapping[str, tuple[int, float]] | None, poles: np.ndarray) -> dict[str, ResponseBasis]:
+    """Each channel's exponentials on its grid, from the step as the dead time and its shift place it."""
+    return {ch: ResponseBasis((t[ch] if isinstance(t, Mapping) else t) - q["delay"] - q["shift"].get(ch, 0.0),
+                              poles, (block or {}).get(ch)) for ch in channels}
+
+
 def _predict(
     layout: _Layout, th: np.ndarray, t: np.ndarray | Mapping[str, np.ndarray], step: float, channels: Sequence[str],
     block: Mapping[str, tuple[int, float]] | None = None, bases: Mapping[str, ResponseBasis] | None = None,
 ) -> dict[str, np.ndarray]:
-    """Every channel's response; on ``bases`` (the grids' exponentials for these parameters) when given."""
+    """Every channel's response, on ``bases`` (the grids' exponentials for these parameters) when given."""
     q = layout.unpack(th)
     num = _vel_num(q["K"], q["tz"])
     out = {}
-    blk = block or {}
-
-    def te(ch: str) -> np.ndarray:
-        grid = t[ch] if isinstance(t, Mapping) else t
-        return grid - q["delay"] - q["shift"].get(ch, 0.0)
-
-    if bases is not None:
-        pf = PartialFractions(q["taus"])
-        _, r, n0 = pf.residues(num)
-        if "velocity" in channels:
-            out["velocity"] = step * bases["velocity"].step(r, n0)
-        if "position" in channels:
-            out["position"] = q["c"] * (step * bases["position"].position(r, n0))
-        if "current" in channels:
-            _, rc, nc0 = pf.residues(q["cur"])
-            out["current"] = step * bases["current"].step(rc, nc0)
-        return {c: y + q["off"].get(c, 0.0) for c, y in out.items()}
+    pf = PartialFractions(q["taus"])
+    if bases is None:
+        bases = _channel_bases(q, t, channels, block, pf.p)
+    _, r, n0 = pf.residues(num)
     if "velocity" in channels:
-        out["velocity"] = step_response_closed_form(te("velocity"), num, q["taus"], step, blk.get("velocity"))
+        out["velocity"] = step * bases["velocity"].step(r, n0)
     if "position" in channels:
-        out["position"] = q["c"] * position_closed_form(te("position"), num, q["taus"], step, blk.get("position"))
+        out["position"] = q["c"] * (step * bases["position"].position(r, n0))
     if "current" in channels:
-        out["current"] = step_response_closed_form(te("current"), q["cur"], q["taus"], step, blk.get("current"))
+        _, rc, nc0 = pf.residues(q["cur"])
+        out["current"] = step * bases["current"].step(rc, nc0)
     return {c: y + q["off"].get(c, 0.0) for c, y in out.items()}
 
 
@@ -782,10 +776,7 @@ class _OeProblem:
         key = np.asarray(th, dtype=float).tobytes()
         if key != self.basis_key:
             q = self.layout.unpack(th)
-            poles = -1.0 / separate(q["taus"])  # those of residues()
-            tc = self._grid()
-            self.basis = {c: ResponseBasis(tc[c] - q["delay"] - q["shift"].get(c, 0.0), poles, self.fast.get(c))
-                          for c in self.names}
+            self.basis = _channel_bases(q, self._grid(), self.names, self.fast, PartialFractions(q["taus"]).p)
             self.basis_key = key
         return self.basis
 
@@ -801,9 +792,9 @@ class _OeProblem:
         n, m = self.settings.n_poles, self.settings.n_zeros
         n_par = len(layout.names)
         q = layout.unpack(th)
-        taus = PartialFractions(q["taus"])  # every numerator's residues below on the same time constants
+        pf = PartialFractions(q["taus"])  # every numerator's residues below on the same time constants
         num1 = _vel_num(1.0, q["tz"])
-        _, r1, n01 = residues(num1, taus)
+        _, r1, n01 = pf.residues(num1)
         # one basis per channel: every column below is a product with it (the residuals' own)
         basis = self.bases(th)
         d = {c: np.zeros((tc[c].size, n_par)) for c in names}
@@ -815,7 +806,7 @@ class _OeProblem:
             bv = basis["velocity"]
             d["velocity"][:, 0] = u * bv.step(r1, n01)
             slope["velocity"] = q["K"] * u * bv.slope(r1)
-            d["velocity"][:, shape] = u * bv.shape("step", num, taus, dnums)
+            d["velocity"][:, shape] = u * bv.shape("step", num, pf, dnums)
         if "position" in names:
             bp = basis["position"]
             p1 = u * bp.position(r1, n01)
@@ -823,16 +814,16 @@ class _OeProblem:
             if "c" in layout.idx:
                 d["position"][:, layout.idx["c"]] = q["K"] * p1
             slope["position"] = q["c"] * q["K"] * u * bp.step(r1, n01)
-            d["position"][:, shape] = q["c"] * u * bp.shape("position", num, taus, dnums)
+            d["position"][:, shape] = q["c"] * u * bp.shape("position", num, pf, dnums)
         if "current" in names:
             bc = basis["current"]
             nc = layout.n_current
-            unit = [residues(np.eye(nc)[j], taus) for j in range(nc)]  # the responses of s^k/D(s)
+            unit = [pf.residues(np.eye(nc)[j]) for j in range(nc)]  # the responses of s^k/D(s)
             r_unit = np.column_stack([x[1] for x in unit])
             cols = [layout.idx[f"cur_{j}"] for j in range(nc)]
             d["current"][:, cols] = u * bc.step(r_unit, np.array([x[2] for x in unit]))
             slope["current"] = u * bc.slope(r_unit @ q["cur"])
-            d["current"][:, shape[:n]] = u * bc.shape("step", q["cur"], taus)
+            d["current"][:, shape[:n]] = u * bc.shape("step", q["cur"], pf)
         for c in names:
             d[c][:, layout.idx[f"off_{c}"]] = 1.0
             if c in layout.shift_of:
