@@ -87,3 +87,17 @@ def test_lfilter_fir_and_edge_cases() -> None:
     np.testing.assert_allclose(lti.lfilter([1.0], [1.0, -0.5], np.ones(20)), 2.0 * (1.0 - 0.5 ** np.arange(1, 21)))
     with pytest.raises(ValueError, match="a\\[0\\]"):
         lti.lfilter([1.0], [0.0, 1.0], x)
+
+
+def test_lfilter_of_several_signals_is_each_ones_filter_and_scipys():
+    """Signals as the rows of a 2-D array: each row exactly as filtered alone, and scipy's along the last axis."""
+    rng = np.random.default_rng(7)
+    b, a = np.array([0.0, 0.3, 0.1]), np.array([1.0, -1.6, 0.64])  # a double pole at z = 0.8
+    x = rng.standard_normal((3, 500))
+    both = lti.lfilter(b, a, x)
+    assert both.shape == x.shape
+    for row, y in zip(x, both, strict=True):
+        assert np.array_equal(y, lti.lfilter(b, a, row))
+    assert np.allclose(both, scipy.signal.lfilter(b, a, x, axis=-1), rtol=1e-10, atol=1e-12)
+    with pytest.raises(ValueError, match="1-D or 2-D"):
+        lti.lfilter(b, a, x[None])

@@ -111,7 +111,7 @@ def _lsim_many(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, t: np
                inputs: np.ndarray) -> list[np.ndarray]:
     """:func:`_lsim` of each row of ``inputs`` (shape ``(signals, samples)``): one list entry per signal.
 
-    The discretisation and each output row's numerators are shared by every signal.
+    The discretisation, each output row's numerators and its filter runs are shared by every signal.
     """
     n = a.shape[0]
     dt = float(t[1] - t[0])
@@ -129,8 +129,7 @@ def _lsim_many(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, t: np
     n0, n1 = _numerators(ad, b0, c, den), _numerators(ad, b1, c, den)
     out = np.empty((u.shape[0], c.shape[0], u.shape[1]))
     for i in range(c.shape[0]):
-        for j in range(u.shape[0]):
-            out[j, i] = lti.lfilter(n0[i], den, u[j]) + lti.lfilter(n1[i], den, ahead[j]) + d[i, 0] * u[j]
+        out[:, i] = lti.lfilter(n0[i], den, u) + lti.lfilter(n1[i], den, ahead) + d[i, 0] * u
     return list(out)
 
 

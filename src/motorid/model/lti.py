@@ -146,7 +146,7 @@ def _ss2tf(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray) -> tuple[
 
 
 def lfilter(b: ArrayLike, a: ArrayLike, x: ArrayLike) -> np.ndarray:
-    """``y`` with ``Σ a_j y[k−j] = Σ b_i x[k−i]`` from rest: :func:`scipy.signal.lfilter` of a 1-D signal.
+    """``y`` with ``Σ a_j y[k−j] = Σ b_i x[k−i]`` from rest: :func:`scipy.signal.lfilter` along the last axis.
 
     Parameters
     ----------
@@ -155,17 +155,17 @@ def lfilter(b: ArrayLike, a: ArrayLike, x: ArrayLike) -> np.ndarray:
     a : array_like
         Denominator (recursive) coefficients, 1-D, ``a[0] ≠ 0``.
     x : array_like
-        The signal, 1-D.
+        The signal, 1-D, or several as the rows of a 2-D array (one triangular solve for all).
 
     Returns
     -------
     ndarray
-        The filtered signal, ``x``'s length, float.
+        The filtered signal(s), ``x``'s shape, float.
 
     Raises
     ------
     ValueError
-        If a coefficient array is not 1-D and non-empty, ``a[0]`` is zero, or ``x`` is not 1-D.
+        If a coefficient array is not 1-D and non-empty, ``a[0]`` is zero, or ``x`` is not 1-D or 2-D.
 
     Notes
     -----
@@ -180,21 +180,26 @@ def lfilter(b: ArrayLike, a: ArrayLike, x: ArrayLike) -> np.ndarray:
 
 def _lfilter(b: np.ndarray, a: np.ndarray, x: np.ndarray) -> np.ndarray:
     """:func:`lfilter` of float arrays."""
-    if b.ndim != 1 or a.ndim != 1 or b.size == 0 or a.size == 0 or x.ndim != 1:
-        raise ValueError(f"lfilter needs 1-D b, a and x; got shapes {b.shape}, {a.shape}, {x.shape}")
+    if b.ndim != 1 or a.ndim != 1 or b.size == 0 or a.size == 0 or x.ndim not in (1, 2):
+        raise ValueError(f"lfilter needs 1-D b and a, and a 1-D or 2-D x; got shapes {b.shape}, {a.shape}, {x.shape}")
     if a[0] == 0.0:
         raise ValueError("lfilter needs a[0] != 0")
     b, a = b / a[0], a / a[0]
-    if x.size == 0:
+    if x.shape[-1] == 0:
         return x.copy()
-    w = np.convolve(x, b)[: x.size]
+    rows = np.atleast_2d(x)
+    n = rows.shape[1]
+    w = np.column_stack([np.convolve(r, b)[:n] for r in rows])  # one right-hand side per signal
     order = a.size - 1
     if order == 0:
-        return w
-    # LAPACK band storage of the lower band: row j holds the j-th subdiagonal (a_j on all of it)
-    band = np.zeros((order + 1, x.size))
-    band[:, :] = a[:, None]
-    y, info = scipy.linalg.lapack.dtbtrs(band, w[:, None], uplo="L", trans="N", diag="U")
-    if info != 0:  # pragma: no cover - a unit diagonal is never singular
-        raise ValueError(f"dtbtrs failed (info {info})")
-    return np.asarray(y[:, 0])
+        y = w
+    else:
+        # LAPACK band storage of the lower band: row j holds the j-th subdiagonal (a_j on all of it);
+        # dtbtrs solves each right-hand side by itself, as one call each would
+        band = np.zeros((order + 1, n))
+        band[:, :] = a[:, None]
+        y, info = scipy.linalg.lapack.dtbtrs(band, w, uplo="L", trans="N", diag="U")
+        if info != 0:  # pragma: no cover - a unit diagonal is never singular
+            raise ValueError(f"dtbtrs failed (info {info})")
+    out = np.ascontiguousarray(np.asarray(y).T)
+    return out if x.ndim == 2 else out[0]
