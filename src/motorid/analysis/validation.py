@@ -227,7 +227,6 @@ def _checked_delay(model: MotorModel, channel: str, warmup_s: float, delay_s: fl
 class _Drive:
     """What the model is driven with and scored against, and how that was read off the capture."""
 
-    t_file: np.ndarray
     u: np.ndarray
     y: np.ndarray
     wraps: int
@@ -266,7 +265,7 @@ def _step_drive(capture: Capture, channel: str, step_volts: float | None, t0_s: 
                  f"{'as recorded' if capture.input_v is not None else 'built from --step-volts'}; scored on the "
                  "increments from the pre-step baseline")
     # a current returns towards 0 after the step: its change is its span, not its end
-    return _Drive(capture.time_s, u, y, sr.wraps, "span" if channel == "current" else "final", kind, step_time)
+    return _Drive(u, y, sr.wraps, "span" if channel == "current" else "final", kind, step_time)
 
 
 def _recorded_drive(capture: Capture, channel: str, step_volts: float | None, t0_s: float | None,
@@ -285,7 +284,7 @@ def _recorded_drive(capture: Capture, channel: str, step_volts: float | None, t0
         y, wraps = un.position_v, un.wraps
         warnings.extend(un.warnings)
     notes.append("input: CH1 as recorded")
-    return _Drive(capture.time_s, u, y, wraps, "span", "recorded", None)
+    return _Drive(u, y, wraps, "span", "recorded", None)
 
 
 @single_blas_thread
@@ -355,8 +354,9 @@ def validate_capture(
         drive = _step_drive(capture, channel, step_volts, t0_s, encoder_span_v, notes, warnings)
     else:
         drive = _recorded_drive(capture, channel, step_volts, t0_s, encoder_span_v, notes, warnings)
-    t_file, u, y, wraps, reference, kind, step_time = (drive.t_file, drive.u, drive.y, drive.wraps, drive.reference,
-                                                      drive.kind, drive.step_time)
+    t_file = capture.time_s
+    u, y, wraps, reference, kind, step_time = (drive.u, drive.y, drive.wraps, drive.reference, drive.kind,
+                                               drive.step_time)
     if wraps:
         notes.append(f"position unwrapped: {wraps} encoder wrap(s) removed")
     t = t_file - t_file[0]

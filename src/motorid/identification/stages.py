@@ -27,6 +27,7 @@ from motorid.identification.output_error import (  # _block_mean: the fit's own 
 )
 from motorid.identification.method_options import (
     DEFAULT_OUTPUT_ERROR,
+    FIT_TOLERANCE,
     MAX_NFEV,
     OutputErrorOptions,
 )
@@ -277,7 +278,7 @@ def _sampled_phase(r: Any) -> float:
 
 
 def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, delay: bool = False,
-                tolerance: float = 1e-8, max_nfev: int = MAX_NFEV) -> OeSettings:
+                tolerance: float = FIT_TOLERANCE, max_nfev: int = MAX_NFEV) -> OeSettings:
     """The output-error settings of one structure on these captures: their timing.
 
     Parameters
@@ -719,7 +720,7 @@ def oe_stage(
     delay: bool = False,
     noise: NoiseModel | None = None,
     white: bool = False,
-    tolerance: float = 1e-8,
+    tolerance: float = FIT_TOLERANCE,
     max_nfev: int = MAX_NFEV,
 ) -> tuple[OeResult, MotorModel]:
     """Output-error fit of one structure, initialised from ``init``.
