@@ -173,16 +173,31 @@ def _identify(paths: dict[str, Any], read_kw: dict[str, Any], ident_kw: dict[str
 @router.post("/tab/{tab_id}/design", response_class=HTMLResponse)
 async def design(request: Request, tab_id: str) -> HTMLResponse:
     """One move of the design sliders: design, closed loop, figure, mode-map marker."""
+    tab, dform = await _design_request(request, tab_id)
+    view, maps = await run_in_threadpool(_design, tab, dform)
+    return _render(request, "_design_result.html", tab=tab, view=view, maps=maps, form=dform,
+                   headers={"Server-Timing": f"update;dur={view.elapsed_ms:.1f}, cpu;dur={view.cpu_ms:.1f}"})
+
+
+async def _design_request(request: Request, tab_id: str) -> tuple[Tab, Any]:
+    """The tab of a design-panel request and the panel's form (a slider move or its robustness check)."""
     from motorid.web.views import DesignForm
 
     tab = _tab(request, tab_id)
     if tab.fit is None:
         raise OptionError("identify a model first (the design panel works on the identified model)")
     form = await request.form(max_files=0, max_fields=50)
-    dform = DesignForm.from_fields({k: v for k, v in form.items() if isinstance(v, str)})
-    view, maps = await run_in_threadpool(_design, tab, dform)
-    return _render(request, "_design_result.html", tab=tab, view=view, maps=maps, form=dform,
-                   headers={"Server-Timing": f"update;dur={view.elapsed_ms:.1f}, cpu;dur={view.cpu_ms:.1f}"})
+    return tab, DesignForm.from_fields({k: v for k, v in form.items() if isinstance(v, str)})
+
+
+def _canvas(tab: Tab) -> Any:
+    """The tab's closed-loop figure, made on first use (kept, redrawn in place)."""
+    with tab.lock:
+        if tab.canvas is None:
+            from motorid.report.figures import ClosedLoopCanvas
+
+            tab.canvas = ClosedLoopCanvas()
+        return tab.canvas
 
 
 def _design(tab: Tab, dform: Any) -> tuple[Any, Any]:
@@ -203,13 +218,7 @@ def _design(tab: Tab, dform: Any) -> tuple[Any, Any]:
             except MotorIdError as exc:
                 maps = str(exc)  # the panel says why there is no map
             tab.mode_maps[key] = maps
-    with tab.lock:
-        if tab.canvas is None:
-            from motorid.report.figures import ClosedLoopCanvas
-
-            tab.canvas = ClosedLoopCanvas()
-        canvas = tab.canvas
-    view = design_update(model, dform, maps if not isinstance(maps, str) else None, canvas)
+    view = design_update(model, dform, maps if not isinstance(maps, str) else None, _canvas(tab))
     with tab.lock:
         tab.design, tab.simulation, tab.design_form = view.design, dform.simulate_options(), dform
     return view, maps
@@ -218,28 +227,17 @@ def _design(tab: Tab, dform: Any) -> tuple[Any, Any]:
 @router.post("/tab/{tab_id}/robust", response_class=HTMLResponse)
 async def robust(request: Request, tab_id: str) -> HTMLResponse:
     """The shown design checked on the plausible motors (the page asks once a move is shown)."""
-    from motorid.web.views import DesignForm
-
-    tab = _tab(request, tab_id)
-    if tab.fit is None:
-        raise OptionError("identify a model first (the design panel works on the identified model)")
-    form = await request.form(max_files=0, max_fields=50)
-    dform = DesignForm.from_fields({k: v for k, v in form.items() if isinstance(v, str)})
+    tab, dform = await _design_request(request, tab_id)
     view = await run_in_threadpool(_robust, tab, dform)
     return _render(request, "_robust.html", view=view,
                    headers={"Server-Timing": f"update;dur={view.elapsed_ms:.1f}, cpu;dur={view.cpu_ms:.1f}"})
 
 
 def _robust(tab: Tab, dform: Any) -> Any:
-    from motorid.report.figures import ClosedLoopCanvas
     from motorid.web.views import robust_update
 
     assert tab.fit is not None
-    with tab.lock:
-        if tab.canvas is None:
-            tab.canvas = ClosedLoopCanvas()
-        canvas = tab.canvas
-    view = robust_update(tab.fit.model, dform, canvas)
+    view = robust_update(tab.fit.model, dform, _canvas(tab))
     with tab.lock:
         if tab.design_form == dform:  # still the design shown: its download carries the check
             tab.design = view.design
