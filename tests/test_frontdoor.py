@@ -225,3 +225,64 @@ def test_a_result_reads_in_a_notebook(fit):
     roles = [r for r in ("velocity", "position", "current") if r in fit.model.outputs]
     assert [ax.get_title(loc="left") for ax in fig.axes[::2]] == roles
     assert fig.axes[0].get_ylabel() == f"velocity ({fit.model.units.get('velocity') or 'V'})"
+
+
+def test_design_and_simulate_read_files_after_checking_their_options(fit, tmp_path):
+    # what the command line gives: files, and poles as text
+    model_file = tmp_path / "m.json"
+    model_file.write_text(fit.model.to_json_text())
+    poles = [-6 + 3j, -6 - 3j, -40, -50, -60][:fit.model.A.shape[0]]
+    text = ", ".join(f"{p.real:g}{p.imag:+g}j" if p.imag else f"{p.real:g}" for p in map(complex, poles))
+    des = mi.design(model_file, poles=text, sensors="position,velocity")
+    same = mi.design(fit, poles=poles, sensors=["position", "velocity"])
+    np.testing.assert_array_equal(des.K, same.K)
+    design_file = tmp_path / "d.json"
+    design_file.write_text(json.dumps(des.to_json()))
+    from_files = mi.simulate(model_file, design_file, duration_s=2.0)
+    np.testing.assert_allclose(from_files.output_v, mi.simulate(fit, des, duration_s=2.0).output_v, rtol=1e-12)
+    # an option error comes before any file is read (the files need not exist), in the caller's words
+    missing = tmp_path / "nothing.json"
+    with pytest.raises(OptionError, match=r"^dt") as err:
+        mi.simulate(missing, missing, dt_s=0.0)
+    assert err.value.file is None
+    with pytest.raises(OptionError, match="trainer_preset"):
+        mi.simulate(missing, missing, plant="trainer", trainer_preset="nope")
+    with pytest.raises(OptionError, match="poles: cannot read"):
+        mi.design(missing, poles="-3+2j,abc")
+
+
+def test_a_refused_design_names_the_file_it_came_from(fit, tmp_path):
+    from motorid.model import MotorModel
+
+    other = MotorModel(A=np.diag([-1.0, -2.0, -3.0]), B=[[1.0], [1.0], [1.0]], C=[[1.0, 1.0, 1.0]],
+                       D=[[0.0]], states=("x1", "x2", "x3"), outputs=("velocity",))
+    model_file = tmp_path / "other.json"
+    model_file.write_text(other.to_json_text())
+    design_file = tmp_path / "d.json"
+    design_file.write_text(json.dumps(mi.design(fit, damping=0.7, wn=5.0).to_json()))
+    with pytest.raises(OptionError) as err:
+        mi.simulate(model_file, design_file)
+    assert err.value.file == str(design_file)
+    with pytest.raises(OptionError) as err:  # given as objects, no file is named
+        mi.simulate(other, mi.design(fit, damping=0.7, wn=5.0))
+    assert err.value.file is None
+
+
+def test_identify_levels_takes_captures_and_one_level_for_all(tmp_path):
+    from motorid.trainer.multilevel import multilevel_experiment
+
+    exp = multilevel_experiment("deadzone", levels=(2.0, 4.0, 6.0), repeats=1, seed=0)
+    caps = [c.capture for c in exp.captures]
+    res = mi.identify_levels(caps)  # Capture objects, e.g. the steps of one staircase log
+    assert len(res.responses) == 3
+    assert res.static.gain_ci95[0] <= exp.truth.gain <= res.static.gain_ci95[1]
+    with pytest.raises(OptionError, match="step_volts gives 2 levels for 3 captures"):
+        mi.identify_levels(caps, step_volts=[1.0, 2.0])
+
+
+def test_write_report_takes_named_validation_a_truth_and_a_title(fit, demo, tmp_path):
+    truth = {"schema": "motorid.trainer-truth/1", "preset": "paper", "seed": 0, "captures": {},
+             "transfer_functions": {}, "config": {}}
+    page = mi.write_report(tmp_path / "r.html", fit, validation={"sine": demo / "ALL0003"}, truth=truth,
+                           title="my rig").read_text(encoding="utf-8")
+    assert "<title>my rig" in page and "sine" in page and "ALL0003" not in page.split("Files:")[0]

@@ -91,3 +91,40 @@ def test_cli_python_web_and_batch_give_the_same_model(case, demo_run, tmp_path):
     motorid_ok("batch", tmp_path / "class", "--out", tmp_path / "out", "--jobs", "1")
     by_batch = json.loads((tmp_path / "out" / "alice" / "model.json").read_text())
     assert _without_provenance(by_batch, files) == by_cli
+
+
+#: What the front ends must reach through the front door, never directly: the estimators'
+#: pipeline, the several-levels fit, the designers and the closed-loop simulators.
+_BELOW_THE_FRONT_DOOR = {
+    "motorid.identification.pipeline": {"identify_experiment"},
+    "motorid.identification.hammerstein": {"identify_levels"},
+    "motorid.control.design": {"design_controller"},
+    "motorid.control.pid": {"design_pid"},
+    "motorid.simulation.closed_loop": {"simulate_closed_loop"},
+    "motorid.trainer.closed_loop": {"simulate_on_trainer"},
+}
+
+
+def _calls_below_the_front_door(path: Path) -> list[str]:
+    import ast
+
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom) and node.module in _BELOW_THE_FRONT_DOOR:
+            found += [f"{path.name}:{node.lineno} {node.module}.{a.name}" for a in node.names
+                      if a.name in _BELOW_THE_FRONT_DOOR[node.module]]
+    return found
+
+
+@pytest.mark.parametrize("front_end", ["cli", "web", "batch"])
+def test_the_front_ends_identify_design_and_simulate_through_the_front_door(front_end):
+    src = Path(mi.__file__).parent / front_end
+    found = [hit for path in sorted(src.rglob("*.py")) for hit in _calls_below_the_front_door(path)]
+    assert not found, found
+
+
+def test_the_scan_sees_a_call_below_the_front_door(tmp_path):
+    # the check above can fail: an import of the pipeline's own entry point is found
+    bad = tmp_path / "bad.py"
+    bad.write_text("def f():\n    from motorid.identification.pipeline import identify_experiment\n")
+    assert _calls_below_the_front_door(bad) == ["bad.py:2 motorid.identification.pipeline.identify_experiment"]

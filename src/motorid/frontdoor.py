@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import hashlib
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field, replace
 from importlib.metadata import PackageNotFoundError, version
 from os import PathLike
@@ -132,8 +133,9 @@ def _file_digests(paths: Sequence[Path]) -> dict[str, str]:
     return digests
 
 
+@speaks_as_called("identify_levels")
 def identify_levels(
-    velocity: Sequence[CapturePath],
+    velocity: Sequence[CapturePath | Capture],
     *,
     step_volts: Sequence[float] | None = None,
     columns: Mapping[str, str] | None = None,
@@ -145,10 +147,11 @@ def identify_levels(
 
     Parameters
     ----------
-    velocity : sequence of str or Path (or CH1/CH2 pairs)
-        One velocity capture per step experiment (repeats of a level are separate captures).
+    velocity : sequence of str, Path (or CH1/CH2 pairs) or Capture
+        One velocity capture per step experiment (repeats of a level are separate captures);
+        a :class:`Capture` is taken as it is (e.g. one step of a staircase log).
     step_volts : sequence of float, optional
-        The level of each capture without an input channel.
+        The level of each capture without an input channel: one per capture, or one for all.
     columns : Mapping, optional
         Plain-CSV column map.
 
@@ -166,12 +169,24 @@ def identify_levels(
     from motorid.identification.hammerstein import identify_levels as _identify_levels
     from motorid.io import read_capture
 
+    levels: list[float | None] | None = None
+    if step_volts is not None:
+        if len(step_volts) == 1:
+            levels = [float(step_volts[0])] * len(velocity)
+        elif len(step_volts) == len(velocity):
+            levels = [float(v) for v in step_volts]
+        else:
+            raise OptionError(f"--step-volts gives {len(step_volts)} levels for {len(velocity)} captures; give one "
+                              "per capture, in the order of the --velocity/--experiment options")
     caps = []
     for spec in velocity:
+        if isinstance(spec, Capture):
+            caps.append(spec)
+            continue
         paths = [str(p) for p in _paths(spec)]
         caps.append(read_capture(paths[0] if len(paths) == 1 else paths, columns=dict(columns) if columns else None,
                                  role="velocity"))
-    return _identify_levels(caps, step_volts=None if step_volts is None else list(step_volts))
+    return _identify_levels(caps, step_volts=levels)
 
 
 @speaks_as_called("read_experiment")
@@ -673,7 +688,41 @@ def _model_of(model: Any, param: str = "model") -> MotorModel:
         return model.model
     if isinstance(model, MotorModel):
         return model
-    raise OptionError(f"{param}= must be a MotorModel or an IdentificationResult, got {type(model).__name__}")
+    if isinstance(model, (str, PathLike)):
+        from motorid.model.serialize import load_model
+
+        return load_model(Path(model))
+    raise OptionError(f"{param}= must be a MotorModel, an IdentificationResult or a model JSON file, "
+                      f"got {type(model).__name__}")
+
+
+def _design_of(design: Any) -> Design | PidDesign:
+    from motorid.control.design import Design
+    from motorid.control.pid import PidDesign
+
+    if isinstance(design, (Design, PidDesign)):
+        return design
+    if isinstance(design, (str, PathLike)):
+        from motorid.control.design_io import load_controller
+
+        return load_controller(Path(design))
+    raise OptionError("design= must be the Design of mi.design(...), a PidDesign or a design JSON file, "
+                      f"got {type(design).__name__}")
+
+
+@contextmanager
+def _blamed_on(source: Any) -> Iterator[None]:
+    """Name ``source``'s file in an :class:`OptionError` raised inside, when it was given as a file.
+
+    The model or design a file holds is what a refusal of the work on it is about (a design
+    for other states than the model's); objects given in Python name no file.
+    """
+    try:
+        yield
+    except OptionError as exc:
+        if isinstance(source, (str, PathLike)):
+            raise exc.with_file(str(source)) from None
+        raise
 
 
 def _names(param: str, values: Any) -> tuple[str, ...]:
@@ -687,6 +736,10 @@ def _names(param: str, values: Any) -> tuple[str, ...]:
 def _poles(param: str, values: Any) -> tuple[complex, ...] | None:
     if values is None:
         return None
+    if isinstance(values, str):  # "-3+2j,-3-2j", as the command line and the web form give them
+        from motorid.control.feedback import parse_poles
+
+        return tuple(complex(v) for v in parse_poles(values, "--" + param.replace("_", "-")))
     try:
         return tuple(complex(v) for v in (values if isinstance(values, Sequence) else list(values)))
     except (TypeError, ValueError):
@@ -695,9 +748,9 @@ def _poles(param: str, values: Any) -> tuple[complex, ...] | None:
 
 @speaks_as_called("design")
 def design(
-    model: MotorModel | IdentificationResult,
+    model: MotorModel | IdentificationResult | str | PathLike[str],
     *,
-    poles: Sequence[complex] | None = None,
+    poles: Sequence[complex] | str | None = None,
     damping: float | None = None,
     wn: float | None = None,
     k2: float | None = None,
@@ -706,10 +759,10 @@ def design(
     integral: bool = False,
     ki: float | None = None,
     integral_pole: complex | None = None,
-    observer_poles: Sequence[complex] | None = None,
+    observer_poles: Sequence[complex] | str | None = None,
     output: str | None = None,
     robust_samples: int = 2000,
-    sensors: Sequence[str] | None = None,
+    sensors: Sequence[str] | str | None = None,
     robust_fraction: float | None = None,
 ) -> Design:
     """Design state feedback, integral action and an observer (``motorid design`` in Python).
@@ -719,10 +772,11 @@ def design(
 
     Parameters
     ----------
-    model : MotorModel or IdentificationResult
-        The plant.
-    poles : sequence of complex, optional
-        Closed-loop poles (``n``, or ``n + 1`` with integral action).
+    model : MotorModel, IdentificationResult or path
+        The plant (a path: a model JSON file, named in errors about it).
+    poles : sequence of complex or str, optional
+        Closed-loop poles (``n``, or ``n + 1`` with integral action); a string is read as the
+        command line reads it (``"-3+2j,-3-2j"``).
     damping : float, optional
         ζ, with ``wn`` [rad/s] or ``k2`` (the lab report's design, eqs. 32–36).
     wn, k2 : float, optional
@@ -735,16 +789,17 @@ def design(
         Given integral gain (Routh-checked).
     integral_pole : complex, optional
         The extra pole placed with the state poles.
-    observer_poles : sequence of complex, optional
-        Luenberger observer poles.
+    observer_poles : sequence of complex or str, optional
+        Luenberger observer poles (a string as for ``poles``).
     output : str, optional
         Measured channel ``y`` (default: position if the model has it, else velocity).
     robust_samples : int
         Plausible motors, drawn from the model's uncertainty, the design is checked on
         (``design.robust``); 0: no check.
-    sensors : sequence of str, optional
-        What the rig measures (``position``, ``velocity``, ``current``; default: the model's
-        channels); the other states are estimated by a reduced-order observer.
+    sensors : sequence of str or str, optional
+        What the rig measures (``position``, ``velocity``, ``current``, or one comma-separated
+        string; default: the model's channels); the other states are estimated by a
+        reduced-order observer.
     robust_fraction : float, optional
         Tighten the design's own settling time and overshoot until this fraction of the
         plausible motors meets ``settling_time``/``overshoot`` (e.g. 0.95).
@@ -768,12 +823,14 @@ def design(
         observer_poles=_poles("observer_poles", observer_poles), output=output, robust_samples=robust_samples,
         sensors=None if sensors is None else _names("sensors", sensors), robust_fraction=robust_fraction,
     )
-    return design_controller(_model_of(model), settings)
+    plant = _model_of(model)
+    with _blamed_on(model):
+        return design_controller(plant, settings)
 
 
 @speaks_as_called("design_pid")
 def design_pid(
-    model: MotorModel | IdentificationResult,
+    model: MotorModel | IdentificationResult | str | PathLike[str],
     *,
     loop: str = "velocity",
     rule: str = "simc",
@@ -787,8 +844,8 @@ def design_pid(
 
     Parameters
     ----------
-    model : MotorModel or IdentificationResult
-        The plant (first to third order, with or without a dead time).
+    model : MotorModel, IdentificationResult or path
+        The plant (first to third order, with or without a dead time; a path: a model JSON file).
     loop : str
         ``velocity`` (a PI) or ``position`` (a PD; a PID with ``integral``).
     rule : str
@@ -817,13 +874,15 @@ def design_pid(
 
     settings = PidSettings(loop=loop, rule=rule, tau_c_s=tau_c, derivative_filter=derivative_filter,
                            integral=True if integral else None, damping=damping, wn=wn)
-    return _design_pid(_model_of(model), settings)
+    plant = _model_of(model)
+    with _blamed_on(model):
+        return _design_pid(plant, settings)
 
 
 @speaks_as_called("simulate")
 def simulate(
-    model: MotorModel | IdentificationResult,
-    design: Design | PidDesign,
+    model: MotorModel | IdentificationResult | str | PathLike[str],
+    design: Design | PidDesign | str | PathLike[str],
     *,
     duration_s: float = 3.0,
     reference: str | ReferenceSignal = "step",
@@ -838,15 +897,17 @@ def simulate(
     xhat0: Sequence[float] | None = None,
     trainer_preset: str = "lab-report",
     anti_windup: bool | None = None,
+    compensate_dead_zone: bool = False,
 ) -> SimulationResult:
     """Run a design in closed loop on the model or the virtual trainer (``motorid simulate``).
 
     Parameters
     ----------
-    model : MotorModel or IdentificationResult
-        The plant (``plant="linear"``) and the observer's model.
-    design : Design or PidDesign
-        From :func:`design`, or a PID from :func:`motorid.control.design_pid`.
+    model : MotorModel, IdentificationResult or path
+        The plant (``plant="linear"``) and the observer's model (a path: a model JSON file).
+    design : Design, PidDesign or path
+        From :func:`design` or :func:`design_pid`, or a design JSON file (read after the
+        options are checked, and named in errors about it).
     duration_s : float
         Record length [s].
     reference : str or ReferenceSignal
@@ -874,6 +935,9 @@ def simulate(
         Hold the integrator while the command is beyond a rail and its error would push it
         further (conditional integration). Default: on when ``saturation`` is given and the
         design integrates.
+    compensate_dead_zone : bool
+        Add the model's dead-zone ``u0·sign(u)`` to the command (inverse dead-zone
+        feed-forward; a model identified from several step levels).
 
     Returns
     -------
@@ -885,21 +949,20 @@ def simulate(
     OptionError
         Bad settings, or a design for other states than the model's.
     """
-    from motorid.control.design import Design
-    from motorid.control.pid import PidDesign
     from motorid.simulation.closed_loop import simulate_closed_loop
 
-    if not isinstance(design, (Design, PidDesign)):
-        raise OptionError(f"design= must be the Design of mi.design(...) or a PidDesign, got {type(design).__name__}")
     settings = _simulation_settings(
         duration_s=duration_s, reference=reference, level_v=level_v, saturation=saturation, disturbance=disturbance,
         disturbance_start_s=disturbance_start_s, plant=plant, dt_s=dt_s, x0=x0, z0=z0, xhat0=xhat0,
-        trainer_preset=trainer_preset, anti_windup=anti_windup)
-    if plant == "trainer":
-        from motorid.trainer.closed_loop import simulate_on_trainer
+        trainer_preset=trainer_preset, anti_windup=anti_windup, compensate_dead_zone=compensate_dead_zone)
+    # the options are checked above, before any file is read
+    motor, controller = _model_of(model), _design_of(design)
+    with _blamed_on(design):
+        if plant == "trainer":
+            from motorid.trainer.closed_loop import simulate_on_trainer
 
-        return simulate_on_trainer(_model_of(model), design, settings)
-    return simulate_closed_loop(_model_of(model), design, settings)
+            return simulate_on_trainer(motor, controller, settings)
+        return simulate_closed_loop(motor, controller, settings)
 
 
 def _simulation_settings(
@@ -917,10 +980,18 @@ def _simulation_settings(
     xhat0: Sequence[float] | None,
     trainer_preset: str,
     anti_windup: bool | None,
+    compensate_dead_zone: bool = False,
 ) -> SimulationSettings:
     """:func:`simulate`'s keyword options as the simulator's settings (the report takes the same)."""
     from motorid.simulation.closed_loop import ReferenceSignal, SimulationSettings
 
+    if plant == "trainer":
+        from motorid.trainer import preset
+
+        try:
+            preset(trainer_preset)  # an unknown preset is refused before any file is read
+        except OptionError as exc:
+            raise OptionError(f"--preset: {exc.message}") from None
     ref = reference if isinstance(reference, ReferenceSignal) else ReferenceSignal(kind=reference, level_v=level_v)
     return SimulationSettings(
         duration_s=duration_s,
@@ -935,15 +1006,18 @@ def _simulation_settings(
         plant=plant,
         trainer_preset=trainer_preset,
         anti_windup=anti_windup,
+        dead_zone_compensation=compensate_dead_zone,
     )
 
 
 # -------------------------------------------------------------------------------------- report
 
 
-def _validation_captures(validation: Sequence[Any]) -> dict[str, Capture]:
+def _validation_captures(validation: Sequence[Any] | Mapping[str, Any]) -> dict[str, Capture]:
     from motorid.io import read_capture
 
+    if isinstance(validation, Mapping):  # named by the caller ({"sine": ...})
+        return {str(k): v if isinstance(v, Capture) else read_capture(str(v)) for k, v in validation.items()}
     if isinstance(validation, (str, PathLike, Capture)):
         validation = [validation]
     caps = [v if isinstance(v, Capture) else read_capture(str(v)) for v in validation]
@@ -957,9 +1031,11 @@ def write_report(
     fit: IdentificationResult,
     *,
     design: Design | PidDesign | Mapping[str, Any] | None = None,
-    validation: Sequence[str | PathLike[str] | Capture] = (),
+    validation: Sequence[str | PathLike[str] | Capture] | Mapping[str, str | PathLike[str] | Capture] = (),
     overwrite: bool = True,
     simulation: Mapping[str, Any] | None = None,
+    truth: Mapping[str, Any] | None = None,
+    title: str = "motorid report",
 ) -> Path:
     """Write the self-contained HTML report of an identification (``motorid report``).
 
@@ -971,14 +1047,20 @@ def write_report(
         From :func:`identify`.
     design : Design, PidDesign or Mapping, optional
         A design (or its JSON dict) to show with its closed-loop step response.
-    validation : sequence of paths or Captures
-        Captures of other inputs (sine, triangle, square…) to validate the model on.
+    validation : sequence or mapping of paths or Captures
+        Captures of other inputs (sine, triangle, square…) to validate the model on, named by
+        their files, or by the mapping's keys (``{"sine": "ALL0003"}``).
     overwrite : bool
         Replace an existing file (``False``: refuse, as the command line without ``--force``).
     simulation : Mapping, optional
         :func:`simulate`'s options for the design's closed loop (``duration_s``, ``level_v``,
         ``saturation``…): the report then shows the run the caller saw (default: the report's
         5 s step of 5 V with ±10 V rails).
+    truth : Mapping, optional
+        The virtual trainer's truth document (``truth.json`` of ``motorid demo``, schema
+        ``motorid.trainer-truth/1``): the report compares the model with it.
+    title : str
+        The page's title.
 
     Returns
     -------
@@ -1011,7 +1093,7 @@ def write_report(
                               f"{', '.join(defaults(SIMULATE))}")
         run = _simulation_settings(**{**defaults(SIMULATE), **simulation})
     page = make_report(fit.identification, fit.experiment.captures, validation=_validation_captures(validation),
-                       design=doc, simulation=run)
+                       design=doc, simulation=run, truth=truth, title=title)
     with atomic_outputs() as outs:
         outs.write_text(out, page)
     return out

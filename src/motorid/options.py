@@ -27,6 +27,7 @@ __all__ = [
     "DESIGN",
     "DESIGN_PID",
     "IDENTIFY",
+    "IDENTIFY_LEVELS",
     "PYTHON_ONLY",
     "READ",
     "SIMULATE",
@@ -153,6 +154,8 @@ SIMULATE: tuple[OptionSpec, ...] = (
     OptionSpec("trainer_preset", "--preset", "lab-report", "", "trainer preset for plant=trainer"),
     OptionSpec("anti_windup", "--anti-windup", None, "",
                "hold the integrator against the rails (default: on with saturation and integral action)"),
+    OptionSpec("compensate_dead_zone", "--compensate-dead-zone", False, "",
+               "add the model's dead-zone to the command (inverse dead-zone feed-forward)"),
 )
 
 #: :func:`motorid.advise`'s options (``motorid advise`` takes the captures' and identify's too).
@@ -161,10 +164,16 @@ ADVISE: tuple[OptionSpec, ...] = (
                "narrowing of the gain's or τ's 95 % interval a change must bring to be worth it (0.2: 20 %)"),
 )
 
+#: :func:`motorid.identify_levels`'s options (``motorid identify`` with several ``--velocity``).
+IDENTIFY_LEVELS: tuple[OptionSpec, ...] = (
+    OptionSpec("step_volts", "--step-volts", None, "V", "each capture's step level: one for all, or one per capture"),
+    OptionSpec("columns", "--columns", None, "", "plain-CSV column map, e.g. time=t,input=u,velocity=rpm"),
+)
+
 #: Each front-door function's options, by the command's name.
 COMMANDS: dict[str, tuple[OptionSpec, ...]] = {
     "read_experiment": ROLES + READ, "identify": ROLES + READ + IDENTIFY, "design": DESIGN, "simulate": SIMULATE,
-    "design_pid": DESIGN_PID, "advise": ADVISE,
+    "design_pid": DESIGN_PID, "advise": ADVISE, "identify_levels": IDENTIFY_LEVELS,
 }
 
 _FLAG = re.compile(r"(?<![\w-])--[A-Za-z][\w-]*")

@@ -735,26 +735,23 @@ def report(
 ) -> None:
     """Identify and write one self-contained HTML report of the experiment."""
     columns = _with_time_unit(columns, time_unit)
-    from motorid.identification.pipeline import IdentifySettings, identify_experiment
+    from motorid import frontdoor
     from motorid.control.design_io import read_design_json as read_design
-    from motorid.io import atomic_outputs, check_writable
-    from motorid.report.assemble import make_report
+    from motorid.io import check_writable
 
     _check_options(method=method, sample_interval=sample_interval, step_volts=step_volts)
     check_writable({"--out": out}, force=force, create_parents=False)
-    _one_per_role(position, velocity, current)
-    settings = IdentifySettings(method=method,
-                                conditioning=_conditioning(None, sample_interval, None, "subsample", "interp"))
-    caps = _read_roles(position, velocity, current, columns, force_role=force_role)
-    _check_against_captures(caps, record_length=None)
+    exp = _read_experiment(position, velocity, current, columns, step_volts=step_volts, force_role=force_role)
+    _check_against_captures(dict(exp.captures), record_length=None)
     checks = _validation_captures(validate, columns)
     doc = read_design(design) if design is not None else None
     with _bar("report", total=2) as progress:
         progress(0, label="identifying")
-        result = identify_experiment(caps, settings, step_volts=step_volts)
+        fit = frontdoor.identify(exp, method=method,  # type: ignore[arg-type]
+                                 sample_interval="auto" if sample_interval is None else sample_interval)
+        result = fit.identification
         progress(1, label="figures and page")
-        with atomic_outputs(exclusive=not force) as outs:
-            outs.write_text(out, make_report(result, caps, validation=checks, design=doc))
+        frontdoor.write_report(out, fit, design=doc, validation=checks, overwrite=force)
         progress(2)
     _console().print(f"report: {out}")
     _strict_exit(result, strict)

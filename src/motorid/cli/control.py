@@ -9,6 +9,7 @@ into one line and exit code 2.  Register everything on the main app with :func:`
 import json
 import math
 import time
+from contextlib import nullcontext
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, cast
 
@@ -215,8 +216,7 @@ def design(
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """State feedback, integral action and observer (Tsiolakis 2022, §2-4) or a PID (--pid); code for a controller."""
-    from motorid.control.design import DesignSettings, design_controller
-    from motorid.control.feedback import parse_poles
+    from motorid import frontdoor
     from motorid.model.serialize import load_model
 
     _check_outputs([(json_out, "--json", None), (emit_file, "--emit-file", None)], force)
@@ -245,19 +245,11 @@ def design(
     def say(text: str) -> None:
         typer.echo(text, err=code_to_stdout)
 
-    settings = DesignSettings(
-        poles=None if poles is None else tuple(parse_poles(poles, "--poles")),
-        damping=damping, k2=k2, wn=wn, settling_time_s=settling_time, overshoot_pct=overshoot,
-        integral=integral, ki=ki, integral_pole=integral_pole,
-        observer_poles=None if observer_poles is None else tuple(parse_poles(observer_poles, "--observer-poles")),
-        output=output, robust_samples=robust_samples, robust_fraction=robust,
-        sensors=None if sensors is None else tuple(x.strip() for x in sensors.split(",") if x.strip()),
-    )
-    model = load_model(model_file)
-    try:
-        d = design_controller(model, settings)
-    except OptionError as exc:
-        raise exc.with_file(str(model_file)) from None
+    d = frontdoor.design(  # checks the options, then reads the model (named in errors about it)
+        model_file, poles=poles, damping=damping, wn=wn, k2=k2, settling_time=settling_time, overshoot=overshoot,
+        integral=integral, ki=ki, integral_pole=integral_pole, observer_poles=observer_poles, output=output,
+        robust_samples=robust_samples, sensors=sensors, robust_fraction=robust)
+    model = load_model(model_file)  # for the sampled controller's code
     if d.model_states is not None:
         say("states: the model's " + ", ".join(d.model_states) + " re-expressed as the measured "
             + ", ".join(d.states) + " (gains on the model's own states: K_model in the JSON)")
@@ -390,18 +382,16 @@ def _design_pid(model_file: Path, json_out: Path | None, force: bool, loop: str 
     def say(text: str) -> None:
         typer.echo(text, err=code_to_stdout)
 
-    from motorid.control.pid import DERIVATIVE_FILTER_N, PidSettings, design_pid
+    from motorid import frontdoor
     from motorid.model.serialize import load_model
+    from motorid.options import DESIGN_PID, defaults
     from motorid.simulation.closed_loop import step_check
 
-    settings = PidSettings(loop=loop or "velocity", rule=rule or "simc", tau_c_s=tau_c,
-                           derivative_filter=DERIVATIVE_FILTER_N if derivative_filter is None else derivative_filter,
-                           integral=True if integral else None, damping=damping, wn=wn)
-    model = load_model(model_file)
-    try:
-        p = design_pid(model, settings)
-    except OptionError as exc:
-        raise exc.with_file(str(model_file)) from None
+    given = {"loop": loop, "rule": rule, "tau_c": tau_c, "derivative_filter": derivative_filter,
+             "damping": damping, "wn": wn}
+    p = frontdoor.design_pid(model_file, **{**defaults(DESIGN_PID), **{
+        k: v for k, v in given.items() if v is not None}, "integral": integral})
+    model = load_model(model_file)  # for the step check and the sampled controller's code
     how = "SIMC (Skogestad 2003)" if p.rule == "simc" else "pole placement"
     say(f"{p.kind} on the {p.loop} ({p.output_unit}), tuned by {how} on "
                f"{p.approximation.text(p.output_unit)}"
@@ -473,47 +463,22 @@ def simulate(
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Closed-loop simulation of a design: metrics, time series and a plot."""
-    from motorid.control.design_io import load_controller
+    from motorid import frontdoor
     from motorid.io import atomic_outputs
-    from motorid.model.serialize import load_model
-    from motorid.simulation.closed_loop import (
-        ReferenceSignal,
-        SimulationSettings,
-        plot_simulation,
-        simulate_closed_loop,
-    )
+    from motorid.simulation.closed_loop import ReferenceSignal, plot_simulation
 
     _check_outputs([(csv_out, "--csv", None), (json_out, "--json", None), (png, "--png", ".png")], force)
     _check_numbers({"--level": level, "--initial-ref": initial_ref, "--amplitude": amplitude, "--start": start,
                     "--disturbance": disturbance, "--disturbance-start": disturbance_start, "--z0": z0,
                     "--frequency": frequency if reference != "step" else None})
-    if plant == "trainer":
-        from motorid.trainer import preset as _preset
-
-        try:
-            _preset(preset)  # an unknown preset is refused before any work
-        except OptionError as exc:
-            raise OptionError(f"--preset: {exc.message}") from None
-    settings = SimulationSettings(
-        duration_s=duration, dt_s=dt if dt is not None else (2e-3 if plant == "trainer" else 1e-3),
-        reference=ReferenceSignal(kind=reference, level_v=level, initial_v=initial_ref, amplitude_v=amplitude,
-                                  frequency_hz=frequency, start_s=start),
-        saturation_v=saturation, disturbance_v=disturbance, disturbance_start_s=disturbance_start,
-        x0=_floats(x0, "--x0"), z0=z0, xhat0=_floats(xhat0, "--xhat0"), plant=plant, trainer_preset=preset,
-        dead_zone_compensation=compensate_dead_zone, anti_windup=anti_windup,
-    )
-    model = load_model(model_file)
-    d = load_controller(design_file)
-    try:
-        if plant == "trainer":
-            from motorid.trainer.closed_loop import simulate_on_trainer
-
-            with _bar(f"trainer simulation ({duration:g} s)"):
-                res = simulate_on_trainer(model, d, settings)
-        else:
-            res = simulate_closed_loop(model, d, settings)
-    except OptionError as exc:
-        raise exc.with_file(str(design_file)) from None
+    with _bar(f"trainer simulation ({duration:g} s)") if plant == "trainer" else nullcontext():
+        res = frontdoor.simulate(
+            model_file, design_file, duration_s=duration, dt_s=dt, saturation=saturation, disturbance=disturbance,
+            disturbance_start_s=disturbance_start, x0=_floats(x0, "--x0"), z0=z0, xhat0=_floats(xhat0, "--xhat0"),
+            plant=plant, trainer_preset=preset, compensate_dead_zone=compensate_dead_zone,  # type: ignore[arg-type]
+            anti_windup=anti_windup,
+            reference=ReferenceSignal(kind=reference, level_v=level, initial_v=initial_ref, amplitude_v=amplitude,
+                                      frequency_hz=frequency, start_s=start))
     m = res.metrics
     typer.echo(", ".join(f"{metric_name(key)} {sig(getattr(m, key))} "
                          f"{res.output_unit if unit == 'output' else unit}" for key, unit in _METRIC_UNITS))

@@ -154,21 +154,19 @@ def _write_demo(out: Path, exp: Any, *, preset: str, seed: int, step_volts: floa
         "config": asdict(exp.config),
     }
     truth_path.write_text(json.dumps(doc, indent=2, default=float) + "\n", encoding="utf-8")
-    # the main job on what was written: identify from the files, as a user would
-    from motorid.identification.pipeline import identify_experiment
+    # the main job on what was written: identify from the files, as a user would, through the front door
+    from motorid import frontdoor
 
-    read_back = {role: read_capture(out / f"ALL{CAPTURE_ORDER.index(role):04d}")
-                 for role in ("position", "velocity", "current") if role in exp.captures}
+    folders = {role: out / f"ALL{CAPTURE_ORDER.index(role):04d}"
+               for role in ("position", "velocity", "current") if role in exp.captures}
     step(2)
-    ident = identify_experiment(read_back)
+    fit = frontdoor.identify(frontdoor.read_experiment(**folders))  # type: ignore[arg-type]
+    ident = fit.identification
     model_path = out / "model.json"
     model_path.write_text(ident.model.to_json_text(), encoding="utf-8")
-    from motorid.report.assemble import make_report
-
     step(3)
-    checks = {name: read_capture(out / f"ALL{CAPTURE_ORDER.index(name):04d}")
-              for name in ("sine", "triangle", "square") if name in exp.validation}
-    page = make_report(ident, read_back, validation=checks, truth=doc,
-                       title=f"motorid demo: virtual trainer '{preset}', seed {seed}")
-    (out / "report.html").write_text(page, encoding="utf-8")
+    frontdoor.write_report(out / "report.html", fit, truth=doc,
+                           validation={name: out / f"ALL{CAPTURE_ORDER.index(name):04d}"
+                                       for name in ("sine", "triangle", "square") if name in exp.validation},
+                           title=f"motorid demo: virtual trainer '{preset}', seed {seed}")
     return DemoResult(out, tuple(rows), truth_path, exp, ident)

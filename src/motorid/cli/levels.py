@@ -113,18 +113,9 @@ def identify_levels_cmd(
     OptionError
         Fewer than two moving levels, or a step-volts list of the wrong length.
     """
-    from motorid.identification.hammerstein import identify_levels
+    from motorid import frontdoor
 
-    levels: list[float | None] | None = None
-    if step_volts is not None:
-        if len(step_volts) == 1:
-            levels = [step_volts[0]] * len(captures)
-        elif len(step_volts) == len(captures):
-            levels = list(step_volts)
-        else:
-            raise OptionError(f"--step-volts gives {len(step_volts)} levels for {len(captures)} captures; give one "
-                              "per capture, in the order of the --velocity/--experiment options")
-    result = identify_levels(captures, step_volts=levels)
+    result = frontdoor.identify_levels(captures, step_volts=step_volts)
     st = result.static
     table = Table(title="static characteristic (one row per step experiment)")
     out_unit = result.model.units.get("velocity", "V")

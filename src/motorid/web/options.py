@@ -307,4 +307,8 @@ def simulate_options(body: Mapping[str, Any]) -> dict[str, Any]:
         if not isinstance(body["anti_windup"], bool):
             raise OptionError(f"anti_windup={body['anti_windup']!r}: give true, false or null")
         out["anti_windup"] = body["anti_windup"]
+    if "compensate_dead_zone" in body:
+        if not isinstance(body["compensate_dead_zone"], bool):
+            raise OptionError(f"compensate_dead_zone={body['compensate_dead_zone']!r}: give true or false")
+        out["compensate_dead_zone"] = body["compensate_dead_zone"]
     return out
