@@ -7,6 +7,7 @@ runs it as a user would (the CLI in a fresh process where the printout matters).
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import control
@@ -161,3 +162,36 @@ def test_only_a_method_that_cannot_fit_a_dead_time_is_told_to_use_one(real_dir):
     assert "a dead time was tried" in auto.reason or auto.model.delay_s > 0
     pinv = mi.identify(exp, method="pinv")
     assert any("pinv model has none" in w and "fit the dead time" in w for w in pinv.warnings)
+
+
+def _creeping_encoder_log(path, seed: int = 0) -> None:
+    """A 50 Hz plain-CSV speed step from a running speed, as a hobby kit logs it (t, u, y in
+    s, V, deg/s): first order τ = 0.2 s, 14 ms dead time, a slow creep of 15 deg/s, encoder
+    speed quantised to 45/7 deg/s.  The creep makes a 2-pole-1-zero structure fit better
+    whose near-cancelling pair the data do not resolve (seen on a real kit's log)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(252) * 0.02
+    u = np.where(t >= 2.5, 0.7733441, 0.60248971)
+    lag = np.clip(t - 2.514, 0.0, None)
+    y = 360.0 + (540.0 * (u[-1] - u[0]) * (1 - np.exp(-lag / 0.2)) + 15.0 * (1 - np.exp(-lag / 3.0))) * (lag > 0)
+    y = np.round((y + rng.normal(0.0, 2.0, t.size)) / (45 / 7)) * (45 / 7)
+    path.write_text("t,u,y\n" + "".join(f"{a:.8f},{b:.8f},{c:.8f}\n" for a, b, c in zip(t, u, y, strict=True)))
+
+
+def test_an_unresolved_structure_does_not_widen_the_interval(tmp_path):
+    # before: the 2-pole-1-zero candidate, rejected as unresolved, still took most of the
+    # model-averaging weight and stretched τ's interval to ±0.11 s on τ = 0.24 s (on the real
+    # log: the residence time's to [-0.80, 1.25] s); now only supported structures are averaged
+    import motorid as mi
+
+    log = tmp_path / "kit.csv"
+    _creeping_encoder_log(log)
+    fit = mi.identify(mi.read_experiment(velocity=log))
+    reason = fit.identification.reason
+    assert "do not resolve its extra pole" in reason
+    # the runner-up has the smaller BIC: the sentence says so with a positive ΔBIC
+    delta = float(re.search(r"by ΔBIC = (-?[\d.]+)", reason).group(1))
+    assert delta > 0, reason
+    for name in ("time_constant", "residence_time_s"):
+        p = fit.params[name]
+        assert p.ci95[0] > 0 and p.stderr < 0.1 * p.value, (name, p)

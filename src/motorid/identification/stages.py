@@ -1130,7 +1130,9 @@ def select_order(
                     fits = [alt] + [f for f in fits if f is not alt]
                     best, refined = cand, cand_noise
                     break
-    others = [(b, m) for b, _, _, _, m in fits[1:]]
+    # only structures the data support are averaged over: an unresolved one's residence time
+    # counts a pole–zero pair the data cannot place (it would stretch the interval past zero)
+    others = [(b, m) for b, _, _, r, m in fits[1:] if resolved(r)]
     model = best[4].replace(uncertainty=structure_uncertainty(best[4], [(best[0], best[4]), *others]))
     runner = fits[1] if len(fits) > 1 else None
     if runner is None:
@@ -1138,6 +1140,9 @@ def select_order(
     elif abs(runner[0] - best[0]) < TIE_BIC:
         evidence = (f"BIC cannot tell {_describe(best[1], best[2])} from {_describe(runner[1], runner[2])} "
                     f"(|ΔBIC| = {abs(runner[0] - best[0]):.1f} < {TIE_BIC:g}, a tie): the simpler is kept")
+    elif runner[0] < best[0]:  # kept because the runner-up's extra pole is not resolved (said below)
+        evidence = (f"BIC prefers {_describe(runner[1], runner[2])} over "
+                    f"{_describe(best[1], best[2])} by ΔBIC = {best[0] - runner[0]:.1f}")
     else:
         evidence = (f"BIC prefers {_describe(best[1], best[2])} over "
                     f"{_describe(runner[1], runner[2])} by ΔBIC = {runner[0] - best[0]:.1f}")
