@@ -101,3 +101,26 @@ def test_lfilter_of_several_signals_is_each_ones_filter_and_scipys():
     assert np.allclose(both, scipy.signal.lfilter(b, a, x, axis=-1), rtol=1e-10, atol=1e-12)
     with pytest.raises(ValueError, match="1-D or 2-D"):
         lti.lfilter(b, a, x[None])
+
+
+@pytest.mark.parametrize("h", [1e-3, 0.05, 0.7])
+def test_zoh_equals_scipy_cont2discrete(h):
+    rng = np.random.default_rng(7)
+    for n, m in ((1, 1), (2, 1), (3, 2), (4, 3)):
+        a = rng.normal(size=(n, n)) - 2.0 * np.eye(n)
+        b = rng.normal(size=(n, m))
+        phi, gamma = lti.zoh(a, b, h)
+        ref = scipy.signal.cont2discrete((a, b, np.eye(n), np.zeros((n, m))), h, method="zoh")
+        np.testing.assert_allclose(phi, ref[0], rtol=1e-13, atol=1e-15)
+        np.testing.assert_allclose(gamma, ref[1], rtol=1e-13, atol=1e-15)
+
+
+def test_zoh_discretises_a_stack_as_each_alone():
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(5, 3, 3)) - 3.0 * np.eye(3)
+    b = rng.normal(size=(5, 3, 1))
+    phi, gamma = lti.zoh(a, b, 0.01)
+    for i in range(5):
+        one = lti.zoh(a[i], b[i], 0.01)
+        np.testing.assert_array_equal(phi[i], one[0])
+        np.testing.assert_array_equal(gamma[i], one[1])

@@ -28,7 +28,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
-import scipy.linalg
+
+from motorid.model.lti import zoh
 
 if TYPE_CHECKING:
     from motorid.control.design import Design
@@ -472,12 +473,9 @@ def _steps(a: np.ndarray, b: np.ndarray, c: np.ndarray, horizon: float) -> tuple
     """Unit reference steps of stacked closed loops, exact at the grid's instants."""
     m, size = a.shape[0], a.shape[1]
     dt = horizon / (STEP_POINTS - 1)
-    # expm of [[A, B], [0, 0]]·dt holds Φ and Γ of the zero-order hold (exact for a step)
-    aug = np.zeros((m, size + 1, size + 1))
-    aug[:, :size, :size] = a * dt
-    aug[:, :size, size:] = b * dt
-    e = scipy.linalg.expm(aug)
-    phi, gamma = e[:, :size, :size], e[:, :size, size]
+    # Φ and Γ of the zero-order hold (exact for a step), every loop of the stack in one call
+    phi, gammas = zoh(a, b, dt)
+    gamma = gammas[:, :, 0]
     x = np.zeros((m, size))
     y = np.zeros((m, STEP_POINTS))
     for i in range(1, STEP_POINTS):

@@ -53,6 +53,7 @@ from motorid.identification.laguerre_refine import (
     laguerre_polish,
 )
 from motorid.identification.result import IdentificationError
+from motorid.model import lti
 
 __all__ = [
     "LaguerreCoefficients",
@@ -346,10 +347,8 @@ def laguerre_regressors(
 
     def zoh(step: float) -> tuple[np.ndarray, np.ndarray]:
         # exact discretisation of ẋ = A x + B u with u constant over the step
-        m = np.zeros((ns + 1, ns + 1))
-        m[:ns, :ns], m[:ns, ns:] = a_l, b_l
-        e = scipy.linalg.expm(m * step)
-        return e[:ns, :ns], e[:ns, ns]
+        phi, gamma = lti.zoh(a_l, b_l, step)
+        return phi, gamma[:, 0]
 
     f, g = zoh(h)
     if input_v is None:
@@ -933,10 +932,7 @@ def _simulate(a: np.ndarray, b: np.ndarray, t: np.ndarray, u: np.ndarray | None,
     h = float(t[1] - t[0])
 
     def zoh(step: float) -> tuple[np.ndarray, np.ndarray]:
-        mm = np.zeros((ns + ni, ns + ni))
-        mm[:ns, :ns], mm[:ns, ns:] = a, b
-        e = scipy.linalg.expm(mm * step)
-        return e[:ns, :ns], e[:ns, ns:]
+        return lti.zoh(a, b, step)
 
     f, g = zoh(h)
     if u is None:

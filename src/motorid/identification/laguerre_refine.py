@@ -17,7 +17,6 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.linalg
 
 from motorid.identification.result import IdentificationError
 from motorid.model import lti
@@ -273,7 +272,6 @@ def _delayed_response(a_c: np.ndarray, b_c: np.ndarray, c_rows: np.ndarray, d_co
     # differences feel (8x the evaluations on a first-order record)
     from scipy.signal import lfilter
 
-    ns = a_c.shape[0]
     whole = math.floor(delay / h + 1e-12)
     frac = delay - whole * h
     idx = np.arange(u.size) - whole  # a negative delay (a capture triggered late) advances the input
@@ -281,10 +279,7 @@ def _delayed_response(a_c: np.ndarray, b_c: np.ndarray, c_rows: np.ndarray, d_co
     v_prev = np.r_[0.0, v[:-1]]
 
     def gamma(step: float) -> tuple[np.ndarray, np.ndarray]:
-        m = np.zeros((ns + 1, ns + 1))
-        m[:ns, :ns], m[:ns, ns:] = a_c, b_c
-        e = scipy.linalg.expm(m * step)
-        return e[:ns, :ns], e[:ns, ns:]
+        return lti.zoh(a_c, b_c, step)
 
     e_rest, g_rest = gamma(h - frac)  # the part of the interval fed by the current sample
     e_head, g_head = gamma(frac)

@@ -17,10 +17,11 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+import scipy.linalg
 import scipy.linalg.lapack
 from numpy.typing import ArrayLike
 
-__all__ = ["BadCoefficients", "lfilter", "ss2tf", "tf2ss"]
+__all__ = ["BadCoefficients", "lfilter", "ss2tf", "tf2ss", "zoh"]
 
 
 class BadCoefficients(UserWarning):
@@ -203,3 +204,39 @@ def _lfilter(b: np.ndarray, a: np.ndarray, x: np.ndarray) -> np.ndarray:
             raise ValueError(f"dtbtrs failed (info {info})")
     out = np.ascontiguousarray(np.asarray(y).T)
     return out if x.ndim == 2 else out[0]
+
+
+def zoh(a: ArrayLike, b: ArrayLike, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """The exact zero-order-hold discretisation ``Φ = e^{A h}``, ``Γ = ∫₀ʰ e^{A s} ds·B``.
+
+    One ``expm`` of the augmented matrix ``[[A, B], [0, 0]]·h`` (Van Loan 1978), the
+    discretisation every simulator of the project steps with: the identification's
+    responses, the closed loop, the robustness check and the trainer.  Stacks of systems
+    (leading dimensions of ``a`` and ``b``) are discretised in one call.
+
+    Parameters
+    ----------
+    a : array_like, shape (..., n, n)
+        State matrix (or a stack of them).
+    b : array_like, shape (..., n, m)
+        Input matrix (or a stack, matching ``a``).
+    h : float
+        The hold interval [s] (any real: 0 gives the identity and zero).
+
+    Returns
+    -------
+    phi : ndarray, shape (..., n, n)
+    gamma : ndarray, shape (..., n, m)
+
+    Examples
+    --------
+    >>> phi, gamma = zoh([[-2.0]], [[2.0]], 0.5)
+    >>> round(float(phi[0, 0]), 6), round(float(gamma[0, 0]), 6)
+    (0.367879, 0.632121)
+    """
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    n, m = b.shape[-2], b.shape[-1]
+    aug = np.zeros((*a.shape[:-2], n + m, n + m))
+    aug[..., :n, :n], aug[..., :n, n:] = a, b
+    e = scipy.linalg.expm(aug * h)
+    return e[..., :n, :n], e[..., :n, n:]

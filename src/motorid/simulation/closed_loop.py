@@ -20,7 +20,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
-import scipy.linalg
 
 from motorid._threads import single_blas_thread
 from motorid.control.design import Design, design_model, output_row
@@ -498,11 +497,9 @@ class _Reduced:
 
 
 def _zoh(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    n, m = b.shape
-    aug = np.zeros((n + m, n + m))
-    aug[:n, :n], aug[:n, n:] = a, b
-    e = scipy.linalg.expm(aug * dt)
-    return e[:n, :n], e[:n, n:]
+    from motorid.model.lti import zoh
+
+    return zoh(a, b, dt)
 
 
 def _vector(values: tuple[float, ...] | None, n: int, option: str) -> np.ndarray:

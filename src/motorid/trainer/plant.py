@@ -12,9 +12,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 from motorid.errors import OptionError
+from motorid.model.lti import zoh
 from motorid.trainer.presets import TrainerConfig
 
 __all__ = ["PlantResponse", "simulate_plant"]
@@ -54,11 +54,8 @@ def _zoh(a: np.ndarray, b: np.ndarray, h: float) -> tuple[list[list[float]], lis
     Lists, not arrays: the sub-step loop reads scalars, and list indexing is several times
     faster than numpy scalar indexing there.
     """
-    n, m = b.shape
-    aug = np.zeros((n + m, n + m))
-    aug[:n, :n], aug[:n, n:] = a, b
-    e = scipy.linalg.expm(aug * h)
-    return e[:n, :n].tolist(), e[:n, n:].tolist()
+    phi, gamma = zoh(a, b, h)
+    return phi.tolist(), gamma.tolist()
 
 
 def simulate_plant(
