@@ -16,11 +16,14 @@ import pytest
 from clihelpers import motorid_ok
 
 import motorid as mi
+from motorid.io import write_tds_capture
+from motorid.trainer import PRESET_NAMES, run_experiment
 from motorid.trainer.realsetups import write_real_setup
 
-#: The rigs whose files the trainer writes as those rigs do, plus the demo's scope folders.
+#: The rigs whose files the trainer writes as those rigs do, the demo's scope folders (the paper
+#: preset) and every other trainer preset's captures written as the scope saves them.
 CASES = ("demo", "l298n-rpm", "arduino-millis", "host-loop", "encoder-counts", "pwm-encoder", "daq-deadtime",
-         "ms-time", "fast-tbs1000")
+         "ms-time", "fast-tbs1000", *(f"trainer:{p}" for p in PRESET_NAMES if p != "paper"))
 
 
 def _without_provenance(doc: dict, files: list[Path]) -> dict:
@@ -38,6 +41,10 @@ def _captures(case: str, demo_run, tmp_path: Path) -> tuple[dict[str, list[Path]
         d = demo_run.folder
         return {role: sorted((d / f"ALL000{i}").glob("*.CSV"))
                 for i, role in enumerate(("position", "velocity", "current"))}, {}
+    if case.startswith("trainer:"):
+        exp = run_experiment(case.split(":", 1)[1], seed=0)
+        return {role: sorted(write_tds_capture(tmp_path / case.replace(":", "-"), cap, index=i).glob("*.CSV"))
+                for i, (role, cap) in enumerate(exp.captures.items())}, {}
     rec = write_real_setup(case, tmp_path / case, seed=0)
     args = list(rec.cli_args)
     roles = {args[i][2:]: [Path(args[i + 1])] for i in range(0, len(args), 2)
