@@ -286,3 +286,25 @@ def test_write_report_takes_named_validation_a_truth_and_a_title(fit, demo, tmp_
     page = mi.write_report(tmp_path / "r.html", fit, validation={"sine": demo / "ALL0003"}, truth=truth,
                            title="my rig").read_text(encoding="utf-8")
     assert "<title>my rig" in page and "sine" in page and "ALL0003" not in page.split("Files:")[0]
+
+
+def test_validate_scores_the_model_as_the_command_line_does(fit, demo, run_cli, tmp_path):
+    model_file = tmp_path / "m.json"
+    model_file.write_text(fit.model.to_json_text())
+    results = mi.validate(fit, [demo / "ALL0003", demo / "ALL0004"])
+    assert [type(r).__name__ for r in results] == ["ValidationResult"] * 2
+    res = run_cli("validate", model_file, f"{demo / 'ALL0003'},{demo / 'ALL0004'}", "--json")
+    assert res.code == 0, res.err
+    by_cli = json.loads(res.out)
+    assert [r["nrmse"] for r in by_cli] == pytest.approx([r.nrmse for r in results], rel=1e-12)
+    # the options are checked before any file is read, in the caller's words
+    with pytest.raises(OptionError, match=r"^warmup_s must be"):
+        mi.validate(tmp_path / "missing.json", tmp_path / "missing", warmup_s=-1.0)
+    from motorid.model import MotorModel
+
+    velocity_only = tmp_path / "v.json"
+    velocity_only.write_text(MotorModel(A=[[-2.0]], B=[[2.0]], C=[[1.0]], D=[[0.0]], states=("velocity",),
+                                        outputs=("velocity",)).to_json_text())
+    with pytest.raises(OptionError, match="has no 'current' output") as err:
+        mi.validate(velocity_only, demo / "ALL0003", channel="current")
+    assert err.value.file == str(velocity_only)

@@ -34,7 +34,8 @@ def test_the_web_page_and_the_batch_take_the_declared_options():
 
 
 @pytest.mark.parametrize(("command", "specs"), [("identify", options.READ + options.IDENTIFY),
-                                                ("design", options.DESIGN), ("simulate", options.SIMULATE)])
+                                                ("design", options.DESIGN), ("simulate", options.SIMULATE),
+                                                ("validate", options.VALIDATE)])
 def test_every_declared_option_is_a_flag_of_its_command(command, specs):
     import typer.main
 

@@ -22,6 +22,7 @@ Front door
    design           -- state feedback, integral action, observer (``motorid design``)
    design_pid       -- a PID tuned by SIMC or pole placement (``motorid design --pid``)
    simulate         -- closed-loop run on the model or the virtual trainer (``motorid simulate``)
+   validate         -- score a model on recorded inputs: NRMSE, fit % (``motorid validate``)
    write_report     -- the self-contained HTML report (``motorid report``)
 
 Results
@@ -41,6 +42,7 @@ Results
    Design               -- a designed controller (gains, poles, observer)
    PidDesign            -- a designed PID (gains in the data's units, margins, python-control objects)
    SimulationResult     -- closed-loop time series and metrics; plot() returns a Figure
+   ValidationResult     -- a model's prediction of one capture: NRMSE, fit %, offset, series
 
 Data and errors
 ===============
@@ -85,6 +87,7 @@ if TYPE_CHECKING:  # what type checkers see; at run time each name loads on firs
         identify_levels,
         read_experiment,
         simulate,
+        validate,
         write_report,
     )
     from motorid.identification.laguerre import LaguerreSettings
@@ -92,6 +95,7 @@ if TYPE_CHECKING:  # what type checkers see; at run time each name loads on firs
     from motorid.identification.result import ParameterEstimate
     from motorid.identification.srivc import SrivcSettings
     from motorid.model import MotorModel
+    from motorid.analysis.validation import ValidationResult
     from motorid.simulation.closed_loop import SimulationResult
 
 __all__ = [
@@ -111,6 +115,7 @@ __all__ = [
     "ScopeInfo",
     "SimulationResult",
     "SrivcSettings",
+    "ValidationResult",
     "advise",
     "design",
     "design_pid",
@@ -118,6 +123,7 @@ __all__ = [
     "identify_levels",
     "read_experiment",
     "simulate",
+    "validate",
     "write_report",
 ]
 __version__ = "0.1.0"
@@ -134,6 +140,7 @@ _LAZY: dict[str, str] = {
     "design": "motorid.frontdoor",
     "design_pid": "motorid.frontdoor",
     "write_report": "motorid.frontdoor",
+    "validate": "motorid.frontdoor",
     "advise": "motorid.frontdoor",
     "Experiment": "motorid.frontdoor",
     "IdentificationResult": "motorid.frontdoor",
@@ -147,6 +154,7 @@ _LAZY: dict[str, str] = {
     "Design": "motorid.control.design",
     "PidDesign": "motorid.control.pid",
     "SimulationResult": "motorid.simulation.closed_loop",
+    "ValidationResult": "motorid.analysis.validation",
 }
 
 

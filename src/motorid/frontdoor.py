@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any, Literal
 from motorid.frozen import frozen_getstate, frozen_setstate
 from motorid.capture import Capture
 from motorid.identification.result import ParameterEstimate
-from motorid.errors import OptionError
+from motorid.errors import MotorIdError, OptionError
 from motorid.numfmt import complex_text, sig
 from motorid.options import speaks_as_called
 
@@ -39,6 +39,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
     from motorid.analysis.advice import Advice
+    from motorid.analysis.validation import ValidationResult
     from motorid.control.design import Design
     from motorid.control.pid import PidDesign
     from motorid.identification.hammerstein import MultiLevelResult
@@ -61,6 +62,7 @@ __all__ = [
     "identify_levels",
     "read_experiment",
     "simulate",
+    "validate",
     "write_report",
 ]
 
@@ -1008,6 +1010,85 @@ def _simulation_settings(
         anti_windup=anti_windup,
         dead_zone_compensation=compensate_dead_zone,
     )
+
+
+# ------------------------------------------------------------------------------------ validate
+
+
+@speaks_as_called("validate")
+def validate(
+    model: MotorModel | IdentificationResult | str | PathLike[str],
+    captures: Sequence[CapturePath | Capture] | CapturePath | Capture,
+    *,
+    channel: str = "velocity",
+    step_volts: float | None = None,
+    t0: float | None = None,
+    warmup_s: float = 0.0,
+    columns: Mapping[str, str] | None = None,
+) -> tuple[ValidationResult, ...]:
+    """Drive the model with recorded inputs and score it on each capture (``motorid validate``).
+
+    The initial state and an output offset are estimated by least squares over the whole
+    record (reported); a position channel is unwrapped; the model's fitted dead time is applied.
+
+    Parameters
+    ----------
+    model : MotorModel, IdentificationResult or path
+        The model (a path: a model JSON file, read after the options are checked).
+    captures : path, Capture, or a sequence of them
+        Captures with the input on CH1 (any input, not only steps), or step responses without
+        an input channel (give ``step_volts``).
+    channel : str
+        The model output the captures measured: ``velocity``, ``position`` or ``current``.
+    step_volts : float, optional
+        Step level for captures without an input channel [V].
+    t0 : float, optional
+        The step instant on the files' time axis [s] (default: CH1's edge, or the response's onset).
+    warmup_s : float
+        Seconds at the start simulated but not scored (default 0: the initial state is estimated).
+    columns : Mapping, optional
+        Plain-CSV column map.
+
+    Returns
+    -------
+    tuple of ValidationResult
+        One per capture, in order: NRMSE, fit %, the estimated offset and initial state, the
+        series (``.to_dict()`` is the ``motorid validate --json`` entry).
+
+    Raises
+    ------
+    OptionError, CaptureFormatError
+        Bad options, a channel the model has not, an unreadable capture (named).
+    """
+    from motorid.analysis.validation import validate_capture
+    from motorid.io import read_capture
+    from motorid.model import CHANNELS
+
+    if channel not in CHANNELS:
+        raise OptionError(f"--channel {channel!r} is unknown: use one of {', '.join(CHANNELS)}")
+    if not warmup_s >= 0:
+        raise OptionError(f"--warmup must be ≥ 0 s, got {warmup_s:g}")
+    if step_volts is not None and not (step_volts != 0 and abs(step_volts) < float("inf")):
+        raise OptionError(f"--step-volts must be a non-zero number of volts, got {step_volts:g}")
+    motor = _model_of(model)
+    if channel not in motor.outputs and channel != "position":
+        raise OptionError(f"the model has no {channel!r} output (it has {', '.join(motor.outputs)}): choose "
+                          "another --channel", file=str(model) if isinstance(model, (str, PathLike)) else None)
+    items = [captures] if isinstance(captures, (str, PathLike, Capture)) else list(captures)
+    colmap = dict(columns) if columns else None
+    results = []
+    for item in items:
+        if isinstance(item, Capture):
+            cap = item
+        else:
+            paths = [str(p) for p in _paths(item)]
+            cap = read_capture(paths[0] if len(paths) == 1 else paths, columns=colmap)
+        try:
+            results.append(validate_capture(motor, cap, channel=channel, step_volts=step_volts, t0_s=t0,
+                                            warmup_s=warmup_s))
+        except MotorIdError as exc:
+            raise exc.with_file(cap.source) from None
+    return tuple(results)
 
 
 # -------------------------------------------------------------------------------------- report

@@ -31,6 +31,7 @@ __all__ = [
     "PYTHON_ONLY",
     "READ",
     "SIMULATE",
+    "VALIDATE",
     "OptionSpec",
     "callers_words",
     "command_line_words",
@@ -170,10 +171,19 @@ IDENTIFY_LEVELS: tuple[OptionSpec, ...] = (
     OptionSpec("columns", "--columns", None, "", "plain-CSV column map, e.g. time=t,input=u,velocity=rpm"),
 )
 
+#: :func:`motorid.validate`'s options.
+VALIDATE: tuple[OptionSpec, ...] = (
+    OptionSpec("channel", "--channel", "velocity", "", "the model output the captures measured"),
+    OptionSpec("step_volts", "--step-volts", None, "V", "step level for captures without an input channel"),
+    OptionSpec("t0", "--t0", None, "s", "the step instant on the files' time axis"),
+    OptionSpec("warmup_s", "--warmup", 0.0, "s", "seconds at the start simulated but not scored"),
+    OptionSpec("columns", "--columns", None, "", "plain-CSV column map, e.g. time=t,input=u,velocity=rpm"),
+)
+
 #: Each front-door function's options, by the command's name.
 COMMANDS: dict[str, tuple[OptionSpec, ...]] = {
     "read_experiment": ROLES + READ, "identify": ROLES + READ + IDENTIFY, "design": DESIGN, "simulate": SIMULATE,
-    "design_pid": DESIGN_PID, "advise": ADVISE, "identify_levels": IDENTIFY_LEVELS,
+    "design_pid": DESIGN_PID, "advise": ADVISE, "identify_levels": IDENTIFY_LEVELS, "validate": VALIDATE,
 }
 
 _FLAG = re.compile(r"(?<![\w-])--[A-Za-z][\w-]*")

@@ -653,31 +653,15 @@ def validate(
     record (reported); a position channel is unwrapped; the model's fitted delay is applied.
     """
     columns = _with_time_unit(columns, time_unit)
+    from motorid import frontdoor
     from motorid.model.serialize import load_model
-    from motorid.model import CHANNELS
-    from motorid.analysis.validation import validate_capture
 
-    if channel not in CHANNELS:
-        raise OptionError(f"--channel {channel!r} is unknown: use one of {', '.join(CHANNELS)}")
     if max_nrmse is not None and not max_nrmse >= 0:
         raise OptionError(f"--max-nrmse must be a non-negative fraction (e.g. 0.05), got {max_nrmse:g}")
-    if not warmup >= 0:
-        raise OptionError(f"--warmup must be ≥ 0 s, got {warmup:g}")
-    if step_volts is not None and not (step_volts != 0 and abs(step_volts) < float("inf")):
-        raise OptionError(f"--step-volts must be a non-zero number of volts, got {step_volts:g}")
-    model = load_model(model_json)
-    if channel not in model.outputs and channel != "position":
-        raise OptionError(f"{model_json}: the model has no {channel!r} output (it has "
-                          f"{', '.join(model.outputs)}): choose another --channel")
-    delay = json.loads(model_json.read_text(encoding="utf-8")).get("delay_s")
-    checks = _validation_captures(captures, columns)
-    results = []
-    for cap in checks.values():
-        try:
-            results.append(validate_capture(model, cap, channel=channel, step_volts=step_volts, t0_s=t0,
-                                            warmup_s=warmup, delay_s=delay))
-        except MotorIdError as exc:
-            raise exc.with_file(cap.source) from None
+    names = [p for spec in captures for p in spec.split(",") if p]
+    results = frontdoor.validate(model_json, [_capture_paths(n) for n in names], channel=channel,
+                                 step_volts=step_volts, t0=t0, warmup_s=warmup, columns=_parse_columns(columns))
+    model = load_model(model_json)  # for the table's title and units
     failed = [r for r in results if max_nrmse is not None and not r.nrmse <= max_nrmse]
     if as_json:
         typer.echo(json.dumps([{**r.to_dict(), "passed": None if max_nrmse is None else r not in failed}
