@@ -886,7 +886,7 @@ def simulate(
     model: MotorModel | IdentificationResult | str | PathLike[str],
     design: Design | PidDesign | str | PathLike[str],
     *,
-    duration_s: float = 3.0,
+    duration_s: float = 5.0,
     reference: str | ReferenceSignal = "step",
     level_v: float = 5.0,
     saturation: float | None = None,

@@ -141,7 +141,7 @@ DESIGN_PID: tuple[OptionSpec, ...] = (
 
 #: :func:`motorid.simulate`'s options.
 SIMULATE: tuple[OptionSpec, ...] = (
-    OptionSpec("duration_s", "--duration", 3.0, "s", "record length"),
+    OptionSpec("duration_s", "--duration", 5.0, "s", "record length"),
     OptionSpec("reference", "--reference", "step", "", "step, sine, triangle or square"),
     OptionSpec("level_v", "--level", 5.0, "V", "step level"),
     OptionSpec("saturation", "--saturation", None, "V", "actuator rails ±"),

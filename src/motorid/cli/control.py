@@ -17,6 +17,7 @@ import typer
 
 from motorid.errors import MotorIdError, OptionError
 from motorid.numfmt import metric_name, roots_text, sig
+from motorid.options import SIMULATE, defaults
 
 if TYPE_CHECKING:
     import numpy as np
@@ -439,10 +440,11 @@ def simulate(
     amplitude: Annotated[float, typer.Option(help="Wave amplitude, output's unit (report: 2).")] = 2.0,
     frequency: Annotated[float, typer.Option(help="Wave frequency, Hz (report: ω = π/2 → 0.25).")] = 0.25,
     start: Annotated[float, typer.Option(help="Reference start time, s.")] = 0.0,
-    duration: Annotated[float, typer.Option(help="Record length, s.")] = 5.0,
+    duration: Annotated[float, typer.Option(help="Record length, s.")] = defaults(SIMULATE)["duration_s"],
     dt: Annotated[float | None, typer.Option(help="Control interval, s (default 1 ms linear, 2 ms trainer).")] = None,
     saturation: Annotated[float | None, typer.Option(help="Actuator rails ±V.")] = None,
-    disturbance: Annotated[float, typer.Option(help="Load (magnetic brake) as input-equivalent volts.")] = 0.0,
+    disturbance: Annotated[float | None, typer.Option(
+        help="Load (magnetic brake) as input-equivalent volts.")] = defaults(SIMULATE)["disturbance"],
     disturbance_start: Annotated[float, typer.Option("--disturbance-start", help="Load applied from, s.")] = 0.0,
     x0: Annotated[str | None, typer.Option("--x0", help="Initial state, e.g. 2,0 (report: θ0 = 2 V).")] = None,
     z0: Annotated[float, typer.Option("--z0", help="Initial integrator state (report Fig. 8: -2).")] = 0.0,
