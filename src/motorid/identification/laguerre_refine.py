@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from motorid.identification.metrics import bic
 from motorid.identification.result import IdentificationError
 from motorid.model import lti
 
@@ -179,10 +180,9 @@ def _on_common_inflation(fits: list[LaguerrePolish]) -> list[LaguerrePolish]:
 
 def _polish_bic(n_samples: dict[str, int], sigma: dict[str, float], inflation: dict[str, float],
                 n_params: int) -> float:
-    """``Σ (n_ch/f_ch)·log(RSS_ch/n_ch) + p·log Σ n_ch/f_ch`` (``RSS_ch/n_ch = σ_ch²``)."""
-    n_eff = {ch: n_samples[ch] / inflation[ch] for ch in n_samples}
-    return float(sum(n_eff[ch] * math.log(max(sigma[ch] ** 2, 1e-300)) for ch in n_samples)
-                 + n_params * math.log(sum(n_eff.values())))
+    """:func:`~motorid.identification.metrics.bic` on each channel's effective samples ``n_ch/f_ch``."""
+    return bic({ch: n_samples[ch] / inflation[ch] for ch in n_samples}, {ch: sigma[ch] ** 2 for ch in n_samples},
+               n_params)
 
 
 #: Channels the polish can use besides the primary one, and how they relate to the velocity TF ``G = n/d``:

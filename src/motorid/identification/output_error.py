@@ -33,6 +33,7 @@ from motorid.identification.closed_form import (
     step_response_closed_form,
 )
 from motorid.identification.method_options import FIT_TOLERANCE, MAX_NFEV
+from motorid.identification.metrics import bic
 from motorid.identification.result import IdentificationError
 
 __all__ = [
@@ -218,15 +219,15 @@ def ar_noise_model(residual: np.ndarray, max_order: int = 12) -> tuple[np.ndarra
     n = x.size
     top = int(min(max_order, max(0, n // 10)))
     acov = np.array([x[: n - k] @ x[k:] / n for k in range(top + 1)])
-    best = (n * np.log(max(acov[0], 1e-300)), np.array([1.0]), float(acov[0]))
+    best = (bic({"residual": n}, {"residual": float(acov[0])}, 0), np.array([1.0]), float(acov[0]))
     for p in range(1, top + 1):
         phi = scipy.linalg.solve_toeplitz(acov[:p], acov[1 : p + 1])
         var = float(acov[0] - phi @ acov[1 : p + 1])
         if not np.isfinite(var) or var <= 0:
             break
-        bic = n * np.log(var) + p * np.log(n)
-        if bic < best[0]:
-            best = (bic, np.r_[1.0, -phi], var)
+        score = bic({"residual": n}, {"residual": var}, p)  # the AR order by the same criterion
+        if score < best[0]:
+            best = (score, np.r_[1.0, -phi], var)
     return best[1], float(np.sqrt(best[2]))
 
 
@@ -916,7 +917,7 @@ class _OeProblem:
             residual_rms={c: float(np.sqrt(np.mean((data[c] - pred[c]) ** 2))) for c in names},
             sigma={c: float(self.sigma.get(c, 1.0)) for c in names},
             n_samples=n_total, nfev=int(sol.nfev), cost=0.5 * rss,
-            bic=n_total * np.log(rss / n_total) + n_par * np.log(n_total),
+            bic=bic({"whitened residuals": n_total}, {"whitened residuals": rss / n_total}, n_par),
             aic=n_total * np.log(rss / n_total) + 2 * n_par,
             settings=self.settings, warnings=tuple(warnings),
             residuals={c: data[c] - pred[c] for c in names},

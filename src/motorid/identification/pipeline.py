@@ -25,7 +25,7 @@ from motorid.identification.method_options import MethodOptions, OutputErrorOpti
 from motorid.identification.pinv import PinvSettings, pinv_identify
 from motorid.identification.result import IdentificationError
 from motorid.identification.sanity import SanityReport, sanity_checks
-from motorid.identification.metrics import fit_percent, nrmse
+from motorid.identification.metrics import bic, fit_percent, nrmse
 from motorid.model import MotorModel, step_nrmse
 
 __all__ = ["METHODS", "REFINERS", "Identification", "IdentifySettings", "Refiner", "identify_conditioned",
@@ -680,9 +680,9 @@ def _srivc_refined(cond: ConditionedExperiment, settings: IdentifySettings, star
                 continue
             if np.any(np.real(m.poles()) >= 0) or not np.isfinite(m.fit["velocity_nrmse"]):
                 continue
-            # BIC on the velocity step response (noise level cancels between structures)
-            bic = n * np.log(m.fit["velocity_nrmse"] ** 2) + (sum(structure) + 1) * np.log(n)
-            tried.append((bic, m, structure))
+            # BIC on the velocity step response (its normalisation cancels between structures)
+            score = bic({"velocity": n}, {"velocity": m.fit["velocity_nrmse"] ** 2}, sum(structure) + 1)
+            tried.append((score, m, structure))
     if not tried:
         raise IdentificationError("SRIVC found no stable model at the requested order(s)")
     tried.sort(key=lambda x: x[0])
