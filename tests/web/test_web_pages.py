@@ -212,6 +212,27 @@ def test_the_design_panel_shows_the_plausible_motors(client, demo_files):
     assert "robust: stable for" in checked and "closed-loop-plot" not in checked
 
 
+def test_the_robustness_check_redraws_the_moves_own_run(demo_fit, monkeypatch):
+    # the check does not change the controller, so the move's run is the run to redraw with the
+    # band: the page passes it instead of simulating again
+    from motorid.web.views import DesignForm, design_update, robust_update
+
+    form = DesignForm.from_fields({"damping": "1", "wn": "8", "level": "5", "duration": "3"})
+    move = design_update(demo_fit.model, form, None)
+    fresh = robust_update(demo_fit.model, form)
+    np.testing.assert_array_equal(fresh.design.K, move.design.K)  # the same controller, the same run
+    assert fresh.plot is not None
+
+    def no_second_run(*args, **kwargs):
+        raise AssertionError("the shown run was simulated again")
+
+    monkeypatch.setattr(mi, "simulate", no_second_run)
+    reused = robust_update(demo_fit.model, form, shown=move.simulation)
+    assert reused.plot is not None and reused.design.robust is not None
+    with pytest.raises(AssertionError, match="simulated again"):  # without it, the check runs it
+        robust_update(demo_fit.model, form)
+
+
 def test_tab_close_deletes_its_folder_and_session(client, demo_files, web_root):
     tab = _identified_tab(client, demo_files)
     folder = next(web_root.iterdir()) / f"tab-{tab}"

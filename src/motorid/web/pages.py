@@ -221,6 +221,7 @@ def _design(tab: Tab, dform: Any) -> tuple[Any, Any]:
     view = design_update(model, dform, maps if not isinstance(maps, str) else None, _canvas(tab))
     with tab.lock:
         tab.design, tab.simulation, tab.design_form = view.design, dform.simulate_options(), dform
+        tab.shown_run = view.simulation
     return view, maps
 
 
@@ -237,7 +238,9 @@ def _robust(tab: Tab, dform: Any) -> Any:
     from motorid.web.views import robust_update
 
     assert tab.fit is not None
-    view = robust_update(tab.fit.model, dform, _canvas(tab))
+    with tab.lock:
+        shown = tab.shown_run if tab.design_form == dform else None
+    view = robust_update(tab.fit.model, dform, _canvas(tab), shown=shown)
     with tab.lock:
         if tab.design_form == dform:  # still the design shown: its download carries the check
             tab.design = view.design

@@ -71,6 +71,7 @@ class Tab:
         self.mode_maps.clear()
         self.canvas = None
         self.design_form = None
+        self.shown_run = None
 
     def stored_bytes(self) -> int:
         """The bytes of the files this tab keeps.
@@ -98,6 +99,9 @@ class Tab:
     canvas: Any = None
     #: The design panel's inputs of :attr:`design` (a ``views.DesignForm``).
     design_form: Any = None
+    #: The closed-loop run shown for :attr:`design_form` (a ``SimulationResult``): the
+    #: robustness check redraws it with the plausible motors' band instead of running it again.
+    shown_run: Any = None
 
 
 class TabStore:

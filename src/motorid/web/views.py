@@ -435,7 +435,8 @@ class RobustView:
     cpu_ms: float
 
 
-def robust_update(model: MotorModel, form: DesignForm, canvas: Any = None) -> RobustView:
+def robust_update(model: MotorModel, form: DesignForm, canvas: Any = None, *,
+                  shown: SimulationResult | None = None) -> RobustView:
     """Check a slider position's design on :data:`WEB_ROBUST_SAMPLES` plausible motors.
 
     Parameters
@@ -446,6 +447,9 @@ def robust_update(model: MotorModel, form: DesignForm, canvas: Any = None) -> Ro
         The panel's inputs (those of the move being shown).
     canvas : ClosedLoopCanvas, optional
         The tab's closed-loop figure (default: a new one).
+    shown : SimulationResult, optional
+        The closed-loop run the move showed for ``form`` (the check does not change the
+        controller, so its run is the same): redrawn with the band instead of run again.
 
     Returns
     -------
@@ -462,8 +466,8 @@ def robust_update(model: MotorModel, form: DesignForm, canvas: Any = None) -> Ro
     t0, c0 = time.perf_counter(), time.thread_time()
     des = _design(model, form, WEB_ROBUST_SAMPLES)
     plot = None
-    if _robust_band(des, [0.0], form):  # the band is drawn: the same run again, with it
-        sim = mi.simulate(model, des, **form.simulate_options())
+    if _robust_band(des, [0.0], form):  # the band is drawn: the move's run again, with it
+        sim = shown if shown is not None else mi.simulate(model, des, **form.simulate_options())
         plot = _plot(des, sim, form, canvas if canvas is not None else figures.ClosedLoopCanvas())
     return RobustView(des, plot, 1e3 * (time.perf_counter() - t0), 1e3 * (time.thread_time() - c0))
 
