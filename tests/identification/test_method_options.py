@@ -78,6 +78,7 @@ def test_bad_method_options_are_refused_naming_them(exp, options, words):
     (lambda: mi.OutputErrorOptions(tolerance=2.0), "method_options.output_error.tolerance must be a number"),
     (lambda: mi.OutputErrorOptions(max_nfev=0), "method_options.output_error.max_nfev must be a whole number"),
     (lambda: mi.MethodOptions(srivc=mi.SrivcSettings(max_iter=0)), "method_options.srivc.max_iter"),
+    (lambda: mi.SrivcSettings(tol=0.0), "method_options.srivc.tol must be a number"),  # checked where declared
     (lambda: mi.MethodOptions(laguerre=mi.SrivcSettings()), "method_options.laguerre must be a LaguerreSettings"),
 ])
 def test_bad_settings_objects_are_refused_naming_the_field(build, words):

@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     from motorid.identification.srivc import SrivcSettings
 
 __all__ = ["DEFAULT_OUTPUT_ERROR", "FIT_TOLERANCE", "MAX_NFEV", "SEARCH_TOLERANCE", "MethodOptions",
-           "OutputErrorOptions"]
+           "OutputErrorOptions", "positive_int", "tolerance"]
 
 #: Most model evaluations of one output-error fit.
 MAX_NFEV = 200
@@ -35,12 +35,40 @@ FIT_TOLERANCE = 1e-8
 SEARCH_TOLERANCE = 1e-6
 
 
-def _positive_int(name: str, value: Any) -> None:
+def positive_int(name: str, value: Any) -> None:
+    """Refuse ``value`` unless it is a whole number ≥ 1, naming ``method_options.<name>``.
+
+    Parameters
+    ----------
+    name : str
+        The field's path below ``method_options`` (``srivc.max_iter``).
+    value : Any
+        The value given.
+
+    Raises
+    ------
+    OptionError
+        Not a whole number ≥ 1.
+    """
     if isinstance(value, bool) or not isinstance(value, int) or value < 1:
         raise OptionError(f"method_options.{name} must be a whole number ≥ 1, got {value!r}")
 
 
-def _tolerance(name: str, value: Any) -> None:
+def tolerance(name: str, value: Any) -> None:
+    """Refuse ``value`` unless it is a number strictly between 0 and 1, naming ``method_options.<name>``.
+
+    Parameters
+    ----------
+    name : str
+        The field's path below ``method_options`` (``srivc.tol``).
+    value : Any
+        The value given.
+
+    Raises
+    ------
+    OptionError
+        Not a finite number in (0, 1).
+    """
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0 < float(value) < 1) \
             or not math.isfinite(float(value)):
         raise OptionError(f"method_options.{name} must be a number between 0 and 1, got {value!r}")
@@ -65,9 +93,9 @@ class OutputErrorOptions:
     search_tolerance: float = SEARCH_TOLERANCE
 
     def __post_init__(self) -> None:
-        _positive_int("output_error.max_nfev", self.max_nfev)
-        _tolerance("output_error.tolerance", self.tolerance)
-        _tolerance("output_error.search_tolerance", self.search_tolerance)
+        positive_int("output_error.max_nfev", self.max_nfev)
+        tolerance("output_error.tolerance", self.tolerance)
+        tolerance("output_error.search_tolerance", self.search_tolerance)
 
 
 @dataclass(frozen=True, slots=True)
@@ -99,9 +127,6 @@ class MethodOptions:
             if value is not None and not isinstance(value, kind):
                 raise OptionError(f"method_options.{name} must be a {kind.__name__} or None, "
                                   f"got {type(value).__name__}")
-        if self.srivc is not None:
-            _positive_int("srivc.max_iter", self.srivc.max_iter)
-            _tolerance("srivc.tol", self.srivc.tol)
 
     @property
     def oe(self) -> OutputErrorOptions:

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg
 
+from motorid.identification.method_options import positive_int, tolerance
 from motorid.identification.result import IdentificationError
 from motorid.model import lti
 
@@ -42,6 +43,12 @@ class SrivcSettings:
     n_zeros: int = 0
     max_iter: int = 30
     tol: float = 1e-8
+
+    def __post_init__(self) -> None:
+        # the stopping rule is checked where it is declared (the structure by the fit, which
+        # names the structure it cannot make)
+        positive_int("srivc.max_iter", self.max_iter)
+        tolerance("srivc.tol", self.tol)
 
 
 @dataclass(frozen=True, slots=True)
