@@ -4,6 +4,7 @@ door, and every kind of bad upload: HTTP 422, one line (the CLI's), nothing left
 from __future__ import annotations
 
 import io
+import multiprocessing.util
 import stat
 import tempfile
 import zipfile
@@ -88,7 +89,13 @@ def _one_line_422(res, *needles: str) -> str:
 @pytest.fixture
 def sealed_tmp(tmp_path, monkeypatch):
     """The system temp folder of this process, redirected to an empty folder that must stay
-    empty: nothing of an upload may be spooled outside the app's own folder."""
+    empty: nothing of an upload may be spooled outside the app's own folder.
+
+    The process's own multiprocessing folder (``pymp-…``, where the web worker's forkserver
+    keeps its socket) is made first, in the real temp folder: whichever test starts the
+    forkserver first (another file's, or none under ``pytest -n``), its socket is not an upload
+    and its path must stay short enough for AF_UNIX."""
+    multiprocessing.util.get_temp_dir()
     sys_tmp = tmp_path / "system-tmp"
     sys_tmp.mkdir()
     monkeypatch.setattr(tempfile, "tempdir", str(sys_tmp))
