@@ -105,7 +105,8 @@ def _reads_real(item) -> bool:
 
 def pytest_collection_modifyitems(config, items):
     """Markers from what a test uses: ``corpus`` for the real recordings, ``browser`` for a
-    real browser (``pytest -m "not corpus"`` / ``-m "not browser"`` select without them)."""
+    real browser (the ``*_browser.py`` files; a browser test elsewhere carries the marker
+    itself). ``pytest -m "not corpus"`` / ``-m "not browser"`` select without them."""
     for item in items:
         path = str(item.fspath)
         if "/robustness/" in path or _reads_real(item):
