@@ -43,13 +43,32 @@ class DemoRun:
 @pytest.fixture(scope="session")
 def demo_run(tmp_path_factory) -> DemoRun:
     """``motorid demo`` (seed 0) into a session folder: every test reading the demo captures
-    shares this one run instead of simulating, writing and identifying its own."""
+    shares this one run instead of simulating, writing and identifying its own. Under
+    ``pytest -n`` the workers share it too: the first one runs it, the others read its result."""
     import json
 
     from motorid.cli.demo import run_demo
 
-    out = tmp_path_factory.mktemp("demo") / "D"
-    result = run_demo(out, seed=0)
+    try:
+        import fcntl
+    except ImportError:  # not POSIX: each worker runs its own
+        fcntl = None
+    if fcntl is None or "PYTEST_XDIST_WORKER" not in os.environ:
+        out = tmp_path_factory.mktemp("demo") / "D"
+        result = run_demo(out, seed=0)
+    else:
+        import pickle
+
+        shared = tmp_path_factory.getbasetemp().parent / "demo"  # this test run's, common to its workers
+        shared.mkdir(exist_ok=True)
+        out, done = shared / "D", shared / "result.pickle"
+        with open(shared / "lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            if done.is_file():
+                result = pickle.loads(done.read_bytes())
+            else:
+                result = run_demo(out, seed=0)
+                done.write_bytes(pickle.dumps(result))
     return DemoRun(out, result, json.loads(result.truth_path.read_text()))
 
 
