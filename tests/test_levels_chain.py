@@ -120,7 +120,8 @@ def test_design_and_simulate_with_and_without_compensation_against_the_trainer(l
 def test_compensation_needs_a_model_with_a_dead_zone(demo_run, run_cli, tmp_path):
     m = demo_run.folder / "model.json"
     d = tmp_path / "d.json"
-    _run(run_cli, "design", m, "--damping", "1", "--wn", "5", "--observer-poles", "-40,-45,-50,-55", "--json", d)
+    _run(run_cli, "design", m, "--damping", "1", "--wn", "5", "--observer-poles", "-40,-45,-50,-55",
+         "--robust-samples", "0", "--json", d)
     res = run_cli("simulate", m, d, "--compensate-dead-zone")
     assert res.code == 2 and "static nonlinearity" in res.err
 

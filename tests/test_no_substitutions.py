@@ -57,7 +57,8 @@ def test_simulate_on_the_trainer_refuses_a_model_of_another_motor(tmp_path, run_
     log = _rig_log(tmp_path / "rig.csv")
     model, design = tmp_path / "m.json", tmp_path / "d.json"
     assert run_cli("identify", "--velocity", str(log), "--json", str(model)).code == 0
-    assert run_cli("design", str(model), "--damping", "0.9", "--wn", "8", "--json", str(design)).code == 0
+    assert run_cli("design", str(model), "--damping", "0.9", "--wn", "8", "--robust-samples", "0",
+                   "--json", str(design)).code == 0
     res = run_cli("simulate", str(model), str(design), "--plant", "trainer")
     assert res.code == 2 and "not of the virtual trainer's motor" in res.err and "--plant linear" in res.err
     assert len(res.err.strip().splitlines()) == 1

@@ -72,7 +72,7 @@ def _independent(model, des):
     {"damping": 0.7, "wn": 5.0, "integral": True, "observer_poles": [-30, -32, -34, -36]},
 ])
 def test_margins_equal_the_loop_built_from_transfer_functions(model, options):
-    des = mi.design(model, **options)
+    des = mi.design(model, **options, robust_samples=0)
     got = des.margins
     gm, pm, sm, wgc = _independent(model, des)
     assert got.phase_deg == pytest.approx(pm, rel=1e-6, abs=1e-6)
@@ -89,7 +89,7 @@ def test_margins_equal_the_loop_built_from_transfer_functions(model, options):
 
 
 def test_bandwidth_is_the_closed_loop_s(model):
-    des = mi.design(model, damping=1.0, wn=8.0)
+    des = mi.design(model, damping=1.0, wn=8.0, robust_samples=0)
     work = design_model(model, des)
     a, b = work.A, work.B.reshape(-1, 1)
     c = output_row(work, des.output)[1].reshape(1, -1)
@@ -100,7 +100,7 @@ def test_bandwidth_is_the_closed_loop_s(model):
 def test_the_model_s_dead_time_eats_phase_margin(model):
     """A dead time τ at the motor's input turns the phase at the crossover by ω_c·τ: the phase
     margin drops by that much (within the Padé approximant's error) and so does the delay margin."""
-    des = mi.design(model, damping=1.0, wn=8.0)
+    des = mi.design(model, damping=1.0, wn=8.0, robust_samples=0)
     base = des.margins
     tau = 0.2 * base.delay_s
     late = loop_margins(model.replace(delay_s=tau), des)
@@ -111,7 +111,7 @@ def test_the_model_s_dead_time_eats_phase_margin(model):
 
 
 def test_the_design_printout_says_the_margins(demo_run, run_cli):
-    res = run_cli("design", str(demo_run.folder / "model.json"), "--damping", "1", "--wn", "8")
+    res = run_cli("design", str(demo_run.folder / "model.json"), "--damping", "1", "--wn", "8", "--robust-samples", "0")
     assert res.code == 0, res.err
     line = next(ln for ln in res.out.splitlines() if ln.startswith("margins: "))
     assert "gain margin" in line and "phase margin" in line and "delay margin" in line and "Ms " in line
@@ -125,7 +125,7 @@ def test_the_plotted_loop_crosses_where_the_margins_say(model, delay_s):
     from motorid.control.margins import loop_frequency_response
 
     m = model.replace(delay_s=delay_s)
-    des = mi.design(m, damping=1.0, wn=8.0)
+    des = mi.design(m, damping=1.0, wn=8.0, robust_samples=0)
     omega, resp = loop_frequency_response(m, des, points=4000)
     mg = loop_margins(m, des)
     i = int(np.argmin(np.abs(np.log(omega / mg.crossover_rad_s))))
@@ -138,7 +138,7 @@ def test_the_plotted_loop_crosses_where_the_margins_say(model, delay_s):
 def test_a_design_json_with_bad_margins_is_one_line(demo_run, run_cli, tmp_path, margins, needle):
     model = demo_run.folder / "model.json"
     d = tmp_path / "d.json"
-    assert run_cli("design", model, "--damping", "1", "--wn", "8", "--json", d).code == 0
+    assert run_cli("design", model, "--damping", "1", "--wn", "8", "--robust-samples", "0", "--json", d).code == 0
     d.write_text(json.dumps(json.loads(d.read_text()) | {"margins": margins}))
     res = run_cli("simulate", model, d)
     assert res.code == 2 and needle in res.err, res.err

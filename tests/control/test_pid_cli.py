@@ -1,5 +1,7 @@
-"""``motorid design --pid`` and ``motorid simulate`` of its design, each through a fresh process,
-on a first-order-plus-dead-time model file and on the demo's identified model."""
+"""``motorid design --pid`` and ``motorid simulate`` of its design on a first-order-plus-dead-time
+model file and on the demo's identified model: the first and the emitted C through a fresh
+process (``python -m motorid``, as a user runs it), the others in-process through the same entry
+point (a fresh process costs a second or two each)."""
 
 from __future__ import annotations
 
@@ -10,6 +12,7 @@ import sys
 import jsonschema
 import numpy as np
 import pytest
+from clihelpers import run_motorid
 
 from motorid.model.motor import model_from_velocity_tf
 from motorid.schemas import schema
@@ -18,6 +21,12 @@ from motorid.schemas import schema
 def _motorid(*args, cwd=None):
     return subprocess.run([sys.executable, "-m", "motorid", *map(str, args)], capture_output=True, text=True,
                           cwd=cwd, timeout=300)
+
+
+def _in_process(*args):
+    """:func:`run_motorid` with the fields of a finished process (``returncode``, ``stdout``, ``stderr``)."""
+    res = run_motorid(*args)
+    return subprocess.CompletedProcess(["motorid", *map(str, args)], res.code, res.out, res.err)
 
 
 @pytest.fixture()
@@ -55,31 +64,31 @@ def test_pid_on_a_fopdt_model(fopdt_file, tmp_path):
 def test_pid_on_the_demo_model(demo_run, tmp_path):
     model = demo_run.folder / "model.json"
     out = tmp_path / "pd.json"
-    res = _motorid("design", model, "--pid", "--pid-loop", "position", "--pid-integral", "--json", out)
+    res = _in_process("design", model, "--pid", "--pid-loop", "position", "--pid-integral", "--json", out)
     assert res.returncode == 0, res.stderr
     assert "PID on the position" in res.stdout and "half rule" in res.stdout and "margins: " in res.stdout
     doc = json.loads(out.read_text())
     jsonschema.Draft202012Validator(schema("design")).validate(doc)
     assert doc["pid"]["kind"] == "PID" and all(re < 0 for re, _ in doc["closed_loop_poles"])
     assert doc["margins"]["phase_deg"] > 30
-    res = _motorid("simulate", model, out, "--duration", "4")
+    res = _in_process("simulate", model, out, "--duration", "4")
     assert res.returncode == 0, res.stderr
     assert "overshoot" in res.stdout and "diverged" not in res.stdout
 
 
 def test_pid_with_a_pole_placement_option_is_refused_in_one_line(fopdt_file):
-    res = _motorid("design", fopdt_file, "--pid", "--observer-poles", "-30,-40")
+    res = _in_process("design", fopdt_file, "--pid", "--observer-poles", "-30,-40")
     assert res.returncode == 2
     line = res.stderr.strip()
     assert "\n" not in line and "--pid" in line and "--observer-poles" in line and "Traceback" not in line
-    res = _motorid("design", fopdt_file, "--poles", "-3,-4", "--tau-c", "0.2")
+    res = _in_process("design", fopdt_file, "--poles", "-3,-4", "--tau-c", "0.2")
     assert res.returncode == 2 and "--tau-c goes with --pid" in res.stderr
 
 
 def test_placement_from_the_command_line(fopdt_file, tmp_path):
     out = tmp_path / "pl.json"
-    res = _motorid("design", fopdt_file, "--pid", "--pid-rule", "placement", "--damping", "0.8", "--wn", "3",
-                   "--json", out)
+    res = _in_process("design", fopdt_file, "--pid", "--pid-rule", "placement", "--damping", "0.8", "--wn", "3",
+                      "--json", out)
     assert res.returncode == 0, res.stderr
     pid = json.loads(out.read_text())["pid"]
     # τ s² + (1 + k kp) s + k ki = τ (s² + 2ζωn s + ωn²): kp = (2ζωnτ − 1)/k, ki = ωn² τ / k

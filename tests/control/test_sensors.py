@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import control
 import numpy as np
 import pytest
+from clihelpers import motorid_ok
 
 import motorid as mi
 from motorid.control.design import Design, design_model, output_row
@@ -85,41 +84,31 @@ def test_a_model_without_a_current_channel_has_no_current_sensor():
 
 
 def test_the_command_line_prints_the_sensors_the_observer_the_margins_and_the_robust_fraction(demo_run, tmp_path):
-    out = subprocess.run([sys.executable, "-m", "motorid", "design", str(demo_run.folder / "model.json"),
-                          "--damping", "1", "--wn", "8", "--json", str(tmp_path / "d.json")],
-                         capture_output=True, text=True, timeout=300)
-    assert out.returncode == 0, out.stderr
-    text = out.stdout
+    text = motorid_ok("design", demo_run.folder / "model.json", "--damping", "1", "--wn", "8",
+                      "--json", tmp_path / "d.json").out
     assert "sensors: position, velocity, current; acceleration estimated by a reduced-order observer" in text
     assert "(on its estimate)" in text
     assert "margins: gain margin" in text
     assert "robust: stable for 100 % of 2000 plausible motors" in text
     data = json.loads((tmp_path / "d.json").read_text())
     assert data["robust"]["samples"] == 2000 and data["robust"]["stable_fraction"] == 1.0
-    sim = subprocess.run([sys.executable, "-m", "motorid", "simulate", str(demo_run.folder / "model.json"),
-                          str(tmp_path / "d.json")], capture_output=True, text=True, timeout=300)
-    assert sim.returncode == 0, sim.stderr
-    assert "diverged" not in sim.stdout + sim.stderr
+    sim = motorid_ok("simulate", demo_run.folder / "model.json", tmp_path / "d.json")
+    assert "diverged" not in sim.out + sim.err
 
 
 def test_the_rig_logs_model_gets_a_design_on_its_tacho_with_margins_and_the_robust_fraction(tmp_path):
-    """The L298N rig's rpm log (a velocity-only model with a dead time) as a user runs it."""
+    """The L298N rig's rpm log (a velocity-only model with a dead time) as a user runs it (in-process
+    through the real entry point; ``tests/control/test_pid_cli.py`` runs design and simulate in a
+    fresh process)."""
     from motorid.trainer.realsetups import write_real_setup
 
     rec = write_real_setup("l298n-rpm", tmp_path / "rig", seed=0)
     model = tmp_path / "m.json"
-    run = [sys.executable, "-m", "motorid"]
-    ident = subprocess.run([*run, "identify", *map(str, rec.cli_args), "--json", str(model)], capture_output=True,
-                           text=True, timeout=300)
-    assert ident.returncode == 0, ident.stderr
-    out = subprocess.run([*run, "design", str(model), "--damping", "1", "--wn", "8", "--integral", "--json",
-                          str(tmp_path / "d.json")], capture_output=True, text=True, timeout=300)
-    assert out.returncode == 0, out.stderr
-    assert "sensors: velocity" in out.stdout and "acceleration" not in out.stdout
-    assert "margins: gain margin" in out.stdout and "dead time included" in out.stdout
-    assert "robust: stable for 100 % of 2000 plausible motors" in out.stdout
-    assert "per rpm of the tacho" in out.stdout
-    sim = subprocess.run([*run, "simulate", str(model), str(tmp_path / "d.json"), "--level", "500"],
-                         capture_output=True, text=True, timeout=300)
-    assert sim.returncode == 0, sim.stderr
-    assert "overshoot" in sim.stdout and "diverged" not in sim.stdout + sim.stderr
+    motorid_ok("identify", *rec.cli_args, "--json", model)
+    out = motorid_ok("design", model, "--damping", "1", "--wn", "8", "--integral", "--json", tmp_path / "d.json").out
+    assert "sensors: velocity" in out and "acceleration" not in out
+    assert "margins: gain margin" in out and "dead time included" in out
+    assert "robust: stable for 100 % of 2000 plausible motors" in out
+    assert "per rpm of the tacho" in out
+    sim = motorid_ok("simulate", model, tmp_path / "d.json", "--level", "500")
+    assert "overshoot" in sim.out and "diverged" not in sim.out + sim.err

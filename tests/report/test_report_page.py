@@ -33,6 +33,7 @@ def test_demo_writes_a_self_contained_report(demo):
     assert "its scale only" in page
 
 
+@pytest.mark.browser  # the browser files (*_browser.py) are marked by tests/conftest.py
 def test_report_renders_in_headless_chromium(demo):
     browser = shutil.which("chromium") or shutil.which("chromium-browser")
     if browser is None:

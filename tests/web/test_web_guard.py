@@ -34,7 +34,7 @@ def test_a_cross_site_request_changes_nothing(client, demo_run):
 
 def test_a_json_endpoint_takes_json_only(client, demo_run):
     model = demo_run.result.identification.model.to_json_text()
-    body = '{"model": ' + model + ', "damping": 0.7, "wn": 5}'
+    body = '{"model": ' + model + ', "damping": 0.7, "wn": 5, "robust_samples": 0}'
     res = client.post("/api/design", content=body, headers={"Content-Type": "text/plain"})
     assert res.status_code == 415 and "application/json" in res.json()["detail"]
     assert client.post("/api/design", content=body, headers={"Content-Type": "application/json"}).status_code == 200
@@ -56,7 +56,7 @@ def test_the_token_opens_the_page_once_and_the_cookie_keeps_it(guarded):
 
 def test_scripts_send_the_token_as_a_query_or_a_bearer(guarded, demo_run):
     model = demo_run.result.identification.model.to_json()
-    body = {"model": model, "damping": 0.7, "wn": 5}
+    body = {"model": model, "damping": 0.7, "wn": 5, "robust_samples": 0}
     assert guarded.post("/api/design", json=body).status_code == 403
     assert guarded.post("/api/design", json=body, headers={"Authorization": "Bearer wrong"}).status_code == 403
     assert guarded.post("/api/design", json=body, headers={"Authorization": f"Bearer {TOKEN}"}).status_code == 200
