@@ -120,17 +120,33 @@ def quantisation_step(y: np.ndarray, *, below: float = np.inf, valid: np.ndarray
     return float(small.min()) if small.size else 0.0
 
 
+#: Candidate splits scored at a time by :func:`_best_split` (its temporaries stay small on a long log).
+_SPLIT_BLOCK = 1 << 18
+
+
 def _best_split(y: np.ndarray, lo: int, hi: int) -> tuple[int, float]:
-    """Index k in [lo, hi) minimising the residual of two constant levels y[:k], y[k:]."""
+    """Index k in [lo, hi) minimising the residual of two constant levels y[:k], y[k:].
+
+    The candidates are scored in blocks (the same numbers as one full-length pass, the first
+    minimum kept as ``argmin`` keeps it): the two running sums are the only arrays of the
+    record's length.
+    """
     n = y.size
     c1 = np.cumsum(y)
-    c2 = np.cumsum(y * y)
-    k = np.arange(lo, hi)
-    s_left, q_left = c1[k - 1], c2[k - 1]
-    s_right, q_right = c1[-1] - s_left, c2[-1] - q_left
-    sse = (q_left - s_left**2 / k) + (q_right - s_right**2 / (n - k))
-    j = int(np.argmin(sse))
-    return int(k[j]), float(sse[j])
+    c2 = np.multiply(y, y)
+    np.cumsum(c2, out=c2)  # a running sum is sequential: in place gives the same sums
+    best_k, best = lo, np.inf
+    for start in range(lo, hi, _SPLIT_BLOCK):
+        k = np.arange(start, min(hi, start + _SPLIT_BLOCK))
+        s_left, q_left = c1[k - 1], c2[k - 1]
+        s_right, q_right = c1[-1] - s_left, c2[-1] - q_left
+        sse = (q_left - s_left**2 / k) + (q_right - s_right**2 / (n - k))
+        j = int(np.argmin(sse))
+        if np.isnan(sse[j]):
+            return int(k[j]), float(sse[j])  # argmin stops at the first NaN
+        if sse[j] < best or start == lo:
+            best_k, best = int(k[j]), float(sse[j])
+    return best_k, best
 
 
 def step_edge(
