@@ -92,7 +92,15 @@ def noise_level(y: np.ndarray) -> float:
     d = np.diff(np.asarray(y, dtype=float))
     if d.size == 0:
         return 0.0
-    return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0))
+    # the deviations in place of the steps, reordered by their median: two arrays of the record's length, not five
+    d -= np.median(d)
+    np.abs(d, out=d)
+    return float(1.4826 * np.median(d, overwrite_input=True) / np.sqrt(2.0))
+
+
+#: Samples (candidate splits, steps) handled at a time by :func:`_best_split` and
+#: :func:`quantisation_step`: their temporaries stay small on a long log.
+_SPLIT_BLOCK = 1 << 18
 
 
 def quantisation_step(y: np.ndarray, *, below: float = np.inf, valid: np.ndarray | None = None) -> float:
@@ -113,15 +121,19 @@ def quantisation_step(y: np.ndarray, *, below: float = np.inf, valid: np.ndarray
     float
         The quantum, 0 when every sample is equal.
     """
-    d = np.abs(np.diff(np.asarray(y, dtype=float)))
-    if valid is not None:
-        d = d[np.asarray(valid, dtype=bool)]
-    small = d[(d > 0) & (d < below)]
-    return float(small.min()) if small.size else 0.0
-
-
-#: Candidate splits scored at a time by :func:`_best_split` (its temporaries stay small on a long log).
-_SPLIT_BLOCK = 1 << 18
+    y = np.asarray(y, dtype=float)
+    ok = None if valid is None else np.asarray(valid, dtype=bool)
+    quantum = np.inf
+    # in blocks of steps: the smallest is the same, without three arrays of the record's length
+    for start in range(0, max(y.size - 1, 0), _SPLIT_BLOCK):
+        d = np.diff(y[start : start + _SPLIT_BLOCK + 1])
+        np.abs(d, out=d)
+        if ok is not None:
+            d = d[ok[start : start + d.size]]
+        small = d[(d > 0) & (d < below)]
+        if small.size:
+            quantum = min(quantum, float(small.min()))
+    return quantum if np.isfinite(quantum) else 0.0
 
 
 def _best_split(y: np.ndarray, lo: int, hi: int) -> tuple[int, float]:
