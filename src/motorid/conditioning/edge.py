@@ -92,7 +92,15 @@ def noise_level(y: np.ndarray) -> float:
     d = np.diff(np.asarray(y, dtype=float))
     if d.size == 0:
         return 0.0
-    return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0))
+    # the deviations in place of the steps, reordered by their median: two arrays of the record's length, not five
+    d -= np.median(d)
+    np.abs(d, out=d)
+    return float(1.4826 * np.median(d, overwrite_input=True) / np.sqrt(2.0))
+
+
+#: Samples (candidate splits, steps) handled at a time by :func:`_best_split` and
+#: :func:`quantisation_step`: their temporaries stay small on a long log.
+_SPLIT_BLOCK = 1 << 18
 
 
 def quantisation_step(y: np.ndarray, *, below: float = np.inf, valid: np.ndarray | None = None) -> float:
@@ -113,24 +121,44 @@ def quantisation_step(y: np.ndarray, *, below: float = np.inf, valid: np.ndarray
     float
         The quantum, 0 when every sample is equal.
     """
-    d = np.abs(np.diff(np.asarray(y, dtype=float)))
-    if valid is not None:
-        d = d[np.asarray(valid, dtype=bool)]
-    small = d[(d > 0) & (d < below)]
-    return float(small.min()) if small.size else 0.0
+    y = np.asarray(y, dtype=float)
+    ok = None if valid is None else np.asarray(valid, dtype=bool)
+    quantum = np.inf
+    # in blocks of steps: the smallest is the same, without three arrays of the record's length
+    for start in range(0, max(y.size - 1, 0), _SPLIT_BLOCK):
+        d = np.diff(y[start : start + _SPLIT_BLOCK + 1])
+        np.abs(d, out=d)
+        if ok is not None:
+            d = d[ok[start : start + d.size]]
+        small = d[(d > 0) & (d < below)]
+        if small.size:
+            quantum = min(quantum, float(small.min()))
+    return quantum if np.isfinite(quantum) else 0.0
 
 
 def _best_split(y: np.ndarray, lo: int, hi: int) -> tuple[int, float]:
-    """Index k in [lo, hi) minimising the residual of two constant levels y[:k], y[k:]."""
+    """Index k in [lo, hi) minimising the residual of two constant levels y[:k], y[k:].
+
+    The candidates are scored in blocks (the same numbers as one full-length pass, the first
+    minimum kept as ``argmin`` keeps it): the two running sums are the only arrays of the
+    record's length.
+    """
     n = y.size
     c1 = np.cumsum(y)
-    c2 = np.cumsum(y * y)
-    k = np.arange(lo, hi)
-    s_left, q_left = c1[k - 1], c2[k - 1]
-    s_right, q_right = c1[-1] - s_left, c2[-1] - q_left
-    sse = (q_left - s_left**2 / k) + (q_right - s_right**2 / (n - k))
-    j = int(np.argmin(sse))
-    return int(k[j]), float(sse[j])
+    c2 = np.multiply(y, y)
+    np.cumsum(c2, out=c2)  # a running sum is sequential: in place gives the same sums
+    best_k, best = lo, np.inf
+    for start in range(lo, hi, _SPLIT_BLOCK):
+        k = np.arange(start, min(hi, start + _SPLIT_BLOCK))
+        s_left, q_left = c1[k - 1], c2[k - 1]
+        s_right, q_right = c1[-1] - s_left, c2[-1] - q_left
+        sse = (q_left - s_left**2 / k) + (q_right - s_right**2 / (n - k))
+        j = int(np.argmin(sse))
+        if np.isnan(sse[j]):
+            return int(k[j]), float(sse[j])  # argmin stops at the first NaN
+        if sse[j] < best or start == lo:
+            best_k, best = int(k[j]), float(sse[j])
+    return best_k, best
 
 
 def step_edge(

@@ -50,36 +50,71 @@ def step_response(model: MotorModel, time_s: Any, step_volts: float | None = Non
         raise OptionError("step_response needs step_volts (the model has none)")
     if model.static_nonlinearity is not None:
         step = float(model.static_nonlinearity.effective_input(step))
-    t = np.asarray(time_s, dtype=float).ravel() - model.delay_s
+    t = np.asarray(time_s, dtype=float).ravel()
+    if model.delay_s:
+        t = t - model.delay_s  # (no copy of a long record without a dead time: t - 0.0 is t)
     n = model.order
     m = np.zeros((n + 1, n + 1))
     m[:n, :n] = model.A
     m[:n, n] = model.B[:, 0]
     after = t >= 0
-    x = np.zeros((t.size, n))
-    if np.any(after):
-        ta = t[after]
-        d = np.diff(ta)
+    everywhere = bool(after.all())
+    # a record from the step on (the synchronised one) is filled in place: no zeros, no copy of
+    # the times after the step, no array of its steps (a 10 M-sample record held ten such arrays)
+    x = np.empty((t.size, n)) if everywhere else np.zeros((t.size, n))
+    if everywhere or np.any(after):
+        ta = t if everywhere else t[after]
         with np.errstate(over="ignore", invalid="ignore"):  # unstable models overflow
             # uniform within float64's resolution of the stamps themselves: t/dt beyond ~4.5 million made
             # 1e-9·dt tighter than the rounding of t, and a 10 M-row log took an expm per sample
-            resolution = 16.0 * np.finfo(float).eps * float(np.max(np.abs(ta)))
-            if ta.size > 2 and np.all(np.abs(d - d[0]) <= 1e-9 * max(abs(d[0]), 1e-300) + resolution):
+            d0 = float(ta[1] - ta[0]) if ta.size > 1 else 0.0
+            resolution = 16.0 * np.finfo(float).eps * _max_abs(ta)
+            if ta.size > 2 and _uniform_steps(ta, d0, 1e-9 * max(abs(d0), 1e-300) + resolution):
                 # uniform grid: one exact step matrix, then the recursion
                 # x[k+1] = Φ x[k] + Γ·step (exact for a step; 100x faster than an expm
                 # per sample)
-                phi, gamma = zoh(model.A, model.B, d[0])
+                phi, gamma = zoh(model.A, model.B, d0)
                 x0 = zoh(model.A, model.B, ta[0])[1][:, 0] * step
-                x[after] = _affine_orbit(phi, gamma[:, 0] * step, x0, ta.size)
+                if everywhere:
+                    _affine_orbit(phi, gamma[:, 0] * step, x0, ta.size, out=x)
+                else:
+                    x[after] = _affine_orbit(phi, gamma[:, 0] * step, x0, ta.size)
             else:
                 e = scipy.linalg.expm(m[None, :, :] * ta[:, None, None])
                 x[after] = e[:, :n, n] * step
     with np.errstate(over="ignore", invalid="ignore"):
-        y = x @ model.C.T + np.where(after[:, None], model.D[:, 0] * step, 0.0)
+        y = x @ model.C.T
+        del x
+        # + D·step after the step, + 0.0 before it (in place: the same sums as adding the full array)
+        if everywhere:
+            y += model.D[:, 0] * step
+        else:
+            y += np.where(after[:, None], model.D[:, 0] * step, 0.0)
     return {name: y[:, i] for i, name in enumerate(model.outputs)}
 
 
-def _affine_orbit(phi: np.ndarray, gam: np.ndarray, x0: np.ndarray, count: int) -> np.ndarray:
+#: Samples per block of the checks over a long time axis (their temporaries stay small).
+_BLOCK = 1 << 18
+
+
+def _max_abs(t: np.ndarray) -> float:
+    """``max(|t|)`` over a 1-D array, in blocks (no full-length temporary; the maximum is exact)."""
+    return max(float(np.max(np.abs(t[i : i + _BLOCK]))) for i in range(0, t.size, _BLOCK))
+
+
+def _uniform_steps(t: np.ndarray, d0: float, tol: float) -> bool:
+    """Whether every step of ``t`` is within ``tol`` of ``d0``: ``all(|diff(t) − d0| <= tol)``, in blocks."""
+    for i in range(0, t.size - 1, _BLOCK):
+        d = np.diff(t[i : i + _BLOCK + 1])
+        d -= d0
+        np.abs(d, out=d)
+        if not np.all(d <= tol):
+            return False
+    return True
+
+
+def _affine_orbit(phi: np.ndarray, gam: np.ndarray, x0: np.ndarray, count: int,
+                  out: np.ndarray | None = None) -> np.ndarray:
     """``x[0] = x0``, ``x[k] = Φ x[k−1] + Γ`` for ``k < count``, without a Python loop per sample.
 
     The affine map ``x ↦ Φx + Γ`` composed with itself ``m`` times is ``x ↦ Φᵐx + c_m`` with
@@ -89,7 +124,8 @@ def _affine_orbit(phi: np.ndarray, gam: np.ndarray, x0: np.ndarray, count: int) 
     for the wide pole spreads of motor models).
     """
     n = x0.size
-    out = np.empty((count, n))
+    if out is None:
+        out = np.empty((count, n))
     out[0] = x0
     power, offset, m = phi.copy(), gam.copy(), 1
     while m < count:

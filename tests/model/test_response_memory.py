@@ -1,0 +1,74 @@
+"""The step response and the NRMSE on long records: no full-length temporaries, the same bits."""
+
+from __future__ import annotations
+
+import tracemalloc
+
+import numpy as np
+
+from motorid.identification.metrics import nrmse, response_change
+from motorid.model import MotorModel
+from motorid.model.response import _BLOCK, _max_abs, _uniform_steps, step_response
+
+
+def _model(delay_s: float = 0.0) -> MotorModel:
+    a = np.array([[0.0, 1.0, 0.0], [0.0, -2.0, 30.0], [0.0, -5.0, -400.0]])
+    b = np.array([[0.0], [0.0], [500.0]])
+    return MotorModel(A=a, B=b, C=np.eye(3), D=np.zeros((3, 1)), states=("position", "velocity", "current"),
+                      outputs=("position", "velocity", "current"), step_volts=5.0, delay_s=delay_s)
+
+
+def test_record_from_the_step_has_the_bits_of_the_general_path() -> None:
+    # a grid from t = 0 is filled in place; with one sample before the step the general path (zeros, then the
+    # samples after the step) runs: each sample must come out the same, bit for bit
+    t = np.arange(3 * _BLOCK + 17) * 1e-4
+    fast = step_response(_model(), t)
+    general = step_response(_model(), np.r_[-1e-4, t])
+    for name in fast:
+        assert general[name][0] == 0.0
+        np.testing.assert_array_equal(fast[name], general[name][1:])
+        assert fast[name].tobytes() == general[name][1:].tobytes()
+
+
+def test_dead_time_still_shifts_the_response() -> None:
+    t = np.arange(2000) * 1e-3
+    late = step_response(_model(delay_s=0.05), t)["velocity"]
+    early = step_response(_model(), t)["velocity"]
+    assert np.all(late[:50] == 0.0) and late[52] != 0.0
+    np.testing.assert_allclose(late[60:], early[10:-50], rtol=1e-9, atol=1e-12)
+
+
+def test_block_checks_match_the_full_length_computation() -> None:
+    rng = np.random.default_rng(3)
+    t = np.cumsum(1e-3 + rng.normal(0, 1e-9, 2 * _BLOCK + 5))
+    d = np.diff(t)
+    for tol in (0.0, 5e-10, 2e-9, 1e-8):
+        assert _uniform_steps(t, float(t[1] - t[0]), tol) == bool(np.all(np.abs(d - d[0]) <= tol))
+    assert _max_abs(-t) == float(np.max(np.abs(t)))
+    t[2 * _BLOCK] += 1e-6  # one step off in the last block
+    assert not _uniform_steps(t, float(t[1] - t[0]), 1e-8)
+
+
+def test_nrmse_is_the_formula_bit_for_bit() -> None:
+    rng = np.random.default_rng(4)
+    y = 2.0 * -np.expm1(-np.arange(100_001) / 3e4) + rng.normal(0, 0.01, 100_001)
+    yhat = 2.0 * -np.expm1(-np.arange(100_001) / 3.1e4)
+    want = float(np.sqrt(np.mean((y - yhat) ** 2)) / response_change(y))
+    assert nrmse(y, yhat) == want
+
+
+def test_step_response_of_a_long_record_holds_little_besides_its_result() -> None:
+    # the outputs (3 channels × 8 bytes a sample) plus the orbit's half-length products; before, the
+    # zeros, the copy of the times, their steps and the D-term array made it about twice that
+    n = 400_000
+    t = np.arange(n) * 1e-4
+    tracemalloc.start()
+    try:
+        tracemalloc.reset_peak()
+        base = tracemalloc.get_traced_memory()[0]
+        out = step_response(_model(), t)
+        peak = tracemalloc.get_traced_memory()[1] - base
+    finally:
+        tracemalloc.stop()
+    assert set(out) == {"position", "velocity", "current"}
+    assert peak < 8 * n * 3 * 2.2, peak / (8 * n)
