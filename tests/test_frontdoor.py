@@ -280,6 +280,7 @@ def test_identify_levels_takes_captures_and_one_level_for_all(tmp_path):
         mi.identify_levels(caps, step_volts=[1.0, 2.0])
 
 
+@pytest.mark.slow  # a whole report (3 s); the demo's own report goes the same way in the quick part
 def test_write_report_takes_named_validation_a_truth_and_a_title(fit, demo, tmp_path):
     truth = {"schema": "motorid.trainer-truth/1", "preset": "paper", "seed": 0, "captures": {},
              "transfer_functions": {}, "config": {}}
