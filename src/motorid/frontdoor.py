@@ -1060,20 +1060,15 @@ def validate(
     OptionError, CaptureFormatError
         Bad options, a channel the model has not, an unreadable capture (named).
     """
-    from motorid.analysis.validation import validate_capture
+    from motorid.analysis.validation import check_channel, check_options, validate_capture
     from motorid.io import read_capture
-    from motorid.model import CHANNELS
 
-    if channel not in CHANNELS:
-        raise OptionError(f"--channel {channel!r} is unknown: use one of {', '.join(CHANNELS)}")
-    if not warmup_s >= 0:
-        raise OptionError(f"--warmup must be ≥ 0 s, got {warmup_s:g}")
+    check_options(channel, warmup_s)  # before any file is read
     if step_volts is not None and not (step_volts != 0 and abs(step_volts) < float("inf")):
         raise OptionError(f"--step-volts must be a non-zero number of volts, got {step_volts:g}")
     motor = _model_of(model)
-    if channel not in motor.outputs and channel != "position":
-        raise OptionError(f"the model has no {channel!r} output (it has {', '.join(motor.outputs)}): choose "
-                          "another --channel", file=str(model) if isinstance(model, (str, PathLike)) else None)
+    with _blamed_on(model):  # the model file, not the first capture, is at fault
+        check_channel(motor, channel)
     items = [captures] if isinstance(captures, (str, PathLike, Capture)) else list(captures)
     colmap = dict(columns) if columns else None
     results = []

@@ -34,7 +34,7 @@ from motorid.identification.metrics import fit_percent, nrmse
 from motorid.identification.sanity import TOLERANCES
 from motorid.model import CHANNELS, MotorModel
 
-__all__ = ["ValidationResult", "model_delay_s", "validate_capture"]
+__all__ = ["ValidationResult", "check_channel", "check_options", "model_delay_s", "validate_capture"]
 
 #: Fewest scored samples a validation needs.
 MIN_SCORED = 10
@@ -205,15 +205,53 @@ def _is_step(capture: Capture) -> bool:
     return True
 
 
-def _checked_delay(model: MotorModel, channel: str, warmup_s: float, delay_s: float | None) -> float:
-    """The dead time the model is driven with, after checking the channel and the warm-up."""
+def check_options(channel: str, warmup_s: float) -> None:
+    """Check the validation's options that need neither the model nor a capture.
+
+    :func:`motorid.validate` calls it before it reads any file.
+
+    Parameters
+    ----------
+    channel : str
+        The model output the capture measured.
+    warmup_s : float
+        Seconds simulated but not scored.
+
+    Raises
+    ------
+    OptionError
+        An unknown channel, or a negative or non-finite warm-up.
+    """
     if channel not in CHANNELS:
         raise OptionError(f"--channel {channel!r} is not a model output: use one of {', '.join(CHANNELS)}")
+    if not (math.isfinite(warmup_s) and warmup_s >= 0):
+        raise OptionError(f"--warmup must be a non-negative number of seconds, got {warmup_s!r}")
+
+
+def check_channel(model: MotorModel, channel: str) -> None:
+    """Check that ``model`` predicts ``channel`` (a position always: it integrates the velocity).
+
+    Parameters
+    ----------
+    model : MotorModel
+        The model to validate.
+    channel : str
+        The model output the capture measured.
+
+    Raises
+    ------
+    OptionError
+        The model has no such output.
+    """
     if channel not in model.outputs and channel != "position":
         raise OptionError(f"the model has no {channel!r} output (it has {', '.join(model.outputs)}): "
                           "choose another --channel")
-    if not (math.isfinite(warmup_s) and warmup_s >= 0):
-        raise OptionError(f"--warmup must be a non-negative number of seconds, got {warmup_s!r}")
+
+
+def _checked_delay(model: MotorModel, channel: str, warmup_s: float, delay_s: float | None) -> float:
+    """The dead time the model is driven with, after checking the channel and the warm-up."""
+    check_options(channel, warmup_s)
+    check_channel(model, channel)
     try:
         delay = model_delay_s(model) if delay_s is None else float(delay_s)
     except (TypeError, ValueError):

@@ -612,11 +612,16 @@ def _identify_levels(velocities: list[str], experiments: list[str], levels: list
             con.print(f"{label}: {path}")
 
 
+def _capture_names(specs: list[str] | None) -> list[str]:
+    """The captures of a repeatable, comma-separated option (``--validate A,B --validate C``)."""
+    return [p for spec in (specs or []) for p in spec.split(",") if p]
+
+
 def _validation_captures(specs: list[str] | None, columns: str | None) -> dict:
     from motorid.io import read_capture
 
     colmap = _parse_columns(columns)
-    names = [p for spec in (specs or []) for p in spec.split(",") if p]
+    names = _capture_names(specs)
     # keyed by file name; two captures of the same name in different folders keep their paths
     short = [Path(n).name for n in names]
     return {(k if short.count(k) == 1 else n): read_capture(_capture_paths(n), columns=colmap)
@@ -658,8 +663,7 @@ def validate(
 
     if max_nrmse is not None and not max_nrmse >= 0:
         raise OptionError(f"--max-nrmse must be a non-negative fraction (e.g. 0.05), got {max_nrmse:g}")
-    names = [p for spec in captures for p in spec.split(",") if p]
-    results = frontdoor.validate(model_json, [_capture_paths(n) for n in names], channel=channel,
+    results = frontdoor.validate(model_json, [_capture_paths(n) for n in _capture_names(captures)], channel=channel,
                                  step_volts=step_volts, t0=t0, warmup_s=warmup, columns=_parse_columns(columns))
     model = load_model(model_json)  # for the table's title and units
     failed = [r for r in results if max_nrmse is not None and not r.nrmse <= max_nrmse]
