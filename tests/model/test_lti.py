@@ -124,3 +124,13 @@ def test_zoh_discretises_a_stack_as_each_alone():
         one = lti.zoh(a[i], b[i], 0.01)
         np.testing.assert_array_equal(phi[i], one[0])
         np.testing.assert_array_equal(gamma[i], one[1])
+
+
+def test_zoh_of_several_intervals_is_each_alone():
+    a, b = np.array([[0.0, 1.0], [-6.0, -5.0]]), np.array([[0.0], [6.0]])
+    hs = np.array([0.0, 1e-3, 0.37, 2.0])
+    phi, gamma = lti.zoh(a, b, hs[:, None, None])
+    for i, h in enumerate(hs):
+        one = lti.zoh(a, b, float(h))
+        np.testing.assert_array_equal(phi[i], one[0])
+        np.testing.assert_array_equal(gamma[i], one[1])

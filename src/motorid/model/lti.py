@@ -206,7 +206,7 @@ def _lfilter(b: np.ndarray, a: np.ndarray, x: np.ndarray) -> np.ndarray:
     return out if x.ndim == 2 else out[0]
 
 
-def zoh(a: ArrayLike, b: ArrayLike, h: float) -> tuple[np.ndarray, np.ndarray]:
+def zoh(a: ArrayLike, b: ArrayLike, h: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The exact zero-order-hold discretisation ``Φ = e^{A h}``, ``Γ = ∫₀ʰ e^{A s} ds·B``.
 
     One ``expm`` of the augmented matrix ``[[A, B], [0, 0]]·h`` (Van Loan 1978), the
@@ -220,8 +220,9 @@ def zoh(a: ArrayLike, b: ArrayLike, h: float) -> tuple[np.ndarray, np.ndarray]:
         State matrix (or a stack of them).
     b : array_like, shape (..., n, m)
         Input matrix (or a stack, matching ``a``).
-    h : float
-        The hold interval [s] (any real: 0 gives the identity and zero).
+    h : float or ndarray
+        The hold interval [s] (any real: 0 gives the identity and zero); an array of shape
+        ``(k, 1, 1)`` gives the ``k`` discretisations of one system at once.
 
     Returns
     -------

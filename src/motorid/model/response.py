@@ -8,7 +8,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.linalg
 
 from motorid.errors import OptionError
 from motorid.model.lti import zoh
@@ -54,9 +53,6 @@ def step_response(model: MotorModel, time_s: Any, step_volts: float | None = Non
     if model.delay_s:
         t = t - model.delay_s  # (no copy of a long record without a dead time: t - 0.0 is t)
     n = model.order
-    m = np.zeros((n + 1, n + 1))
-    m[:n, :n] = model.A
-    m[:n, n] = model.B[:, 0]
     after = t >= 0
     everywhere = bool(after.all())
     # a record from the step on (the synchronised one) is filled in place: no zeros, no copy of
@@ -80,8 +76,8 @@ def step_response(model: MotorModel, time_s: Any, step_volts: float | None = Non
                 else:
                     x[after] = _affine_orbit(phi, gamma[:, 0] * step, x0, ta.size)
             else:
-                e = scipy.linalg.expm(m[None, :, :] * ta[:, None, None])
-                x[after] = e[:, :n, n] * step
+                # a non-uniform grid: the exact state at each instant, one exponential per sample
+                x[after] = zoh(model.A, model.B, ta[:, None, None])[1][:, :, 0] * step
     with np.errstate(over="ignore", invalid="ignore"):
         y = x @ model.C.T
         del x
