@@ -200,7 +200,8 @@ def test_results_cross_process_boundaries_and_stay_read_only(fit):
     back = pickle.loads(pickle.dumps(fit))
     assert back.to_json() == fit.to_json()
     assert back.model.to_json_text() == fit.model.to_json_text()
-    for mapping in (back.params, back.fit, back.experiment.captures, back.model.uncertainty,
+    assert back.model.uncertainty == fit.model.uncertainty
+    for mapping in (back.params, back.fit, back.experiment.captures, back.model.uncertainty.timing,
                     back.experiment.captures["velocity"].extra, back.provenance.settings):
         assert isinstance(mapping, MappingProxyType)
     with pytest.raises(TypeError):

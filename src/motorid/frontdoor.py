@@ -470,20 +470,6 @@ class IdentificationResult:
         return self.model.to_json()
 
 
-def _estimate(item: Mapping[str, Any]) -> ParameterEstimate:
-    value: Any = item.get("value")  # JSON: a number, or [re, im] for a complex root
-    if isinstance(value, (list, tuple)):
-        re_, im_ = (float(x) for x in value)
-        value = complex(re_, im_) if im_ != 0 else re_
-    std = item.get("std")
-    ci = item.get("ci95")
-    stderr = float("nan") if std is None else float(std)
-    interval = None
-    if ci is not None and len(ci) == 2 and all(x is not None and math.isfinite(float(x)) for x in ci):
-        interval = (float(ci[0]), float(ci[1]))
-    return ParameterEstimate(value, stderr, interval)
-
-
 def _roots_by_size(values: Any) -> list[float | complex]:
     # as the uncertainty block lists them: slowest first
     out = sorted((complex(v) for v in values), key=lambda v: (-v.real, -v.imag))
@@ -497,16 +483,19 @@ def _params(model: MotorModel) -> dict[str, ParameterEstimate]:
     params: dict[str, ParameterEstimate] = {}
     for key, value in (("dc_gain", fo.dc_gain), ("time_constant", fo.time_constant_s), ("t63_s", model.t63_s()),
                        ("residence_time_s", model.residence_time_s())):
-        params[key] = _estimate(u[key]) if key in u else ParameterEstimate(float(value))
-    if "delay" in u:
-        params["delay"] = _estimate(u["delay"])
+        item = None if u is None else u.headline(key)
+        params[key] = ParameterEstimate(float(value)) if item is None else item
+    if u is not None and u.delay is not None:
+        params["delay"] = u.delay
     elif model.delay_s > 0:
         params["delay"] = ParameterEstimate(model.delay_s)
     for name, roots in (("pole", model.poles()), ("zero", model.zeros())):
-        items = u.get(f"{name}s")
+        items = () if u is None else (u.poles if name == "pole" else u.zeros)
         if items:
             for i, item in enumerate(items):
-                params[f"{name}_{i + 1}"] = _estimate(item)
+                # a real root is a float, as the model's own roots below
+                root_value = item.value.real if item.value.imag == 0 else item.value
+                params[f"{name}_{i + 1}"] = replace(item, value=root_value)
         else:
             for i, root in enumerate(_roots_by_size(roots)):
                 params[f"{name}_{i + 1}"] = ParameterEstimate(root)

@@ -18,6 +18,7 @@ from motorid.capture import Capture, ChannelInfo
 from motorid.identification.pipeline import IdentifySettings, identify_experiment
 from motorid.identification.sanity import _resolved_roots
 from motorid.model import model_from_velocity_tf
+from motorid.model.uncertainty import Uncertainty
 
 REAL = Path(__file__).resolve().parents[3] / "shared" / "real" / "hslu-rtl-dcmotor" / "csv"
 
@@ -101,14 +102,14 @@ def test_right_half_plane_zero_and_unresolved_pole_are_flagged():
     """The gate names what the data do not resolve (before: "all checks passed")."""
     u = {"poles": [{"value": [-5.0, 0.0], "ci95": [-5.4, -4.6]}, {"value": [-15.8, 0.0], "ci95": [-58.1, 26.6]}],
          "zeros": [{"value": [75.7, 0.0], "ci95": [-10.0, 160.0]}]}
-    checks = {c.name: c for c in _resolved_roots(u)}
+    checks = {c.name: c for c in _resolved_roots(Uncertainty.from_dict(u))}
     assert not checks["every pole resolved by the data"].passed
     assert "pole 2" in checks["every pole resolved by the data"].detail
     assert not checks["no unphysical right-half-plane zero"].passed
     demanded = {"zeros": [{"value": [75.7, 0.0], "ci95": [60.0, 90.0]}]}
-    assert all(c.passed for c in _resolved_roots(demanded))
+    assert all(c.passed for c in _resolved_roots(Uncertainty.from_dict(demanded)))
     paired = dict(u, pole_pairs=[{"poles": [1, 2]}], zeros=[])
-    assert all(c.passed for c in _resolved_roots({**paired, "poles": u["poles"] + [u["poles"][1]]}))
+    assert all(c.passed for c in _resolved_roots(Uncertainty.from_dict({**paired, "poles": u["poles"] + [u["poles"][1]]})))
 
 
 @pytest.mark.skipif(not REAL.is_dir(), reason="../shared/real is not beside this clone")

@@ -13,6 +13,7 @@ from markupsafe import Markup
 from matplotlib.lines import Line2D
 from matplotlib.text import Text
 
+from motorid.model.uncertainty import Uncertainty
 from motorid.report import SECTIONS, figures
 from motorid.report import html as page
 from motorid.report.truth import CLASSIC_LABEL, TRUTH_LABEL, reference_values, truth_checks
@@ -42,7 +43,7 @@ def _fake_model(*, value=1.0, std=0.01, noise=None, delay=0.0):
     u = {"dc_gain": {"value": value, "std": std, "ci95": [value - 1.96 * std, value + 1.96 * std]},
          "time_constant": {"value": 0.5, "std": 0.002, "ci95": [0.5 - 1.96 * 0.002, 0.5 + 1.96 * 0.002]},
          "t63_s": {"value": 0.5, "std": 0.002, "ci95": [0.5 - 1.96 * 0.002, 0.5 + 1.96 * 0.002]}}
-    return SimpleNamespace(method="oe", uncertainty=u, extras={"noise": noise or {}}, delay_s=delay)
+    return SimpleNamespace(method="oe", uncertainty=Uncertainty.from_dict(u), extras={"noise": noise or {}}, delay_s=delay)
 
 
 # --------------------------------------------------------------------------- page structure

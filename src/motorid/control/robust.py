@@ -257,18 +257,11 @@ class _Joint:
 
     @classmethod
     def of(cls, model: MotorModel) -> _Joint | None:
-        entry = (model.uncertainty or {}).get("joint")
-        if not isinstance(entry, Mapping):
+        joint = None if model.uncertainty is None else model.uncertainty.joint
+        if joint is None:
             return None
-        try:
-            names = tuple(str(n) for n in entry["parameters"])
-            values = np.asarray(entry["values"], dtype=float)
-            cov = np.asarray(entry["covariance"], dtype=float)
-        except (KeyError, TypeError, ValueError):
-            return None
-        k = len(names)
-        if values.shape != (k,) or cov.shape != (k, k) or not (np.all(np.isfinite(values))
-                                                               and np.all(np.isfinite(cov))):
+        names, values, cov = joint.parameters, joint.values, joint.covariance
+        if not (np.all(np.isfinite(values)) and np.all(np.isfinite(cov))):
             return None
         if "K" not in names or not any(n.startswith("log_tau_") for n in names):
             return None

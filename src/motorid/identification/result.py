@@ -2,40 +2,12 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from motorid.errors import IdentificationError
+from motorid.model.uncertainty import ParameterEstimate  # typed with the model: its JSON is the model's
 
 __all__ = ["IdentificationError", "ParameterEstimate", "equilibrated_condition"]
-
-
-@dataclass(frozen=True, slots=True)
-class ParameterEstimate:
-    """One identified quantity with its uncertainty (as lmfit's ``Parameter``).
-
-    Attributes
-    ----------
-    value : float or complex
-        The estimate (a complex pole or zero is a complex number).
-    stderr : float
-        Standard error (NaN when the method gives no interval).
-    ci95 : tuple of (float, float) or None
-        95 % interval (``None`` when the method gives none); for a complex pole or zero,
-        the interval of its real part.
-    unit : str
-        The unit of ``value``, ``stderr`` and ``ci95`` (``rpm/V``, ``V/V``, ``s``, ``1/s``; empty
-        when not set).
-    """
-
-    value: float | complex
-    stderr: float = float("nan")
-    ci95: tuple[float, float] | None = None
-    unit: str = ""
-
-
-
 
 
 # IdentificationError lives in motorid.errors with every other user-facing error

@@ -25,12 +25,12 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 import scipy.optimize
 
 from motorid.identification.classic import first_crossing
+from motorid.model.uncertainty import Uncertainty
 
 __all__ = ["TOLERANCES", "SanityCheck", "SanityReport", "first_order_baseline", "sanity_checks"]
 
@@ -138,7 +138,7 @@ def first_order_baseline(time_s: np.ndarray, y: np.ndarray, step_volts: float) -
     return f(t, *p), {"dc_gain": float(p[0]), "time_constant": float(p[1]), "delay": float(p[2])}
 
 
-def _resolved_roots(u: Mapping[str, Any] | None) -> list[SanityCheck]:
+def _resolved_roots(u: Uncertainty | None) -> list[SanityCheck]:
     """Every pole the data resolve (alone or as a pair); no right-half-plane zero they do not demand.
 
     A pole whose 95 % interval reaches the imaginary axis, or is wider than the pole itself, is not
@@ -146,15 +146,15 @@ def _resolved_roots(u: Mapping[str, Any] | None) -> list[SanityCheck]:
     (an inverse response) is not physical for a DC motor's velocity; it passes only when its whole
     interval lies in the right half-plane, i.e. the data demand it.
     """
-    if not u:
+    if u is None:
         return []
-    paired = {i for pair in u.get("pole_pairs", []) or [] for i in pair["poles"]}
+    paired = u.paired_poles()
     loose = []
-    for i, item in enumerate(u.get("poles", []) or []):
-        lo, hi = item.get("ci95", (None, None))
-        re_ = float(item["value"][0])
-        if i in paired or lo is None or hi is None or not np.isfinite(lo + hi):
+    for i, item in enumerate(u.poles):
+        re_ = float(np.real(item.value))
+        if i in paired or item.ci95 is None:
             continue
+        lo, hi = item.ci95
         if hi >= 0 or (hi - lo) / 2 > abs(re_):
             loose.append(f"pole {i + 1} ({re_:.4g}, 95 % interval [{lo:.4g}, {hi:.4g}])")
     checks = [SanityCheck(
@@ -164,11 +164,11 @@ def _resolved_roots(u: Mapping[str, Any] | None) -> list[SanityCheck]:
         f"the data do not resolve {', '.join(loose)}: its interval reaches the right half-plane or is wider "
         "than the pole — the structure has a pole more than the record supports (try --order with one pole "
         "fewer, or record longer / with less noise)")]
-    for i, item in enumerate(u.get("zeros", []) or []):
-        lo, hi = item.get("ci95", (None, None))
-        re_ = float(item["value"][0])
-        if re_ <= 0 or lo is None:
+    for i, item in enumerate(u.zeros):
+        re_ = float(np.real(item.value))
+        if re_ <= 0:
             continue
+        lo, hi = item.interval_or_nan()  # no interval: nothing demands it
         demanded = bool(lo > 0)
         checks.append(SanityCheck(
             "no unphysical right-half-plane zero", demanded,
@@ -285,11 +285,11 @@ def sanity_checks(
     checks += _resolved_roots(u)
     for key, label, value in (("dc_gain", "DC gain", fo.dc_gain), ("time_constant", "τ", fo.time_constant_s),
                               ("residence_time_s", "mean residence time", model.residence_time_s())):
-        item = u.get(key) if u else None
-        if not item or "ci95" not in item:
+        item = None if u is None else u.headline(key)
+        if item is None:
             continue
-        lo, hi = item["ci95"]
-        inside = bool(lo is not None and hi is not None and lo <= value <= hi)
+        lo, hi = item.interval_or_nan()
+        inside = bool(lo <= value <= hi)
         checks.append(SanityCheck(
             f"headline {label} inside its interval", inside,
             f"headline {label} {value:.5g} " + ("inside" if inside else "OUTSIDE") + f" its 95 % interval "

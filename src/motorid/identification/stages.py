@@ -9,6 +9,7 @@ user guess is needed.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any
@@ -35,6 +36,7 @@ from motorid.identification.result import IdentificationError
 from motorid.identification.srivc import SrivcSettings, srivc_fit
 from motorid.model import MotorModel
 from motorid.model.motor import realise_tfs
+from motorid.model.uncertainty import ChannelTiming, JointCovariance, ParameterEstimate, PolePair, Uncertainty
 
 __all__ = [
     "STRUCTURES",
@@ -44,13 +46,13 @@ __all__ = [
     "dead_time_shows",
     "noise_model",
     "oe_stage",
+    "oe_uncertainty",
     "output_level_rel_std",
     "quantisation_bias_std",
     "refine_noise",
     "select_order",
     "srivc_stage",
     "step_level_std",
-    "uncertainty_json",
 ]
 
 #: Model structures (velocity poles, zeros) tried for each order; the first is the default.
@@ -402,51 +404,55 @@ def _oe_to_model(
                   "record_length_s": float(cond.full_time_s[-1])},
         sample_interval_s=float(cond.full_time_s[1] - cond.full_time_s[0]),
         warnings=tuple(res.warnings),
-        uncertainty={**uncertainty_json(res), "timing": timing_json(res, cond)},
+        uncertainty=oe_uncertainty(res, cond),
         extras={"bic": res.bic, "aic": res.aic, "sigma": dict(res.sigma), "delay_s": res.delay_s,
                 **({"noise": noise.to_json()} if noise is not None else {})},
         delay_s=res.delay_s or 0.0,
     )
 
 
-def uncertainty_json(res: OeResult) -> dict[str, Any]:
-    """The ``uncertainty`` object of the model JSON from an output-error result.
+def oe_uncertainty(res: OeResult, cond: ConditionedExperiment | None = None) -> Uncertainty:
+    """The typed uncertainty (the model JSON's ``uncertainty`` and ``timing``) of an output-error result.
 
     Parameters
     ----------
     res : OeResult
         An output-error result.
+    cond : ConditionedExperiment, optional
+        The captures it was fitted to (each channel's step instant: :func:`channel_timing`).
 
     Returns
     -------
-    dict
+    Uncertainty
         Estimates, standard errors and 95 % intervals.
     """
-    def item(key: str, value: Any) -> dict[str, Any]:
+    def item(key: str, value: float | complex) -> ParameterEstimate:
         lo, hi = res.ci95.get(key, (float("nan"), float("nan")))
-        return {"value": value, "std": res.std.get(key, float("nan")), "ci95": [lo, hi]}
+        ci = (float(lo), float(hi)) if math.isfinite(lo) and math.isfinite(hi) else None
+        value = value if isinstance(value, complex) else float(value)
+        return ParameterEstimate(value, float(res.std.get(key, float("nan"))), ci)
 
-    out: dict[str, Any] = {
-        "dc_gain": item("dc_gain", res.dc_gain),
-        "time_constant": item("time_constant", res.time_constant_s),
-        "residence_time_s": item("residence_time", res.time_constant_s + (res.delay_s or 0.0)),
-        "t63_s": item("t63", float(np.mean(res.ci95["t63"])) if "t63" in res.ci95 else float("nan")),
-        "poles": [item(f"pole_{i}", [float(np.real(p)), float(np.imag(p))]) for i, p in enumerate(res.poles)],
-        "zeros": [item(f"zero_{i}", [float(np.real(z)), float(np.imag(z))]) for i, z in enumerate(res.zeros)],
-        "method": "Gauss-Newton covariance of the output-error fit (delta method), 95% = ±1.96 std",
-    }
+    def root(key: str, value: complex) -> ParameterEstimate:
+        return item(key, complex(float(np.real(value)), float(np.imag(value))))
+
     pairs = unresolved_pairs(res)
-    if pairs:
-        out["pole_pairs"] = [{"poles": [i, i + 1],
-                              "natural_frequency": item(f"pair_{i}_wn", res_value(res, f"pair_{i}_wn")),
-                              "damping": item(f"pair_{i}_zeta", res_value(res, f"pair_{i}_zeta"))} for i in pairs]
-    if res.delay_s is not None:
-        out["delay"] = item("delay", res.delay_s)
-    out["joint"] = joint_json(res)
-    return out
+    return Uncertainty(
+        dc_gain=item("dc_gain", res.dc_gain),
+        time_constant=item("time_constant", res.time_constant_s),
+        residence_time_s=item("residence_time", res.time_constant_s + (res.delay_s or 0.0)),
+        t63_s=item("t63", float(np.mean(res.ci95["t63"])) if "t63" in res.ci95 else float("nan")),
+        poles=tuple(root(f"pole_{i}", p) for i, p in enumerate(res.poles)),
+        zeros=tuple(root(f"zero_{i}", z) for i, z in enumerate(res.zeros)),
+        method="Gauss-Newton covariance of the output-error fit (delta method), 95% = ±1.96 std",
+        pole_pairs=tuple(PolePair((i, i + 1), item(f"pair_{i}_wn", res_value(res, f"pair_{i}_wn")),
+                                  item(f"pair_{i}_zeta", res_value(res, f"pair_{i}_zeta"))) for i in pairs),
+        delay=None if res.delay_s is None else item("delay", res.delay_s),
+        joint=joint_covariance(res),
+        timing={} if cond is None else channel_timing(res, cond),
+    )
 
 
-def joint_json(res: OeResult) -> dict[str, Any]:
+def joint_covariance(res: OeResult) -> JointCovariance:
     """The motor's parameters and their joint covariance, as the model JSON's ``uncertainty.joint``.
 
     The chosen structure's Gauss–Newton covariance restricted to the parameters that define
@@ -460,16 +466,14 @@ def joint_json(res: OeResult) -> dict[str, Any]:
 
     Returns
     -------
-    dict
+    JointCovariance
         ``parameters`` (``K``, ``log_tau_i``, ``Tz_j``, ``delay``, ``c``, ``cur_j``), ``values``,
         ``covariance`` (rows in the same order).
     """
     keep = [i for i, name in enumerate(res.param_names)
             if name in ("K", "delay", "c") or name.startswith(("log_tau_", "Tz_", "cur_"))]
     cov = np.asarray(res.cov, float)[np.ix_(keep, keep)]
-    return {"parameters": [res.param_names[i] for i in keep],
-            "values": [float(res.params[i]) for i in keep],
-            "covariance": [[float(x) for x in row] for row in cov]}
+    return JointCovariance(tuple(res.param_names[i] for i in keep), np.asarray(res.params, float)[keep], cov)
 
 
 def res_value(res: OeResult, key: str) -> float:
@@ -523,7 +527,7 @@ TIMING_SOURCES = {
 }
 
 
-def timing_json(res: OeResult, cond: ConditionedExperiment) -> dict[str, Any]:
+def channel_timing(res: OeResult, cond: ConditionedExperiment) -> dict[str, ChannelTiming]:
     """Per channel of the fit: where its step instant comes from, and its fitted shift with interval.
 
     Parameters
@@ -535,23 +539,24 @@ def timing_json(res: OeResult, cond: ConditionedExperiment) -> dict[str, Any]:
 
     Returns
     -------
-    dict
-        Keyed by channel: ``step_instant`` (words), ``edge_s`` (the instant on the file's time
-        axis), and for a fitted shift ``shift_s``, ``std``, ``ci95`` (positive: the model's step is
-        that much later than the edge read off the data).
+    dict of str to ChannelTiming
+        Keyed by channel: the step instant in words, the instant on the file's time axis, and a
+        fitted shift with its interval (positive: the model's step is that much later than the
+        edge read off the data).
     """
-    out: dict[str, Any] = {}
+    out: dict[str, ChannelTiming] = {}
     for role, r in cond.responses.items():
         if role not in res.residuals:
             continue
-        item: dict[str, Any] = {"step_instant": TIMING_SOURCES.get(r.timing, r.timing),
-                                "edge_s": float(r.edge.time_s) - _sampled_phase(r)}
+        shift, note = None, None
         if role in res.shifts:
             lo, hi = res.ci95.get(f"shift_{role}", (float("nan"), float("nan")))
-            item.update(shift_s=res.shifts[role], std=res.std.get(f"shift_{role}", float("nan")), ci95=[lo, hi])
+            ci = (float(lo), float(hi)) if math.isfinite(lo) and math.isfinite(hi) else None
+            shift = ParameterEstimate(float(res.shifts[role]), float(res.std.get(f"shift_{role}", float("nan"))), ci)
         elif r.timing == "onset" and res.delay_s is not None:
-            item["note"] = "its shift is the dead time (a step instant read off the response cannot be told from it)"
-        out[role] = item
+            note = "its shift is the dead time (a step instant read off the response cannot be told from it)"
+        out[role] = ChannelTiming(TIMING_SOURCES.get(r.timing, r.timing), float(r.edge.time_s) - _sampled_phase(r),
+                                  shift, note)
     return out
 
 
@@ -863,8 +868,8 @@ def _describe(structure: tuple[int, int], delay: bool) -> str:
     return f"{structure[0]} pole(s) and {structure[1]} zero(s)" + (" with a dead time" if delay else "")
 
 
-def structure_uncertainty(best: MotorModel, fits: list[tuple[float, MotorModel]]) -> dict[str, Any]:
-    """The chosen model's ``uncertainty`` widened by the spread between candidate structures.
+def structure_uncertainty(best: MotorModel, fits: list[tuple[float, MotorModel]]) -> Uncertainty | None:
+    """The chosen model's uncertainty widened by the spread between candidate structures.
 
     The Gauss–Newton interval is conditional on the structure.  Each candidate gets its
     BIC weight ``w_i ∝ exp(−ΔBIC_i/2)`` (an approximation of its posterior probability);
@@ -882,35 +887,41 @@ def structure_uncertainty(best: MotorModel, fits: list[tuple[float, MotorModel]]
 
     Returns
     -------
-    dict
-        The widened ``uncertainty`` object (same keys; ``structure_std`` added to
-        ``dc_gain``, ``time_constant``, ``residence_time_s`` and ``t63_s``).
+    Uncertainty or None
+        The widened uncertainty (``structure_std`` set on ``dc_gain``, ``time_constant``,
+        ``residence_time_s`` and ``t63_s``); ``best``'s own when there is nothing to widen.
     """
-    u = {k: (dict(v) if isinstance(v, Mapping) else v) for k, v in best.uncertainty.items()}
-    if not u or len(fits) < 2:
+    u = best.uncertainty
+    if u is None or len(fits) < 2:
         return u
     bics = np.array([b for b, _ in fits], dtype=float)
     w = np.exp(-0.5 * (bics - bics.min()))
     w /= w.sum()
     fo_best = best.first_order()
-    def own(key: str) -> Any:
-        return lambda m: float((m.uncertainty.get(key) or {}).get("value", float("nan")))
 
+    def own(key: str) -> Any:
+        def value(m: MotorModel) -> float:
+            item = None if m.uncertainty is None else m.uncertainty.headline(key)
+            return float("nan") if item is None else float(np.real(item.value))
+        return value
+
+    changes: dict[str, Any] = {}
     for key, value_of in (("dc_gain", lambda m: m.first_order().dc_gain),
                           ("time_constant", lambda m: m.first_order().time_constant_s + m.delay_s - best.delay_s),
                           ("residence_time_s", own("residence_time_s")), ("t63_s", own("t63_s"))):
-        if key not in u:
+        item = u.headline(key)
+        if item is None:
             continue
-        ref = {"dc_gain": fo_best.dc_gain, "time_constant": fo_best.time_constant_s}.get(key, u[key]["value"])
+        centre = float(np.real(item.value))
+        ref = {"dc_gain": fo_best.dc_gain, "time_constant": fo_best.time_constant_s}.get(key, centre)
         vals = np.array([value_of(m) for _, m in fits], dtype=float)
         ok = np.isfinite(vals)
         extra = float(np.sum(w[ok] * (vals[ok] - ref) ** 2))
-        std = float(np.hypot(u[key].get("std", 0.0), np.sqrt(extra)))
-        u[key] = {**u[key], "std": std, "ci95": [u[key]["value"] - 1.96 * std, u[key]["value"] + 1.96 * std],
-                  "structure_std": float(np.sqrt(extra))}
-    u["method"] = (str(u.get("method", "")) + "; widened by the BIC-weighted spread of the candidate "
-                   "structures (dc gain, τ + dead time)")
-    return u
+        std = float(np.hypot(item.stderr, np.sqrt(extra)))
+        changes[key] = replace(item, stderr=std, ci95=(centre - 1.96 * std, centre + 1.96 * std),
+                               structure_std=float(np.sqrt(extra)))
+    return u.replace(**changes, method=u.method + "; widened by the BIC-weighted spread of the candidate "
+                     "structures (dc gain, τ + dead time)")
 
 
 #: Structures whose BIC differ by less than this are a tie (Kass & Raftery 1995: "not worth

@@ -31,6 +31,7 @@ from motorid.errors import ModelFormatError, OptionError
 from motorid.model import lti
 from motorid.model.nonlinearity import StaticNonlinearity
 from motorid.model.stage import Stage
+from motorid.model.uncertainty import Uncertainty
 from motorid.model.units import ChannelScale, dc_gain_unit
 from motorid.model.serialize import SCHEMA, model_from_dict, model_to_dict, model_to_matlab
 from motorid.model.simplify import (
@@ -317,9 +318,11 @@ class MotorModel:
         Everything the method was unsure about (ill-conditioning, unsettled record, ...).
     extras : Mapping
         JSON blobs of later stages (uncertainty, validation, ...), written as-is.
-    uncertainty : Mapping
-        Standard deviations and 95% intervals of ``dc_gain``, ``time_constant``, poles and
-        zeros (written as the top-level ``uncertainty`` key when present).
+    uncertainty : Uncertainty or None
+        Standard errors and 95 % intervals of the DC gain, time constants, poles, zeros, dead
+        time and each channel's step instant (:class:`~motorid.model.uncertainty.Uncertainty`;
+        the JSON's top-level ``uncertainty`` and ``timing``); a mapping with the JSON's keys
+        given here is read by :meth:`Uncertainty.from_dict`, an empty one means none.
     stages : tuple of Stage
         What each stage of ``--method auto`` found (the top-level ``stages`` key); plain
         mappings given here are converted.
@@ -360,7 +363,7 @@ class MotorModel:
     fit: Mapping[str, float] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
     extras: Mapping[str, Any] = field(default_factory=dict)
-    uncertainty: Mapping[str, Any] = field(default_factory=dict)
+    uncertainty: Uncertainty | None = None
     stages: tuple[Stage | Mapping[str, Any], ...] = ()
     delay_s: float = 0.0
     static_nonlinearity: StaticNonlinearity | None = None
@@ -404,7 +407,12 @@ class MotorModel:
         object.__setattr__(self, "fit", MappingProxyType({str(k): float(v) for k, v in self.fit.items()}))
         object.__setattr__(self, "warnings", tuple(str(w) for w in self.warnings))
         object.__setattr__(self, "extras", MappingProxyType(dict(self.extras)))
-        object.__setattr__(self, "uncertainty", MappingProxyType(dict(self.uncertainty)))
+        u = self.uncertainty
+        if u is not None and not isinstance(u, Uncertainty):
+            if not isinstance(u, Mapping):
+                raise ModelFormatError(f"uncertainty must be an Uncertainty or a mapping, got {type(u).__name__}")
+            u = Uncertainty.from_dict(u) if u else None
+        object.__setattr__(self, "uncertainty", u)
         object.__setattr__(self, "stages", tuple(st if isinstance(st, Stage) else Stage.from_dict(st)
                                                  for st in self.stages))
         delay = float(self.delay_s or 0.0)

@@ -20,6 +20,7 @@ from motorid.io.jsonfile import read_json
 from motorid.model.nonlinearity import StaticNonlinearity
 from motorid.model.units import ChannelScale, channel_unit
 from motorid.model.simplify import _normalise_tf, _roots
+from motorid.model.uncertainty import Uncertainty
 
 if TYPE_CHECKING:
     from motorid.model.motor import MotorModel
@@ -105,8 +106,8 @@ def model_to_dict(model: MotorModel) -> dict[str, Any]:
     if cur is not None:
         cnum, cden = _normalise_tf(*cur)
         data["current_tf"] = {"num": cnum.tolist(), "den": cden.tolist()}
-    if model.uncertainty:
-        unc = dict(model.uncertainty)
+    if model.uncertainty is not None:
+        unc = model.uncertainty.to_dict()
         # each channel's step instant and fitted shift: its own top-level key
         timing = unc.pop("timing", None)
         data["uncertainty"] = unc
@@ -174,7 +175,7 @@ def model_from_dict(cls: type[MotorModel], data: Mapping[str, Any]) -> MotorMode
         fit={k: (float("nan") if v is None else v) for k, v in fit.items()},
         warnings=tuple(data.get("warnings") or ()),
         extras=data.get("extras") or {},
-        uncertainty={**(data.get("uncertainty") or {}), **({"timing": data["timing"]} if data.get("timing") else {})},
+        uncertainty=_uncertainty(data),
         stages=tuple(data.get("stages") or ()),
         delay_s=data.get("delay_s") or 0.0,
         static_nonlinearity=(None if data.get("static_nonlinearity") is None
@@ -183,6 +184,22 @@ def model_from_dict(cls: type[MotorModel], data: Mapping[str, Any]) -> MotorMode
         scales={str(k): ChannelScale(float(v["volts_per_unit"]), str(v["unit"]))
                 for k, v in (data.get("scales") or {}).items()},
     )
+
+
+def _uncertainty(data: Mapping[str, Any]) -> Uncertainty | None:
+    """The typed ``uncertainty`` (with the top-level ``timing``) of a decoded model JSON; None without one."""
+    unc, timing = data.get("uncertainty"), data.get("timing")
+    if unc is not None and not isinstance(unc, Mapping):
+        raise ModelFormatError("uncertainty must be an object")
+    if timing is not None and not isinstance(timing, Mapping):
+        raise ModelFormatError("timing must be an object")
+    merged = {**(unc or {}), **({"timing": timing} if timing else {})}
+    if not merged:
+        return None
+    try:
+        return Uncertainty.from_dict(merged)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ModelFormatError(f"uncertainty: {exc}") from None
 
 
 def model_to_matlab(model: MotorModel, name: str = "motor") -> str:

@@ -6,9 +6,11 @@ that produced it.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
+
+from motorid.model.jsonview import JsonView
 
 __all__ = ["Stage"]
 
@@ -20,7 +22,7 @@ _STAGE_FIELDS = (("method", "method"), ("order", "order"), ("dc_gain", "dc_gain"
 
 
 @dataclass(frozen=True, slots=True)
-class Stage(Mapping[str, Any]):
+class Stage(JsonView):
     """What one stage of ``--method auto`` found (the model JSON's ``stages`` entries).
 
     Typed fields for what every stage may report, ``details`` for what one kind of stage
@@ -86,12 +88,3 @@ class Stage(Mapping[str, Any]):
         values.update(self.details)
         order = [k for k in self.keys_order if k in values] + [k for k in values if k not in self.keys_order]
         return {k: values[k] for k in order}
-
-    def __getitem__(self, key: str) -> Any:
-        return self.to_dict()[key]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self.to_dict())
-
-    def __len__(self) -> int:
-        return len(self.to_dict())

@@ -326,12 +326,12 @@ def pole_zero(model: MotorModel) -> bytes:
     if zeros.size:
         ax.plot(np.real(zeros), np.imag(zeros), "o", mfc="none", ms=10, mew=2, label="zeros")
     u = model.uncertainty
-    for key, marker in (("poles", "C0"), ("zeros", "C1")):
-        for item in u.get(key, []) if u else []:
-            re_, im_ = item["value"]
-            half = 1.96 * float(item["std"]) if item["std"] is not None else 0.0
+    groups = () if u is None else ((u.poles, "C0"), (u.zeros, "C1"))
+    for items, marker in groups:
+        for item in items:
+            half = 1.96 * item.stderr
             if np.isfinite(half):
-                ax.errorbar(re_, im_, xerr=half, color=marker, capsize=4, lw=1.2)
+                ax.errorbar(item.value.real, item.value.imag, xerr=half, color=marker, capsize=4, lw=1.2)
     ax.axvline(0, color="k", lw=0.6)
     ax.axhline(0, color="k", lw=0.6)
     ax.set_xscale("symlog", linthresh=1.0)

@@ -235,11 +235,12 @@ def summary_section(inp: ReportInputs) -> dict[str, Any]:
         ["dc gain", f"{_cell(fo.dc_gain)} {gain_unit}"], ["τ (by moments)", f"{_cell(fo.time_constant_s)} s"],
         ["63 % time (dead time included)", f"{_cell(model.t63_s())} s"],
         ["k/(s+p)", f"{_cell(fo.k)}/(s + {_cell(fo.p)})"]]
-    if u:
+    if u is not None:
         for key, label, unit in (("dc_gain", "dc gain 95 %", gain_unit), ("time_constant", "τ 95 %", "s"),
                                  ("t63_s", "63 % time 95 %", "s"), ("residence_time_s", "τ + dead time 95 %", "s")):
-            if key in u and (key != "residence_time_s" or model.delay_s > 0):
-                lo, hi = u[key]["ci95"]
+            item = u.headline(key)
+            if item is not None and (key != "residence_time_s" or model.delay_s > 0):
+                lo, hi = item.interval_or_nan()
                 rows.append([label, f"[{_cell(lo)}, {_cell(hi)}] {unit}"])
     for channel, scale in model.scales.items():
         phys = physical_gain(fo.dc_gain, model.units, model.scales, channel)
@@ -355,13 +356,16 @@ def model_section(inp: ReportInputs) -> dict[str, Any]:
             tfs.append((name, poly_text(np.ravel(tf.num[0][0])), poly_text(np.ravel(tf.den[0][0]))))
     u = model.uncertainty
     rows: list[list[Any]] = []
-    if u:
-        rows = [[key.replace("_", " "), u[key]["value"], u[key]["std"],
-                 f"[{_cell(u[key]['ci95'][0])}, {_cell(u[key]['ci95'][1])}]"] for key in ("dc_gain", "time_constant")]
-        for key in ("poles", "zeros"):
-            for i, item in enumerate(u.get(key, [])):
-                rows.append([f"{key[:-1]} {i + 1}", complex(*item["value"]), item["std"],
-                             f"[{_cell(item['ci95'][0])}, {_cell(item['ci95'][1])}]"])
+    if u is not None:
+        for key in ("dc_gain", "time_constant"):
+            item = u.headline(key)
+            if item is not None:
+                lo, hi = item.interval_or_nan()
+                rows.append([key.replace("_", " "), item.value, item.stderr, f"[{_cell(lo)}, {_cell(hi)}]"])
+        for name, items in (("pole", u.poles), ("zero", u.zeros)):
+            for i, item in enumerate(items):
+                lo, hi = item.interval_or_nan()
+                rows.append([f"{name} {i + 1}", complex(item.value), item.stderr, f"[{_cell(lo)}, {_cell(hi)}]"])
     noise = model.extras.get("noise") or {}
     noise_rows = [[f"{role} ({model.units.get(role) or 'V'})", nm["sigma"], nm["ar_order"],
                    nm.get("pre_step_sigma", ""),
@@ -372,8 +376,9 @@ def model_section(inp: ReportInputs) -> dict[str, Any]:
         "states": ", ".join(model.states), "outputs": ", ".join(model.outputs), "tfs": tfs,
         "first_order": {"k": fo.k, "p": fo.p, "dc_gain": fo.dc_gain, "tau": fo.time_constant_s,
                         "gain_unit": model.dc_gain_unit},
-        "uncertainty_rows": rows, "structure": bool(u) and "structure_std" in u.get("dc_gain", {}),
-        "method": str(u.get("method", "")) if u else "", "noise_rows": noise_rows,
+        "uncertainty_rows": rows,
+        "structure": u is not None and u.dc_gain is not None and u.dc_gain.structure_std is not None,
+        "method": u.method if u is not None else "", "noise_rows": noise_rows,
         "pole_zero_png": figures.data_uri(figures.pole_zero(model)),
     }
 

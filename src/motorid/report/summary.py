@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from motorid.model.notation import poly_text
+from motorid.model.uncertainty import Uncertainty
 from motorid.model.units import physical_gain
 from motorid.numfmt import complex_text, metric_name, roots_text, sig
 
@@ -72,45 +73,44 @@ def _header(model: Any, title: str) -> list[SummaryLine]:
     return lines
 
 
-def _uncertainty(u: Mapping[str, Any], gain_unit: str = "V/V") -> list[SummaryLine]:
+def _uncertainty(u: Uncertainty | None, gain_unit: str = "V/V") -> list[SummaryLine]:
     lines: list[SummaryLine] = []
-    if not u:
+    if u is None:
         return lines
     for key, label in (("dc_gain", f"dc gain ({gain_unit})"),
                        ("time_constant", "τ (s; by moments: Σ1/|p| − Σ1/|z|)"),
                        ("t63_s", "63 % time (s; what a scope read-off measures, dead time included)"),
                        ("residence_time_s", "mean residence time τ + dead time (s)")):
-        item = u.get(key)
-        if not item or (key == "residence_time_s" and "delay" not in u):
+        item = u.headline(key)
+        if item is None or (key == "residence_time_s" and u.delay is None):
             continue
-        lo, hi = item["ci95"]
-        lines.append(_plain(f"{label}: {sig(item['value'])} ± {sig(1.96 * item['std'], 2)} "
+        lo, hi = item.interval_or_nan()
+        lines.append(_plain(f"{label}: {sig(item.value.real)} ± {sig(1.96 * item.stderr, 2)} "
                             f"(95 % interval [{sig(lo)}, {sig(hi)}])"))
-    if "delay" in u:
-        item = u["delay"]
-        lines.append(_plain(f"delay: {sig(1e3 * item['value'])} ms ± {sig(1.96e3 * item['std'], 2)} ms (95 %; not in "
+    if u.delay is not None:
+        item = u.delay
+        lines.append(_plain(f"delay: {sig(1e3 * item.value.real)} ms ± {sig(1.96e3 * item.stderr, 2)} ms (95 %; not in "
                             "the state-space model: add it as e^(-s·delay), e.g. control.pade)"))
-    for role, item in (u.get("timing") or {}).items():
-        if isinstance(item.get("shift_s"), (int, float)):
-            lo, hi = item["ci95"]
-            lines.append(_plain(f"{role} step instant {sig(item['edge_s'])} s ({item['step_instant']}): fitted "
-                                f"shift {sig(1e3 * item['shift_s'])} ms ± {sig(1.96e3 * item['std'], 2)} ms "
+    for role, timing in u.timing.items():
+        if timing.shift is not None:
+            shift = timing.shift
+            lo, hi = shift.interval_or_nan()
+            lines.append(_plain(f"{role} step instant {sig(timing.edge_s)} s ({timing.step_instant}): fitted "
+                                f"shift {sig(1e3 * shift.value.real)} ms ± {sig(1.96e3 * shift.stderr, 2)} ms "
                                 f"(95 % interval [{sig(1e3 * lo)}, {sig(1e3 * hi)}] ms)"))
-    paired: set[int] = set()
-    for pair in u.get("pole_pairs", []):
-        i, j = pair["poles"]
-        paired.update((i, j))
-        wn, zeta = pair["natural_frequency"], pair["damping"]
+    for pair in u.pole_pairs:
+        i, j = pair.poles
+        wn, zeta = pair.natural_frequency, pair.damping
         lines.append(_plain(f"poles {i + 1} and {j + 1}: known as a pair only (each one's interval holds the "
-                            f"other): natural frequency {sig(wn['value'])} ± {sig(1.96 * wn['std'], 2)} rad/s, "
-                            f"damping {sig(zeta['value'])} ± {sig(1.96 * zeta['std'], 2)} (95 %)"))
-    for name in ("poles", "zeros"):
-        for i, item in enumerate(u.get(name, [])):
-            if name == "poles" and i in paired:
+                            f"other): natural frequency {sig(wn.value.real)} ± {sig(1.96 * wn.stderr, 2)} rad/s, "
+                            f"damping {sig(zeta.value.real)} ± {sig(1.96 * zeta.stderr, 2)} (95 %)"))
+    paired = u.paired_poles()
+    for name, items in (("pole", u.poles), ("zero", u.zeros)):
+        for i, item in enumerate(items):
+            if name == "pole" and i in paired:
                 continue
-            re_, im_ = item["value"]
-            lines.append(_plain(f"{name[:-1]} {i + 1}: {complex_text(complex(re_, im_))} ± "
-                                f"{sig(1.96 * item['std'], 2)} (95 %)"))
+            lines.append(_plain(f"{name} {i + 1}: {complex_text(complex(item.value))} ± "
+                                f"{sig(1.96 * item.stderr, 2)} (95 %)"))
     return lines
 
 

@@ -120,16 +120,16 @@ def truth_checks(model: Any, reference: Mapping[str, float], reference_label: st
     tuple of TruthCheck
         One per quantity of :data:`QUANTITIES` with a finite, positive standard error.
     """
-    u = model.uncertainty or {}
+    u = model.uncertainty
     gain_unit = str(getattr(model, "dc_gain_unit", "V/V"))
     out = []
     for key, words, unit in QUANTITIES:
         unit = gain_unit if key == "dc_gain" else unit
-        item = u.get(key)
-        if not item or key not in reference:
+        item = None if u is None else u.headline(key)
+        if item is None or key not in reference:
             continue
-        value, std = float(item["value"]), float(item["std"])
-        lo, hi = (float(x) for x in item["ci95"])
+        value, std = item.value.real, item.stderr
+        lo, hi = item.interval_or_nan()
         ref = float(reference[key])
         if not (math.isfinite(std) and std > 0 and math.isfinite(ref)):
             continue

@@ -1,0 +1,111 @@
+"""The typed uncertainty: one writer and one reader of the model JSON's ``uncertainty`` and ``timing``."""
+
+from __future__ import annotations
+
+import json
+import pickle
+import re
+from pathlib import Path
+from types import MappingProxyType
+
+import numpy as np
+import pytest
+
+from motorid.errors import ModelFormatError
+from motorid.model import MotorModel, model_from_velocity_tf
+from motorid.model.uncertainty import ChannelTiming, JointCovariance, ParameterEstimate, Uncertainty
+
+SRC = Path(__file__).resolve().parents[2] / "src" / "motorid"
+
+
+def _doc(demo_run) -> dict:
+    return json.loads((demo_run.folder / "model.json").read_text())
+
+
+def test_a_fits_json_reads_into_types_and_writes_back_the_same_text(demo_run):
+    doc = _doc(demo_run)
+    model = MotorModel.from_json(doc)
+    u = model.uncertainty
+    assert isinstance(u, Uncertainty)
+    assert isinstance(u.dc_gain, ParameterEstimate) and isinstance(u.dc_gain.value, float)
+    lo, hi = u.dc_gain.ci95
+    assert lo < u.dc_gain.value < hi and u.dc_gain.stderr > 0
+    assert u.dc_gain.structure_std == doc["uncertainty"]["dc_gain"].get("structure_std")
+    assert all(isinstance(p.value, complex) for p in u.poles)
+    assert [[p.value.real, p.value.imag] for p in u.poles] == [p["value"] for p in doc["uncertainty"]["poles"]]
+    assert isinstance(u.joint, JointCovariance) and not u.joint.covariance.flags.writeable
+    assert u.joint.covariance.shape == (len(u.joint.parameters),) * 2
+    assert all(isinstance(t, ChannelTiming) for t in u.timing.values())
+    assert set(u.timing) == set(doc["timing"])
+    # one serializer: the same JSON text back
+    assert json.dumps(model.to_dict(), sort_keys=True) == json.dumps(doc, sort_keys=True)
+
+
+def test_the_mapping_view_is_the_json_object(demo_run):
+    doc = _doc(demo_run)
+    u = MotorModel.from_json(doc).uncertainty
+    assert u["dc_gain"]["ci95"] == pytest.approx(doc["uncertainty"]["dc_gain"]["ci95"])
+    assert set(u) == set(doc["uncertainty"]) | {"timing"}
+    assert dict(u) == u.to_dict()
+
+
+def test_it_pickles_with_its_mappings_read_only(demo_run):
+    u = MotorModel.from_json(_doc(demo_run)).uncertainty
+    back = pickle.loads(pickle.dumps(u))
+    assert back == u
+    assert isinstance(back.timing, MappingProxyType) and isinstance(back.other, MappingProxyType)
+
+
+def test_what_it_does_not_type_is_kept_and_written_back():
+    data = {"dc_gain": {"value": 2.0, "std": None, "ci95": [None, None]},
+            "joint": {"parameters": ["K", "log_tau_0"], "values": [1.0], "covariance": [[1.0]]},
+            "vendor_key": {"x": 1}}
+    u = Uncertainty.from_dict(data)
+    assert u.dc_gain is not None and u.dc_gain.value == 2.0
+    assert np.isnan(u.dc_gain.stderr) and u.dc_gain.ci95 is None  # null std and interval: not given
+    assert u.joint is None  # its shapes disagree: not a covariance to draw motors from
+    out = u.to_dict()
+    assert out["joint"] == data["joint"] and out["vendor_key"] == {"x": 1}
+    assert out["dc_gain"]["ci95"] == [pytest.approx(np.nan, nan_ok=True)] * 2
+
+
+def test_a_model_takes_a_mapping_or_none_and_refuses_anything_else():
+    m = model_from_velocity_tf([2.0], [1.0, 2.0], step_volts=1.0)
+    assert m.uncertainty is None
+    assert m.replace(uncertainty={}).uncertainty is None
+    typed = m.replace(uncertainty={"dc_gain": {"value": 1.0, "std": 0.1, "ci95": [0.8, 1.2]}}).uncertainty
+    assert typed is not None and typed.dc_gain.ci95 == (0.8, 1.2)
+    with pytest.raises(ModelFormatError, match="uncertainty"):
+        m.replace(uncertainty=[1, 2])
+    doc = m.to_dict()
+    with pytest.raises(ModelFormatError, match="uncertainty must be an object"):
+        MotorModel.from_json({**doc, "uncertainty": [1]})
+
+
+def test_the_front_doors_params_are_the_models_typed_estimates(demo_run):
+    import motorid as mi
+
+    d = demo_run.folder
+    fit_demo = mi.identify(mi.read_experiment(position=d / "ALL0000", velocity=d / "ALL0001", current=d / "ALL0002"))
+    u = fit_demo.model.uncertainty
+    p = fit_demo.params
+    assert p["dc_gain"].stderr == u.dc_gain.stderr and p["dc_gain"].ci95 == u.dc_gain.ci95
+    assert p["dc_gain"].unit == fit_demo.model.dc_gain_unit
+    for i, pole in enumerate(u.poles):
+        got = p[f"pole_{i + 1}"].value
+        assert got == (pole.value.real if pole.value.imag == 0 else pole.value)
+        assert p[f"pole_{i + 1}"].stderr == pole.stderr
+
+
+def test_only_the_uncertainty_module_reads_its_json_keys():
+    """One reader: no module indexes the JSON items' ``"ci95"``/``"std"`` keys except the type's own
+    (and the static nonlinearity's, which reads its own JSON object)."""
+    pattern = re.compile(r"""\[\s*["'](ci95|std|structure_std|shift_s)["']\s*\]|\.get\(\s*["'](ci95|structure_std)["']""")
+    offenders = []
+    for path in SRC.rglob("*.py"):
+        if path.parent.name == "model" and path.name in ("uncertainty.py", "nonlinearity.py"):
+            continue
+        for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            if pattern.search(line):
+                offenders.append(f"{path.relative_to(SRC)}:{n}: {line.strip()}")
+    assert not offenders, "\n".join(offenders)
