@@ -351,14 +351,35 @@ class IdentificationResult:
 
     model: MotorModel
     params: Mapping[str, ParameterEstimate]
-    stages: tuple[Mapping[str, Any], ...]
-    fit: Mapping[str, float]
-    warnings: tuple[str, ...]
-    sanity: SanityReport
-    reason: str
     provenance: Provenance
     experiment: Experiment
     identification: Identification
+
+    # each of these is held once, by the model or by the pipeline's result, and read from there
+    @property
+    def stages(self) -> tuple[Mapping[str, Any], ...]:
+        """What each stage of ``method="auto"`` found (the model's ``stages``)."""
+        return tuple(self.model.stages)
+
+    @property
+    def fit(self) -> Mapping[str, float]:
+        """Goodness of fit (the model's ``fit``)."""
+        return self.model.fit
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """Everything the method was unsure about, the sanity gate's failures first (the model's)."""
+        return self.model.warnings
+
+    @property
+    def sanity(self) -> SanityReport:
+        """The sanity gate's checks (the pipeline's)."""
+        return self.identification.sanity
+
+    @property
+    def reason(self) -> str:
+        """Why this model was chosen (the pipeline's)."""
+        return self.identification.reason
 
     def __repr__(self) -> str:
         """One line: method, structure, the headline numbers with their intervals, the checks."""
@@ -626,11 +647,6 @@ def identify(
     return IdentificationResult(
         model=model,
         params=MappingProxyType(_params(model)),
-        stages=tuple(model.stages),
-        fit=model.fit,
-        warnings=tuple(model.warnings),
-        sanity=ident.sanity,
-        reason=ident.reason,
         provenance=provenance,
         experiment=experiment,
         identification=ident,
