@@ -97,15 +97,45 @@ def test_the_front_doors_params_are_the_models_typed_estimates(demo_run):
         assert p[f"pole_{i + 1}"].stderr == pole.stderr
 
 
-def test_only_the_uncertainty_module_reads_its_json_keys():
-    """One reader: no module indexes the JSON items' ``"ci95"``/``"std"`` keys except the type's own
-    (and the static nonlinearity's, which reads its own JSON object)."""
-    pattern = re.compile(r"""\[\s*["'](ci95|std|structure_std|shift_s)["']\s*\]|\.get\(\s*["'](ci95|structure_std)["']""")
+#: JSON keys of the blobs a model carries, and the one module that may read each back.
+ONE_READER = {
+    r"""\[\s*["'](ci95|std|structure_std|shift_s)["']\s*\]|\.get\(\s*["'](ci95|structure_std)["']""":
+        {"model/uncertainty.py", "model/nonlinearity.py"},  # the static nonlinearity reads its own object
+    r"""\[\s*["'](sigma|ar_order|pre_step_sigma)["']\s*\]|\.get\(\s*["'](use|ar_order|pre_step_sigma)["']""":
+        {"identification/noise_json.py"},
+    r"""\[\s*["'](checks|passed)["']\s*\]|\.get\(\s*["'](checks|passed)["']""":
+        {"identification/sanity.py"},
+}
+
+
+@pytest.mark.parametrize("pattern", list(ONE_READER))
+def test_each_json_blob_of_a_model_has_one_reader(pattern):
+    """One reader: the uncertainty's, the noise model's and the sanity gate's JSON objects are
+    indexed by key only in the module that defines their type."""
+    allowed, regex = ONE_READER[pattern], re.compile(pattern)
     offenders = []
     for path in SRC.rglob("*.py"):
-        if path.parent.name == "model" and path.name in ("uncertainty.py", "nonlinearity.py"):
+        rel = path.relative_to(SRC).as_posix()
+        if rel in allowed:
             continue
         for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
-            if pattern.search(line):
-                offenders.append(f"{path.relative_to(SRC)}:{n}: {line.strip()}")
+            if regex.search(line):
+                offenders.append(f"{rel}:{n}: {line.strip()}")
     assert not offenders, "\n".join(offenders)
+
+
+def test_the_noise_model_and_the_sanity_gate_read_back_what_they_wrote(demo_run):
+    from motorid.identification.noise_json import ChannelNoise, noise_of
+    from motorid.identification.sanity import SanityCheck, SanityReport
+
+    model = MotorModel.from_json(_doc(demo_run))
+    noise = noise_of(model)
+    assert noise and all(isinstance(n, ChannelNoise) for n in noise.values())
+    assert {role: n.to_json() for role, n in noise.items()} == _doc(demo_run)["extras"]["noise"]
+    assert any(n.scale_only for n in noise.values()) == any(
+        n["use"] == "scale only" for n in _doc(demo_run)["extras"]["noise"].values())
+    report = SanityReport((SanityCheck("a", True, "fine"), SanityCheck("b", False, "not fine")))
+    back = SanityReport.from_json(json.loads(json.dumps(report.to_json())))
+    assert back == report and back.failures == ("not fine",)
+    assert SanityReport.from_json(None) == SanityReport() and SanityReport.from_json({"checks": 3}) == SanityReport()
+    assert noise_of(model_from_velocity_tf([2.0], [1.0, 2.0])) == {}

@@ -98,6 +98,26 @@ class SanityReport:
         return {"passed": self.passed,
                 "checks": [{"name": c.name, "passed": c.passed, "detail": c.detail} for c in self.checks]}
 
+    @classmethod
+    def from_json(cls, data: object) -> SanityReport:
+        """Read :meth:`to_json`'s object back (the model JSON's ``extras.sanity``).
+
+        Parameters
+        ----------
+        data : object
+            The decoded object; anything else than a mapping with a ``checks`` list reads as no
+            checks.
+
+        Returns
+        -------
+        SanityReport
+        """
+        checks = data.get("checks") if isinstance(data, Mapping) else None
+        if not isinstance(checks, list):
+            return cls()
+        return cls(tuple(SanityCheck(str(c.get("name", "")), bool(c.get("passed")), str(c.get("detail", "")))
+                         for c in checks if isinstance(c, Mapping)))
+
 
 def first_order_baseline(time_s: np.ndarray, y: np.ndarray, step_volts: float) -> tuple[np.ndarray, dict[str, float]]:
     """Least-squares first order plus dead time fitted to a velocity step response.

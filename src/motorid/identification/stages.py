@@ -32,6 +32,7 @@ from motorid.identification.method_options import (
     MAX_NFEV,
     OutputErrorOptions,
 )
+from motorid.identification.noise_json import SCALE_ONLY, ChannelNoise
 from motorid.identification.result import IdentificationError
 from motorid.identification.srivc import SrivcSettings, srivc_fit
 from motorid.model import MotorModel
@@ -604,9 +605,8 @@ class NoiseModel:
         dict
             JSON-able, keyed by channel.
         """
-        return {role: {"sigma": self.sigma[role], "ar_order": self.ar_order.get(role, 0),
-                       "pre_step_sigma": self.pre_sigma.get(role),
-                       "use": "scale only" if role in self.scale_only else "dynamics"}
+        return {role: ChannelNoise(self.sigma[role], self.ar_order.get(role, 0), self.pre_sigma.get(role),
+                                   SCALE_ONLY if role in self.scale_only else "dynamics").to_json()
                 for role in self.sigma}
 
 

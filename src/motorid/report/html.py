@@ -27,7 +27,9 @@ from markupsafe import Markup
 
 from motorid.capture import Capture
 from motorid.errors import MotorIdError
+from motorid.identification.noise_json import noise_of
 from motorid.identification.pipeline import Identification
+from motorid.identification.sanity import SanityReport
 from motorid.model.notation import poly_text
 from motorid.model.units import physical_gain
 from motorid.numfmt import DIGITS, complex_text, metric_name, roots_text, sig
@@ -252,10 +254,10 @@ def summary_section(inp: ReportInputs) -> dict[str, Any]:
                                   f"(τ + dead time {_cell(fo.time_constant_s + model.delay_s)} s)"])
     for key, val in model.fit.items():
         rows.append([metric_name(key), f"{val:.2f} %" if key.endswith(_PERCENT_SUFFIX) else f"{100 * val:.2f} %"])
-    sanity = model.extras.get("sanity")
-    if isinstance(sanity, dict):
-        rows.append(["sanity checks", "all passed" if sanity.get("passed") else
-                     f"{sum(not c['passed'] for c in sanity.get('checks', []))} FAILED (see the warnings)"])
+    if isinstance(model.extras.get("sanity"), Mapping):
+        sanity = SanityReport.from_json(model.extras["sanity"])
+        rows.append(["sanity checks", "all passed" if sanity.passed else
+                     f"{len(sanity.failures)} FAILED (see the warnings)"])
     ref = _reference(inp)
     checks: tuple[Any, ...] = ()
     label = ""
@@ -366,11 +368,9 @@ def model_section(inp: ReportInputs) -> dict[str, Any]:
             for i, item in enumerate(items):
                 lo, hi = item.interval_or_nan()
                 rows.append([f"{name} {i + 1}", complex(item.value), item.stderr, f"[{_cell(lo)}, {_cell(hi)}]"])
-    noise = model.extras.get("noise") or {}
-    noise_rows = [[f"{role} ({model.units.get(role) or 'V'})", nm["sigma"], nm["ar_order"],
-                   nm.get("pre_step_sigma", ""),
-                   "its scale only: 8-bit codes not dithered by noise" if nm["use"] == "scale only"
-                   else "the dynamics"] for role, nm in noise.items()]
+    noise_rows = [[f"{role} ({model.units.get(role) or 'V'})", nm.sigma, nm.ar_order, nm.pre_step_sigma,
+                   "its scale only: 8-bit codes not dithered by noise" if nm.scale_only
+                   else "the dynamics"] for role, nm in noise_of(model).items()]
     return {
         "matrices": [(name, _matrix_text(getattr(model, name))) for name in ("A", "B", "C", "D")],
         "states": ", ".join(model.states), "outputs": ", ".join(model.outputs), "tfs": tfs,

@@ -16,6 +16,8 @@ from typing import Any
 
 import numpy as np
 
+from motorid.identification.noise_json import noise_of
+from motorid.identification.sanity import SanityReport
 from motorid.model.notation import poly_text
 from motorid.model.uncertainty import Uncertainty
 from motorid.model.units import physical_gain
@@ -116,13 +118,13 @@ def _uncertainty(u: Uncertainty | None, gain_unit: str = "V/V") -> list[SummaryL
 
 def _noise_and_stages(model: Any) -> list[SummaryLine]:
     lines: list[SummaryLine] = []
-    noise = model.extras.get("noise")
+    noise = noise_of(model)
     if noise:
         parts = []
         for role, nm in noise.items():
-            use = "; scale only: its 8-bit codes are not dithered by noise" if nm.get("use") == "scale only" else ""
+            use = "; scale only: its 8-bit codes are not dithered by noise" if nm.scale_only else ""
             unit = (model.units or {}).get(role, "V")  # the data's own unit (rpm on a rig log)
-            parts.append(f"{role} σ {sig(nm['sigma'])} {unit} (AR order {nm['ar_order']}{use})")
+            parts.append(f"{role} σ {sig(nm.sigma)} {unit} (AR order {nm.ar_order}{use})")
         lines.append(_plain("noise model of the output-error fit: " + ", ".join(parts)))
     for st in model.stages:
         desc = ", ".join(_stage_item(k, v) for k, v in st.items()
@@ -188,14 +190,14 @@ def _fit_and_checks(model: Any) -> list[SummaryLine]:
             lines.append(_plain(f"{metric_name(key)}: {sig(100 * val)} % (RMS error / measured steady-state change)"))
     for note in model.extras.get("conditioning", ()) or ():
         lines.append(_plain(f"automatic choice: {note}"))
-    sanity = model.extras.get("sanity")
-    if isinstance(sanity, Mapping) and sanity.get("checks"):
-        failed = [c for c in sanity["checks"] if not c["passed"]]
+    sanity = SanityReport.from_json(model.extras.get("sanity"))
+    if sanity.checks:
+        failed = sanity.failures
         if failed:
-            lines.append(((f"sanity checks: {len(failed)} of {len(sanity['checks'])} FAILED — read the warnings "
+            lines.append(((f"sanity checks: {len(failed)} of {len(sanity.checks)} FAILED — read the warnings "
                            "before using this model", _FAILED_STYLE),))
         else:
-            lines.append(_plain(f"sanity checks: all {len(sanity['checks'])} passed (stable, better than a "
+            lines.append(_plain(f"sanity checks: all {len(sanity.checks)} passed (stable, better than a "
                                 "first-order baseline, agrees with the read-off gain and 63 % time, headline "
                                 "inside its interval)"))
     for w in model.warnings:

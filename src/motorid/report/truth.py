@@ -13,6 +13,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from motorid.identification.noise_json import noise_of
 from motorid.numfmt import sig
 
 __all__ = ["TruthCheck", "reference_values", "truth_checks"]
@@ -162,7 +163,7 @@ def _miss_causes(key: str, model: Any, value: float, std: float, ref: float, lab
         causes.append(sentence)
         if abs(z_corrected) <= Z95:
             return causes  # the offset explains the whole miss
-    scale_only = [role for role, nm in (model.extras.get("noise") or {}).items() if nm.get("use") == "scale only"]
+    scale_only = [role for role, nm in noise_of(model).items() if nm.scale_only]
     if scale_only:
         causes.append(f"the 8-bit codes of the {', '.join(scale_only)} channel are not dithered by its noise: their "
                       "error is a staircase, correlated from sample to sample, so the interval, which treats it as "
