@@ -133,6 +133,24 @@ def test_the_models_delay_is_applied():
     assert no_delay.nrmse > 5 * r.nrmse
 
 
+def test_the_dead_time_the_model_itself_carries_is_applied():
+    """A model whose dead time is its own ``delay_s`` (the Markov method's, a model built from
+    parameters, a JSON written by them) and not an output-error fit's ``extras``: before, validate
+    read only ``extras["delay_s"]`` and drove such a model without its dead time, silently."""
+    dt, t0, d, step = 0.001, 0.5, 0.04, 5.0
+    t = np.arange(0, 3, dt)
+    u = np.where(t >= t0, step, 0.0)
+    y = np.where(t >= t0 + d, K * step * (1 - np.exp(-(t - t0 - d) / TAU)), 0.0)
+    own = _first_order(delay_s=d)
+    assert "delay_s" not in own.extras
+    r = validate_capture(own, _capture(t, y, u))
+    assert r.delay_s == d and r.nrmse < 2e-3
+    assert any("dead time" in n for n in r.notes)
+    # and through the model JSON
+    back = MotorModel.from_json(json.loads(own.to_json_text()))
+    assert validate_capture(back, _capture(t, y, u)).delay_s == d
+
+
 def test_capture_without_input_channel_needs_step_volts():
     dt, t0, step = 0.001, 0.5, 5.0
     t = np.arange(0, 3, dt)

@@ -152,7 +152,10 @@ class ValidationResult:
 
 
 def model_delay_s(model: MotorModel) -> float:
-    """The dead time a model was fitted with (``extras["delay_s"]``), 0 without one.
+    """The dead time a model was fitted with (its ``delay_s``), 0 without one.
+
+    A model JSON written before the model carried its own ``delay_s`` has it only in
+    ``extras["delay_s"]`` (the output-error fit's): read there when the model has none.
 
     Parameters
     ----------
@@ -164,6 +167,8 @@ def model_delay_s(model: MotorModel) -> float:
     float
         The dead time in s (0.0 without one).
     """
+    if model.delay_s > 0:
+        return float(model.delay_s)
     d = model.extras.get("delay_s")
     try:
         d = float(d) if d is not None else 0.0
