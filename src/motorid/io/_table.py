@@ -364,7 +364,7 @@ def capture_from_table(
     def info(j: int) -> ChannelInfo:
         return ChannelInfo(name=names[j], units=_units_from_name(names[j]))
 
-    return Capture(
+    return Capture.adopt(
         source=file,
         format=fmt,
         time_s=time_s,
