@@ -157,3 +157,62 @@ def test_a_header_written_twice_is_refused_in_one_line_on_every_path(tmp_path, m
         with pytest.raises(CaptureFormatError) as info:
             plaincsv.read_plain_csv(path)
         assert str(path) in str(info.value)
+
+
+# ---- pandas in chunks: columns allocated once, every chunk copied in, errors still name their line
+
+@needs_pandas3
+@pytest.mark.parametrize("estimate", [None, 3], ids=["estimated rows", "columns grown"])
+@pytest.mark.parametrize("chunk", [7, 64, 1000])
+def test_pandas_in_chunks_gives_the_bits_of_loadtxt(tmp_path, monkeypatch, chunk, estimate):
+    """Chunks of 7 rows (29 chunks, the last short), of 64, and one chunk; with the row estimate too
+    small, the columns grow as the chunks come (then are cut to the rows read)."""
+    path = tmp_path / "log.csv"
+    path.write_text(ODD_FILES["blank_lines_in_body"])
+    monkeypatch.setattr(_common, "PANDAS_CHUNK_ROWS", chunk)
+    if estimate is not None:
+        monkeypatch.setattr(_common, "_expected_rows", lambda _path, _size: estimate)
+    cols = _common._load_with_pandas(pandas.read_csv, path, 1, ",", None, path.stat().st_size)
+    assert cols is not None
+    want = _expected(ODD_FILES["blank_lines_in_body"])
+    for col, name in zip(cols, ("time", "input", "velocity"), strict=True):
+        assert col.shape == (T.size,) and col.flags.c_contiguous and col.flags.owndata
+        np.testing.assert_array_equal(col, want[name])
+        assert col.tobytes() == want[name].tobytes()
+
+
+@needs_pandas3
+@pytest.mark.parametrize("name", sorted(BAD))
+def test_a_bad_row_in_the_second_chunk_names_its_line(tmp_path, monkeypatch, name):
+    """The bad row sits in pandas' second chunk of 64 rows (row 100 of 200, after a blank line):
+    the message names its line in the file, as on the other paths."""
+    bad, exc, words = BAD[name]
+    rows = _rows()
+    rows[100] = bad + "\n"
+    rows[30] = rows[30] + "\n"  # a blank line in the first chunk: lines and samples differ by two
+    path = tmp_path / "log.csv"
+    path.write_text("time,input,velocity\n" + "".join(rows))
+    monkeypatch.setattr(_common, "PANDAS_MIN_BYTES", 1)
+    monkeypatch.setattr(_common, "PANDAS_CHUNK_ROWS", 64)
+    for careful_max in (1 << 62, 1):
+        monkeypatch.setattr(_common, "CAREFUL_MAX_BYTES", careful_max)
+        with pytest.raises(exc) as info:
+            plaincsv.read_plain_csv(path)
+        message = str(info.value)
+        assert str(path) in message and ":103:" in message, message
+        if name != "nan" or careful_max > 1:
+            assert words in message, message
+
+
+@needs_pandas3
+def test_time_going_back_in_the_second_chunk_names_its_line(tmp_path, monkeypatch):
+    """Read by pandas in chunks, the time checks run on the whole column and name the file's line."""
+    rows = _rows()
+    rows[150] = rows[149]  # a duplicated sample: line 152
+    path = tmp_path / "log.csv"
+    path.write_text("time,input,velocity\n" + "".join(rows))
+    monkeypatch.setattr(_common, "PANDAS_MIN_BYTES", 1)
+    monkeypatch.setattr(_common, "PANDAS_CHUNK_ROWS", 64)
+    with pytest.raises(CaptureDataError, match="duplicated") as info:
+        plaincsv.read_plain_csv(path)
+    assert f"{path}:152:" in str(info.value)
