@@ -72,3 +72,33 @@ def test_step_response_of_a_long_record_holds_little_besides_its_result() -> Non
         tracemalloc.stop()
     assert set(out) == {"position", "velocity", "current"}
     assert peak < 8 * n * 3 * 2.2, peak / (8 * n)
+
+
+def _orbit_with_temporaries(phi: np.ndarray, gam: np.ndarray, x0: np.ndarray, count: int) -> np.ndarray:
+    """The doubling as it was written before the in-place products: ``out[:k] @ Φᵐᵀ + c_m`` into the orbit."""
+    out = np.empty((count, x0.size))
+    out[0] = x0
+    power, offset, m = phi.copy(), gam.copy(), 1
+    while m < count:
+        k = min(m, count - m)
+        out[m : m + k] = out[:k] @ power.T + offset
+        offset = power @ offset + offset
+        power = power @ power
+        m *= 2
+    return out
+
+
+def test_the_orbit_filled_in_place_has_the_bits_of_the_products_with_temporaries() -> None:
+    from motorid.model.response import _affine_orbit
+
+    rng = np.random.default_rng(11)
+    for n in (1, 2, 3, 4, 6):
+        for count in (1, 2, 3, 1000, 2**17 + 3):
+            q, _ = np.linalg.qr(rng.normal(size=(n, n)))
+            phi = q @ np.diag(rng.uniform(0.2, 0.9999, n)) @ q.T
+            gam, x0 = rng.normal(size=n), rng.normal(size=n)
+            want = _orbit_with_temporaries(phi, gam, x0, count)
+            got = _affine_orbit(phi, gam, x0, count)
+            assert got.tobytes() == want.tobytes(), (n, count)
+            into = np.full((count, n), np.nan)
+            assert _affine_orbit(phi, gam, x0, count, out=into) is into and into.tobytes() == want.tobytes()

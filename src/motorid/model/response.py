@@ -126,7 +126,11 @@ def _affine_orbit(phi: np.ndarray, gam: np.ndarray, x0: np.ndarray, count: int,
     power, offset, m = phi.copy(), gam.copy(), 1
     while m < count:
         k = min(m, count - m)
-        out[m : m + k] = out[:k] @ power.T + offset
+        # the product straight into the orbit and the offset added in place: the same BLAS product
+        # and the same sums as ``out[:k] @ power.T + offset``, without its two temporaries of half
+        # the record (tests/model/test_model_response_inplace.py compares the bits)
+        np.matmul(out[:k], power.T, out=out[m : m + k])
+        out[m : m + k] += offset
         offset = power @ offset + offset
         power = power @ power
         m *= 2
