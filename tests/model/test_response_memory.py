@@ -102,3 +102,25 @@ def test_the_orbit_filled_in_place_has_the_bits_of_the_products_with_temporaries
             assert got.tobytes() == want.tobytes(), (n, count)
             into = np.full((count, n), np.nan)
             assert _affine_orbit(phi, gam, x0, count, out=into) is into and into.tobytes() == want.tobytes()
+
+
+def test_outputs_written_over_the_states_in_blocks_have_the_bits_of_the_whole_product() -> None:
+    from motorid.model.response import _outputs
+
+    rng = np.random.default_rng(12)
+    for count in (5, 2 * _BLOCK - 1, 2 * _BLOCK, 3 * _BLOCK + 17):
+        for n, m in ((1, 1), (3, 1), (3, 2), (3, 3), (4, 3), (2, 3)):
+            x = rng.normal(size=(count, n)) * 10.0 ** rng.uniform(-6, 6, size=(count, 1))
+            c = rng.normal(size=(m, n))
+            want = x @ c.T
+            got = _outputs(x.copy(), c)
+            assert got.shape == want.shape
+            assert np.ascontiguousarray(got).tobytes() == want.tobytes(), (count, n, m)
+
+
+def test_a_long_records_outputs_share_the_states_memory() -> None:
+    from motorid.model.response import _outputs
+
+    x = np.ones((2 * _BLOCK + 3, 3))
+    y = _outputs(x, np.array([[1.0, 2.0, 3.0]]))
+    assert np.shares_memory(y, x) and np.all(y == 6.0)

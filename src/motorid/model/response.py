@@ -79,7 +79,7 @@ def step_response(model: MotorModel, time_s: Any, step_volts: float | None = Non
                 # a non-uniform grid: the exact state at each instant, one exponential per sample
                 x[after] = zoh(model.A, model.B, ta[:, None, None])[1][:, :, 0] * step
     with np.errstate(over="ignore", invalid="ignore"):
-        y = x @ model.C.T
+        y = _outputs(x, model.C)
         del x
         # + D·step after the step, + 0.0 before it (in place: the same sums as adding the full array)
         if everywhere:
@@ -91,6 +91,27 @@ def step_response(model: MotorModel, time_s: Any, step_volts: float | None = Non
 
 #: Samples per block of the checks over a long time axis (their temporaries stay small).
 _BLOCK = 1 << 18
+
+
+def _outputs(x: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """``x @ c.T``: the outputs of the states ``x`` (one row a sample), written over ``x`` when it fits.
+
+    A long record (more than one :data:`_BLOCK` of samples) with no more outputs than states has its
+    outputs computed in row blocks of at least ``_BLOCK`` rows (the last block takes the remainder,
+    so no product is small) and stored in the first columns of ``x``: each output row depends on its
+    own state row only, and each block is the same BLAS product as the whole
+    (tests/model/test_response_memory.py compares the bits), so the states and the outputs of a
+    10 M-sample record are not held together.  Otherwise the whole product, as before.
+    """
+    count, n = x.shape
+    m = c.shape[0]
+    if count < 2 * _BLOCK or m > n or not x.flags.c_contiguous:
+        return x @ c.T
+    starts = list(range(0, count - _BLOCK, _BLOCK))  # the last block holds _BLOCK to 2·_BLOCK − 1 rows
+    for i, start in enumerate(starts):
+        stop = starts[i + 1] if i + 1 < len(starts) else count
+        x[start:stop, :m] = x[start:stop] @ c.T
+    return x[:, :m]
 
 
 def _max_abs(t: np.ndarray) -> float:
