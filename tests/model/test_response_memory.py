@@ -122,5 +122,21 @@ def test_a_long_records_outputs_share_the_states_memory() -> None:
     from motorid.model.response import _outputs
 
     x = np.ones((2 * _BLOCK + 3, 3))
-    y = _outputs(x, np.array([[1.0, 2.0, 3.0]]))
-    assert np.shares_memory(y, x) and np.all(y == 6.0)
+    y = _outputs(x, np.array([[1.0, 2.0, 3.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]))
+    assert y is x and np.all(y[:, 0] == 6.0) and np.all(y[:, 1] == 1.0)
+    one = _outputs(np.ones((2 * _BLOCK + 3, 3)), np.array([[1.0, 2.0, 3.0]]))
+    assert one.shape == (2 * _BLOCK + 3, 1) and one.flags.c_contiguous  # one output: its own contiguous column
+
+
+def test_nrmse_and_fit_of_a_strided_simulation_have_the_bits_of_its_contiguous_copy() -> None:
+    from motorid.identification.metrics import _pair, fit_percent
+
+    rng = np.random.default_rng(13)
+    n = 100_003
+    y = 2.0 * -np.expm1(-np.arange(n) / 3e4) + rng.normal(0, 0.01, n)
+    outputs = np.column_stack([rng.normal(size=n), 2.0 * -np.expm1(-np.arange(n) / 3.1e4), rng.normal(size=n)])
+    column = outputs[:, 1]  # a step response's channel: a strided view
+    assert not column.flags.c_contiguous
+    assert _pair(y, column)[1] is not None and np.shares_memory(_pair(y, column)[1], outputs)  # not copied
+    assert nrmse(y, column) == nrmse(y, column.copy())
+    assert fit_percent(y, column) == fit_percent(y, column.copy())

@@ -47,7 +47,12 @@ REFERENCES = ("final", "span")
 
 def _pair(measured: object, simulated: object) -> tuple[np.ndarray, np.ndarray]:
     y = np.asarray(measured, dtype=float).ravel()
-    yhat = np.asarray(simulated, dtype=float).ravel()
+    # a 1-D simulation as it is: ravel() would copy a column of a step response (a strided view of
+    # its outputs), and the simulation is only used elementwise (y − ŷ; the sums run over that
+    # contiguous result, so their order, and bits, are unchanged)
+    yhat = np.asarray(simulated, dtype=float)
+    if yhat.ndim != 1:
+        yhat = yhat.ravel()
     if y.size != yhat.size or y.size < 2:
         raise OptionError(f"measured and simulated must be equally long (≥ 2 samples), got {y.size} and {yhat.size}")
     return y, yhat

@@ -96,22 +96,24 @@ _BLOCK = 1 << 18
 def _outputs(x: np.ndarray, c: np.ndarray) -> np.ndarray:
     """``x @ c.T``: the outputs of the states ``x`` (one row a sample), written over ``x`` when it fits.
 
-    A long record (more than one :data:`_BLOCK` of samples) with no more outputs than states has its
+    A long record (at least two :data:`_BLOCK` of samples) with as many outputs as states has its
     outputs computed in row blocks of at least ``_BLOCK`` rows (the last block takes the remainder,
-    so no product is small) and stored in the first columns of ``x``: each output row depends on its
-    own state row only, and each block is the same BLAS product as the whole
-    (tests/model/test_response_memory.py compares the bits), so the states and the outputs of a
-    10 M-sample record are not held together.  Otherwise the whole product, as before.
+    so no product is small) and stored over ``x``: each output row depends on its own state row
+    only, and each block is the same BLAS product as the whole (tests/model/test_response_memory.py
+    compares the bits), so the states and the outputs of a 10 M-sample record are not held
+    together; the outputs' columns are laid out as the whole product's.  Otherwise (fewer outputs
+    than states: their columns over the states would be strided, and copied by whoever needs them
+    contiguous) the whole product, as before.
     """
     count, n = x.shape
     m = c.shape[0]
-    if count < 2 * _BLOCK or m > n or not x.flags.c_contiguous:
+    if count < 2 * _BLOCK or m != n or not x.flags.c_contiguous:
         return x @ c.T
     starts = list(range(0, count - _BLOCK, _BLOCK))  # the last block holds _BLOCK to 2·_BLOCK − 1 rows
     for i, start in enumerate(starts):
         stop = starts[i + 1] if i + 1 < len(starts) else count
-        x[start:stop, :m] = x[start:stop] @ c.T
-    return x[:, :m]
+        x[start:stop] = x[start:stop] @ c.T
+    return x
 
 
 def _max_abs(t: np.ndarray) -> float:
