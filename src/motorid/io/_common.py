@@ -770,10 +770,12 @@ def _pandas_reader(size: int):
     return pandas.read_csv if int(pandas.__version__.split(".")[0]) >= 3 else None
 
 
-#: Rows per chunk of pandas' parse: each chunk is copied into columns allocated once, so the peak is
-#: the columns plus one chunk (24 MB for three columns), not pandas' parsed blocks and their
-#: concatenation (about twice the columns).
-PANDAS_CHUNK_ROWS = 1 << 20
+#: Bytes per block of the file given to pandas' parser at a time (cut after a line's end): each block's
+#: numbers are copied into columns allocated once, so the peak is the columns plus one block's frame
+#: (about 17 MB for three columns), not pandas' parsed blocks and their concatenation (about twice
+#: the columns).  Blocks of 16 MiB cost no more CPU than one call on the whole file (``chunksize``
+#: cost half as much again as the whole parse, smaller blocks the call's overhead).
+PANDAS_BLOCK_BYTES = 16 << 20
 
 
 def _expected_rows(path: PathLike, size: int) -> int:
@@ -796,41 +798,59 @@ def _load_with_pandas(read_csv, path: PathLike, skiprows: int, delimiter: str,
     pandas pads a short row with NaN and reads some cells ``np.loadtxt`` refuses, and the reverse;
     any failure, and any NaN in the result, leaves the file to ``np.loadtxt`` so that what is
     accepted and refused (and where) does not depend on whether pandas is installed.  The file is
-    parsed in chunks of :data:`PANDAS_CHUNK_ROWS` rows, each copied into one contiguous array per
-    column allocated once (and checked for NaN while it is in cache): one copy of the table in
-    memory, not pandas' blocks and their concatenation.
+    parsed in blocks of :data:`PANDAS_BLOCK_BYTES` cut after a line feed (a file with lone CR line
+    ends has none: it is left to ``np.loadtxt``), each block's columns copied into one contiguous
+    array per column allocated once and checked for NaN while in cache: one copy of the table in
+    memory.
     """
+    import io
     import warnings as _warnings
 
     columns: list[np.ndarray] = []
     n = 0
     try:
-        with _warnings.catch_warnings():
+        with _warnings.catch_warnings(), _open(path) as fh:
             _warnings.simplefilter("error")
-            reader = read_csv(path, sep=delimiter, header=None, skiprows=skiprows, usecols=usecols,
-                              dtype=np.float64, engine="c", na_filter=False, comment=None,
-                              quoting=csv.QUOTE_NONE, skip_blank_lines=True, chunksize=PANDAS_CHUNK_ROWS)
-            with reader:
-                for chunk in reader:
-                    m = chunk.shape[0]
-                    if not columns:
-                        rows = max(_expected_rows(path, size), m)
-                        columns = [np.empty(rows) for _ in range(chunk.shape[1])]
-                    if chunk.shape[1] != len(columns):
+            for _ in range(skiprows):
+                fh.readline()
+            rest = b""
+            while True:
+                block = fh.read(PANDAS_BLOCK_BYTES)
+                data = rest + block
+                if block:
+                    cut = data.rfind(b"\n") + 1
+                    data, rest = data[:cut], data[cut:]
+                if not data.strip():
+                    if block:
+                        continue
+                    break
+                frame = read_csv(io.BytesIO(data), sep=delimiter, header=None, usecols=usecols, dtype=np.float64,
+                                 engine="c", na_filter=False, comment=None, quoting=csv.QUOTE_NONE,
+                                 skip_blank_lines=True)
+                del data
+                m = frame.shape[0]
+                if not columns:
+                    rows = max(_expected_rows(path, size), m)
+                    columns = [np.empty(rows) for _ in range(frame.shape[1])]
+                if frame.shape[1] != len(columns):
+                    return None
+                if n + m > columns[0].size:  # the first lines were longer than the rest
+                    rows = max(n + m, int(columns[0].size * 1.5))
+                    columns = [_grown(c, n, rows) for c in columns]
+                for k, col in enumerate(columns):
+                    np.copyto(col[n : n + m], frame.iloc[:, k].to_numpy(dtype=np.float64, copy=False))
+                    if np.isnan(col[n : n + m]).any():
                         return None
-                    if n + m > columns[0].size:  # the first lines were longer than the rest
-                        rows = max(n + m, int(columns[0].size * 1.5))
-                        columns = [_grown(c, n, rows) for c in columns]
-                    for k, col in enumerate(columns):
-                        np.copyto(col[n : n + m], chunk.iloc[:, k].to_numpy(dtype=np.float64, copy=False))
-                        if np.isnan(col[n : n + m]).any():
-                            return None
-                    n += m
-                    del chunk
+                n += m
+                del frame
+                if not block:
+                    break
         # (UTF-8, pandas' native decoder: latin-1 would go through Python's codec, 1.5× slower; a
         # byte that is not UTF-8 is not a number either and fails here)
     except (ValueError, Warning):  # pandas' ParserError and EmptyDataError, UnicodeDecodeError
         return None
+    except OSError as exc:
+        raise _os_error(exc, str(path)) from None
     if not columns or n == 0:
         return None
     for col in columns:
