@@ -229,3 +229,16 @@ def test_time_going_back_in_a_later_block_names_its_line(tmp_path, monkeypatch):
     with pytest.raises(CaptureDataError, match="duplicated") as info:
         plaincsv.read_plain_csv(path)
     assert f"{path}:152:" in str(info.value)
+
+
+@needs_pandas3
+def test_a_last_block_of_blank_lines_is_no_failure(tmp_path, monkeypatch):
+    """Blocks of 50 bytes over a file that ends in 200 blank lines: the last blocks hold blank lines only
+    (pandas would find no columns there); the file is still read by pandas, to its last row."""
+    path = tmp_path / "log.csv"
+    path.write_text(ODD_FILES["crlf"] + "\n" * 200)
+    monkeypatch.setattr(_common, "PANDAS_BLOCK_BYTES", 50)
+    cols = _common._load_with_pandas(pandas.read_csv, path, 1, ",", None, path.stat().st_size)
+    assert cols is not None
+    for col, want in zip(cols, (T, U, Y), strict=True):
+        assert col.tobytes() == want.tobytes()
