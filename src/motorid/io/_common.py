@@ -442,12 +442,12 @@ def check_samples(
     # one array of the steps, reordered by the median and the 99th percentile (order statistics:
     # the same values in any order); the tests that need the steps in order take them again in
     # blocks of the time column, while they are in cache
+    back = _first_step(t, lambda d: d <= 0)
+    if back is not None:
+        what = "duplicated" if t[back] == t[back - 1] else "goes backwards"
+        raise CaptureDataError(f"{time_name} {what} ({plain_number(t[back - 1])} then {plain_number(t[back])}): "
+                               "time must increase", file=file, row=line_of(back))
     steps = np.diff(t)
-    i = _first_step(t, lambda d: d <= 0)
-    if i is not None:
-        what = "duplicated" if t[i] == t[i - 1] else "goes backwards"
-        raise CaptureDataError(f"{time_name} {what} ({plain_number(t[i - 1])} then {plain_number(t[i])}): "
-                               "time must increase", file=file, row=line_of(i))
     med = float(np.median(steps, overwrite_input=True))
     lo, hi = SAMPLE_INTERVAL_RANGE_S
     if not lo <= med <= hi:
@@ -457,15 +457,15 @@ def check_samples(
     if jitter_ok:
         limit = _gap_limit(steps, med)
         del steps
-        i = _first_step(t, lambda d: d > limit)
+        gap = _first_step(t, lambda d: d > limit)
     else:
         del steps
         tol = rel_jitter * med + 1e-12 * max(1.0, _max_abs(t))
-        i = _first_step(t, lambda d: np.abs(d - med) > tol)
-    if i is not None:
+        gap = _first_step(t, lambda d: np.abs(d - med) > tol)
+    if gap is not None:
         raise CaptureDataError(
-            f"time step {plain_number(t[i] - t[i - 1])} s differs from the sample interval {plain_number(med)} s "
-            "(gap or corrupt record)", file=file, row=line_of(i))
+            f"time step {plain_number(t[gap] - t[gap - 1])} s differs from the sample interval {plain_number(med)} s "
+            "(gap or corrupt record)", file=file, row=line_of(gap))
     return med
 
 
