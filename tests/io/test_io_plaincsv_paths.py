@@ -242,3 +242,15 @@ def test_a_last_block_of_blank_lines_is_no_failure(tmp_path, monkeypatch):
     assert cols is not None
     for col, want in zip(cols, (T, U, Y), strict=True):
         assert col.tobytes() == want.tobytes()
+
+
+@needs_pandas3
+@pytest.mark.parametrize("block", [50, 700, 1 << 20])
+def test_a_last_line_without_its_line_feed_is_read_block_by_block(tmp_path, monkeypatch, block):
+    path = tmp_path / "log.csv"
+    path.write_text(ODD_FILES["tab"].rstrip("\n"))
+    monkeypatch.setattr(_common, "PANDAS_BLOCK_BYTES", block)
+    cols = _common._load_with_pandas(pandas.read_csv, path, 1, "\t", None, path.stat().st_size)
+    assert cols is not None
+    for col, want in zip(cols, (T, U, Y), strict=True):
+        assert col.tobytes() == want.tobytes()
