@@ -45,3 +45,19 @@ def test_minus_zero_shares_only_a_read_only_float_array_and_only_plus_zero():
     signs = np.signbit(_minus(frozen, -0.0))
     assert _minus(frozen, -0.0) is not frozen and not signs[0]  # −0.0 − (−0.0) is +0.0
     np.testing.assert_array_equal(_minus(frozen, 2.0), a - 2.0)
+
+
+def test_the_reduced_record_is_the_reduction_of_the_stacked_full_rate_record():
+    """The pipeline reduces each channel on its own (no stack of the full-rate channels): the same array."""
+    from motorid.conditioning.pipeline import ConditioningSettings, condition_experiment
+    from motorid.conditioning.resample import sample_reduction
+
+    cap = _capture(1.5, 0.2)
+    for ratio in (1, 3, 7):
+        cond = condition_experiment({"velocity": cap}, ConditioningSettings(ratio=ratio))
+        want = sample_reduction(cond.full_time_s, np.vstack([cond.full_input_v, cond.full_outputs["velocity"]]),
+                                ratio, "subsample")
+        assert cond.ratio == ratio
+        assert cond.time_s.tobytes() == want.time_s.tobytes()
+        assert cond.input_v.tobytes() == want.values[0].tobytes()
+        assert cond.outputs["velocity"].tobytes() == want.values[1].tobytes()
