@@ -140,3 +140,36 @@ def test_nrmse_and_fit_of_a_strided_simulation_have_the_bits_of_its_contiguous_c
     assert _pair(y, column)[1] is not None and np.shares_memory(_pair(y, column)[1], outputs)  # not copied
     assert nrmse(y, column) == nrmse(y, column.copy())
     assert fit_percent(y, column) == fit_percent(y, column.copy())
+
+
+def test_step_fit_gives_the_numbers_of_nrmse_and_fit_percent_one_by_one() -> None:
+    from motorid.identification.metrics import fit_percent, step_fit
+
+    rng = np.random.default_rng(14)
+    n = 100_003
+    t = np.arange(n) * 1e-4
+    measured = {"velocity": 2.0 * -np.expm1(-t / 3.0) + rng.normal(0, 0.01, n),
+                "position": np.cumsum(2.0 * -np.expm1(-t / 3.0)) * 1e-4 + rng.normal(0, 0.01, n),
+                "current": np.zeros(n)}  # constant: no fit %
+    model = _model()
+    reference = step_response(model, t)
+    for one_output in (False, True):
+        def simulate(one_output: bool = one_output) -> dict[str, np.ndarray]:
+            out = step_response(model, t)
+            return {"velocity": out["velocity"].copy()} if one_output else out  # contiguous, or strided columns
+
+        errors, fits = step_fit(measured, simulate, ["velocity", "position"] if not one_output else ["velocity"])
+        for ch, value in errors.items():
+            assert value == nrmse(measured[ch], reference[ch], reference="final"), ch
+        for ch, value in fits.items():
+            assert value == fit_percent(measured[ch], reference[ch]), ch
+        assert "current" not in fits and set(fits) == ({"velocity"} if one_output else {"velocity", "position"})
+
+
+def test_step_fit_writes_the_residual_over_a_contiguous_simulation() -> None:
+    from motorid.identification.metrics import step_fit
+
+    y = np.linspace(0.0, 1.0, 1000)
+    simulated = np.zeros(1000)
+    step_fit({"velocity": y}, lambda: {"velocity": simulated}, ["velocity"])
+    np.testing.assert_array_equal(simulated, (y - 0.0) ** 2)  # the residual, then squared for the NRMSE
