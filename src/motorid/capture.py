@@ -7,10 +7,11 @@ virtual trainer produces them too; conditioning consumes them.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import overload
+from typing import Any, overload
 
 import numpy as np
 
@@ -81,17 +82,22 @@ class ScopeInfo:
 
 
 @overload
-def _frozen_array(a: np.ndarray) -> np.ndarray: ...
+def _frozen_array(a: np.ndarray, copy: bool = True) -> np.ndarray: ...
 
 
 @overload
-def _frozen_array(a: None) -> None: ...
+def _frozen_array(a: None, copy: bool = True) -> None: ...
 
 
-def _frozen_array(a: np.ndarray | None) -> np.ndarray | None:
+def _frozen_array(a: np.ndarray | None, copy: bool = True) -> np.ndarray | None:
+    """A read-only float64 array of ``a``: a copy, or ``a`` itself when the caller hands it over.
+
+    Handed over (``copy=False``), a contiguous float64 array is frozen in place (no second 80 MB
+    column for a 10 M-row log); anything else is still converted.
+    """
     if a is None:
         return None
-    out = np.array(a, dtype=float, copy=True)
+    out = np.array(a, dtype=float, copy=True) if copy else np.ascontiguousarray(a, dtype=float)
     out.setflags(write=False)
     return out
 
@@ -144,16 +150,56 @@ class Capture:
     warnings: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        t = _frozen_array(self.time_s)
-        y = _frozen_array(self.output_v)
-        u = _frozen_array(self.input_v)
+        self._freeze(copy=True)
+
+    @classmethod
+    def adopt(cls, **fields: Any) -> Capture:
+        """A capture that takes over the arrays it is given instead of copying them.
+
+        For the readers, which make their columns and keep no other reference to them: the
+        arrays are made read-only in place (a contiguous float64 array is not copied), so a
+        10 M-row log holds each column once.  The constructor copies (a caller's array stays its
+        own); the checks are the same.
+
+        Parameters
+        ----------
+        **fields
+            The fields of :class:`Capture` by name (the same defaults).
+
+        Returns
+        -------
+        Capture
+            Whose arrays are the given ones, now read-only; the caller must not keep writable
+            views of them.
+        """
+        self = cls.__new__(cls)
+        for f in dataclasses.fields(cls):
+            if f.name in fields:
+                value = fields.pop(f.name)
+            elif f.default is not dataclasses.MISSING:
+                value = f.default
+            elif f.default_factory is not dataclasses.MISSING:
+                value = f.default_factory()
+            else:
+                raise TypeError(f"Capture.adopt() missing required field {f.name!r}")
+            object.__setattr__(self, f.name, value)
+        if fields:
+            raise TypeError(f"Capture.adopt() got unexpected fields {sorted(fields)}")
+        self._freeze(copy=False)
+        return self
+
+    def _freeze(self, *, copy: bool) -> None:
+        """Check the fields and make the arrays read-only (copies of them unless ``copy=False``)."""
+        t = _frozen_array(self.time_s, copy)
+        y = _frozen_array(self.output_v, copy)
+        u = _frozen_array(self.input_v, copy)
         if t.ndim != 1 or y.shape != t.shape or (u is not None and u.shape != t.shape):
             raise CaptureDataError(
                 "time and channel columns have different lengths", file=self.source
             )
         if t.size < 2:
             raise CaptureDataError("fewer than 2 samples: not a usable capture", file=self.source)
-        extra = {k: _frozen_array(v) for k, v in self.extra.items()}
+        extra = {k: _frozen_array(v, copy) for k, v in self.extra.items()}
         for k, v in extra.items():
             if v.shape != t.shape:
                 raise CaptureDataError(f"channel {k!r} has a different length", file=self.source)

@@ -43,3 +43,27 @@ def test_classic_rejects_flat_response() -> None:
         classic_first_order(t, np.zeros_like(t), 1.0)
     with pytest.raises(MotorIdError):
         classic_first_order(t, t, 0.0)
+
+
+def test_first_crossing_in_blocks_is_the_first_sample_past_the_level() -> None:
+    """The search runs in blocks of ``_BLOCK`` samples: a crossing on either side of a block edge, a level
+    never reached, a negative level and a NaN are found as by the whole-array ``flatnonzero``."""
+    import numpy as np
+
+    from motorid.identification import classic
+
+    n = 3 * classic._BLOCK + 5
+    t = np.arange(n) * 1e-3
+    for at in (0, 1, classic._BLOCK - 1, classic._BLOCK, classic._BLOCK + 1, 2 * classic._BLOCK, n - 1):
+        for sign in (1.0, -1.0):
+            y = np.where(np.arange(n) >= at, 2.0, 0.5) * sign
+            if at >= 4:
+                y[at // 2] = np.nan  # a NaN before the crossing is not past the level
+            level = 1.26 * sign
+            want = int(np.flatnonzero((y - level) * sign >= 0)[0])
+            time, i = classic.first_crossing(t, y, level)
+            assert i == want == at
+            if at:
+                assert time == t[at - 1] + (level - y[at - 1]) / (y[at] - y[at - 1]) * (t[at] - t[at - 1])
+    never, i = classic.first_crossing(t, np.zeros(n), 1.0)
+    assert np.isnan(never) and i == -1

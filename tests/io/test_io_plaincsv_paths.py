@@ -157,3 +157,100 @@ def test_a_header_written_twice_is_refused_in_one_line_on_every_path(tmp_path, m
         with pytest.raises(CaptureFormatError) as info:
             plaincsv.read_plain_csv(path)
         assert str(path) in str(info.value)
+
+
+# ---- pandas block by block: columns allocated once, every block copied in, errors still name their line
+
+@needs_pandas3
+@pytest.mark.parametrize("estimate", [None, 3], ids=["estimated rows", "columns grown"])
+@pytest.mark.parametrize("block", [50, 700, 1 << 20], ids=["shorter than a line", "about 11 lines", "one block"])
+@pytest.mark.parametrize("name", ["crlf", "blank_lines_in_body", "comments_and_blank_lines_first", "text_column"])
+def test_pandas_block_by_block_gives_the_bits_of_the_independent_parse(tmp_path, monkeypatch, block, estimate, name):
+    """Blocks of 50 bytes (each shorter than a line: they are joined up to a line's end), of 700 (cut
+    inside lines, the last short) and one block; with the row estimate too small, the columns grow as
+    the blocks come (then are cut to the rows read)."""
+    path = tmp_path / "log.csv"
+    path.write_bytes(ODD_FILES[name].encode())
+    monkeypatch.setattr(_common, "PANDAS_BLOCK_BYTES", block)
+    if estimate is not None:
+        monkeypatch.setattr(_common, "_expected_rows", lambda _path, _size: estimate)
+    cap = _read(path, "pandas", monkeypatch)
+    want = _expected(ODD_FILES[name])
+    for mine, key in ((cap.time_s, "time"), (cap.input_v, "input"), (cap.output_v, "velocity")):
+        assert mine is not None and mine.shape == (T.size,) and mine.flags.c_contiguous
+        assert mine.tobytes() == want[key].tobytes()
+
+
+@needs_pandas3
+def test_the_blocks_columns_own_their_memory_and_hold_the_rows_read(tmp_path, monkeypatch):
+    path = tmp_path / "log.csv"
+    path.write_text(ODD_FILES["blank_lines_in_body"] + "\n\n")  # blank lines at the end too
+    monkeypatch.setattr(_common, "PANDAS_BLOCK_BYTES", 700)
+    cols = _common._load_with_pandas(pandas.read_csv, path, 1, ",", None, path.stat().st_size)
+    assert cols is not None and len(cols) == 3
+    for col, want in zip(cols, (T, U, Y), strict=True):
+        assert col.shape == (T.size,) and col.flags.owndata
+        np.testing.assert_array_equal(col, want)
+
+
+@needs_pandas3
+@pytest.mark.parametrize("name", sorted(BAD))
+def test_a_bad_row_in_a_later_block_names_its_line(tmp_path, monkeypatch, name):
+    """The bad row (row 100 of 200, after a blank line) sits in pandas' seventh block of 1000 bytes:
+    the message names its line in the file, as on the other paths."""
+    bad, exc, words = BAD[name]
+    rows = _rows()
+    rows[100] = bad + "\n"
+    rows[30] = rows[30] + "\n"  # a blank line in the first block: lines and samples differ by two
+    path = tmp_path / "log.csv"
+    path.write_text("time,input,velocity\n" + "".join(rows))
+    monkeypatch.setattr(_common, "PANDAS_MIN_BYTES", 1)
+    monkeypatch.setattr(_common, "PANDAS_BLOCK_BYTES", 1000)
+    assert _common._load_with_pandas(pandas.read_csv, path, 1, ",", None, 1) is None  # left to loadtxt
+    for careful_max in (1 << 62, 1):
+        monkeypatch.setattr(_common, "CAREFUL_MAX_BYTES", careful_max)
+        with pytest.raises(exc) as info:
+            plaincsv.read_plain_csv(path)
+        message = str(info.value)
+        assert str(path) in message and ":103:" in message, message
+        if name != "nan" or careful_max > 1:
+            assert words in message, message
+
+
+@needs_pandas3
+def test_time_going_back_in_a_later_block_names_its_line(tmp_path, monkeypatch):
+    """Read by pandas block by block, the time checks run on the whole column and name the file's line."""
+    rows = _rows()
+    rows[150] = rows[149]  # a duplicated sample: line 152
+    path = tmp_path / "log.csv"
+    path.write_text("time,input,velocity\n" + "".join(rows))
+    monkeypatch.setattr(_common, "PANDAS_MIN_BYTES", 1)
+    monkeypatch.setattr(_common, "PANDAS_BLOCK_BYTES", 1000)
+    with pytest.raises(CaptureDataError, match="duplicated") as info:
+        plaincsv.read_plain_csv(path)
+    assert f"{path}:152:" in str(info.value)
+
+
+@needs_pandas3
+def test_a_last_block_of_blank_lines_is_no_failure(tmp_path, monkeypatch):
+    """Blocks of 50 bytes over a file that ends in 200 blank lines: the last blocks hold blank lines only
+    (pandas would find no columns there); the file is still read by pandas, to its last row."""
+    path = tmp_path / "log.csv"
+    path.write_text(ODD_FILES["crlf"] + "\n" * 200)
+    monkeypatch.setattr(_common, "PANDAS_BLOCK_BYTES", 50)
+    cols = _common._load_with_pandas(pandas.read_csv, path, 1, ",", None, path.stat().st_size)
+    assert cols is not None
+    for col, want in zip(cols, (T, U, Y), strict=True):
+        assert col.tobytes() == want.tobytes()
+
+
+@needs_pandas3
+@pytest.mark.parametrize("block", [50, 700, 1 << 20])
+def test_a_last_line_without_its_line_feed_is_read_block_by_block(tmp_path, monkeypatch, block):
+    path = tmp_path / "log.csv"
+    path.write_text(ODD_FILES["tab"].rstrip("\n"))
+    monkeypatch.setattr(_common, "PANDAS_BLOCK_BYTES", block)
+    cols = _common._load_with_pandas(pandas.read_csv, path, 1, "\t", None, path.stat().st_size)
+    assert cols is not None
+    for col, want in zip(cols, (T, U, Y), strict=True):
+        assert col.tobytes() == want.tobytes()

@@ -72,3 +72,104 @@ def test_step_response_of_a_long_record_holds_little_besides_its_result() -> Non
         tracemalloc.stop()
     assert set(out) == {"position", "velocity", "current"}
     assert peak < 8 * n * 3 * 2.2, peak / (8 * n)
+
+
+def _orbit_with_temporaries(phi: np.ndarray, gam: np.ndarray, x0: np.ndarray, count: int) -> np.ndarray:
+    """The doubling as it was written before the in-place products: ``out[:k] @ Φᵐᵀ + c_m`` into the orbit."""
+    out = np.empty((count, x0.size))
+    out[0] = x0
+    power, offset, m = phi.copy(), gam.copy(), 1
+    while m < count:
+        k = min(m, count - m)
+        out[m : m + k] = out[:k] @ power.T + offset
+        offset = power @ offset + offset
+        power = power @ power
+        m *= 2
+    return out
+
+
+def test_the_orbit_filled_in_place_has_the_bits_of_the_products_with_temporaries() -> None:
+    from motorid.model.response import _affine_orbit
+
+    rng = np.random.default_rng(11)
+    for n in (1, 2, 3, 4, 6):
+        for count in (1, 2, 3, 1000, 2**17 + 3):
+            q, _ = np.linalg.qr(rng.normal(size=(n, n)))
+            phi = q @ np.diag(rng.uniform(0.2, 0.9999, n)) @ q.T
+            gam, x0 = rng.normal(size=n), rng.normal(size=n)
+            want = _orbit_with_temporaries(phi, gam, x0, count)
+            got = _affine_orbit(phi, gam, x0, count)
+            assert got.tobytes() == want.tobytes(), (n, count)
+            into = np.full((count, n), np.nan)
+            assert _affine_orbit(phi, gam, x0, count, out=into) is into and into.tobytes() == want.tobytes()
+
+
+def test_outputs_written_over_the_states_in_blocks_have_the_bits_of_the_whole_product() -> None:
+    from motorid.model.response import _outputs
+
+    rng = np.random.default_rng(12)
+    for count in (5, 2 * _BLOCK - 1, 2 * _BLOCK, 3 * _BLOCK + 17):
+        for n, m in ((1, 1), (3, 1), (3, 2), (3, 3), (4, 3), (2, 3)):
+            x = rng.normal(size=(count, n)) * 10.0 ** rng.uniform(-6, 6, size=(count, 1))
+            c = rng.normal(size=(m, n))
+            want = x @ c.T
+            got = _outputs(x.copy(), c)
+            assert got.shape == want.shape
+            assert np.ascontiguousarray(got).tobytes() == want.tobytes(), (count, n, m)
+
+
+def test_a_long_records_outputs_share_the_states_memory() -> None:
+    from motorid.model.response import _outputs
+
+    x = np.ones((2 * _BLOCK + 3, 3))
+    y = _outputs(x, np.array([[1.0, 2.0, 3.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]))
+    assert y is x and np.all(y[:, 0] == 6.0) and np.all(y[:, 1] == 1.0)
+    one = _outputs(np.ones((2 * _BLOCK + 3, 3)), np.array([[1.0, 2.0, 3.0]]))
+    assert one.shape == (2 * _BLOCK + 3, 1) and one.flags.c_contiguous  # one output: its own contiguous column
+
+
+def test_nrmse_and_fit_of_a_strided_simulation_have_the_bits_of_its_contiguous_copy() -> None:
+    from motorid.identification.metrics import _pair, fit_percent
+
+    rng = np.random.default_rng(13)
+    n = 100_003
+    y = 2.0 * -np.expm1(-np.arange(n) / 3e4) + rng.normal(0, 0.01, n)
+    outputs = np.column_stack([rng.normal(size=n), 2.0 * -np.expm1(-np.arange(n) / 3.1e4), rng.normal(size=n)])
+    column = outputs[:, 1]  # a step response's channel: a strided view
+    assert not column.flags.c_contiguous
+    assert _pair(y, column)[1] is not None and np.shares_memory(_pair(y, column)[1], outputs)  # not copied
+    assert nrmse(y, column) == nrmse(y, column.copy())
+    assert fit_percent(y, column) == fit_percent(y, column.copy())
+
+
+def test_step_fit_gives_the_numbers_of_nrmse_and_fit_percent_one_by_one() -> None:
+    from motorid.identification.metrics import fit_percent, step_fit
+
+    rng = np.random.default_rng(14)
+    n = 100_003
+    t = np.arange(n) * 1e-4
+    measured = {"velocity": 2.0 * -np.expm1(-t / 3.0) + rng.normal(0, 0.01, n),
+                "position": np.cumsum(2.0 * -np.expm1(-t / 3.0)) * 1e-4 + rng.normal(0, 0.01, n),
+                "current": np.zeros(n)}  # constant: no fit %
+    model = _model()
+    reference = step_response(model, t)
+    for one_output in (False, True):
+        def simulate(one_output: bool = one_output) -> dict[str, np.ndarray]:
+            out = step_response(model, t)
+            return {"velocity": out["velocity"].copy()} if one_output else out  # contiguous, or strided columns
+
+        errors, fits = step_fit(measured, simulate, ["velocity", "position"] if not one_output else ["velocity"])
+        for ch, value in errors.items():
+            assert value == nrmse(measured[ch], reference[ch], reference="final"), ch
+        for ch, value in fits.items():
+            assert value == fit_percent(measured[ch], reference[ch]), ch
+        assert "current" not in fits and set(fits) == ({"velocity"} if one_output else {"velocity", "position"})
+
+
+def test_step_fit_writes_the_residual_over_a_contiguous_simulation() -> None:
+    from motorid.identification.metrics import step_fit
+
+    y = np.linspace(0.0, 1.0, 1000)
+    simulated = np.zeros(1000)
+    step_fit({"velocity": y}, lambda: {"velocity": simulated}, ["velocity"])
+    np.testing.assert_array_equal(simulated, (y - 0.0) ** 2)  # the residual, then squared for the NRMSE

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -77,7 +78,8 @@ class StepResponse:
     @property
     def sample_interval_s(self) -> float:
         """Sample interval in seconds."""
-        return float(np.median(np.diff(self.time_s)))
+        # the median reorders the steps it is given (no second copy of a long record's steps)
+        return float(np.median(np.diff(self.time_s), overwrite_input=True))
 
 
 def step_response(
@@ -173,15 +175,15 @@ def step_response(
         warnings.append(f"only {k} samples before the step: baseline uncertain")
     base_y = float(np.mean(y[:k]))
     if capture.input_v is not None:
-        u = capture.input_v - float(np.mean(capture.input_v[:k]))
+        u = _minus(capture.input_v, float(np.mean(capture.input_v[:k])))
     else:
         u = np.where(t >= edge.time_s, amp, 0.0)
     return StepResponse(
         source=capture.source,
         role=role,
-        time_s=t - edge.time_s,
+        time_s=_minus(t, edge.time_s),
         input_v=u,
-        output_v=y - base_y,
+        output_v=_minus(y, base_y),
         step_volts=float(amp),
         edge=edge,
         wraps=wraps,
@@ -190,3 +192,16 @@ def step_response(
         glitches=glitches,
         timing=timing,
     )
+
+
+def _minus(a: np.ndarray, b: float) -> np.ndarray:
+    """``a − b``; ``a`` itself when ``b`` is zero and ``a`` read-only (``x − 0.0`` is ``x``, bit for bit).
+
+    A log whose step is at ``t = 0`` or whose input rests at 0 V before it shares the capture's
+    read-only column instead of holding an 80 MB copy of it (a 10 M-row log).
+    """
+    # (+0.0 only: x − (−0.0) turns −0.0 into +0.0)
+    if b == 0.0 and math.copysign(1.0, b) > 0 and isinstance(a, np.ndarray) and a.dtype == np.float64 \
+            and not a.flags.writeable:
+        return a
+    return a - b

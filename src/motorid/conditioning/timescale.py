@@ -91,10 +91,8 @@ def response_times(time_s: np.ndarray, y: np.ndarray, *, pre: np.ndarray | None 
     width = int(min(max(3, n // 200 * 2 + 1), 31))
     import scipy.ndimage  # loads on use (start-up)
 
-    hit = scipy.ndimage.median_filter(z, size=width, mode="nearest") >= 1.0 - np.exp(-1.0)
-    first = int(np.argmax(hit))
-    t63 = float(t[first]) if hit[first] else float("nan")
-    del hit
+    first = _first_filtered_hit(z, width, 1.0 - np.exp(-1.0), scipy.ndimage.median_filter)
+    t63 = float(t[first]) if first >= 0 else float("nan")
     band = (3.0 * noise + quantum) / abs(final)
     out = z > band
     del z
@@ -106,6 +104,28 @@ def response_times(time_s: np.ndarray, y: np.ndarray, *, pre: np.ndarray | None 
     k = int(np.argmax(started)) if started.size and started.any() else 0
     dead = float(t[k - 1]) if k > 0 else 0.0
     return ResponseTimes(t63, max(dead, 0.0), final, noise)
+
+
+#: Samples per block of the running median's search for the 63 % time.
+_BLOCK = 1 << 18
+
+
+def _first_filtered_hit(z: np.ndarray, width: int, level: float, median_filter) -> int:
+    """First index where the running median of ``z`` (``width`` samples, ``mode="nearest"``) is ≥ ``level``; −1 if none.
+
+    In blocks of :data:`_BLOCK`, each filtered with ``width // 2`` samples of its neighbours on
+    either side (at the record's ends, its own edge as the whole record's): a median is one of its
+    window's samples, so every value is the whole record's, and the search stops at the block of
+    the first hit instead of filtering a 10 M-sample record whole.
+    """
+    half = width // 2
+    for start in range(0, z.size, _BLOCK):
+        lo, hi = max(0, start - half), min(z.size, start + _BLOCK + half)
+        filtered = median_filter(z[lo:hi], size=width, mode="nearest")[start - lo : start - lo + _BLOCK]
+        hit = filtered >= level
+        if hit.any():
+            return start + int(np.argmax(hit))
+    return -1
 
 
 def auto_reduction_ratio(sample_interval_s: float, record_s: float, t63_s: float) -> tuple[int, str]:

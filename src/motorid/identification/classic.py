@@ -21,6 +21,8 @@ __all__ = ["SETTLE_WARN", "ClassicResult", "classic_first_order", "first_crossin
 #: record is reported as not settled.
 SETTLE_WARN = 0.02
 _RISE = 1.0 - math.exp(-1.0)  # 0.632…
+#: Samples per block of the crossing search (its temporaries stay small on a 10 M-sample record).
+_BLOCK = 1 << 18
 
 
 @dataclass(frozen=True, slots=True)
@@ -94,11 +96,16 @@ def first_crossing(time_s: np.ndarray, y: np.ndarray, level: float) -> tuple[flo
         The time and the index of the first sample at or past the level; ``(nan, -1)`` when
         it is never reached, ``(time_s[0], 0)`` when the first sample is already past it.
     """
-    rel = (y - level) * (np.sign(level) or 1.0)
-    idx = np.flatnonzero(rel >= 0)
-    if idx.size == 0:
+    sign = np.sign(level) or 1.0
+    i = -1
+    for start in range(0, y.size, _BLOCK):
+        # in blocks: the same test per sample, without the index array of a long record's samples past it
+        hit = (y[start : start + _BLOCK] - level) * sign >= 0
+        if hit.any():
+            i = start + int(np.argmax(hit))
+            break
+    if i < 0:
         return float("nan"), -1
-    i = int(idx[0])
     if i == 0:
         return float(time_s[0]), 0
     dy = y[i] - y[i - 1]
@@ -142,7 +149,9 @@ def classic_first_order(time_s: Any, y: Any, step_volts: float, *, t0: float = 0
     t, v = response_arrays(time_s, y, "velocity")
     check_step_level(step_volts)
     after = t >= t0
-    t, v = t[after], v[after]
+    if not after.all():  # (a record from the step on is used as it is, not copied)
+        t, v = t[after], v[after]
+    del after
     if t.size < 10:
         raise IdentificationError(f"the classic method needs at least 10 samples after the step, got {t.size}")
     warnings: list[str] = []

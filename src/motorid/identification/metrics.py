@@ -32,14 +32,14 @@ BIC
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Literal
 
 import numpy as np
 
 from motorid.errors import OptionError
 
-__all__ = ["REFERENCES", "bic", "fit_percent", "nrmse", "response_change"]
+__all__ = ["REFERENCES", "bic", "fit_percent", "nrmse", "response_change", "step_fit"]
 
 #: Names of the NRMSE normalisations (see the module docstring).
 REFERENCES = ("final", "span")
@@ -47,7 +47,12 @@ REFERENCES = ("final", "span")
 
 def _pair(measured: object, simulated: object) -> tuple[np.ndarray, np.ndarray]:
     y = np.asarray(measured, dtype=float).ravel()
-    yhat = np.asarray(simulated, dtype=float).ravel()
+    # a 1-D simulation as it is: ravel() would copy a column of a step response (a strided view of
+    # its outputs), and the simulation is only used elementwise (y − ŷ; the sums run over that
+    # contiguous result, so their order, and bits, are unchanged)
+    yhat = np.asarray(simulated, dtype=float)
+    if yhat.ndim != 1:
+        yhat = yhat.ravel()
     if y.size != yhat.size or y.size < 2:
         raise OptionError(f"measured and simulated must be equally long (≥ 2 samples), got {y.size} and {yhat.size}")
     return y, yhat
@@ -124,6 +129,12 @@ def nrmse(
     with np.errstate(over="ignore", invalid="ignore"):
         # one temporary of the record's length, squared in place (the same numbers as ``(y - yhat) ** 2``)
         residual = np.subtract(y, yhat)
+    return _nrmse_of(residual, delta)
+
+
+def _nrmse_of(residual: np.ndarray, delta: float) -> float:
+    """:func:`nrmse` from a contiguous ``y − ŷ`` (squared in place) and ``Δy``."""
+    with np.errstate(over="ignore", invalid="ignore"):
         np.square(residual, out=residual)
         value = float(np.sqrt(np.mean(residual)) / delta)
     return value if np.isfinite(value) else float("inf")
@@ -154,12 +165,89 @@ def fit_percent(measured: object, simulated: object) -> float:
     ``fit = 100·(1 − norm(y − ŷ)/norm(y − mean(y)))``.
     """
     y, yhat = _pair(measured, simulated)
+    spread = _spread(y)
+    with np.errstate(over="ignore", invalid="ignore"):
+        return _fit_of(y - yhat, spread)
+
+
+def _spread(y: np.ndarray) -> float:
+    """``‖y − mean(y)‖``, the denominator of :func:`fit_percent` (refused when zero)."""
     spread = float(np.linalg.norm(y - y.mean()))
     if spread == 0.0:
         raise OptionError("the measured record is constant; fit % is undefined")
+    return spread
+
+
+def _fit_of(residual: np.ndarray, spread: float) -> float:
+    """:func:`fit_percent` from ``y − ŷ`` and ``‖y − mean(y)‖``."""
     with np.errstate(over="ignore", invalid="ignore"):
-        value = float(100.0 * (1.0 - np.linalg.norm(y - yhat) / spread))
+        value = float(100.0 * (1.0 - np.linalg.norm(residual) / spread))
     return value if np.isfinite(value) else float("-inf")
+
+
+def step_fit(
+    measured: Mapping[str, np.ndarray],
+    simulate: Callable[[], Mapping[str, np.ndarray]],
+    nrmse_channels: Sequence[str],
+) -> tuple[dict[str, float], dict[str, float]]:
+    """:func:`nrmse` (``reference="final"``) and :func:`fit_percent` of a simulation, holding one record less.
+
+    The same numbers as calling them one by one, from one residual per channel: the measured
+    side (``Δy``, the fit's spread) is taken before ``simulate`` runs, and each channel's residual
+    ``y − ŷ`` is written over the simulated channel when that is a contiguous array of its own
+    (a model with one output: no second array of a 10 M-sample record's length), its fit % taken
+    from it, then it is squared in place for the NRMSE.
+
+    Parameters
+    ----------
+    measured : Mapping[str, ndarray]
+        The measured channels (1-D, equally long) by name.
+    simulate : callable
+        Returns the simulated channels by name (fresh arrays: they are overwritten).
+    nrmse_channels : sequence of str
+        The channels whose NRMSE is wanted; each must be measured and simulated.
+
+    Returns
+    -------
+    (dict, dict)
+        NRMSE by channel (in the order of ``nrmse_channels``) and fit % of every measured channel
+        the simulation has and whose record is not constant (in the order of ``measured``).
+
+    Raises
+    ------
+    OptionError
+        When a channel of ``nrmse_channels`` has no change (NRMSE undefined).
+    """
+    measured = {ch: np.asarray(y, dtype=float).ravel() for ch, y in measured.items()}  # (as _pair)
+    deltas: dict[str, float] = {}
+    for ch in nrmse_channels:
+        deltas[ch] = response_change(measured[ch], "final")
+        if deltas[ch] == 0.0:
+            raise OptionError("the measured response has no change (final); NRMSE is undefined")
+    spreads: dict[str, float] = {}
+    for ch, y in measured.items():
+        try:
+            spreads[ch] = _spread(y)
+        except OptionError:  # a constant record has no fit %
+            continue
+    simulated = dict(simulate())
+    errors: dict[str, float] = {}
+    fits: dict[str, float] = {}
+    for ch, y in measured.items():
+        if ch not in simulated or (ch not in spreads and ch not in deltas):
+            continue
+        yhat = simulated.pop(ch)
+        own = isinstance(yhat, np.ndarray) and yhat.dtype == np.float64 and yhat.flags.c_contiguous \
+            and yhat.flags.writeable and yhat.shape == np.shape(y)
+        with np.errstate(over="ignore", invalid="ignore"):
+            residual = np.subtract(y, yhat, out=yhat) if own else np.subtract(y, yhat)
+        del yhat
+        if ch in spreads:
+            fits[ch] = _fit_of(residual, spreads[ch])
+        if ch in deltas:
+            errors[ch] = _nrmse_of(residual, deltas[ch])
+        del residual
+    return {ch: errors[ch] for ch in nrmse_channels}, fits
 
 
 def bic(n_samples: Mapping[str, float], mse: Mapping[str, float], n_params: int) -> float:

@@ -25,7 +25,7 @@ from motorid.identification.method_options import MethodOptions, OutputErrorOpti
 from motorid.identification.pinv import PinvSettings, pinv_identify
 from motorid.identification.result import IdentificationError
 from motorid.identification.sanity import SanityReport, sanity_checks
-from motorid.identification.metrics import bic, fit_percent, nrmse
+from motorid.identification.metrics import bic, step_fit
 from motorid.model import MotorModel, step_nrmse
 
 __all__ = ["METHODS", "REFINERS", "Identification", "IdentifySettings", "Refiner", "identify_conditioned",
@@ -412,19 +412,21 @@ def _with_fit(model: MotorModel, cond: ConditionedExperiment) -> MotorModel:
     if "record_length_s" not in model.settings:
         # first_order() cancels only pole-zero pairs slower than the record (model/simplify.py)
         model = model.replace(settings={**dict(model.settings), "record_length_s": float(t[-1])})
-    with np.errstate(over="ignore", invalid="ignore"):
-        resp = model.step_response(t, cond.step_volts)
-    fit = dict(model.fit)
-    fit["velocity_nrmse"] = nrmse(v, resp["velocity"], reference="final")
-    if "position" in cond.full_outputs and "position" in resp:
-        fit["position_nrmse"] = nrmse(cond.full_outputs["position"], resp["position"], reference="final")
     measured = {"velocity": v, **{k: y for k, y in cond.full_outputs.items() if k != "velocity"}}
-    for channel, y in measured.items():
-        if channel in resp:
-            try:
-                fit[f"{channel}_fit_percent"] = float(fit_percent(y, resp[channel]))
-            except OptionError:  # a constant record has no fit %
-                continue
+    channels = ["velocity"] + (["position"] if "position" in cond.full_outputs and "position" in model.outputs else [])
+
+    def simulate() -> dict[str, np.ndarray]:
+        with np.errstate(over="ignore", invalid="ignore"):
+            return model.step_response(t, cond.step_volts)
+
+    # one residual per channel, over the simulated response where it can be (step_fit): a 10 M-sample
+    # record's fit holds one array of its length less
+    errors, fits = step_fit(measured, simulate, channels)
+    fit = dict(model.fit)
+    for channel, value in errors.items():
+        fit[f"{channel}_nrmse"] = value
+    for channel, value in fits.items():
+        fit[f"{channel}_fit_percent"] = float(value)
     return model.replace(fit=fit)
 
 

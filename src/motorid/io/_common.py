@@ -386,7 +386,7 @@ def check_samples(
     min_samples: int = MIN_SAMPLES,
     time_name: str = "time",
     jitter_ok: bool = False,
-) -> None:
+) -> float:
     """Check a record's samples; raise naming the file line of the first bad one.
 
     The checks of :func:`motorid.capture.validate_samples` (finite values, strictly
@@ -414,6 +414,11 @@ def check_samples(
         A log's stamps may jitter (``millis()`` at 10/11 ms, a host loop at 4–22 ms): only a gap
         (:func:`time_gaps`) is refused; :func:`uniform_grid` then puts the record on a uniform grid.
 
+    Returns
+    -------
+    float
+        The median time step (s), for :func:`uniform_grid`.
+
     Raises
     ------
     CaptureDataError
@@ -434,29 +439,52 @@ def check_samples(
             raise CaptureDataError(f"{name} value {plain_number(x)} {why}", file=file, row=line_of(i))
     if n < min_samples:
         raise CaptureDataError(f"only {n} sample(s): a capture needs at least {min_samples}", file=file)
-    dt = np.diff(t)
-    bad = np.flatnonzero(dt <= 0)
-    if bad.size:
-        i = int(bad[0]) + 1
-        what = "duplicated" if dt[i - 1] == 0 else "goes backwards"
-        raise CaptureDataError(f"{time_name} {what} ({plain_number(t[i - 1])} then {plain_number(t[i])}): "
-                               "time must increase", file=file, row=line_of(i))
-    scratch = dt.copy()  # the median and the 99th percentile from one copy of the steps
-    med = float(np.median(scratch, overwrite_input=True))
+    # one array of the steps, reordered by the median and the 99th percentile (order statistics:
+    # the same values in any order); the tests that need the steps in order take them again in
+    # blocks of the time column, while they are in cache
+    back = _first_step(t, lambda d: d <= 0)
+    if back is not None:
+        what = "duplicated" if t[back] == t[back - 1] else "goes backwards"
+        raise CaptureDataError(f"{time_name} {what} ({plain_number(t[back - 1])} then {plain_number(t[back])}): "
+                               "time must increase", file=file, row=line_of(back))
+    steps = np.diff(t)
+    med = float(np.median(steps, overwrite_input=True))
     lo, hi = SAMPLE_INTERVAL_RANGE_S
     if not lo <= med <= hi:
         raise CaptureDataError(
             f"sample interval {plain_number(med)} s is outside {lo:g}…{hi:g} s: the time column is not in "
             "seconds (or not a time axis); map the right column, or give --time-unit ms or us", file=file)
     if jitter_ok:
-        bad = time_gaps(dt, median=med, scratch=scratch)
+        limit = _gap_limit(steps, med)
+        del steps
+        gap = _first_step(t, lambda d: d > limit)
     else:
-        bad = np.flatnonzero(np.abs(dt - med) > rel_jitter * med + 1e-12 * max(1.0, float(np.max(np.abs(t)))))
-    if bad.size:
-        i = int(bad[0]) + 1
+        del steps
+        tol = rel_jitter * med + 1e-12 * max(1.0, _max_abs(t))
+        gap = _first_step(t, lambda d: np.abs(d - med) > tol)
+    if gap is not None:
         raise CaptureDataError(
-            f"time step {plain_number(dt[i - 1])} s differs from the sample interval {plain_number(med)} s "
-            "(gap or corrupt record)", file=file, row=line_of(i))
+            f"time step {plain_number(t[gap] - t[gap - 1])} s differs from the sample interval {plain_number(med)} s "
+            "(gap or corrupt record)", file=file, row=line_of(gap))
+    return med
+
+
+def _first_step(t: np.ndarray, bad: Callable[[np.ndarray], np.ndarray]) -> int | None:
+    """The sample ``i`` whose step ``t[i] − t[i−1]`` is the first that ``bad(steps)`` marks.
+
+    The steps are taken in blocks of :data:`_CHECK_BLOCK` (each the same ``np.diff`` values as the
+    whole column's): no array of the column's length.
+    """
+    for start in range(0, t.size - 1, _CHECK_BLOCK):
+        hit = np.flatnonzero(bad(np.diff(t[start : start + _CHECK_BLOCK + 1])))
+        if hit.size:
+            return start + int(hit[0]) + 1
+    return None
+
+
+def _max_abs(t: np.ndarray) -> float:
+    """``max(|t|)`` in blocks of :data:`_CHECK_BLOCK` (the same value, no array of the column's length)."""
+    return max(float(np.max(np.abs(t[i : i + _CHECK_BLOCK]))) for i in range(0, t.size, _CHECK_BLOCK))
 
 
 #: A step longer than this many median steps, and than :data:`GAP_OVER_P99` × the 99th
@@ -485,8 +513,15 @@ def time_gaps(dt: np.ndarray, *, median: float | None = None, scratch: np.ndarra
     if scratch is None:
         scratch = dt.copy()
     med = float(np.median(scratch, overwrite_input=True)) if median is None else median
-    limit = max(GAP_MEDIANS * med, GAP_OVER_P99 * float(np.percentile(scratch, 99, overwrite_input=True)))
-    return np.flatnonzero(dt > limit)
+    return np.flatnonzero(dt > _gap_limit(scratch, med))
+
+
+def _gap_limit(scratch: np.ndarray, median: float) -> float:
+    """The step beyond which a step is a gap (:data:`GAP_MEDIANS`, :data:`GAP_OVER_P99`).
+
+    ``scratch`` holds the steps in any order; it is reordered.
+    """
+    return max(GAP_MEDIANS * median, GAP_OVER_P99 * float(np.percentile(scratch, 99, overwrite_input=True)))
 
 
 #: Stamps whose steps deviate from their median by less than this (relative) are uniform.
@@ -494,7 +529,7 @@ UNIFORM_REL = 0.01
 
 
 def uniform_grid(time_s: np.ndarray, output: np.ndarray, inp: np.ndarray | None,
-                 extra: Mapping[str, np.ndarray], *, file: str,
+                 extra: Mapping[str, np.ndarray], *, file: str, median: float | None = None,
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, dict[str, np.ndarray], str]:
     """A log with jittered stamps on a uniform grid, and the note that says so ('' when uniform).
 
@@ -515,6 +550,9 @@ def uniform_grid(time_s: np.ndarray, output: np.ndarray, inp: np.ndarray | None,
         Further columns (interpolated too).
     file : str
         For the note.
+    median : float, optional
+        ``np.median(np.diff(time_s))`` when the caller has it (:func:`check_samples` returns it):
+        then the steps are tested in blocks, with no array of the log's length.
 
     Returns
     -------
@@ -524,15 +562,12 @@ def uniform_grid(time_s: np.ndarray, output: np.ndarray, inp: np.ndarray | None,
     t = np.asarray(time_s, dtype=float)
     if t.size < 3:
         return time_s, output, inp, dict(extra), ""
-    # the steps are reordered by the median and shifted in place: one array of the log's length,
-    # not four (the test below does not depend on their order)
-    deviation = np.diff(t)
-    med = float(np.median(deviation, overwrite_input=True))
-    deviation -= med
-    np.abs(deviation, out=deviation)
-    if np.all(deviation <= UNIFORM_REL * med + 1e-12 * max(1.0, abs(float(t[0])), abs(float(t[-1])))):
+    if median is None:
+        median = float(np.median(np.diff(t), overwrite_input=True))
+    med = median
+    tol = UNIFORM_REL * med + 1e-12 * max(1.0, abs(float(t[0])), abs(float(t[-1])))
+    if _first_step(t, lambda d: ~(np.abs(d - med) <= tol)) is None:
         return time_s, output, inp, dict(extra), ""
-    del deviation
     dt = np.diff(t)
     step = (t[-1] - t[0]) / (t.size - 1)
     anchor = t[0]
@@ -564,15 +599,20 @@ def validate_rows(
     rows: Sequence[int] | np.ndarray,
     time_name: str = "time",
     jitter_ok: bool = False,
-) -> None:
+) -> float:
     """:func:`check_samples` with the file row of every sample given as a sequence.
+
+    Returns
+    -------
+    float
+        The median time step (s).
 
     Raises
     ------
     CaptureDataError
         As :func:`check_samples`, with the row a user can open.
     """
-    check_samples(time_s, channels, file=file, time_name=time_name, jitter_ok=jitter_ok,
+    return check_samples(time_s, channels, file=file, time_name=time_name, jitter_ok=jitter_ok,
                   line_of=lambda i: int(rows[i]) if 0 <= i < len(rows) else None)
 
 
@@ -730,33 +770,99 @@ def _pandas_reader(size: int):
     return pandas.read_csv if int(pandas.__version__.split(".")[0]) >= 3 else None
 
 
+#: Bytes per block of the file given to pandas' parser at a time (cut after a line's end): each block's
+#: numbers are copied into columns allocated once, so the peak is the columns plus one block's frame
+#: (about 17 MB for three columns), not pandas' parsed blocks and their concatenation (about twice
+#: the columns).  Blocks of 16 MiB cost no more CPU than one call on the whole file (``chunksize``
+#: cost half as much again as the whole parse, smaller blocks the call's overhead).
+PANDAS_BLOCK_BYTES = 16 << 20
+
+
+def _expected_rows(path: PathLike, size: int) -> int:
+    """Rows to allocate for: the file's size over the mean line length of its first 64 KiB, plus a quarter.
+
+    Only an estimate (the columns grow when it is short, :func:`_load_with_pandas`); pages never
+    written are never resident, so too many rows cost address space, not memory.
+    """
+    head = read_head(path)
+    lines = head.count(b"\n")
+    if not lines or len(head) >= size:
+        return max(lines + 1, 1)
+    return int(size * lines / len(head) * 1.25) + 1024
+
+
 def _load_with_pandas(read_csv, path: PathLike, skiprows: int, delimiter: str,
-                      usecols: Sequence[int] | None) -> list[np.ndarray] | None:
+                      usecols: Sequence[int] | None, size: int = 0) -> list[np.ndarray] | None:
     """The numeric columns by pandas' C parser, or ``None`` when ``np.loadtxt`` must decide.
 
     pandas pads a short row with NaN and reads some cells ``np.loadtxt`` refuses, and the reverse;
     any failure, and any NaN in the result, leaves the file to ``np.loadtxt`` so that what is
-    accepted and refused (and where) does not depend on whether pandas is installed.  Each column
-    is taken as pandas made it (contiguous, no copy): a (rows, columns) array of the frame would be
-    one more copy of the whole table.
+    accepted and refused (and where) does not depend on whether pandas is installed.  The file is
+    parsed in blocks of :data:`PANDAS_BLOCK_BYTES` cut after a line feed (a file with lone CR line
+    ends has none: it is left to ``np.loadtxt``), each block's columns copied into one contiguous
+    array per column allocated once and checked for NaN while in cache: one copy of the table in
+    memory.
     """
+    import io
     import warnings as _warnings
 
+    columns: list[np.ndarray] = []
+    n = 0
     try:
-        with _warnings.catch_warnings():
+        with _warnings.catch_warnings(), _open(path) as fh:
             _warnings.simplefilter("error")
-            frame = read_csv(path, sep=delimiter, header=None, skiprows=skiprows, usecols=usecols,
-                             dtype=np.float64, engine="c", na_filter=False, comment=None,
-                             quoting=csv.QUOTE_NONE, skip_blank_lines=True)
+            for _ in range(skiprows):
+                fh.readline()
+            rest = b""
+            while True:
+                block = fh.read(PANDAS_BLOCK_BYTES)
+                data = rest + block
+                if block:
+                    cut = data.rfind(b"\n") + 1
+                    data, rest = data[:cut], data[cut:]
+                if not data.strip():
+                    if block:
+                        continue
+                    break
+                frame = read_csv(io.BytesIO(data), sep=delimiter, header=None, usecols=usecols, dtype=np.float64,
+                                 engine="c", na_filter=False, comment=None, quoting=csv.QUOTE_NONE,
+                                 skip_blank_lines=True)
+                del data
+                m = frame.shape[0]
+                if not columns:
+                    rows = max(_expected_rows(path, size), m)
+                    columns = [np.empty(rows) for _ in range(frame.shape[1])]
+                if frame.shape[1] != len(columns):
+                    return None
+                if n + m > columns[0].size:  # the first lines were longer than the rest
+                    rows = max(n + m, int(columns[0].size * 1.5))
+                    columns = [_grown(c, n, rows) for c in columns]
+                for k, col in enumerate(columns):
+                    np.copyto(col[n : n + m], frame.iloc[:, k].to_numpy(dtype=np.float64, copy=False))
+                    if np.isnan(col[n : n + m]).any():
+                        return None
+                n += m
+                del frame
+                if not block:
+                    break
         # (UTF-8, pandas' native decoder: latin-1 would go through Python's codec, 1.5× slower; a
         # byte that is not UTF-8 is not a number either and fails here)
     except (ValueError, Warning):  # pandas' ParserError and EmptyDataError, UnicodeDecodeError
         return None
-    columns = [frame.iloc[:, k].to_numpy(dtype=np.float64, copy=False) for k in range(frame.shape[1])]
-    del frame
-    if not columns or columns[0].size == 0 or any(np.isnan(c).any() for c in columns):
+    except OSError as exc:
+        raise _os_error(exc, str(path)) from None
+    if not columns or n == 0:
         return None
+    for col in columns:
+        col.resize(n, refcheck=False)  # in place (realloc): the pages beyond n were never written
     return columns
+
+
+def _grown(col: np.ndarray, n: int, rows: int) -> np.ndarray:
+    """``col``'s first ``n`` values in a new array of ``rows``."""
+    out = np.empty(rows)
+    out[:n] = col[:n]
+    return out
 
 
 def load_columns(
@@ -800,7 +906,7 @@ def load_column_arrays(
     """
     read_csv = _pandas_reader(size) if delimiter in (",", ";", "\t") else None
     if read_csv is not None:
-        cols = _load_with_pandas(read_csv, path, skiprows, delimiter or ",", usecols)
+        cols = _load_with_pandas(read_csv, path, skiprows, delimiter or ",", usecols, size)
         if cols is not None:
             return cols
     arr = load_columns(path, skiprows=skiprows, delimiter=delimiter, usecols=usecols)

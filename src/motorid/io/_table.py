@@ -345,10 +345,10 @@ def capture_from_table(
         while key in extra:
             key += "_"
         extra[key] = values(j)
-    validate_rows(time_s, {f"{where} {k!r}": v for k, v in checked.items()}, file=file, rows=rows,
-                  time_name=f"{where} {names[asg.time]!r}", jitter_ok=True)
+    median_step = validate_rows(time_s, {f"{where} {k!r}": v for k, v in checked.items()}, file=file, rows=rows,
+                                time_name=f"{where} {names[asg.time]!r}", jitter_ok=True)
     notes = list(warnings) + ([time_note] if time_note else [])
-    time_s, output, inp, extra, grid_note = uniform_grid(time_s, output, inp, extra, file=file)
+    time_s, output, inp, extra, grid_note = uniform_grid(time_s, output, inp, extra, file=file, median=median_step)
     if grid_note:
         notes.append(grid_note)
     role_keys = set(asg.role_columns)
@@ -364,7 +364,7 @@ def capture_from_table(
     def info(j: int) -> ChannelInfo:
         return ChannelInfo(name=names[j], units=_units_from_name(names[j]))
 
-    return Capture(
+    return Capture.adopt(
         source=file,
         format=fmt,
         time_s=time_s,

@@ -79,7 +79,7 @@ def step_response(model: MotorModel, time_s: Any, step_volts: float | None = Non
                 # a non-uniform grid: the exact state at each instant, one exponential per sample
                 x[after] = zoh(model.A, model.B, ta[:, None, None])[1][:, :, 0] * step
     with np.errstate(over="ignore", invalid="ignore"):
-        y = x @ model.C.T
+        y = _outputs(x, model.C)
         del x
         # + D·step after the step, + 0.0 before it (in place: the same sums as adding the full array)
         if everywhere:
@@ -91,6 +91,29 @@ def step_response(model: MotorModel, time_s: Any, step_volts: float | None = Non
 
 #: Samples per block of the checks over a long time axis (their temporaries stay small).
 _BLOCK = 1 << 18
+
+
+def _outputs(x: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """``x @ c.T``: the outputs of the states ``x`` (one row a sample), written over ``x`` when it fits.
+
+    A long record (at least two :data:`_BLOCK` of samples) with as many outputs as states has its
+    outputs computed in row blocks of at least ``_BLOCK`` rows (the last block takes the remainder,
+    so no product is small) and stored over ``x``: each output row depends on its own state row
+    only, and each block is the same BLAS product as the whole (tests/model/test_response_memory.py
+    compares the bits), so the states and the outputs of a 10 M-sample record are not held
+    together; the outputs' columns are laid out as the whole product's.  Otherwise (fewer outputs
+    than states: their columns over the states would be strided, and copied by whoever needs them
+    contiguous) the whole product, as before.
+    """
+    count, n = x.shape
+    m = c.shape[0]
+    if count < 2 * _BLOCK or m != n or not x.flags.c_contiguous:
+        return x @ c.T
+    starts = list(range(0, count - _BLOCK, _BLOCK))  # the last block holds _BLOCK to 2·_BLOCK − 1 rows
+    for i, start in enumerate(starts):
+        stop = starts[i + 1] if i + 1 < len(starts) else count
+        x[start:stop] = x[start:stop] @ c.T
+    return x
 
 
 def _max_abs(t: np.ndarray) -> float:
@@ -126,7 +149,11 @@ def _affine_orbit(phi: np.ndarray, gam: np.ndarray, x0: np.ndarray, count: int,
     power, offset, m = phi.copy(), gam.copy(), 1
     while m < count:
         k = min(m, count - m)
-        out[m : m + k] = out[:k] @ power.T + offset
+        # the product straight into the orbit and the offset added in place: the same BLAS product
+        # and the same sums as ``out[:k] @ power.T + offset``, without its two temporaries of half
+        # the record (tests/model/test_model_response_inplace.py compares the bits)
+        np.matmul(out[:k], power.T, out=out[m : m + k])
+        out[m : m + k] += offset
         offset = power @ offset + offset
         power = power @ power
         m *= 2
