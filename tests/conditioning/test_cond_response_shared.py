@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from motorid.capture import Capture, ChannelInfo
 from motorid.conditioning.response import _minus, step_response
@@ -61,3 +62,20 @@ def test_the_reduced_record_is_the_reduction_of_the_stacked_full_rate_record():
         assert cond.time_s.tobytes() == want.time_s.tobytes()
         assert cond.input_v.tobytes() == want.values[0].tobytes()
         assert cond.outputs["velocity"].tobytes() == want.values[1].tobytes()
+
+
+def test_a_responses_sample_interval_is_computed_once_and_travels_with_it():
+    """The median of the steps is taken once per response (an identification asks for it over
+    a hundred times); a replaced response with other times computes its own."""
+    import dataclasses
+    import pickle
+
+    from motorid.conditioning.response import StepResponse
+
+    t = np.arange(-5, 20) * 0.01
+    r = StepResponse("f", "velocity", t, np.ones_like(t), np.ones_like(t), 1.0, None, 0, ())  # type: ignore[arg-type]
+    assert r.sample_interval_s == pytest.approx(0.01)
+    assert r._dt_cache == [r.sample_interval_s]
+    assert pickle.loads(pickle.dumps(r)).sample_interval_s == r.sample_interval_s
+    other = dataclasses.replace(r, time_s=t * 2)
+    assert other.sample_interval_s == pytest.approx(0.02) and r.sample_interval_s == pytest.approx(0.01)
