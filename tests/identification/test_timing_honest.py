@@ -196,3 +196,29 @@ def test_an_unresolved_structure_does_not_widen_the_interval(tmp_path):
     for name in ("time_constant", "residence_time_s"):
         p = fit.params[name]
         assert p.ci95[0] > 0 and p.stderr < 0.1 * p.value, (name, p)
+
+
+def test_a_structure_with_an_undemanded_right_half_plane_zero_is_not_chosen():
+    """The structure choice applies the sanity gate's rule: a right-half-plane zero whose interval
+    reaches the left half-plane is not what the data demand, so the best structure the data
+    support is kept and the choice says why (before, it was chosen and the gate then failed); a
+    zero whose whole interval is in the right half-plane is kept, as the gate keeps it."""
+    from types import SimpleNamespace
+
+    from motorid.identification.stages import (UNDEMANDED_ZERO, UNRESOLVED_POLE, _supported_first,
+                                                unsupported_because)
+
+    def res(zeros, zero_ci, poles=(-3.0,), pole_ci=((-3.2, -2.8),)):
+        ci = {f"pole_{i}": c for i, c in enumerate(pole_ci)} | {f"zero_{i}": c for i, c in enumerate(zero_ci)}
+        return SimpleNamespace(poles=np.array(poles, complex), zeros=np.array(zeros, complex), ci95=ci, std={})
+
+    rhp = res([178.0], [(-40.0, 396.0)])
+    assert unsupported_because(rhp) == UNDEMANDED_ZERO
+    assert unsupported_because(res([178.0], [(150.0, 206.0)])) == ""  # demanded: its whole interval there
+    assert unsupported_because(res([-24.7], [(-30.2, -19.2)])) == ""
+    assert unsupported_because(res([], [], poles=(-3.0, -15.8), pole_ci=((-3.2, -2.8), (-58.1, 26.6)))) \
+        == UNRESOLVED_POLE
+    plain = res([], [])
+    fits, why = _supported_first([(0.0, (3, 1), False, rhp, None), (3.0, (3, 0), False, plain, None)])
+    assert fits[0][3] is plain
+    assert why.startswith("3 pole(s) and 1 zero(s) fits better but the data do not demand its right-half-plane")

@@ -981,11 +981,49 @@ def _refit(cond: ConditionedExperiment, fit: Any, noise: NoiseModel,
     return fit, refined
 
 
-def resolved(res: OeResult) -> bool:
-    """Whether the data resolve every pole of a fit: alone, or as a pair (:func:`unresolved_pairs`).
+#: Why a structure is not one the data support (:func:`unsupported_because`), in the words the
+#: choice's evidence uses after "the data do not …".
+UNRESOLVED_POLE = ("resolve its extra pole (its interval reaches the right half-plane or is wider than the "
+                   "pole)")
+UNDEMANDED_ZERO = ("demand its right-half-plane zero (its interval reaches the left half-plane; an inverse "
+                   "response, which a DC motor's velocity does not have)")
 
-    A pole is resolved when its 95 % interval stays in the left half-plane and is narrower than
-    the pole itself.
+
+def unsupported_because(res: OeResult) -> str:
+    """Why the data do not support a fit's structure; empty when they do.
+
+    Every pole must be resolved, alone or as a pair (:func:`unresolved_pairs`): its 95 %
+    interval stays in the left half-plane and is narrower than the pole itself.  A zero in the
+    right half-plane must be demanded: its whole 95 % interval lies there (the sanity gate's
+    rule, :func:`motorid.identification.sanity.sanity_checks`); otherwise a structure with
+    fewer zeros describes the record as well.
+
+    Parameters
+    ----------
+    res : OeResult
+        An output-error result.
+
+    Returns
+    -------
+    str
+        :data:`UNRESOLVED_POLE`, :data:`UNDEMANDED_ZERO` or ``""``.
+    """
+    paired = {j for i in unresolved_pairs(res) for j in (i, i + 1)}
+    for i, p in enumerate(res.poles):
+        lo, hi = res.ci95.get(f"pole_{i}", (float("nan"), float("nan")))
+        if i in paired or not np.isfinite(lo + hi):
+            continue
+        if hi >= 0 or (hi - lo) / 2 > abs(float(np.real(p))):
+            return UNRESOLVED_POLE
+    for i, z in enumerate(res.zeros):
+        lo, _ = res.ci95.get(f"zero_{i}", (float("nan"), float("nan")))
+        if float(np.real(z)) > 0 and not lo > 0:
+            return UNDEMANDED_ZERO
+    return ""
+
+
+def resolved(res: OeResult) -> bool:
+    """Whether the data support a fit's structure (:func:`unsupported_because` is empty).
 
     Parameters
     ----------
@@ -996,24 +1034,23 @@ def resolved(res: OeResult) -> bool:
     -------
     bool
     """
-    paired = {j for i in unresolved_pairs(res) for j in (i, i + 1)}
-    for i, p in enumerate(res.poles):
-        lo, hi = res.ci95.get(f"pole_{i}", (float("nan"), float("nan")))
-        if i in paired or not np.isfinite(lo + hi):
-            continue
-        if hi >= 0 or (hi - lo) / 2 > abs(float(np.real(p))):
-            return False
-    return True
+    return not unsupported_because(res)
 
 
 def _supported_first(fits: list[Any]) -> tuple[list[Any], str]:
-    """Fits with the best one whose poles the data resolve moved first, and what it replaced ('' if none)."""
+    """Fits with the best one the data support moved first, and why it replaced the first ('' if none)."""
     if not fits or resolved(fits[0][3]):
         return fits, ""
     ok = next((f for f in fits if resolved(f[3])), None)
     if ok is None:
         return fits, ""
-    return [ok] + [f for f in fits if f is not ok], _describe(fits[0][1], fits[0][2])
+    return [ok] + [f for f in fits if f is not ok], _replaced(fits[0])
+
+
+def _replaced(fit: Any) -> str:
+    """The evidence's words for a better-fitting structure the data do not support."""
+    return (f"{_describe(fit[1], fit[2])} fits better but the data do not {unsupported_because(fit[3])}: the "
+            "structure the data support is kept")
 
 
 def _order_stalled(best_of: dict[int, float], order: int) -> bool:
@@ -1137,7 +1174,7 @@ def select_order(
             if resolved(alt[3]):
                 cand, cand_noise = _refit(cond, alt, noise, options)
                 if resolved(cand[3]):
-                    unsupported = unsupported or _describe(best[1], best[2])
+                    unsupported = unsupported or _replaced(best)
                     fits = [alt] + [f for f in fits if f is not alt]
                     best, refined = cand, cand_noise
                     break
@@ -1158,8 +1195,7 @@ def select_order(
         evidence = (f"BIC prefers {_describe(best[1], best[2])} over "
                     f"{_describe(runner[1], runner[2])} by ΔBIC = {runner[0] - best[0]:.1f}")
     if unsupported:
-        evidence += (f"; {unsupported} fits better but the data do not resolve its extra pole (its interval reaches "
-                     "the right half-plane or is wider than the pole): the structure the data support is kept")
+        evidence += f"; {unsupported}"
     if len(variants) == 2:
         evidence += (f" (a dead time was tried: the data stay in their noise band for "
                      f"{1e3 * cond.dead_time_s:.3g} ms after the step)")
