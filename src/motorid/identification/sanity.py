@@ -158,6 +158,48 @@ def first_order_baseline(time_s: np.ndarray, y: np.ndarray, step_volts: float) -
     return f(t, *p), {"dc_gain": float(p[0]), "time_constant": float(p[1]), "delay": float(p[2])}
 
 
+def pole_unresolved(re_: float, lo: float, hi: float) -> bool:
+    """Whether a pole with a 95 % interval ``[lo, hi]`` is not resolved by the data.
+
+    Its interval reaches the imaginary axis, or is wider than the pole itself.  The gate's rule,
+    which the structure choice applies too
+    (:func:`motorid.identification.stages.unsupported_because`).
+
+    Parameters
+    ----------
+    re_ : float
+        The pole's real part (1/s).
+    lo, hi : float
+        Its 95 % interval (finite).
+
+    Returns
+    -------
+    bool
+    """
+    return hi >= 0 or (hi - lo) / 2 > abs(re_)
+
+
+def zero_undemanded(re_: float, lo: float) -> bool:
+    """Whether a zero lies in the right half-plane without the data demanding it.
+
+    A right-half-plane zero (an inverse response, not physical for a DC motor's velocity) is
+    demanded only when its whole 95 % interval lies there; without an interval (``lo`` NaN)
+    nothing demands it.
+
+    Parameters
+    ----------
+    re_ : float
+        The zero's real part (1/s).
+    lo : float
+        The lower end of its 95 % interval (NaN when there is none).
+
+    Returns
+    -------
+    bool
+    """
+    return re_ > 0 and not lo > 0
+
+
 def _resolved_roots(u: Uncertainty | None) -> list[SanityCheck]:
     """Every pole the data resolve (alone or as a pair); no right-half-plane zero they do not demand.
 
@@ -175,7 +217,7 @@ def _resolved_roots(u: Uncertainty | None) -> list[SanityCheck]:
         if i in paired or item.ci95 is None:
             continue
         lo, hi = item.ci95
-        if hi >= 0 or (hi - lo) / 2 > abs(re_):
+        if pole_unresolved(re_, lo, hi):
             loose.append(f"pole {i + 1} ({re_:.4g}, 95 % interval [{lo:.4g}, {hi:.4g}])")
     checks = [SanityCheck(
         "every pole resolved by the data", not loose,
@@ -188,8 +230,8 @@ def _resolved_roots(u: Uncertainty | None) -> list[SanityCheck]:
         re_ = float(np.real(item.value))
         if re_ <= 0:
             continue
-        lo, hi = item.interval_or_nan()  # no interval: nothing demands it
-        demanded = bool(lo > 0)
+        lo, hi = item.interval_or_nan()
+        demanded = not zero_undemanded(re_, lo)
         checks.append(SanityCheck(
             "no unphysical right-half-plane zero", demanded,
             f"zero {i + 1} at {re_:+.4g} (95 % interval [{lo:.4g}, {hi:.4g}]) is in the right half-plane: an inverse "

@@ -34,6 +34,7 @@ from motorid.identification.method_options import (
 )
 from motorid.identification.noise_json import SCALE_ONLY, ChannelNoise
 from motorid.identification.result import IdentificationError
+from motorid.identification.sanity import pole_unresolved, zero_undemanded
 from motorid.identification.srivc import SrivcSettings, srivc_fit
 from motorid.model import MotorModel
 from motorid.model.motor import realise_tfs
@@ -428,10 +429,7 @@ def oe_uncertainty(res: OeResult, cond: ConditionedExperiment | None = None) -> 
         Estimates, standard errors and 95 % intervals.
     """
     def item(key: str, value: float | complex) -> ParameterEstimate:
-        lo, hi = res.ci95.get(key, (float("nan"), float("nan")))
-        ci = (float(lo), float(hi)) if math.isfinite(lo) and math.isfinite(hi) else None
-        value = value if isinstance(value, complex) else float(value)
-        return ParameterEstimate(value, float(res.std.get(key, float("nan"))), ci)
+        return _estimate_of(res, key, value)
 
     def root(key: str, value: complex) -> ParameterEstimate:
         return item(key, complex(float(np.real(value)), float(np.imag(value))))
@@ -451,6 +449,14 @@ def oe_uncertainty(res: OeResult, cond: ConditionedExperiment | None = None) -> 
         joint=joint_covariance(res),
         timing={} if cond is None else channel_timing(res, cond),
     )
+
+
+def _estimate_of(res: OeResult, key: str, value: float | complex) -> ParameterEstimate:
+    """``value`` with the fit's standard error and 95 % interval of ``key`` (none when not finite)."""
+    lo, hi = res.ci95.get(key, (float("nan"), float("nan")))
+    ci = (float(lo), float(hi)) if math.isfinite(lo) and math.isfinite(hi) else None
+    value = value if isinstance(value, complex) else float(value)
+    return ParameterEstimate(value, float(res.std.get(key, float("nan"))), ci)
 
 
 def joint_covariance(res: OeResult) -> JointCovariance:
@@ -551,9 +557,7 @@ def channel_timing(res: OeResult, cond: ConditionedExperiment) -> dict[str, Chan
             continue
         shift, note = None, None
         if role in res.shifts:
-            lo, hi = res.ci95.get(f"shift_{role}", (float("nan"), float("nan")))
-            ci = (float(lo), float(hi)) if math.isfinite(lo) and math.isfinite(hi) else None
-            shift = ParameterEstimate(float(res.shifts[role]), float(res.std.get(f"shift_{role}", float("nan"))), ci)
+            shift = _estimate_of(res, f"shift_{role}", res.shifts[role])
         elif r.timing == "onset" and res.delay_s is not None:
             note = "its shift is the dead time (a step instant read off the response cannot be told from it)"
         out[role] = ChannelTiming(TIMING_SOURCES.get(r.timing, r.timing), float(r.edge.time_s) - _sampled_phase(r),
@@ -1013,11 +1017,11 @@ def unsupported_because(res: OeResult) -> str:
         lo, hi = res.ci95.get(f"pole_{i}", (float("nan"), float("nan")))
         if i in paired or not np.isfinite(lo + hi):
             continue
-        if hi >= 0 or (hi - lo) / 2 > abs(float(np.real(p))):
+        if pole_unresolved(float(np.real(p)), lo, hi):
             return UNRESOLVED_POLE
     for i, z in enumerate(res.zeros):
         lo, _ = res.ci95.get(f"zero_{i}", (float("nan"), float("nan")))
-        if float(np.real(z)) > 0 and not lo > 0:
+        if zero_undemanded(float(np.real(z)), lo):
             return UNDEMANDED_ZERO
     return ""
 
