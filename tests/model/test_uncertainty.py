@@ -139,3 +139,18 @@ def test_the_noise_model_and_the_sanity_gate_read_back_what_they_wrote(demo_run)
     assert back == report and back.failures == ("not fine",)
     assert SanityReport.from_json(None) == SanityReport() and SanityReport.from_json({"checks": 3}) == SanityReport()
     assert noise_of(model_from_velocity_tf([2.0], [1.0, 2.0])) == {}
+
+
+@pytest.mark.parametrize(("edit", "message"), [
+    (lambda u: [1], "uncertainty must be an object"),
+    (lambda u: {**u, "pole_pairs": [{"poles": "x"}]}, "uncertainty:"),
+])
+def test_a_model_file_with_a_broken_uncertainty_is_one_line_and_exit_2(demo_run, tmp_path, run_cli, edit, message):
+    doc = _doc(demo_run)
+    doc["uncertainty"] = edit(doc["uncertainty"])
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(doc))
+    r = run_cli("design", bad, "--damping", "1", "--wn", "8")
+    assert r.code == 2
+    assert message in r.err and str(bad) in r.err
+    assert "Traceback" not in r.err and len(r.err.strip().splitlines()) == 1
