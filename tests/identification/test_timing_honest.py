@@ -222,3 +222,27 @@ def test_a_structure_with_an_undemanded_right_half_plane_zero_is_not_chosen():
     fits, why = _supported_first([(0.0, (3, 1), False, rhp, None), (3.0, (3, 0), False, plain, None)])
     assert fits[0][3] is plain
     assert why.startswith("3 pole(s) and 1 zero(s) fits better but the data do not demand its right-half-plane")
+
+
+def test_a_demanded_right_half_plane_zero_is_explained_where_it_is_printed():
+    """A zero whose whole interval is in the right half-plane passes the gate (the data demand it).
+
+    Before, the printout listed it as ``zero 1: 85.49 ± 15 (95 %)`` under "all checks passed"
+    (the bundled rig log with its brake); now its line says what it is worth: a dead time of
+    2/z (first-order Padé) and a crossover bound of z/2.
+    """
+    from dataclasses import replace
+
+    from motorid.report.summary import model_summary
+
+    z = 85.49
+    m = model_from_velocity_tf(np.array([-4149.0, 4149.0 * z]), np.array([1.0, 42.14, 565.9, 2353.0]))
+    demanded = Uncertainty.from_dict({"zeros": [{"value": [z, 0.0], "ci95": [70.0, 100.0]}]})
+    line = next(ln for ln in model_summary(replace(m, uncertainty=demanded)) if ln.startswith("zero 1"))
+    assert "demanded by the data" in line
+    assert f"2/z = {2e3 / z:.4g} ms" in line and f"z/2 = {z / 2:.4g} rad/s" in line
+    undemanded = Uncertainty.from_dict({"zeros": [{"value": [z, 0.0], "ci95": [-10.0, 180.0]}]})
+    line = next(ln for ln in model_summary(replace(m, uncertainty=undemanded)) if ln.startswith("zero 1"))
+    assert "demanded" not in line  # the gate fails it and says so in its own warning
+    check = next(c for c in _resolved_roots(demanded) if c.name == "no unphysical right-half-plane zero")
+    assert check.passed and "2/z" in check.detail

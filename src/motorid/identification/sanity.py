@@ -31,8 +31,9 @@ import scipy.optimize
 
 from motorid.identification.classic import first_crossing
 from motorid.model.uncertainty import Uncertainty
+from motorid.numfmt import sig
 
-__all__ = ["TOLERANCES", "SanityCheck", "SanityReport", "first_order_baseline", "sanity_checks"]
+__all__ = ["TOLERANCES", "SanityCheck", "SanityReport", "demanded_zero_note", "first_order_baseline", "sanity_checks"]
 
 #: Tolerances of the gate, each with its reason.
 TOLERANCES: Mapping[str, float] = {
@@ -200,6 +201,35 @@ def zero_undemanded(re_: float, lo: float) -> bool:
     return re_ > 0 and not lo > 0
 
 
+def demanded_zero_note(re_: float, lo: float) -> str | None:
+    """What a right-half-plane zero the data demand means for a DC motor, in one clause.
+
+    A DC motor's velocity has no inverse response; a right-half-plane zero whose whole 95 %
+    interval lies there stands for a lag that the structures with a dead time fit worse.  Its
+    first-order Padé reading, ``e^(−sT) ≈ (1 − sT/2)/(1 + sT/2)``, gives the dead time it is
+    worth, ``T = 2/z``; and it bounds a loop's crossover to below about ``z/2``.
+
+    Parameters
+    ----------
+    re_ : float
+        The zero's real part (1/s).
+    lo : float
+        The lower end of its 95 % interval (NaN when there is none).
+
+    Returns
+    -------
+    str or None
+        The clause; None for a zero in the left half-plane or one the data do not demand
+        (:func:`zero_undemanded`: the sanity gate fails it and says so).
+    """
+    if re_ <= 0 or zero_undemanded(re_, lo):
+        return None
+    return (f"right half-plane, demanded by the data (its whole interval is there): an inverse response a DC "
+            f"motor's velocity does not have; it stands for a lag the structures with a dead time fit worse, "
+            f"worth a dead time of about 2/z = {sig(2e3 / re_)} ms (first-order Padé), and it keeps a loop's "
+            f"crossover below about z/2 = {sig(re_ / 2)} rad/s; check the sensor and its filter")
+
+
 def _resolved_roots(u: Uncertainty | None) -> list[SanityCheck]:
     """Every pole the data resolve (alone or as a pair); no right-half-plane zero they do not demand.
 
@@ -236,7 +266,7 @@ def _resolved_roots(u: Uncertainty | None) -> list[SanityCheck]:
             "no unphysical right-half-plane zero", demanded,
             f"zero {i + 1} at {re_:+.4g} (95 % interval [{lo:.4g}, {hi:.4g}]) is in the right half-plane: an inverse "
             "response, which a DC motor's velocity does not have"
-            + ("; the data demand it (its whole interval is there): check the sensor and its filter" if demanded else
+            + (f"; {demanded_zero_note(re_, lo)}" if demanded else
                "; the data do not demand it (its interval reaches the left half-plane): a structure with fewer "
                "zeros describes the record as well (try --order, or --method oe with fewer zeros)")))
     return checks

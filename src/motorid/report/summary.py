@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from motorid.identification.noise_json import noise_of
-from motorid.identification.sanity import SanityReport
+from motorid.identification.sanity import SanityReport, demanded_zero_note
 from motorid.model.notation import poly_text
 from motorid.model.uncertainty import Uncertainty
 from motorid.model.units import physical_gain
@@ -47,7 +47,9 @@ def _array_text(a: Any) -> str:
 def _header(model: Any, title: str) -> list[SummaryLine]:
     lines: list[SummaryLine] = [
         ((title, "bold"), (f": method {model.method}, {model.order} states {list(model.states)}, "
-                           f"{_velocity_poles(model)} poles of the velocity TF, step {sig(model.step_volts)} V", ""))]
+                           f"{_velocity_poles(model)} poles of the velocity TF"
+                           # a model built from a transfer function has no step of its own
+                           + (f", step {sig(model.step_volts)} V" if model.step_volts is not None else ""), ""))]
     lines.append(_plain(f"A = {_array_text(model.A)}"))
     lines.append(_plain(f"B = {_array_text(model.B.ravel())}ᵀ"))
     for name in ("velocity", "position", "current"):
@@ -111,8 +113,10 @@ def _uncertainty(u: Uncertainty | None, gain_unit: str = "V/V") -> list[SummaryL
         for i, item in enumerate(items):
             if name == "pole" and i in paired:
                 continue
+            note = demanded_zero_note(float(np.real(item.value)), item.interval_or_nan()[0]) if name == "zero" \
+                else None
             lines.append(_plain(f"{name} {i + 1}: {complex_text(complex(item.value))} ± "
-                                f"{sig(1.96 * item.stderr, 2)} (95 %)"))
+                                f"{sig(1.96 * item.stderr, 2)} (95 %)" + (f" — {note}" if note else "")))
     return lines
 
 

@@ -1,0 +1,19 @@
+"""The plain-text summary (:mod:`motorid.report.summary`) of models that were not identified from a step."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from motorid.model import model_from_velocity_tf
+from motorid.report.summary import model_summary
+
+
+def test_a_model_built_from_a_transfer_function_is_summarised_without_a_step():
+    """A model made from ``K/(τs + 1)`` has no step of its own: before, the summary raised
+    ``TypeError: float() argument must be … not 'NoneType'``; now its header omits the step."""
+    m = model_from_velocity_tf(np.array([10.0]), np.array([1.0, 5.0]))
+    lines = model_summary(m)
+    assert lines[0].startswith("identified model: method") and "step" not in lines[0]
+    assert any(ln.startswith("first order:") and "dc gain 2 " in ln for ln in lines)  # 10/5, unit follows
+    stepped = model_summary(model_from_velocity_tf(np.array([10.0]), np.array([1.0, 5.0]), step_volts=3.0))
+    assert stepped[0].endswith("step 3 V")
