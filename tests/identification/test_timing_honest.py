@@ -246,3 +246,11 @@ def test_a_demanded_right_half_plane_zero_is_explained_where_it_is_printed():
     assert "demanded" not in line  # the gate fails it and says so in its own warning
     check = next(c for c in _resolved_roots(demanded) if c.name == "no unphysical right-half-plane zero")
     assert check.passed and "2/z" in check.detail
+    # the report's model section carries the same sentence under its table of intervals
+    from types import SimpleNamespace
+
+    from motorid.report.html import model_section
+    notes = model_section(SimpleNamespace(identification=SimpleNamespace(
+        model=replace(m, uncertainty=demanded))))["root_notes"]
+    printed = next(ln for ln in model_summary(replace(m, uncertainty=demanded)) if ln.startswith("zero 1"))
+    assert notes == ["zero 1: " + printed.split(" — ", 1)[1]]

@@ -29,7 +29,7 @@ from motorid.capture import Capture
 from motorid.errors import MotorIdError
 from motorid.identification.noise_json import noise_of
 from motorid.identification.pipeline import Identification
-from motorid.identification.sanity import SanityReport
+from motorid.identification.sanity import SanityReport, demanded_zero_note
 from motorid.model.notation import poly_text
 from motorid.model.units import physical_gain
 from motorid.numfmt import DIGITS, complex_text, metric_name, roots_text, sig
@@ -368,6 +368,8 @@ def model_section(inp: ReportInputs) -> dict[str, Any]:
             for i, item in enumerate(items):
                 lo, hi = item.interval_or_nan()
                 rows.append([f"{name} {i + 1}", complex(item.value), item.stderr, f"[{_cell(lo)}, {_cell(hi)}]"])
+    root_notes = [f"zero {i + 1}: {note}" for i, item in enumerate(u.zeros if u is not None else ())
+                  if (note := demanded_zero_note(float(np.real(item.value)), item.interval_or_nan()[0]))]
     noise_rows = [[f"{role} ({model.units.get(role) or 'V'})", nm.sigma, nm.ar_order, nm.pre_step_sigma,
                    "its scale only: 8-bit codes not dithered by noise" if nm.scale_only
                    else "the dynamics"] for role, nm in noise_of(model).items()]
@@ -376,7 +378,7 @@ def model_section(inp: ReportInputs) -> dict[str, Any]:
         "states": ", ".join(model.states), "outputs": ", ".join(model.outputs), "tfs": tfs,
         "first_order": {"k": fo.k, "p": fo.p, "dc_gain": fo.dc_gain, "tau": fo.time_constant_s,
                         "gain_unit": model.dc_gain_unit},
-        "uncertainty_rows": rows,
+        "uncertainty_rows": rows, "root_notes": root_notes,
         "structure": u is not None and u.dc_gain is not None and u.dc_gain.structure_std is not None,
         "method": u.method if u is not None else "", "noise_rows": noise_rows,
         "pole_zero_png": figures.data_uri(figures.pole_zero(model)),
