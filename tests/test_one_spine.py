@@ -23,7 +23,7 @@ from motorid.trainer.realsetups import write_real_setup
 #: The rigs whose files the trainer writes as those rigs do, the demo's scope folders (the paper
 #: preset) and every other trainer preset's captures written as the scope saves them.
 CASES = ("demo", "l298n-rpm", "arduino-millis", "host-loop", "encoder-counts", "pwm-encoder", "daq-deadtime",
-         "ms-time", "fast-tbs1000", *(f"trainer:{p}" for p in PRESET_NAMES if p != "paper"))
+         "ms-time", "fast-tbs1000", "staircase", *(f"trainer:{p}" for p in PRESET_NAMES if p != "paper"))
 
 
 def _without_provenance(doc: dict, files: list[Path]) -> dict:
@@ -49,7 +49,11 @@ def _captures(case: str, demo_run, tmp_path: Path) -> tuple[dict[str, list[Path]
     args = list(rec.cli_args)
     roles = {args[i][2:]: [Path(args[i + 1])] for i in range(0, len(args), 2)
              if args[i] in ("--position", "--velocity", "--current")}
-    opts = {"step_volts": float(args[args.index("--step-volts") + 1])} if "--step-volts" in args else {}
+    opts: dict[str, float | int] = {}
+    if "--step-volts" in args:
+        opts["step_volts"] = float(args[args.index("--step-volts") + 1])
+    if "--segment" in args:  # one step of a staircase log, picked the same way by every front end
+        opts["segment"] = int(args[args.index("--segment") + 1])
     return roles, opts
 
 

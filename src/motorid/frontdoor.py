@@ -40,6 +40,7 @@ if TYPE_CHECKING:
 
     from motorid.analysis.advice import Advice
     from motorid.analysis.validation import ValidationResult
+    from motorid.conditioning.segment import StepSegment
     from motorid.control.design import Design
     from motorid.control.pid import PidDesign
     from motorid.identification.hammerstein import MultiLevelResult
@@ -96,6 +97,12 @@ class Experiment:
         own labels otherwise.
     scales : Mapping[str, ChannelScale]
         Sensor constants (volts per physical unit) the user gave.
+    steps : tuple of StepSegment
+        The input steps of a velocity log that holds several (a staircase, a pulse), in time
+        order; empty for an ordinary step capture.
+    segment : int or None
+        Which of ``steps`` the velocity capture was cut to (1-based); None when it is the
+        whole log (an ordinary capture, or a staircase for :func:`identify_levels`).
     """
 
     __getstate__ = frozen_getstate
@@ -108,10 +115,45 @@ class Experiment:
     sha256: Mapping[str, str] = field(default_factory=dict)
     units: Mapping[str, str] = field(default_factory=dict)
     scales: Mapping[str, ChannelScale] = field(default_factory=dict)
+    steps: tuple[StepSegment, ...] = ()
+    segment: int | None = None
 
     def __post_init__(self) -> None:
         for name in ("captures", "sources", "sha256", "units", "scales"):
             object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
+        object.__setattr__(self, "steps", tuple(self.steps))
+
+    def step_captures(self) -> tuple[Capture, ...]:
+        """Each input step of a several-steps velocity log as a capture of its own.
+
+        What :func:`identify_levels` takes: ``identify_levels(exp.step_captures())`` is
+        ``motorid identify --velocity LOG`` on a staircase.
+
+        Returns
+        -------
+        tuple of Capture
+            One per entry of :attr:`steps` (empty for an ordinary step capture).
+
+        Raises
+        ------
+        OptionError
+            The experiment holds one segment only (``segment`` was given).
+        """
+        from motorid.conditioning.segment import cut_segment
+
+        if self.segment is not None:
+            raise OptionError(f"this experiment is segment {self.segment} of its log: read the log again without "
+                              "--segment to cut every step")
+        return tuple(cut_segment(self.captures["velocity"], s) for s in self.steps)
+
+    def several_steps(self) -> bool:
+        """Whether the velocity capture is a whole log with several input steps (no segment picked).
+
+        Returns
+        -------
+        bool
+        """
+        return len(self.steps) >= 2 and self.segment is None
 
 
 def _paths(spec: CapturePath) -> list[Path]:
@@ -204,6 +246,7 @@ def read_experiment(
     time_unit: Literal["s", "ms", "us"] | None = None,
     units: Mapping[str, str] | None = None,
     scale: Mapping[str, str | ChannelScale] | None = None,
+    segment: int | None = None,
 ) -> Experiment:
     """Read the captures of one step experiment, one per role.
 
@@ -227,11 +270,16 @@ def read_experiment(
         Each channel's unit, e.g. ``{"velocity": "rpm"}`` (default: from the files).
     scale : Mapping[str, str or ChannelScale], optional
         Sensor constants, e.g. ``{"velocity": "0.1504V/(rad/s)", "current": "0.47ohm"}``.
+    segment : int, optional
+        A velocity log with several input steps (a staircase, a pulse): cut it to step N
+        (1-based) for :func:`identify`.  Without it such a log stays whole, its steps listed in
+        :attr:`Experiment.steps`, for :func:`identify_levels` (``exp.step_captures()``); a pulse
+        (one level that moves the motor) is cut to its first step.
 
     Returns
     -------
     Experiment
-        The captures by role, the step options and the files' SHA-256.
+        The captures by role, the step options, the files' SHA-256 and the input steps found.
 
     Raises
     ------
@@ -284,8 +332,63 @@ def read_experiment(
             raise OptionError(f"--scale {channel}: the {channel} data are already in {data_units[channel]}, not volts "
                               f"(a sensor constant turns volts into {sc.unit}); leave --scale {channel} out, or "
                               f"declare --units {channel}=V if the column is volts")
+    steps, picked = _log_steps(captures, segment)
+    if picked is not None:
+        captures["velocity"] = picked[1]
     return Experiment(captures, None if step_volts is None else float(step_volts),
-                      None if t0 is None else float(t0), sources, digests, declared, scales)
+                      None if t0 is None else float(t0), sources, digests, declared, scales,
+                      steps=steps, segment=None if picked is None else picked[0])
+
+
+def _log_steps(captures: Mapping[str, Capture], segment: int | None
+               ) -> tuple[tuple[StepSegment, ...], tuple[int, Capture] | None]:
+    """The input steps of the velocity log (several, or none), and the segment to cut it to.
+
+    ``segment`` picks one; a pulse (one level that moves the motor: a static characteristic
+    needs two) is cut to its first step, with a note on the capture; a staircase stays whole.
+    """
+    from motorid.conditioning.segment import cut_segment, find_steps
+
+    if segment is not None and (isinstance(segment, bool) or not isinstance(segment, int)):
+        raise OptionError(f"--segment {segment!r}: give a whole number ≥ 1")
+    cap = captures.get("velocity")
+    steps = find_steps(cap) if cap is not None else ()
+    if segment is not None and not (1 <= segment <= max(1, len(steps))):
+        found = "; ".join(s.describe() for s in steps) or "one step"
+        raise OptionError(f"--segment {segment}: the velocity log has {max(1, len(steps))} step(s) ({found})")
+    if cap is None or len(steps) < 2:
+        return (), None
+    if segment is not None:
+        return steps, (segment, cut_segment(cap, steps[segment - 1]))
+    span = max(abs(s.to_v) for s in steps)
+    moving = sorted({round(s.to_v, 6) for s in steps if abs(s.to_v) > 0.05 * span})
+    if len(moving) < 2:
+        first = cut_segment(cap, steps[0])
+        note = (f"one level moves the motor ({', '.join(f'{v:g} V' for v in moving)}): identified from segment 1 "
+                "(--segment N for another)")
+        return steps, (1, replace(first, warnings=(*first.warnings, note)))
+    return steps, None
+
+
+def several_steps_message(experiment: Experiment) -> str:
+    """Why :func:`identify` does not take a whole staircase log, and what to do instead.
+
+    Parameters
+    ----------
+    experiment : Experiment
+        One with :meth:`Experiment.several_steps`.
+
+    Returns
+    -------
+    str
+        The steps found, and the two ways on (one segment, or all of them together).
+    """
+    cap = experiment.captures["velocity"]
+    found = "; ".join(s.describe() for s in experiment.steps)
+    return (f"{cap.source}: {len(experiment.steps)} input steps found ({found}): one model is identified from one "
+            "step — pick one with --segment N, or identify all of them together (dead-zone, gain, rails and shared "
+            "dynamics) with identify_levels(experiment.step_captures()), as the command line does with such a "
+            "log")
 
 
 # ------------------------------------------------------------------------------ identification
@@ -617,6 +720,8 @@ def identify(
 
     if not isinstance(experiment, Experiment):
         raise OptionError(f"identify needs the Experiment of read_experiment(...), got {type(experiment).__name__}")
+    if experiment.several_steps():
+        raise OptionError(several_steps_message(experiment))
     # the settings validate every option themselves, naming the parameter (one check, not two)
     settings = IdentifySettings(
         method=method,

@@ -86,6 +86,7 @@ READ: tuple[OptionSpec, ...] = (
     OptionSpec("time_unit", "--time-unit", None, "", "a plain CSV's time column unit: s, ms or us"),
     OptionSpec("units", "--units", None, "", "each channel's unit, e.g. velocity=rpm"),
     OptionSpec("scale", "--scale", None, "", "sensor constants, e.g. velocity=0.1504V/(rad/s)"),
+    OptionSpec("segment", "--segment", None, "", "a log with several input steps: identify its step N alone (1-based)"),
 )
 
 #: :func:`motorid.identify`'s options.

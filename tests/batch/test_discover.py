@@ -63,6 +63,12 @@ def test_experiment_toml_names_roles_and_options(tmp_path, class_root):
     assert dict(spec.roles) == {"position": ("ALL0000",), "velocity": ("ALL0001",)}
     assert spec.step_volts == 5.92 and dict(spec.columns) == {"time": "t"}
     assert spec.captures == (("ALL0000",), ("ALL0001",))  # ALL0002 is not named: not an input
+    assert spec.segment is None
+    plain_hash = spec.content_hash({})
+    (tmp_path / "e" / "experiment.toml").write_text('velocity = "ALL0001"\nposition = "ALL0000"\nstep_volts = 5.92\n'
+                                                    'columns = {time = "t"}\nsegment = 2\n', encoding="utf-8")
+    (spec,) = discover_experiments([tmp_path])
+    assert spec.segment == 2 and spec.content_hash({}) != plain_hash  # a rerun with another segment is not skipped
 
 
 @pytest.mark.parametrize(("text", "words"), [
@@ -70,6 +76,8 @@ def test_experiment_toml_names_roles_and_options(tmp_path, class_root):
     ('velocity = "ALL0001"\nspeed = 3\n', "unknown key(s) speed"),
     ('current = "ALL0002"\n', "no velocity or position"),
     ("velocity = \n", "not valid TOML"),
+    ('velocity = "ALL0001"\nsegment = 0\n', "segment = 0: give a whole number"),
+    ('velocity = "ALL0001"\nsegment = "2"\n', "segment = '2': give a whole number"),
 ])
 def test_bad_experiment_toml_is_one_line_naming_the_file(tmp_path, class_root, text, words):
     import shutil

@@ -84,3 +84,38 @@ def test_a_pulse_is_identified_from_its_first_step(tmp_path, run_cli):
     assert "identified from segment 1" in res.out
     m = json.loads(out.read_text())
     assert m["first_order"]["dc_gain"] == pytest.approx(K * (6 - DEAD_ZONE) / 6, rel=0.01)  # from rest
+
+
+def test_a_staircase_through_the_front_door_as_through_the_cli(tmp_path, run_cli):
+    """Before, only the command line cut a several-steps log: ``mi.identify`` (and so the web page
+    and the batch) refused the same file with "no step in the input channel (two-level fit …)".
+    Now ``read_experiment`` lists the steps and cuts the one asked for; a whole staircase is refused
+    by ``identify`` with the two ways on, and ``identify_levels(exp.step_captures())`` gives the
+    command line's several-levels model."""
+    import motorid as mi
+    from motorid.errors import OptionError
+
+    f = _write(tmp_path / "stair.csv", [0, 2, 4, 6, 8])
+    exp = mi.read_experiment(velocity=f)
+    assert [s.index for s in exp.steps] == [1, 2, 3, 4] and exp.segment is None and exp.several_steps()
+    with pytest.raises(OptionError, match=r"4 input steps found .*pick one with segment N.*identify_levels"):
+        mi.identify(exp)
+    assert run_cli("identify", "--velocity", str(f), "--json", str(tmp_path / "all.json")).code == 0
+    levels = mi.identify_levels(exp.step_captures())
+    assert levels.model.to_json() == json.loads((tmp_path / "all.json").read_text())
+    # one segment: the same model as --segment 2
+    assert run_cli("identify", "--velocity", str(f), "--segment", "2", "--json", str(tmp_path / "s2.json")).code == 0
+    two = mi.read_experiment(velocity=f, segment=2)
+    assert two.segment == 2 and not two.several_steps()
+    doc = mi.identify(two).model.to_json()
+    assert doc == json.loads((tmp_path / "s2.json").read_text())
+    with pytest.raises(OptionError, match="cut every step"):
+        two.step_captures()
+    with pytest.raises(OptionError, match=r"^segment 9: the velocity log has 4 step\(s\)"):
+        mi.read_experiment(velocity=f, segment=9)
+    # a pulse is cut to its first step, and says so in the model's warnings
+    pulse = mi.read_experiment(velocity=_write(tmp_path / "pulse.csv", [0, 6, 0]))
+    assert pulse.segment == 1 and not pulse.several_steps()
+    assert any("identified from segment 1" in w for w in mi.identify(pulse).model.warnings)
+    # an ordinary step: no steps listed
+    assert mi.read_experiment(velocity=_write(tmp_path / "step.csv", [0, 6])).steps == ()

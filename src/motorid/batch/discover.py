@@ -47,7 +47,7 @@ CAPTURE_SUFFIXES = (".csv", ".xlsx", ".tsv")
 #: Roles a manifest can give; ``validate`` marks validation captures (sine, triangle ...).
 MANIFEST_ROLES = ("position", "velocity", "current", "validate")
 #: Keys an ``experiment.toml`` may hold besides the roles.
-TOML_OPTIONS = ("step_volts", "t0", "columns")
+TOML_OPTIONS = ("step_volts", "t0", "columns", "segment")
 
 _ALL_FOLDER = re.compile(r"^ALL\d{4}$", re.IGNORECASE)
 _TDS_CHANNEL = re.compile(r"^(F\d{4})CH\d\.CSV$", re.IGNORECASE)
@@ -88,6 +88,8 @@ class ExperimentSpec:
         Step level [V] and step instant [s] from ``experiment.toml`` (else the batch's).
     columns : Mapping[str, str] or None
         Plain-CSV column map from ``experiment.toml``.
+    segment : int or None
+        The step of a several-steps velocity log to identify (``experiment.toml``'s ``segment``).
     files : tuple of str
         Every input file (relative to ``folder``) whose content the resume hash covers.
     """
@@ -101,6 +103,7 @@ class ExperimentSpec:
     t0: float | None = None
     columns: Mapping[str, str] | None = None
     files: tuple[str, ...] = ()
+    segment: int | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "roles", MappingProxyType(dict(self.roles)))
@@ -127,7 +130,8 @@ class ExperimentSpec:
         h = hashlib.sha256()
         h.update(json.dumps(settings, sort_keys=True, default=str).encode())
         h.update(json.dumps({"roles": dict(self.roles), "validate": self.validate, "step_volts": self.step_volts,
-                             "t0": self.t0, "columns": None if self.columns is None else dict(self.columns)},
+                             "t0": self.t0, "columns": None if self.columns is None else dict(self.columns),
+                             **({"segment": self.segment} if self.segment is not None else {})},
                             sort_keys=True).encode())
         from motorid.io._common import MAX_TEXT_BYTES
 
@@ -210,6 +214,7 @@ def read_roles_file(folder: Path) -> dict[str, Any] | None:
         step_volts = 5.92                          # optional: captures without CH1
         t0 = 0.0                                   # optional: the step instant [s]
         columns = {time = "t", velocity = "rpm"}   # optional: plain-CSV column map
+        segment = 2                                # optional: one step of a several-steps log
 
     ``manifest.csv``: a header ``role,path`` and one row per capture (``role`` one of
     ``position``, ``velocity``, ``current``, ``validate``).
@@ -223,7 +228,7 @@ def read_roles_file(folder: Path) -> dict[str, Any] | None:
     -------
     dict or None
         ``roles`` (role → paths), ``validate`` (list of paths), ``step_volts``, ``t0``,
-        ``columns``; ``None`` without a roles file.
+        ``columns``, ``segment``; ``None`` without a roles file.
 
     Raises
     ------
@@ -257,6 +262,11 @@ def read_roles_file(folder: Path) -> dict[str, Any] | None:
             raise OptionError("columns: give a table of role = column name, e.g. {time = \"t\", velocity = \"rpm\"}",
                               file=where)
         out["columns"] = cols
+        seg = doc.get("segment")
+        if seg is not None and (isinstance(seg, bool) or not isinstance(seg, int) or seg < 1):
+            raise OptionError(f"segment = {seg!r}: give a whole number ≥ 1 (the step of a several-steps log)",
+                              file=where)
+        out["segment"] = seg
     elif csv_path.is_file():
         where = str(csv_path)
         with open(csv_path, newline="", encoding="utf-8-sig") as fh:
@@ -277,7 +287,7 @@ def read_roles_file(folder: Path) -> dict[str, Any] | None:
             else:
                 roles[role] = spec
         out = {"roles": roles, "validate": validate, "step_volts": None, "t0": None, "columns": None,
-               "file": MANIFEST_CSV}
+               "segment": None, "file": MANIFEST_CSV}
     else:
         return None
     if not (set(out["roles"]) & {"position", "velocity"}):
@@ -298,7 +308,7 @@ def _spec_for(root: Path, folder: Path, name: str, captures: list[tuple[str, ...
     return ExperimentSpec(
         name, str(folder), tuple(dict.fromkeys(named)), roles=roles_file["roles"],
         validate=tuple(roles_file["validate"]), step_volts=roles_file["step_volts"], t0=roles_file["t0"],
-        columns=roles_file["columns"], files=tuple(files),
+        columns=roles_file["columns"], files=tuple(files), segment=roles_file["segment"],
     )
 
 

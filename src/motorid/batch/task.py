@@ -304,6 +304,7 @@ def _identify_one(spec: ExperimentSpec, settings: BatchSettings) -> ExperimentOu
         t0=spec.t0 if spec.t0 is not None else settings.t0,
         columns=colmap,
         force_role=settings.force_role or not spec.roles,  # guessed roles agree with the guess
+        segment=spec.segment,
     )
     fit = mi.identify(exp, **settings.identify)
     warnings = [_relative(w, spec.folder) for w in fit.warnings]

@@ -11,7 +11,6 @@ import sys
 import traceback
 import typing
 from collections.abc import Sequence
-from dataclasses import replace
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -493,17 +492,15 @@ def identify(
 
     declared, scales = parse_units(units), parse_scales(scale)  # refused before any file is read
     exp = _read_experiment(position, velocity, current, columns, step_volts=step_volts_v, t0=t0,
-                           force_role=force_role, units=declared, scale=scales)
-    found = _segments(dict(exp.captures), segment)
-    if found is not None and not found[1]:
+                           force_role=force_role, units=declared, scale=scales, segment=segment)
+    _print_steps(exp)
+    if exp.several_steps():
         # every step of the log, as the several-levels path's experiments
         _identify_levels([], [], levels, columns, json_out=json_out, matlab_out=matlab_out, report_out=report_out,
                          ignored=[f"--{r}" for r, v in (("position", position), ("current", current)) if v],
                          force=force,
-                         captures=found[0])
+                         captures=list(exp.step_captures()))
         return
-    if found is not None:
-        exp = replace(exp, captures={**exp.captures, "velocity": found[0][0]})
     caps = dict(exp.captures)
     _check_against_captures(caps, record_length=record_length)
     checks = _validation_captures(validate, columns) if report_out is not None else {}
@@ -549,37 +546,18 @@ def _print_advice_line(con: Console, fit) -> None:
         con.print(f"advice: {line}", markup=False)
 
 
-def _segments(caps: dict, segment: int | None) -> tuple[list, bool] | None:
-    """A velocity log with several input steps: its segments (printed), or the one ``--segment`` picks.
-
-    Returns None for an ordinary step capture (``--segment 1`` is then the capture itself), else
-    the segment captures and whether they are one experiment (``--segment``, or a pulse whose
-    single moving level is its first step).
-    """
-    from motorid.conditioning.segment import cut_segment, find_steps
-
-    cap = caps.get("velocity")
-    steps = find_steps(cap) if cap is not None else ()
-    if segment is not None and not (1 <= segment <= max(1, len(steps))):
-        found = "; ".join(s.describe() for s in steps) or "one step"
-        raise OptionError(f"--segment {segment}: the velocity log has {max(1, len(steps))} step(s) ({found})")
-    if cap is None or len(steps) < 2:
-        return None
+def _print_steps(exp) -> None:
+    """The input steps of a several-steps log (:attr:`motorid.Experiment.steps`), the one identified marked."""
+    if not exp.steps:
+        return
     con = _console()
-    con.print(f"{cap.source}: {len(steps)} input steps found")
-    for s in steps:
-        con.print(f"  {s.describe()}" + (" ← identified" if segment == s.index else ""))
-    if segment is not None:
-        return [cut_segment(cap, steps[segment - 1])], True
-    span = max(abs(s.to_v) for s in steps)
-    moving = {round(s.to_v, 6) for s in steps if abs(s.to_v) > 0.05 * span}
-    if len(moving) < 2:
-        # a pulse (up, then back down): one level that moves the motor — a static characteristic
-        # needs two; the first step is the experiment
-        con.print(f"  one level moves the motor ({', '.join(f'{v:g} V' for v in sorted(moving))}): identified "
-                  "from segment 1 (--segment N for another)")
-        return [cut_segment(cap, steps[0])], True
-    return [cut_segment(cap, s) for s in steps], False
+    cap = exp.captures["velocity"]
+    con.print(f"{cap.source}: {len(exp.steps)} input steps found")
+    for s in exp.steps:
+        con.print(f"  {s.describe()}" + (" ← identified" if exp.segment == s.index else ""))
+    for note in cap.warnings:
+        if note.startswith("one level moves the motor"):
+            con.print(f"  {note}")
 
 
 def _identify_levels(velocities: list[str], experiments: list[str], levels: list[float] | None,

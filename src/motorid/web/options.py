@@ -115,6 +115,8 @@ def identify_options(fields: Mapping[str, tuple[str, ...]], *, ignore: tuple[str
     for name in ("units", "scale"):
         if one.get(name, "").strip():
             read[name] = _pairs(name, one[name])
+    if "segment" in one and (v := _text_number("segment", one["segment"], int)) is not None:
+        read["segment"] = v
     if one.get("time_unit", "").strip():
         read["time_unit"] = one["time_unit"].strip()
     for name in ("method", "markov_basis", "reduction", "derivative", "structure", "sync"):
