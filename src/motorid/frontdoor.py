@@ -386,9 +386,9 @@ def several_steps_message(experiment: Experiment) -> str:
     cap = experiment.captures["velocity"]
     found = "; ".join(s.describe() for s in experiment.steps)
     return (f"{cap.source}: {len(experiment.steps)} input steps found ({found}): one model is identified from one "
-            "step — pick one with --segment N, or identify all of them together (dead-zone, gain, rails and shared "
-            "dynamics) with identify_levels(experiment.step_captures()), as the command line does with such a "
-            "log")
+            "step — pick one with --segment N, or fit all of them together (dead-zone, gain, rails and shared "
+            "dynamics) as `motorid identify --velocity LOG` does, in Python "
+            "identify_levels(experiment.step_captures())")
 
 
 # ------------------------------------------------------------------------------ identification

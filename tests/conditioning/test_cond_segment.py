@@ -119,3 +119,14 @@ def test_a_staircase_through_the_front_door_as_through_the_cli(tmp_path, run_cli
     assert any("identified from segment 1" in w for w in mi.identify(pulse).model.warnings)
     # an ordinary step: no steps listed
     assert mi.read_experiment(velocity=_write(tmp_path / "step.csv", [0, 6])).steps == ()
+
+
+def test_report_takes_a_segment_too(tmp_path, run_cli):
+    """``report`` reads through the same front door: a whole staircase is refused with the way on
+    (``--segment``, which it now takes), one segment is identified."""
+    f = _write(tmp_path / "stair.csv", [0, 2, 4, 6, 8])
+    res = run_cli("report", "--velocity", str(f), "--out", str(tmp_path / "r.html"))
+    assert res.code == 2 and "pick one with --segment N" in res.err and not (tmp_path / "r.html").exists()
+    res = run_cli("report", "--velocity", str(f), "--segment", "3", "--out", str(tmp_path / "r.html"))
+    assert res.code == 0, res.err
+    assert "segment 3: step at 9 s, 4 → 6 V ← identified" in res.out and (tmp_path / "r.html").is_file()

@@ -20,6 +20,10 @@ from rich.table import Table
 
 from motorid.errors import MotorIdError, OptionError
 from motorid.numfmt import sig
+from motorid.options import READ
+
+#: ``--segment``'s help, from its declaration.
+SEGMENT_HELP = (lambda h: h[:1].upper() + h[1:])(next(o.help for o in READ if o.name == "segment"))
 
 # Everything else loads inside the command that needs it: ``motorid --help`` imports
 # typer and rich only, not numpy, scipy, python-control or matplotlib.
@@ -453,8 +457,7 @@ def identify(
         "--force-role",
         help="Keep a capture's role flag even when it looks like another role.")] = False,
     segment: Annotated[int | None, typer.Option(
-        "--segment", help="A log with several input steps (a staircase, a pulse): identify step N alone (1-based); "
-        "without it every step goes through the several-levels path.")] = None,
+        "--segment", help=f"{SEGMENT_HELP}; without it every step goes through the several-levels path.")] = None,
 ) -> None:
     """Identify the motor model from step captures (paper sections III-VI).
 
@@ -698,6 +701,7 @@ def report(
     force_role: Annotated[bool, typer.Option(
         "--force-role",
         help="Keep a capture's role flag even when it looks like another role.")] = False,
+    segment: Annotated[int | None, typer.Option("--segment", help=SEGMENT_HELP)] = None,
 ) -> None:
     """Identify and write one self-contained HTML report of the experiment."""
     columns = _with_time_unit(columns, time_unit)
@@ -707,7 +711,9 @@ def report(
 
     _check_options(method=method, sample_interval=sample_interval, step_volts=step_volts)
     check_writable({"--out": out}, force=force, create_parents=False)
-    exp = _read_experiment(position, velocity, current, columns, step_volts=step_volts, force_role=force_role)
+    exp = _read_experiment(position, velocity, current, columns, step_volts=step_volts, force_role=force_role,
+                           segment=segment)
+    _print_steps(exp)
     _check_against_captures(dict(exp.captures), record_length=None)
     checks = _validation_captures(validate, columns)
     doc = read_design(design) if design is not None else None
