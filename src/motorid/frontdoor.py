@@ -370,6 +370,34 @@ def _log_steps(captures: Mapping[str, Capture], segment: int | None
     return steps, None
 
 
+#: A record length must hold at least this many samples of the captures.
+MIN_RECORD_SAMPLES = 20
+
+
+def check_record_length(captures: Mapping[str, Capture], record_length_s: float | None) -> None:
+    """Refuse a record length that keeps fewer than :data:`MIN_RECORD_SAMPLES` samples of a capture.
+
+    Parameters
+    ----------
+    captures : Mapping[str, Capture]
+        The captures as read (not yet conditioned).
+    record_length_s : float or None
+        Seconds kept after the step (None: all).
+
+    Raises
+    ------
+    OptionError
+        Naming the capture, its sample interval and the shortest length that would do.
+    """
+    if record_length_s is None:
+        return
+    for cap in captures.values():
+        dt = float(cap.time_s[-1] - cap.time_s[0]) / max(cap.n_samples - 1, 1)
+        if record_length_s < MIN_RECORD_SAMPLES * dt:
+            raise OptionError(f"--record-length {record_length_s:g} s holds fewer than {MIN_RECORD_SAMPLES} samples "
+                              f"(Δt {dt:.3g} s): give at least {MIN_RECORD_SAMPLES * dt:.3g} s", file=cap.source)
+
+
 def several_steps_message(experiment: Experiment) -> str:
     """Why :func:`identify` does not take a whole staircase log, and what to do instead.
 
@@ -738,6 +766,7 @@ def identify(
         markov_basis=markov_basis,
         method_options=MethodOptions() if method_options is None else method_options,
     )
+    check_record_length(experiment.captures, record_length_s)
     ident = identify_experiment(experiment.captures, settings, step_volts=experiment.step_volts,
                                 t0_s=experiment.t0_s, progress=progress)
     if experiment.units or experiment.scales:  # the maths stays in the data's units; the labels travel

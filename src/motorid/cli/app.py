@@ -105,8 +105,6 @@ def _capture_paths(spec: str) -> str | list[str]:
 
 #: Values of ``--order``.
 ORDERS: tuple[str, ...] = ("auto", "1", "2", "3")
-#: A record length must hold at least this many samples of the captures.
-MIN_RECORD_SAMPLES = 20
 #: Samples after reduction the conditioning needs (see ``condition_experiment``).
 MIN_REDUCED_SAMPLES = 6
 
@@ -199,21 +197,10 @@ def _check_options(
 
 
 def _check_against_captures(caps: dict, *, record_length: float | None) -> None:
-    """Checks of options that need the captures (read, not yet conditioned).
+    """``--record-length`` against the captures: :func:`motorid.frontdoor.check_record_length`."""
+    from motorid.frontdoor import check_record_length
 
-    A ``--step-volts`` contradicting a CH1 step is refused by the conditioning itself
-    (``step_response``).
-
-    Raises
-    ------
-    OptionError
-        A ``--record-length`` shorter than :data:`MIN_RECORD_SAMPLES` samples of a capture.
-    """
-    for cap in caps.values():
-        dt = float(cap.time_s[-1] - cap.time_s[0]) / max(cap.n_samples - 1, 1)
-        if record_length is not None and record_length < MIN_RECORD_SAMPLES * dt:
-            raise OptionError(f"--record-length {record_length:g} s holds fewer than {MIN_RECORD_SAMPLES} samples "
-                              f"(Δt {dt:.3g} s): give at least {MIN_RECORD_SAMPLES * dt:.3g} s", file=cap.source)
+    check_record_length(caps, record_length)
 
 
 def _strict_exit(result, strict: bool) -> None:
@@ -505,7 +492,6 @@ def identify(
                          captures=list(exp.step_captures()))
         return
     caps = dict(exp.captures)
-    _check_against_captures(caps, record_length=record_length)
     checks = _validation_captures(validate, columns) if report_out is not None else {}
     if report_out is not None:
         from motorid.control.design_io import read_design_json as read_design
@@ -714,7 +700,6 @@ def report(
     exp = _read_experiment(position, velocity, current, columns, step_volts=step_volts, force_role=force_role,
                            segment=segment)
     _print_steps(exp)
-    _check_against_captures(dict(exp.captures), record_length=None)
     checks = _validation_captures(validate, columns)
     doc = read_design(design) if design is not None else None
     with _bar("report", total=2) as progress:

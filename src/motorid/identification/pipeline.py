@@ -331,6 +331,10 @@ def _markov_laguerre(cond: ConditionedExperiment, s: IdentifySettings) -> MotorM
 MAX_MARKOV_PARAMS = 200
 
 
+#: Samples after the step a Laguerre window (``--markov-window``) must hold.
+MIN_WINDOW_SAMPLES = 20
+
+
 def _markov(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
     if s.markov_params is not None:
         n = int(np.count_nonzero(cond.full_time_s >= 0))
@@ -339,6 +343,14 @@ def _markov(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
             raise OptionError(f"--markov-params {s.markov_params}: at most {limit} for this record ({n} samples after "
                               f"the step, at least 4 per parameter, and no more than {MAX_MARKOV_PARAMS})")
     if s.markov_basis == "laguerre":
+        if s.markov_window_s is not None:
+            after = cond.full_time_s[cond.full_time_s >= 0]
+            dt = float(after[1] - after[0]) if after.size > 1 else float("nan")
+            n = int(np.count_nonzero(after <= s.markov_window_s * (1 + 1e-9)))
+            if n < MIN_WINDOW_SAMPLES:
+                raise OptionError(f"--markov-window {s.markov_window_s:g} s holds {n} sample(s) after the step "
+                                  f"(Δt {dt:.3g} s; at least {MIN_WINDOW_SAMPLES} are needed): give at least "
+                                  f"{MIN_WINDOW_SAMPLES * dt:.3g} s")
         return _markov_laguerre(cond, s)
     t, v_meas, notes = _velocity(cond, full=True)
     dt = float(t[1] - t[0])
@@ -439,7 +451,9 @@ def _paper_stage(
         try:
             m = _RUNNERS[name](cond, settings)
         except (IdentificationError, OptionError) as exc:
-            if len(names) == 1:
+            # a Markov option the user gave and the data cannot take is refused, not dropped
+            asked = name == "markov" and (settings.markov_params is not None or settings.markov_window_s is not None)
+            if len(names) == 1 or (asked and isinstance(exc, OptionError)):
                 raise
             failures[name] = exc.message
             continue
@@ -587,6 +601,7 @@ def identify_conditioned(
     extra_warn = list(cond.warnings) + notes + _settled_warning(t, v)
     report(1, PROGRESS_STEPS, "paper methods")
     start = _initialise(cond, settings)
+    extra_warn += [f"the paper's {k} method did not run: {v}" for k, v in start.failures.items()]
     model, reason, unwhitened = start.model, start.reason, None
     refine = REFINERS.get(settings.method)
     if settings.method not in PAPER_METHODS:
