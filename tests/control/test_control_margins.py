@@ -143,3 +143,12 @@ def test_a_design_json_with_bad_margins_is_one_line(demo_run, run_cli, tmp_path,
     res = run_cli("simulate", model, d)
     assert res.code == 2 and needle in res.err, res.err
     assert len([ln for ln in res.err.splitlines() if ln.strip()]) == 1 and "Traceback" not in res.err
+
+
+def test_an_integrator_with_zero_gain_prints_no_numpy_warning(model, recwarn):
+    """``--integral --ki 0`` (a student's first point of a Routh–Hurwitz sweep) leaves a closed-loop
+    pole at the origin; python-control's margins compared NaN responses and numpy printed
+    "RuntimeWarning: invalid value encountered in less_equal" twice above the design."""
+    des = mi.design(model, damping=1.0, wn=8.0, integral=True, ki=0.0, robust_samples=0)
+    assert any(abs(p) < 1e-9 for p in des.closed_loop_poles)
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)], [str(w.message) for w in recwarn]

@@ -253,7 +253,11 @@ def open_loop_margins(loop: Any, delay_s: float, bandwidth_rad_s: float) -> Loop
     if pade is not None:
         loop = loop * pade
     try:
-        gm, pm, sm, _wpc, wgc, _wms = control.stability_margins(loop)
+        # a loop with an open-loop pole at the origin twice over (an integrator with ki = 0) has
+        # NaN crossing responses, which python-control compares with numpy's warning printed
+        with np.errstate(invalid="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            gm, pm, sm, _wpc, wgc, _wms = control.stability_margins(loop)
     except (np.linalg.LinAlgError, ValueError, FloatingPointError):
         # the polynomial method failed numerically: python-control's frequency-response method
         omega = np.logspace(np.log10(fastest) - 6, np.log10(fastest) + 3, 20000)
