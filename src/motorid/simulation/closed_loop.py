@@ -137,9 +137,14 @@ class SimulationSettings:
             raise OptionError("--duration/--dt asks for more than 2 million steps; raise --dt")
         if self.saturation_v is not None and not (math.isfinite(self.saturation_v) and self.saturation_v > 0):
             raise OptionError(f"--saturation must be > 0 V, got {self.saturation_v!r}")
-        for name in ("disturbance_v", "disturbance_start_s", "z0"):
+        for name, flag in (("disturbance_v", "--disturbance"), ("disturbance_start_s", "--disturbance-start"),
+                           ("z0", "--z0")):
             if not math.isfinite(float(getattr(self, name))):
-                raise OptionError(f"{name} must be finite")
+                raise OptionError(f"{flag} must be finite, got {getattr(self, name)!r}")
+        if self.disturbance_v != 0 and self.disturbance_start_s >= self.duration_s:
+            raise OptionError(f"--disturbance-start {self.disturbance_start_s:g} s is at or after the end of the run "
+                              f"(--duration {self.duration_s:g} s): the load would never act; raise --duration or "
+                              "lower --disturbance-start")
         if self.plant not in ("linear", "trainer"):
             raise OptionError(f"--plant {self.plant!r}: use linear or trainer")
 
