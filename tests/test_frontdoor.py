@@ -310,3 +310,15 @@ def test_validate_scores_the_model_as_the_command_line_does(fit, demo, run_cli, 
     with pytest.raises(OptionError, match="has no 'current' output") as err:
         mi.validate(velocity_only, demo / "ALL0003", channel="current")
     assert err.value.file == str(velocity_only)
+
+
+def test_validate_names_the_output_a_poorly_fitting_capture_matches(fit, demo, run_cli):
+    """A velocity capture validated as the position gave "NRMSE 66 %" and nothing else, which reads
+    as a bad model; now the model's other outputs are tried and the one that fits is named."""
+    (as_position,) = mi.validate(fit, demo / "ALL0003", channel="position")
+    (as_velocity,) = mi.validate(fit, demo / "ALL0003", channel="velocity")
+    assert as_position.nrmse > 0.2 and as_velocity.nrmse < 0.05
+    hint = [w for w in as_position.warnings if "was this capture of the velocity?" in w]
+    assert len(hint) == 1 and "(--channel velocity)" in hint[0]
+    assert f"{100 * as_velocity.nrmse:.4g} % as the model's velocity" in hint[0]
+    assert not any("was this capture" in w for w in as_velocity.warnings)

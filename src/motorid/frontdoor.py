@@ -1218,11 +1218,47 @@ def validate(
             paths = [str(p) for p in _paths(item)]
             cap = read_capture(paths[0] if len(paths) == 1 else paths, columns=colmap)
         try:
-            results.append(validate_capture(motor, cap, channel=channel, step_volts=step_volts, t0_s=t0,
-                                            warmup_s=warmup_s))
+            res = validate_capture(motor, cap, channel=channel, step_volts=step_volts, t0_s=t0, warmup_s=warmup_s)
         except MotorIdError as exc:
             raise exc.with_file(cap.source) from None
+        results.append(_with_channel_hint(res, motor, cap, channel, step_volts=step_volts, t0_s=t0,
+                                          warmup_s=warmup_s))
     return tuple(results)
+
+
+#: A validation NRMSE above this asks whether the capture was of another model output.
+POOR_VALIDATION_NRMSE = 0.2
+
+
+def _with_channel_hint(res: ValidationResult, motor: MotorModel, cap: Capture, channel: str,
+                       **options: Any) -> ValidationResult:
+    """``res``, with a warning when the capture fits far better as another output of the model.
+
+    A capture of the velocity validated as ``--channel position`` (or the other way round) gives
+    a large NRMSE that reads as a bad model; the model's other outputs are tried and one that
+    fits at least four times better, and within 10 %, is named.
+    """
+    from motorid.analysis.validation import check_channel, validate_capture
+
+    if not res.nrmse > POOR_VALIDATION_NRMSE:
+        return res
+    better = []
+    for other in ("position", "velocity", "current"):
+        if other == channel:
+            continue
+        try:
+            check_channel(motor, other)
+            alt = validate_capture(motor, cap, channel=other, **options)
+        except MotorIdError:
+            continue
+        if alt.nrmse < min(0.25 * res.nrmse, 0.1):
+            better.append((alt.nrmse, other))
+    if not better:
+        return res
+    nrmse, other = min(better)
+    hint = (f"NRMSE {sig(100 * res.nrmse)} % as the {channel}, {sig(100 * nrmse)} % as the model's {other}: was "
+            f"this capture of the {other}? (--channel {other})")
+    return replace(res, warnings=(*res.warnings, hint))
 
 
 # -------------------------------------------------------------------------------------- report
