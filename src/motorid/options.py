@@ -31,6 +31,7 @@ __all__ = [
     "PYTHON_ONLY",
     "READ",
     "SIMULATE",
+    "TRAINER_PRESETS",
     "VALIDATE",
     "OptionSpec",
     "callers_words",
@@ -69,6 +70,10 @@ class OptionSpec:
     unit: str = ""
     help: str = ""
 
+
+#: The virtual trainer's presets (``motorid demo --preset``, ``simulate --plant trainer --preset``):
+#: declared here, where the command line reads them without importing the trainer.
+TRAINER_PRESETS: tuple[str, ...] = ("paper", "lab-report", "first-order", "second-order", "third-order")
 
 #: :func:`motorid.read_experiment`'s captures, one per role (the web page's file fields).
 ROLES: tuple[OptionSpec, ...] = (

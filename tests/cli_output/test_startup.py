@@ -140,3 +140,17 @@ def test_one_blas_thread_without_importing_scipy_up_front() -> None:
     scipy_loaded, threads = json.loads(out.stdout.strip().splitlines()[-1])
     assert scipy_loaded is False
     assert len(threads) >= 2 and all(n == 1 for n in threads.values()), threads  # numpy's and scipy's OpenBLAS
+
+
+def test_demo_help_lists_every_trainer_preset_without_importing_the_trainer(run_cli) -> None:
+    """``motorid demo --help`` said only "Virtual trainer preset." (a newcomer had to provoke an
+    error to learn the names); it lists them now, read from the options, not from the trainer."""
+    from motorid.trainer import PRESET_NAMES, preset
+
+    res = run_cli("demo", "--help")
+    assert res.code == 0
+    flat = " ".join(res.out.replace("│", " ").split())
+    assert f"Virtual trainer preset: {', '.join(PRESET_NAMES)}." in flat
+    assert all(preset(name) is not None for name in PRESET_NAMES)  # every name listed is one the trainer has
+    mods, rc = _modules_after(["demo", "--help"])
+    assert rc == 0 and not _loaded(mods, "motorid.trainer")

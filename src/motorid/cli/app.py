@@ -20,7 +20,7 @@ from rich.table import Table
 
 from motorid.errors import MotorIdError, OptionError
 from motorid.numfmt import sig
-from motorid.options import READ
+from motorid.options import READ, TRAINER_PRESETS
 
 #: ``--segment``'s help, from its declaration.
 SEGMENT_HELP = (lambda h: h[:1].upper() + h[1:])(next(o.help for o in READ if o.name == "segment"))
@@ -264,7 +264,7 @@ def demo(
     out: Annotated[Path, typer.Option(
         "--out",
         help="Folder to write the example experiment into.")] = Path("motorid-demo"),
-    preset: Annotated[str, typer.Option(help="Virtual trainer preset.")] = "paper",
+    preset: Annotated[str, typer.Option(help=f"Virtual trainer preset: {', '.join(TRAINER_PRESETS)}.")] = "paper",
     seed: Annotated[int, typer.Option(help="Random seed of the simulated noise and triggers.")] = 0,
     step_volts: Annotated[float, typer.Option("--step-volts", help="Step level (switch S1).")] = 5.92,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,

@@ -17,7 +17,7 @@ import typer
 
 from motorid.errors import MotorIdError, OptionError
 from motorid.numfmt import metric_name, roots_text, sig
-from motorid.options import SIMULATE, defaults
+from motorid.options import SIMULATE, TRAINER_PRESETS, defaults
 
 if TYPE_CHECKING:
     import numpy as np
@@ -450,7 +450,8 @@ def simulate(
     z0: Annotated[float, typer.Option("--z0", help="Initial integrator state (report Fig. 8: -2).")] = 0.0,
     xhat0: Annotated[str | None, typer.Option("--xhat0", help="Initial observer estimate.")] = None,
     plant: Annotated[str, typer.Option(help="linear (the model) or trainer (virtual trainer, nonlinear).")] = "linear",
-    preset: Annotated[str, typer.Option(help="Trainer preset for --plant trainer.")] = "lab-report",
+    preset: Annotated[str, typer.Option(
+        help=f"Trainer preset for --plant trainer: {', '.join(TRAINER_PRESETS)}.")] = "lab-report",
     compensate_dead_zone: Annotated[bool, typer.Option(
         "--compensate-dead-zone",
         help="Add the model's dead-zone to the command (inverse dead-zone feed-forward; a model identified "

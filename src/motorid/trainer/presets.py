@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass, replace
 
 from motorid.errors import OptionError
+from motorid.options import TRAINER_PRESETS
 
 __all__ = ["PRESET_NAMES", "TrainerConfig", "preset"]
 
@@ -213,8 +214,8 @@ def _order(n: int) -> TrainerConfig:
     return p
 
 
-#: Names accepted by :func:`preset`.
-PRESET_NAMES: tuple[str, ...] = ("paper", "lab-report", "first-order", "second-order", "third-order")
+#: Names accepted by :func:`preset` (declared with the options, which the command line's help reads).
+PRESET_NAMES: tuple[str, ...] = TRAINER_PRESETS
 
 
 def preset(name: str) -> TrainerConfig:
