@@ -179,3 +179,42 @@ def test_one_late_stamp_is_jitter_resampled_with_a_note(tmp_path):
     cap = read_capture(f)
     assert np.allclose(np.diff(cap.time_s), np.diff(cap.time_s)[0], rtol=1e-9)
     assert any("the time stamps jitter" in w and "resampled" in w for w in cap.warnings)
+
+
+@pytest.mark.parametrize("careful_max", [None, 1], ids=["careful reader", "vectorised reader"])
+def test_a_units_row_under_the_header_gives_the_units(tmp_path, monkeypatch, careful_max):
+    """PicoScope's CSV export (``Time,Channel A,Channel B`` / ``(ms),(V),(V)`` / a blank line) and DAQ
+    logs with a units line were refused: "not a capture: neither a Tektronix CSV nor a table with
+    a header row".  The units row now labels each column; the time column in ms is converted."""
+    from motorid.io import _common
+
+    t, u, y = _table()
+    body = "\n".join(f"{1e3 * a:.6f},{b:.6f},{c:.6f}" for a, b, c in zip(t, u, y, strict=True))
+    f = _write(tmp_path, "Time,Channel A,Channel B\n(ms),(V),(V)\n\n" + body + "\n", "pico.csv")
+    if careful_max is not None:
+        monkeypatch.setattr(_common, "CAREFUL_MAX_BYTES", careful_max)
+        monkeypatch.setattr(_common, "PANDAS_MIN_BYTES", 1 << 62)
+    cap = read_capture(f, columns={"time": "Time", "input": "Channel A", "velocity": "Channel B"})
+    np.testing.assert_allclose(cap.time_s, t, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(cap.output_v, y, atol=1e-6)
+    assert cap.output_info.units == "V" and cap.n_samples == t.size
+    # a tab-separated log with its units on the second line: rpm labels, read without --columns
+    rows = "\n".join(f"{a:.3f}\t{b:.2f}\t{100 * c:.4f}" for a, b, c in zip(t, u, y, strict=True))
+    cap = read_capture(_write(tmp_path, "time\tvoltage\tspeed\ns\tV\trpm\n" + rows + "\n", "daq.tsv"))
+    assert cap.output_info.units == "rpm" and cap.n_samples == t.size and cap.input_v is not None
+    # a second line of words that are not units is still a header written twice: refused
+    with pytest.raises(CaptureFormatError):
+        read_capture(_write(tmp_path, "time,u,y\ntime,u,y\n" + body + "\n", "twice.csv"))
+
+
+def test_a_last_line_cut_in_the_middle_is_dropped_and_said(tmp_path):
+    """An Arduino log stopped (or reset) while writing its last line: before, the whole file was
+    refused ("2 fields but the header has 3"); now that line alone is dropped with a warning.  A
+    short line anywhere else is still refused, naming it."""
+    t, u, y = _table()
+    lines = ["time,u,y"] + [f"{a!r},{b!r},{c!r}" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist(), strict=True)]
+    cap = read_plain_csv(_write(tmp_path, "\n".join(lines + ["0.5,6."]) + "\n"))
+    assert cap.n_samples == t.size
+    assert any("line 52, the last, has 2 of 3 fields" in w and "dropped" in w for w in cap.warnings)
+    with pytest.raises(CaptureFormatError, match="2 fields but the header has 3"):
+        read_plain_csv(_write(tmp_path, "\n".join(lines[:20] + ["0.5,6."] + lines[20:]) + "\n", "mid.csv"))

@@ -183,6 +183,10 @@ def _column_list(names: Sequence[str], limit: int = 12) -> str:
     return ", ".join(shown) + more
 
 
+#: A unit in brackets at the end of a column name.
+_UNIT_SUFFIX = re.compile(r"\s*[\[(][^\])]*[\])]\s*$")
+
+
 def _resolve_mapping(
     names: Sequence[str], columns: Mapping[str, str] | None, file: str
 ) -> dict[str, int]:
@@ -200,6 +204,10 @@ def _resolve_mapping(
         idx = [i for i, n in enumerate(names) if n == col]
         if not idx:
             idx = [i for i, n in enumerate(names) if n.lower() == str(col).strip().lower()]
+        if not idx:
+            # the name without its unit: "Time" for "Time (ms)", "speed" for "speed [rpm]"
+            idx = [i for i, n in enumerate(names)
+                   if _UNIT_SUFFIX.sub("", n).strip().lower() == str(col).strip().lower()]
         if len(idx) != 1:
             why = "is not a column" if not idx else "names several columns"
             raise OptionError(f"{key}={col!r} {why} of this file; available columns: {available}", file=file)

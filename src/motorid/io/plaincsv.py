@@ -55,6 +55,32 @@ def _split(line: str, delim: str | None) -> list[str]:
     return next(csv.reader([line], delimiter=delim))
 
 
+#: A units row's cell under the time column: ``(ms)``, ``[s]``, ``us``, ``µs``.
+_TIME_UNIT_CELL = re.compile(r"^\s*[(\[]?\s*(s|sec|ms|us|µs|μs|ns)\s*[)\]]?\s*$", re.IGNORECASE)
+#: Any units row's cell: a short unit in optional brackets (``(V)``, ``[rpm]``, ``rad/s``, ``°``).
+_UNIT_CELL = re.compile(r"^\s*[(\[]?\s*[A-Za-zµμΩ°%/*^·.0-9 _-]{0,16}\s*[)\]]?\s*$")
+
+
+def _with_units_row(names: Sequence[str], cells: Sequence[str]) -> list[str] | None:
+    """The header names with a units row merged in (``Time`` + ``(ms)`` → ``Time (ms)``), or None.
+
+    PicoScope's CSV export and many DAQ programs write the units on a second header line.  A
+    line is taken for one when it has the header's number of fields, no number among them, a
+    unit-like cell in each, and a time unit in one (the table's time column); the merged names
+    carry the units the way a one-line header writes them (``time [ms]``, ``speed (rpm)``), so
+    the time column is converted and each channel labelled as if the header had said so.
+    """
+    if len(cells) != len(names) or not any(_TIME_UNIT_CELL.match(c) for c in cells):
+        return None
+    if any(parse_number(c) is not None for c in cells if c.strip()) or not all(_UNIT_CELL.match(c) for c in cells):
+        return None
+    merged = []
+    for name, unit in zip(names, cells, strict=True):
+        inner = unit.strip().strip("()[]").strip()
+        merged.append(f"{name.strip()} ({inner})" if inner else name)
+    return merged
+
+
 def _content_lines(lines: Sequence[str]) -> list[int]:
     """Indices of the lines that hold data or the header (no blank or ``#`` comment lines)."""
     return [i for i, ln in enumerate(lines) if ln.strip() and not ln.lstrip().startswith("#")]
@@ -82,6 +108,9 @@ def sniff_table(lines: Sequence[str]) -> tuple[str | None, bool] | None:
     delim = _delimiter(header)
     names = _split(header, delim)
     cells = _split(first, delim)
+    if len(idx) > 2 and _with_units_row(names, cells) is not None:
+        idx = [idx[0], *idx[2:]]
+        cells = _split(lines[idx[1]], delim)
     if len(names) < 2 or len(cells) != len(names):
         return None
     decimal_comma = delim in (";", "\t", None) and any(
@@ -161,6 +190,13 @@ def _fast_layout(path: PathLike, file: str) -> tuple[int, str | None, list[str],
     first = _split(lines[idx[1]], delim)
     if len(names) < 2 or all(parse_number(n) is not None for n in names if n.strip()):
         raise NoFastPathError("it has no header row")
+    merged = _with_units_row(names, first)
+    if merged is not None:
+        # the data start after the units row: it is read as the last line of the header
+        if len(idx) < 3:
+            raise NoFastPathError("it has no data after its units row")
+        names, h, idx = merged, idx[1], idx[1:]
+        first = _split(lines[idx[1]], delim)
     if delim in (";", "\t", None) and any(_DECIMAL_COMMA_CELL.match(c) for i in idx[1:21]
                                           for c in _split(lines[i], delim)):
         raise NoFastPathError("it uses a decimal comma")
@@ -240,6 +276,11 @@ def _read_careful(path: PathLike, file: str, columns: Mapping[str, str] | None, 
             file=file, row=h + 1,
         )
     data_idx = idx[1:]
+    merged = _with_units_row(names, _split(lines[idx[1]], delim))
+    if merged is not None:
+        names, data_idx = merged, idx[2:]
+        if not data_idx:
+            raise CaptureFormatError("no data rows after the header and its units row", file=file, row=idx[1] + 1)
     rows_split = [_split(lines[i], delim) for i in data_idx]
     width = len(names)
     if not names[-1].strip() and all(len(r) == width and not r[-1].strip() for r in rows_split):
@@ -247,6 +288,12 @@ def _read_careful(path: PathLike, file: str, columns: Mapping[str, str] | None, 
         rows_split = [r[:-1] for r in rows_split]
         width -= 1
     bad = next((k for k, r in enumerate(rows_split) if len(r) != width), None)
+    notes: list[str] = []
+    if bad is not None and bad == len(rows_split) - 1 and 0 < len(rows_split[bad]) < width and bad > 0:
+        # a logger stopped (or reset) in the middle of its last line: that line only is dropped, and said
+        notes.append(f"line {data_idx[bad] + 1}, the last, has {len(rows_split[bad])} of {width} fields (the log "
+                     "stopped in the middle of it): dropped")
+        rows_split, data_idx, bad = rows_split[:-1], data_idx[:-1], None
     if bad is not None:
         raise CaptureFormatError(
             f"{len(rows_split[bad])} fields but the header has {width}", file=file, row=data_idx[bad] + 1
@@ -256,4 +303,4 @@ def _read_careful(path: PathLike, file: str, columns: Mapping[str, str] | None, 
     cells = [[r[j] for r in rows_split] for j in range(width)]
     rows = np.asarray(data_idx) + 1
     return capture_from_table(names, cells, rows, file=file, fmt=PLAIN_FORMAT, columns=columns, role=role,
-                              decimal_comma=decimal_comma)
+                              decimal_comma=decimal_comma, warnings=notes)
