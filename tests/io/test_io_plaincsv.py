@@ -213,8 +213,8 @@ def test_a_last_line_cut_in_the_middle_is_dropped_and_said(tmp_path):
     short line anywhere else is still refused, naming it."""
     t, u, y = _table()
     lines = ["time,u,y"] + [f"{a!r},{b!r},{c!r}" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist(), strict=True)]
-    cap = read_plain_csv(_write(tmp_path, "\n".join(lines + ["0.5,6."]) + "\n"))
+    cap = read_plain_csv(_write(tmp_path, "\n".join([*lines, "0.5,6."]) + "\n"))
     assert cap.n_samples == t.size
     assert any("line 52, the last, has 2 of 3 fields" in w and "dropped" in w for w in cap.warnings)
     with pytest.raises(CaptureFormatError, match="2 fields but the header has 3"):
-        read_plain_csv(_write(tmp_path, "\n".join(lines[:20] + ["0.5,6."] + lines[20:]) + "\n", "mid.csv"))
+        read_plain_csv(_write(tmp_path, "\n".join([*lines[:20], "0.5,6.", *lines[20:]]) + "\n", "mid.csv"))
