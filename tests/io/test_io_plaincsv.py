@@ -218,3 +218,26 @@ def test_a_last_line_cut_in_the_middle_is_dropped_and_said(tmp_path):
     assert any("line 52, the last, has 2 of 3 fields" in w and "dropped" in w for w in cap.warnings)
     with pytest.raises(CaptureFormatError, match="2 fields but the header has 3"):
         read_plain_csv(_write(tmp_path, "\n".join([*lines[:20], "0.5,6.", *lines[20:]]) + "\n", "mid.csv"))
+
+
+def test_a_time_column_of_clock_stamps_is_read_as_seconds(tmp_path):
+    """A logger that stamps rows with the clock (``2024-05-01 12:00:00.010``, or ``12:00:00.010``)
+    was refused: "no time column among 'timestamp', …" although the column is named for it."""
+    t, u, y = _table()
+    base = np.datetime64("2024-05-01T12:00:00.000")
+    stamps = [str(base + np.timedelta64(int(round(1e3 * a)), "ms")).replace("T", " ") for a in t]
+    lines = ["timestamp,u,y"] + [f"{s},{b!r},{c!r}" for s, b, c in zip(stamps, u.tolist(), y.tolist(), strict=True)]
+    cap = read_plain_csv(_write(tmp_path, "\n".join(lines) + "\n"))
+    np.testing.assert_allclose(cap.time_s, t, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(cap.output_v, y)
+    assert any("holds clock stamps: read as seconds from its first, 2024-05-01 12:00:00.000" in w for w in cap.warnings)
+    # times of day only
+    lines = ["time,u,y"] + [f"{s.split(' ')[1]},{b!r},{c!r}" for s, b, c in zip(stamps, u.tolist(), y.tolist(),
+                                                                              strict=True)]
+    cap = read_plain_csv(_write(tmp_path, "\n".join(lines) + "\n", "tod.csv"))
+    np.testing.assert_allclose(cap.time_s, t, rtol=0, atol=1e-9)
+    # a stamp that is not one is named by its line
+    lines[9] = "12:00:0x.080,0.0,0.0"
+    with pytest.raises(CaptureFormatError, match="cannot read '12:00:0x.080' as a date and time") as err:
+        read_plain_csv(_write(tmp_path, "\n".join(lines) + "\n", "bad.csv"))
+    assert err.value.row == 10

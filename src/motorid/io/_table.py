@@ -183,6 +183,32 @@ def _column_list(names: Sequence[str], limit: int = 12) -> str:
     return ", ".join(shown) + more
 
 
+#: A time stamp written as a date and time (``2024-05-01 12:00:00.010``, ISO 8601) or a time of day
+#: (``12:00:00.010``), as loggers that stamp with the clock write it.
+DATETIME_CELL = re.compile(r"^\s*(\d{4}-\d{2}-\d{2}[ T])?\d{1,2}:\d{2}:\d{2}(\.\d+)?\s*$")
+
+
+def _clock_seconds(col: Sequence[object] | np.ndarray, name: str, rows: Sequence[int] | np.ndarray, file: str,
+                   where: str) -> tuple[np.ndarray, str]:
+    """A column of clock stamps as seconds from its first one, and the note that says so.
+
+    numpy parses ISO 8601 (a date and a time, or a time of day on the epoch's date) to
+    microseconds; a cell it cannot read is named by its line.
+    """
+    text = [str(c).strip() for c in col]
+    if "-" not in text[0]:  # times of day: on the epoch's date
+        text = ["1970-01-01T" + c for c in text]
+    try:
+        stamps = np.array(text).astype("datetime64[us]")
+    except ValueError:
+        bad = next(i for i, c in enumerate(text) if not DATETIME_CELL.match(c.removeprefix("1970-01-01T")))
+        raise CaptureFormatError(f"{where} {name!r}: cannot read {str(col[bad])[:40]!r} as a date and time like "
+                                 f"the first stamp {str(col[0]).strip()!r}", file=file, row=int(rows[bad])) from None
+    seconds = (stamps - stamps[0]).astype(np.int64) / 1e6
+    return seconds, (f"{where} {name!r} holds clock stamps: read as seconds from its first, "
+                     f"{str(col[0]).strip()}")
+
+
 #: A unit in brackets at the end of a column name.
 _UNIT_SUFFIX = re.compile(r"\s*[\[(][^\])]*[\])]\s*$")
 
@@ -328,6 +354,14 @@ def capture_from_table(
     columns = dict(columns or {})
     time_unit = columns.pop("time_unit", None)
     mapping = _resolve_mapping(names, columns, file)
+    # A column of clock stamps (a logger's date and time) is the time in seconds from its first stamp
+    clock_notes: list[str] = []
+    cells = list(cells)
+    for j, col in enumerate(cells):
+        if (len(col) > 0 and isinstance(col[0], str) and DATETIME_CELL.match(col[0])
+                and (classify_name(names[j]) == "time" or mapping.get("time") == j)):
+            cells[j], note = _clock_seconds(col, names[j], rows, file, where)
+            clock_notes.append(note)
     # A column is numeric when its first cell is a number; then all of it must be (checked
     # when converting), else the column is text (a date, a comment) and is left out.
     numeric = [len(col) > 0 and parse_number(col[0], decimal_comma=decimal_comma) is not None for col in cells]
@@ -355,7 +389,7 @@ def capture_from_table(
         extra[key] = values(j)
     median_step = validate_rows(time_s, {f"{where} {k!r}": v for k, v in checked.items()}, file=file, rows=rows,
                                 time_name=f"{where} {names[asg.time]!r}", jitter_ok=True)
-    notes = list(warnings) + ([time_note] if time_note else [])
+    notes = list(warnings) + clock_notes + ([time_note] if time_note else [])
     time_s, output, inp, extra, grid_note = uniform_grid(time_s, output, inp, extra, file=file, median=median_step)
     if grid_note:
         notes.append(grid_note)

@@ -31,7 +31,7 @@ from motorid.io._common import (
     read_text,
     split_lines,
 )
-from motorid.io._table import capture_from_table, check_role
+from motorid.io._table import DATETIME_CELL, capture_from_table, check_role
 
 __all__ = ["PLAIN_FORMAT", "read_plain_csv", "sniff_table"]
 
@@ -223,6 +223,8 @@ def _read_fast(path: PathLike, file: str, columns: Mapping[str, str] | None, rol
     if not numeric:
         # (a header line twice, a text table): the careful reading names what is wrong
         raise NoFastPathError("its first data row has no number")
+    if any(DATETIME_CELL.match(first[j]) for j in range(width) if j not in numeric):
+        raise NoFastPathError("it stamps its rows with a clock (date and time)")
     # all columns numeric: numpy also checks that every line has the same number of fields
     usecols = None if len(numeric) == len(first) else numeric
     arrays = load_column_arrays(path, skiprows=h + 1, delimiter=delim, usecols=usecols, size=size)
