@@ -225,7 +225,7 @@ def test_a_time_column_of_clock_stamps_is_read_as_seconds(tmp_path):
     was refused: "no time column among 'timestamp', …" although the column is named for it."""
     t, u, y = _table()
     base = np.datetime64("2024-05-01T12:00:00.000")
-    stamps = [str(base + np.timedelta64(int(round(1e3 * a)), "ms")).replace("T", " ") for a in t]
+    stamps = [str(base + np.timedelta64(round(1e3 * a), "ms")).replace("T", " ") for a in t]
     lines = ["timestamp,u,y"] + [f"{s},{b!r},{c!r}" for s, b, c in zip(stamps, u.tolist(), y.tolist(), strict=True)]
     cap = read_plain_csv(_write(tmp_path, "\n".join(lines) + "\n"))
     np.testing.assert_allclose(cap.time_s, t, rtol=0, atol=1e-9)
