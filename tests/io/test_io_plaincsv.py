@@ -238,6 +238,6 @@ def test_a_time_column_of_clock_stamps_is_read_as_seconds(tmp_path):
     np.testing.assert_allclose(cap.time_s, t, rtol=0, atol=1e-9)
     # a stamp that is not one is named by its line
     lines[9] = "12:00:0x.080,0.0,0.0"
-    with pytest.raises(CaptureFormatError, match="cannot read '12:00:0x.080' as a date and time") as err:
+    with pytest.raises(CaptureFormatError, match=r"cannot read '12:00:0x\.080' as a date and time") as err:
         read_plain_csv(_write(tmp_path, "\n".join(lines) + "\n", "bad.csv"))
     assert err.value.row == 10
