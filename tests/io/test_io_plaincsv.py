@@ -241,3 +241,23 @@ def test_a_time_column_of_clock_stamps_is_read_as_seconds(tmp_path):
     with pytest.raises(CaptureFormatError, match=r"cannot read '12:00:0x\.080' as a date and time") as err:
         read_plain_csv(_write(tmp_path, "\n".join(lines) + "\n", "bad.csv"))
     assert err.value.row == 10
+
+
+@pytest.mark.parametrize("sep", [",", " ", "\t"])
+def test_label_value_pairs_of_the_arduino_serial_plotter_are_a_table(tmp_path, sep):
+    """``t:0.01,u:6.0,rpm:812`` on every line (what Arduino's Serial Plotter reads, so what many
+    sketches print) was refused: "not a capture: neither a Tektronix CSV nor a table …"."""
+    t, u, y = _table()
+    lines = [sep.join(f"{k}:{v!r}" for k, v in (("t", a), ("u", b), ("rpm", 100 * c)))
+             for a, b, c in zip(t.tolist(), u.tolist(), y.tolist(), strict=True)]
+    f = _write(tmp_path, "\n".join([*lines, "t:0.5" + sep + "u:6."]) + "\n", "serial.txt")
+    cap = read_capture(f)
+    np.testing.assert_allclose(cap.time_s, t)
+    np.testing.assert_allclose(cap.output_v, 100 * y)
+    np.testing.assert_allclose(cap.input_v, u)
+    assert cap.output_info.units == "rpm"
+    assert any("the last, is not a whole line of t, u, rpm" in w for w in cap.warnings)
+    lines[10] = sep.join(("t:0.1", "u:6.0", "speed:3.0"))
+    with pytest.raises(CaptureFormatError, match=r"not the labels of the first line \(t, u, rpm\)") as err:
+        read_capture(_write(tmp_path, "\n".join(lines) + "\n", "mixed.txt"))
+    assert err.value.row == 11

@@ -81,6 +81,38 @@ def _with_units_row(names: Sequence[str], cells: Sequence[str]) -> list[str] | N
     return merged
 
 
+#: One ``label:value`` pair of an Arduino Serial Plotter line (``t:0.01,u:5.0,rpm:812``).
+_PAIR = re.compile(r"([A-Za-z_][\w ]*?)\s*[:=]\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)")
+#: A whole line of such pairs, separated by commas, semicolons, tabs or spaces.
+_LABELLED_LINE = re.compile(r"^\s*" + _PAIR.pattern + r"(?:\s*[,;\t ]\s*" + _PAIR.pattern + r")+\s*$")
+
+
+def _labelled(lines: Sequence[str], idx: Sequence[int], file: str
+              ) -> tuple[list[str], list[list[str]], list[int], list[str]] | None:
+    """The labels, rows, their line indices and notes of a log of ``label:value`` pairs, or None.
+
+    Arduino's Serial Plotter reads (and so many sketches print) ``t:0.01,u:5.0,rpm:812``: the
+    labels are the column names.  A line whose labels differ from the first line's is named; the
+    last line alone, cut in the middle (the logger stopped while writing it), is dropped and said.
+    """
+    if not idx or not _LABELLED_LINE.match(lines[idx[0]]):
+        return None
+    names = [k.strip() for k, _ in _PAIR.findall(lines[idx[0]])]
+    rows, kept, notes = [], [], []
+    for n, i in enumerate(idx):
+        pairs = _PAIR.findall(lines[i]) if _LABELLED_LINE.match(lines[i]) else []
+        if [k.strip() for k, _ in pairs] != names:
+            if n == len(idx) - 1 and n > 1:
+                notes.append(f"line {i + 1}, the last, is not a whole line of {', '.join(names)} (the log stopped "
+                             "in the middle of it): dropped")
+                break
+            raise CaptureFormatError(f"not the labels of the first line ({', '.join(names)}): a log of "
+                                     "label:value pairs needs the same labels on every line", file=file, row=i + 1)
+        rows.append([v for _, v in pairs])
+        kept.append(i)
+    return names, rows, kept, notes
+
+
 def _content_lines(lines: Sequence[str]) -> list[int]:
     """Indices of the lines that hold data or the header (no blank or ``#`` comment lines)."""
     return [i for i, ln in enumerate(lines) if ln.strip() and not ln.lstrip().startswith("#")]
@@ -104,6 +136,8 @@ def sniff_table(lines: Sequence[str]) -> tuple[str | None, bool] | None:
     idx = _content_lines(lines[:200])
     if len(idx) < 2:
         return None
+    if _LABELLED_LINE.match(lines[idx[0]]) and _LABELLED_LINE.match(lines[idx[1]]):
+        return ",", False  # label:value pairs (read by the careful reader)
     header, first = lines[idx[0]], lines[idx[1]]
     delim = _delimiter(header)
     names = _split(header, delim)
@@ -185,6 +219,8 @@ def _fast_layout(path: PathLike, file: str) -> tuple[int, str | None, list[str],
     if len(idx) < 2:
         raise NoFastPathError("it has fewer than two lines")
     h = idx[0]
+    if _LABELLED_LINE.match(lines[h]):
+        raise NoFastPathError("it writes label:value pairs")
     delim = _delimiter(lines[h])
     names = _split(lines[h], delim)
     first = _split(lines[idx[1]], delim)
@@ -264,6 +300,13 @@ def _read_careful(path: PathLike, file: str, columns: Mapping[str, str] | None, 
     idx = _content_lines(lines)
     if len(idx) < 2:
         raise CaptureFormatError("not a capture: fewer than two non-blank lines", file=file)
+    labelled = _labelled(lines, idx, file)
+    if labelled is not None:
+        label_names, label_rows, kept, label_notes = labelled
+        return capture_from_table(label_names, [[r[j] for r in label_rows] for j in range(len(label_names))],
+                                  np.asarray(kept) + 1, file=file, fmt=PLAIN_FORMAT, columns=columns, role=role,
+                                  warnings=["label:value pairs on every line (Arduino Serial Plotter): the labels "
+                                            f"are the columns, {', '.join(label_names)}", *label_notes])
     h = idx[0]
     delim = _delimiter(lines[h])
     names = _split(lines[h], delim)
