@@ -23,7 +23,8 @@ from motorid.trainer.realsetups import write_real_setup
 #: The rigs whose files the trainer writes as those rigs do, the demo's scope folders (the paper
 #: preset) and every other trainer preset's captures written as the scope saves them.
 CASES = ("demo", "l298n-rpm", "arduino-millis", "host-loop", "encoder-counts", "pwm-encoder", "daq-deadtime",
-         "ms-time", "fast-tbs1000", "staircase", *(f"trainer:{p}" for p in PRESET_NAMES if p != "paper"))
+         "ms-time", "fast-tbs1000", "staircase", "serial-plotter", "picoscope", "clock-stamps",
+         *(f"trainer:{p}" for p in PRESET_NAMES if p != "paper"))
 
 
 def _without_provenance(doc: dict, files: list[Path]) -> dict:
@@ -54,7 +55,25 @@ def _captures(case: str, demo_run, tmp_path: Path) -> tuple[dict[str, list[Path]
         opts["step_volts"] = float(args[args.index("--step-volts") + 1])
     if "--segment" in args:  # one step of a staircase log, picked the same way by every front end
         opts["segment"] = int(args[args.index("--segment") + 1])
+    if "--columns" in args:  # a PicoScope's channels A and B, named by the user
+        opts["columns"] = args[args.index("--columns") + 1]
     return roles, opts
+
+
+def _python(opts: dict) -> dict:
+    """The read options as Python takes them (a column map is a dict)."""
+    out = dict(opts)
+    if "columns" in out:
+        out["columns"] = dict(p.split("=", 1) for p in out["columns"].split(","))
+    return out
+
+
+def _toml(key: str, value: object) -> str:
+    """One ``experiment.toml`` line (a column map is an inline table)."""
+    if key == "columns":
+        pairs = dict(p.split("=", 1) for p in str(value).split(","))
+        return "columns = {" + ", ".join(f'{k} = "{v}"' for k, v in pairs.items()) + "}"
+    return f"{key} = {value!r}"
 
 
 @pytest.mark.slow
@@ -73,7 +92,7 @@ def test_cli_python_web_and_batch_give_the_same_model(case, demo_run, tmp_path):
     by_cli = _without_provenance(json.loads((tmp_path / "cli.json").read_text()), files)
 
     # Python
-    exp = mi.read_experiment(**{role: fs if len(fs) > 1 else fs[0] for role, fs in roles.items()}, **opts)
+    exp = mi.read_experiment(**{role: fs if len(fs) > 1 else fs[0] for role, fs in roles.items()}, **_python(opts))
     assert _without_provenance(mi.identify(exp).model.to_json(), files) == by_cli
 
     # the web page's API
@@ -97,7 +116,7 @@ def test_cli_python_web_and_batch_give_the_same_model(case, demo_run, tmp_path):
         for f in fs:
             shutil.copy(f, folder / f.name)
         toml.append(f'{role} = "{"+".join(f.name for f in fs)}"')
-    toml += [f"{k} = {v!r}" for k, v in opts.items()]
+    toml += [_toml(k, v) for k, v in opts.items()]
     (folder / "experiment.toml").write_text("\n".join(toml) + "\n")
     motorid_ok("batch", tmp_path / "class", "--out", tmp_path / "out", "--jobs", "1")
     by_batch = json.loads((tmp_path / "out" / "alice" / "model.json").read_text())

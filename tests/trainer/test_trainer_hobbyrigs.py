@@ -32,8 +32,30 @@ def _table(rec) -> np.ndarray:
 def test_every_hobby_rig_is_a_real_setup_and_reads_back(rigs):
     assert set(HOBBY_RIGS) <= set(REAL_SETUPS)
     for rec in rigs.values():
-        cap = read_capture(rec.files["log"])
+        args = list(rec.cli_args)
+        columns = None
+        if "--columns" in args:  # the PicoScope's channels are named A and B: the user maps them
+            columns = dict(p.split("=", 1) for p in args[args.index("--columns") + 1].split(","))
+        cap = read_capture(rec.files["log"], columns=columns)
         assert cap.n_samples >= 250 and np.all(np.isfinite(cap.output_v))
+
+
+def test_the_new_formats_are_written_as_those_rigs_write_them(rigs):
+    """The Serial Plotter's label:value lines with the last cut; PicoScope's units line, blank line
+    and 8-bit codes; a Raspberry Pi's wall-clock stamps about 20 ms apart."""
+    lines = rigs["serial-plotter"].files["log"].read_text().splitlines()
+    assert all(ln.startswith("t:") and ",pwm_V:" in ln and ",rpm:" in ln for ln in lines[:-1])
+    assert lines[-1].endswith(",rp")
+    pico = rigs["picoscope"].files["log"].read_text().splitlines()
+    assert pico[:3] == ["Time,Channel A,Channel B", "(ms),(V),(V)", ""]
+    tacho = np.array([float(ln.split(",")[2]) for ln in pico[3:]])
+    lsb = 2 * 2.0 / 256
+    np.testing.assert_allclose(tacho / lsb, np.round(tacho / lsb), atol=1e-6)
+    rows = rigs["clock-stamps"].files["log"].read_text().splitlines()
+    assert rows[0] == "timestamp,pwm_volts,rpm"
+    stamps = np.array([np.datetime64(r.split(",")[0].replace(" ", "T")) for r in rows[1:]])
+    steps = np.diff(stamps).astype("timedelta64[us]").astype(float) / 1e6
+    assert 0.019 < float(np.mean(steps)) < 0.021 and np.std(steps) > 5e-4
 
 
 def test_the_clocks_are_the_rigs_clocks(rigs):

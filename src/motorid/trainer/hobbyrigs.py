@@ -21,6 +21,17 @@ writes the file the rig writes:
     identifies one step with ``--segment 2`` (2 → 4 V, between two moving levels).
 ``ms-time``
     A log whose time column is whole milliseconds named plain ``time``.
+``serial-plotter``
+    An Arduino sketch printing ``t:…,pwm_V:…,rpm:…`` for the Serial Plotter (``millis()/1000.0``
+    stamps of a 10.24 ms loop), saved from the serial monitor, its last line cut when the
+    capture was stopped.
+``picoscope``
+    A PicoScope CSV export: ``Time,Channel A,Channel B`` over a units line ``(ms),(V),(V)`` and a
+    blank line, the step on A and a tacho on B (8-bit codes of the ±5 V and ±2 V ranges); the
+    user names the channels with ``--columns``.
+``clock-stamps``
+    A Raspberry Pi loop stamping each row with the wall clock (``2026-03-02 14:03:11.123456``),
+    about 20 ms apart with scheduler jitter, the commanded volts and an rpm.
 
 The truth of each is that of :func:`motorid.trainer.realsetups.write_real_setup`: the
 incremental gain the identified step shows, the mean residence time (τ + dead time + sensor lag).
@@ -35,6 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
+from motorid.errors import OptionError
 from motorid.io._common import check_writable
 from motorid.trainer.plant import simulate_plant
 from motorid.trainer.presets import TrainerConfig, _motor_from_targets
@@ -43,7 +55,8 @@ from motorid.trainer.realsetups import RPM_PER_RAD_S, RealSetupTruth, _truth, _w
 __all__ = ["HOBBY_RIGS", "hobby_rig_config", "write_hobby_rig"]
 
 #: The presets of this module.
-HOBBY_RIGS: tuple[str, ...] = ("l298n-rpm", "arduino-millis", "host-loop", "encoder-counts", "staircase", "ms-time")
+HOBBY_RIGS: tuple[str, ...] = ("l298n-rpm", "arduino-millis", "host-loop", "encoder-counts", "staircase", "ms-time",
+                               "serial-plotter", "picoscope", "clock-stamps")
 #: The fine grid the plant runs on before the rig samples it (s).
 FINE_S = 1e-4
 #: L298N rig: supply step, the bridge's drop, the firmware's dead time, encoder counts per output turn.
@@ -82,8 +95,12 @@ def hobby_rig_config(name: str) -> TrainerConfig:
     """
     if name == "l298n-rpm":
         return _gearmotor(L298N_DROP_V, tau_m=0.08, dc=25.0)
-    if name in ("arduino-millis", "ms-time"):
+    if name in ("arduino-millis", "ms-time", "serial-plotter"):
         return _gearmotor(0.3, tau_m=0.06, dc=20.0)
+    if name == "picoscope":
+        return replace(_gearmotor(0.2, tau_m=0.05, dc=30.0, noise=0.004), tacho_v_per_rad_s=0.01)
+    if name == "clock-stamps":
+        return _gearmotor(0.4, tau_m=0.12, dc=18.0)
     if name == "host-loop":
         return _gearmotor(0.2, tau_m=0.1, dc=15.0)
     if name == "encoder-counts":
@@ -201,6 +218,77 @@ def _write_staircase(folder: Path, cfg: TrainerConfig, rng: np.random.Generator,
     return {"log": path}, ("--velocity", str(path), "--segment", "2"), truth, dt
 
 
+def _write_serial_plotter(folder: Path, cfg: TrainerConfig, rng: np.random.Generator, force: bool) -> Writer:
+    n = 300
+    true_t = float(rng.uniform(1.0, 5.0)) + np.arange(n) * ARDUINO_LOOP_S
+    stamps = np.floor(true_t * 1e3) / 1e3  # millis() / 1000.0
+    k = int(rng.integers(60, 91))
+    s = _run(cfg, true_t, _step(true_t[k], 0.0, 6.0))
+    counts = np.floor(s["motor_angle_rad"] / (2 * math.pi) * 1200 + rng.uniform())
+    rpm = np.r_[0.0, np.diff(counts)] / 1200 / ARDUINO_LOOP_S * 60.0
+    u = np.where(np.arange(n) >= k, 6.0, 0.0)
+    lines = [f"t:{a:.3f},pwm_V:{b:.1f},rpm:{c:.1f}" for a, b, c in zip(stamps, u, rpm, strict=True)]
+    last = f"t:{stamps[-1] + 0.010:.3f},pwm_V:6.0,rp"  # the serial monitor stopped mid-line
+    path = folder / "serial_plotter.txt"
+    check_writable([path], force=force)
+    _write_text(path, "\n".join([*lines, last]) + "\n")
+    truth = _truth(cfg, from_v=0.0, to_v=6.0, dead_time_s=0.0, sensor_lag_s=ARDUINO_LOOP_S / 2,
+                   step_time_s=float(true_t[k]), units="rpm")
+    return {"log": path}, ("--velocity", str(path)), _scaled(truth, RPM_PER_RAD_S), ARDUINO_LOOP_S
+
+
+#: PicoScope rig: sample interval, samples, pre-trigger samples, the two ranges (±V) of 8-bit codes.
+PICO_DT_S, PICO_N, PICO_PRE, PICO_RANGES_V = 0.001, 1000, 100, (5.0, 2.0)
+
+
+def _write_picoscope(folder: Path, cfg: TrainerConfig, rng: np.random.Generator, force: bool) -> Writer:
+    t = (np.arange(PICO_N) - PICO_PRE) * PICO_DT_S + float(rng.uniform(0.0, PICO_DT_S))
+    s = _run(cfg, t, _step(0.0, 0.0, 4.0))
+    step = np.where(t >= 0.0, 4.0, 0.0) + rng.normal(0.0, 0.01, t.size)
+    tacho = cfg.tacho_v_per_rad_s * s["motor_speed_rad_s"] + rng.normal(0.0, cfg.noise_v, t.size)
+
+    def codes(v: np.ndarray, full_v: float) -> np.ndarray:
+        lsb = 2 * full_v / 256
+        return np.clip(np.round(v / lsb), -128, 127) * lsb
+
+    rows = [f"{1e3 * a:.8f},{b:.8f},{c:.8f}" for a, b, c in
+            zip(t, codes(step, PICO_RANGES_V[0]), codes(tacho, PICO_RANGES_V[1]), strict=True)]
+    path = folder / "pico_step.csv"
+    check_writable([path], force=force)
+    _write_text(path, "Time,Channel A,Channel B\n(ms),(V),(V)\n\n" + "\n".join(rows) + "\n")
+    truth = _truth(cfg, from_v=0.0, to_v=4.0, dead_time_s=0.0, sensor_lag_s=0.0, step_time_s=0.0, units="V")
+    args = ("--velocity", str(path), "--columns", "time=Time,input=Channel A,velocity=Channel B")
+    return {"log": path}, args, truth, PICO_DT_S
+
+
+def _write_clock_stamps(folder: Path, cfg: TrainerConfig, rng: np.random.Generator, force: bool) -> Writer:
+    n = 260
+    t = np.r_[0.0, np.cumsum(0.020 + rng.normal(0.0, 0.0015, n - 1))]  # a 20 ms loop, scheduler jitter
+    k = int(rng.integers(40, 61))
+    s = _run(cfg, t, _step(t[k], 0.0, 9.0))
+    counts = np.floor(s["motor_angle_rad"] / (2 * math.pi) * 960 + rng.uniform())
+    rpm = np.r_[0.0, np.diff(counts) / np.diff(t)] / 960 * 60.0
+    u = np.where(np.arange(n) >= k, 9.0, 0.0)
+    base = np.datetime64("2026-03-02T14:03:11.000000") + np.timedelta64(int(rng.integers(0, 10**6)), "us")
+    stamps = [str(base + np.timedelta64(round(1e6 * a), "us")).replace("T", " ") for a in t]
+    path = folder / "pi_log.csv"
+    check_writable([path], force=force)
+    _write_text(path, "timestamp,pwm_volts,rpm\n" + "\n".join(
+        f"{a},{b:.1f},{c:.2f}" for a, b, c in zip(stamps, u, rpm, strict=True)) + "\n")
+    lag = float(np.mean(np.diff(t))) / 2
+    truth = _truth(cfg, from_v=0.0, to_v=9.0, dead_time_s=0.0, sensor_lag_s=lag, step_time_s=float(t[k]),
+                   units="rpm")
+    return {"log": path}, ("--velocity", str(path)), _scaled(truth, RPM_PER_RAD_S), float(np.mean(np.diff(t)))
+
+
+def _write_text(path: Path, text: str) -> None:
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text, encoding="ascii")
+    except OSError as exc:
+        raise OptionError(f"cannot write the file ({exc.strerror or exc})", file=str(path)) from exc
+
+
 def write_hobby_rig(name: str, folder: Path, rng: np.random.Generator, force: bool) -> Writer:
     """Write one hobby rig's log (the files, the user's arguments, the truth, the mean sample interval).
 
@@ -229,4 +317,6 @@ def write_hobby_rig(name: str, folder: Path, rng: np.random.Generator, force: bo
         return _write_host_loop(folder, cfg, rng, force)
     if name == "encoder-counts":
         return _write_encoder_counts(folder, cfg, rng, force)
-    return _write_staircase(folder, cfg, rng, force)
+    writers = {"serial-plotter": _write_serial_plotter, "picoscope": _write_picoscope,
+               "clock-stamps": _write_clock_stamps}
+    return writers.get(name, _write_staircase)(folder, cfg, rng, force)

@@ -57,7 +57,8 @@ __all__ = [
 #: Names accepted by :func:`write_real_setup`: three scope and DAQ set-ups here, and the hobby and
 #: classroom rigs of :mod:`motorid.trainer.hobbyrigs`.
 REAL_SETUPS: tuple[str, ...] = ("fast-tbs1000", "pwm-encoder", "daq-deadtime", "l298n-rpm", "arduino-millis",
-                                "host-loop", "encoder-counts", "staircase", "ms-time")
+                                "host-loop", "encoder-counts", "staircase", "ms-time", "serial-plotter", "picoscope",
+                                "clock-stamps")
 #: The scope and DAQ set-ups of this module (the rest are :mod:`motorid.trainer.hobbyrigs`').
 SCOPE_AND_DAQ_SETUPS: tuple[str, ...] = REAL_SETUPS[:3]
 

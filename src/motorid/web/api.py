@@ -80,7 +80,7 @@ async def api_identify(request: Request) -> dict[str, Any]:
             caps, ignored = group_captures([f for f in form.files if f.field == role])
             if ignored:
                 raise UploadError(f"field {role}: {ignored[0]} is not a capture file: send Tektronix or plain CSV "
-                                  "files, an .xlsx export, or a .zip of an ALLnnnn folder")
+                                  "files (.csv, .tsv, .txt), an .xlsx export, or a .zip of an ALLnnnn folder")
             if len(caps) > 1:
                 raise UploadError(f"field {role} holds {len(caps)} captures ({', '.join(c.label for c in caps)}): "
                                   "send one capture per field (a CH1/CH2 pair, an ALLnnnn .zip, an .xlsx or a CSV)")

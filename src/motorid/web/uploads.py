@@ -43,8 +43,9 @@ __all__ = [
 _UNSAFE = re.compile(r"[^A-Za-z0-9._-]+")
 #: A Tektronix channel file of the 'Save All' layout (``F0000CH1.CSV``).
 _TDS_CHANNEL = re.compile(r"^F(\d{4})CH([1-4])\.CSV$", re.IGNORECASE)
-#: Suffixes of files that can hold a capture (plain CSV, Tektronix CSV, spreadsheet export).
-CAPTURE_SUFFIXES: tuple[str, ...] = (".csv", ".xlsx")
+#: Suffixes of files that can hold a capture (plain CSV, Tektronix CSV, spreadsheet export, a tab-separated
+#: or serial-monitor log saved as text); the readers decide from the content.
+CAPTURE_SUFFIXES: tuple[str, ...] = (".csv", ".xlsx", ".tsv", ".txt")
 _COPY_BLOCK = 1 << 16
 
 
