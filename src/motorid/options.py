@@ -32,6 +32,7 @@ __all__ = [
     "READ",
     "SIMULATE",
     "TRAINER_PRESETS",
+    "TRAINER_RIGS",
     "VALIDATE",
     "OptionSpec",
     "callers_words",
@@ -74,6 +75,12 @@ class OptionSpec:
 #: The virtual trainer's presets (``motorid demo --preset``, ``simulate --plant trainer --preset``):
 #: declared here, where the command line reads them without importing the trainer.
 TRAINER_PRESETS: tuple[str, ...] = ("paper", "lab-report", "first-order", "second-order", "third-order")
+
+#: The virtual trainer's real-rig presets (``motorid demo --rig``): each records its log the way that rig
+#: writes it (:mod:`motorid.trainer.realsetups`, :mod:`motorid.trainer.hobbyrigs`).
+TRAINER_RIGS: tuple[str, ...] = ("fast-tbs1000", "pwm-encoder", "daq-deadtime", "l298n-rpm", "arduino-millis",
+                                 "host-loop", "encoder-counts", "staircase", "ms-time", "serial-plotter", "picoscope",
+                                 "clock-stamps")
 
 #: :func:`motorid.read_experiment`'s captures, one per role (the web page's file fields).
 ROLES: tuple[OptionSpec, ...] = (

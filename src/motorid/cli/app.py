@@ -20,7 +20,7 @@ from rich.table import Table
 
 from motorid.errors import MotorIdError, OptionError
 from motorid.numfmt import sig
-from motorid.options import READ, TRAINER_PRESETS
+from motorid.options import READ, TRAINER_PRESETS, TRAINER_RIGS
 
 #: ``--segment``'s help, from its declaration.
 SEGMENT_HELP = (lambda h: h[:1].upper() + h[1:])(next(o.help for o in READ if o.name == "segment"))
@@ -268,11 +268,22 @@ def demo(
     seed: Annotated[int, typer.Option(help="Random seed of the simulated noise and triggers.")] = 0,
     step_volts: Annotated[float, typer.Option("--step-volts", help="Step level (switch S1).")] = 5.92,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
+    rig: Annotated[str | None, typer.Option(
+        "--rig", help=f"Record the step as a real rig logs it instead: {', '.join(TRAINER_RIGS)}; then identify the "
+                      "log with default options, as a user would.")] = None,
 ) -> None:
     """Record an example experiment on the virtual servo trainer and read it back."""
     from motorid.cli.demo import run_demo
     from motorid.io import check_writable
 
+    if rig is not None:
+        if preset != "paper" or step_volts != 5.92:
+            raise OptionError("--rig records as that rig does (its own motor and step); --preset and --step-volts "
+                              "belong to the scope demo: leave them out")
+        _choice("--rig", rig, TRAINER_RIGS)
+        check_writable({"--out": out}, force=force, folder=True)
+        _rig_demo(out, rig, seed, force)
+        return
     _check_options(preset=preset, step_volts=step_volts)
     check_writable({"--out": out}, force=force, folder=True)
     with _bar("demo") as progress:
@@ -311,6 +322,39 @@ def demo(
     con.print(f"report: {result.out / 'report.html'}")
     con.print(f"ground truth: {result.truth_path}")
     con.print(f"inspect them: motorid inspect {out}/ALL0000 {out}/ALL0001 {out}/ALL0002")
+
+
+def _rig_demo(out: Path, rig: str, seed: int, force: bool) -> None:
+    """``demo --rig``: the rig's files, the command a user types, the model, and the truth beside it."""
+    from motorid.cli.demo import run_rig_demo
+
+    with _bar("demo") as progress:
+        result = run_rig_demo(out, rig=rig, seed=seed, force=force, progress=progress)
+    con = _console()
+    con.print(f"virtual trainer recorded as the '{rig}' rig does, seed {seed}: written to {out}")
+    for role, path in result.files.items():
+        con.print(f"  {role}: {path}")
+    con.print("identify it yourself: motorid identify " + " ".join(
+        f'"{a}"' if " " in a else a for a in result.cli_args), markup=False)
+    model = result.fit.model
+    _print_model(con, model, "identified model")
+    con.print(f"choice: {result.fit.reason}")
+    truth = result.truth
+    u = model.uncertainty
+    table = Table(title="identified from the log vs the trainer's truth")
+    for head in ("quantity", "identified", "95 % interval", "truth"):
+        table.add_column(head)
+    fo = model.first_order()
+    rows = [(f"dc gain ({model.dc_gain_unit})", fo.dc_gain, u.headline("dc_gain") if u else None, truth.dc_gain),
+            ("mean residence time τ + dead time (s)", fo.time_constant_s + model.delay_s,
+             (u.headline("residence_time_s") if u.delay is not None else u.headline("time_constant")) if u else None,
+             truth.residence_time_s)]
+    for label, value, est, true in rows:
+        lo, hi = est.interval_or_nan() if est is not None else (math.nan, math.nan)
+        table.add_row(label, sig(value), f"[{sig(lo)}, {sig(hi)}]" if est is not None else "—", sig(true))
+    con.print(table)
+    con.print(f"model JSON: {result.model_path}")
+    con.print(f"ground truth: {result.truth_path}")
 
 
 def _one_per_role(position, velocity, current) -> dict[str, str | None]:

@@ -14,17 +14,19 @@ the model written to ``model.json`` and the whole story to ``report.html``.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
 from motorid._threads import single_blas_thread
 from motorid.conditioning.inspect import CaptureSummary, describe_capture
-from motorid.errors import OutputExistsError
+from motorid.errors import OptionError, OutputExistsError
 from motorid.io import atomic_folder, check_writable, read_capture, write_tds_capture
 
-__all__ = ["CAPTURE_ORDER", "DEMO_STEPS", "DemoResult", "DemoRow", "run_demo"]
+__all__ = ["CAPTURE_ORDER", "DEMO_STEPS", "RIG_DEMO_STEPS", "DemoResult", "DemoRow", "RigDemoResult", "read_options_of",
+           "run_demo", "run_rig_demo"]
 
 #: The steps ``run_demo`` reports to its ``progress`` callback.
 DEMO_STEPS: tuple[str, ...] = ("trainer simulation", "writing and reading the captures", "identifying",
@@ -170,3 +172,138 @@ def _write_demo(out: Path, exp: Any, *, preset: str, seed: int, step_volts: floa
                                        for name in ("sine", "triangle", "square") if name in exp.validation},
                            title=f"motorid demo: virtual trainer '{preset}', seed {seed}")
     return DemoResult(out, tuple(rows), truth_path, exp, ident)
+
+
+@dataclass(frozen=True, slots=True)
+class RigDemoResult:
+    """What ``run_rig_demo`` wrote and identified.
+
+    Attributes
+    ----------
+    out : Path
+        The folder.
+    files : Mapping[str, Path]
+        The rig's files by role (``log`` for a one-file log).
+    cli_args : tuple of str
+        The ``motorid identify`` arguments a user gives for these files (default options).
+    truth : RealSetupTruth
+        What a perfect identification would report (gain, residence time, units).
+    truth_path, model_path : Path
+        ``truth.json`` and ``model.json``.
+    fit : IdentificationResult
+        The identification through the front door.
+    """
+
+    out: Path
+    files: Mapping[str, Path]
+    cli_args: tuple[str, ...]
+    truth: Any
+    truth_path: Path
+    model_path: Path
+    fit: Any
+
+
+#: The steps ``run_rig_demo`` reports to its ``progress`` callback.
+RIG_DEMO_STEPS: tuple[str, ...] = ("trainer simulation, written as the rig writes it", "identifying")
+
+
+def read_options_of(args: Sequence[str]) -> dict[str, Any]:
+    """``motorid identify`` arguments as :func:`motorid.read_experiment`'s keyword options.
+
+    The flags are the ones :mod:`motorid.options` declares for reading an experiment (a rig
+    preset's arguments use no others).
+
+    Parameters
+    ----------
+    args : sequence of str
+        Flag, value pairs (``--velocity log.csv --step-volts 6``).
+
+    Returns
+    -------
+    dict
+        ``{"velocity": "log.csv", "step_volts": 6.0}``.
+    """
+    from motorid.options import READ, ROLES
+
+    names = {o.flag: o.name for o in ROLES + READ}
+    out: dict[str, Any] = {}
+    for flag, value in zip(args[::2], args[1::2], strict=True):
+        name = names[flag]
+        if name in ("step_volts", "t0"):
+            out[name] = float(value)
+        elif name == "segment":
+            out[name] = int(value)
+        elif name == "columns":
+            out[name] = dict(part.split("=", 1) for part in value.split(","))
+        else:
+            out[name] = value
+    return out
+
+
+@single_blas_thread
+def run_rig_demo(
+    out: Path | str,
+    *,
+    rig: str,
+    seed: int = 0,
+    force: bool = False,
+    progress: Callable[..., None] | None = None,
+) -> RigDemoResult:
+    """Record a step on the virtual trainer as a real rig logs it, and identify it as a user would.
+
+    Parameters
+    ----------
+    out : path
+        Folder to write into (created if needed).
+    rig : str
+        One of :data:`motorid.options.TRAINER_RIGS`.
+    seed : int
+        Seed of the noise, the clocks' phases and the step instant.
+    force : bool
+        Overwrite existing files.
+    progress : callable, optional
+        ``progress(done, total, label)`` before each of :data:`RIG_DEMO_STEPS` and at the end.
+
+    Returns
+    -------
+    RigDemoResult
+
+    Raises
+    ------
+    OptionError
+        An unknown rig, or ``out`` cannot be written.
+    OutputExistsError
+        ``truth.json`` or ``model.json`` exist and ``force`` is false.
+    """
+    from motorid import frontdoor
+    from motorid.options import TRAINER_RIGS
+    from motorid.trainer.realsetups import write_real_setup
+
+    if rig not in TRAINER_RIGS:
+        raise OptionError(f"--rig {rig!r}: use one of {', '.join(TRAINER_RIGS)}")
+    out = Path(out)
+    check_writable([out], force=force, folder=True)
+    truth_path, model_path = out / "truth.json", out / "model.json"
+    existing = [p for p in (truth_path, model_path) if p.exists()]
+    if existing and not force:
+        raise OutputExistsError(f"{existing[0].name} exists; use --force to overwrite it", file=str(out))
+
+    def step(done: int) -> None:
+        if progress is not None:
+            progress(done, len(RIG_DEMO_STEPS), RIG_DEMO_STEPS[done] if done < len(RIG_DEMO_STEPS) else None)
+
+    step(0)
+    rec = write_real_setup(rig, out, seed=seed, force=force)
+    step(1)
+    fit = frontdoor.identify(frontdoor.read_experiment(**read_options_of(rec.cli_args)))
+    model_path.write_text(fit.model.to_json_text(), encoding="utf-8")
+    t = rec.truth
+    doc = {"schema": "motorid.rig-truth/1", "rig": rig, "seed": seed,
+           "files": {role: str(p.relative_to(out)) for role, p in rec.files.items()},
+           "identify_args": [str(Path(a).relative_to(out)) if a.startswith(str(out)) else a for a in rec.cli_args],
+           "dc_gain": t.dc_gain, "output_units": t.output_units, "time_constant_s": t.time_constant_s,
+           "delay_s": t.delay_s, "residence_time_s": t.residence_time_s, "step_volts": t.step_volts,
+           "from_volts": t.from_volts, "step_time_s": t.step_time_s}
+    truth_path.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    step(len(RIG_DEMO_STEPS))
+    return RigDemoResult(out, MappingProxyType(dict(rec.files)), rec.cli_args, t, truth_path, model_path, fit)

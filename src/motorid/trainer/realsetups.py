@@ -37,6 +37,7 @@ import numpy as np
 from motorid.frozen import frozen_getstate, frozen_setstate
 from motorid.capture import Capture, ChannelInfo, ScopeInfo
 from motorid.errors import OptionError
+from motorid.options import TRAINER_RIGS
 from motorid.io._common import check_writable
 from motorid.io.tektronix import write_tds_channel
 from motorid.trainer.plant import PlantResponse, simulate_plant
@@ -56,9 +57,7 @@ __all__ = [
 
 #: Names accepted by :func:`write_real_setup`: three scope and DAQ set-ups here, and the hobby and
 #: classroom rigs of :mod:`motorid.trainer.hobbyrigs`.
-REAL_SETUPS: tuple[str, ...] = ("fast-tbs1000", "pwm-encoder", "daq-deadtime", "l298n-rpm", "arduino-millis",
-                                "host-loop", "encoder-counts", "staircase", "ms-time", "serial-plotter", "picoscope",
-                                "clock-stamps")
+REAL_SETUPS: tuple[str, ...] = TRAINER_RIGS
 #: The scope and DAQ set-ups of this module (the rest are :mod:`motorid.trainer.hobbyrigs`').
 SCOPE_AND_DAQ_SETUPS: tuple[str, ...] = REAL_SETUPS[:3]
 
