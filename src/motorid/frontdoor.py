@@ -414,9 +414,9 @@ def several_steps_message(experiment: Experiment) -> str:
     cap = experiment.captures["velocity"]
     found = "; ".join(s.describe() for s in experiment.steps)
     return (f"{cap.source}: {len(experiment.steps)} input steps found ({found}): one model is identified from one "
-            "step — pick one with --segment N, or fit all of them together (dead-zone, gain, rails and shared "
-            "dynamics) as `motorid identify --velocity LOG` does, in Python "
-            "identify_levels(experiment.step_captures())")
+            "step — pick one with --segment N (segment = N in a batch's experiment.toml), or fit all of them "
+            "together (dead-zone, gain, rails and shared dynamics): the command line's identify does so with the "
+            "log alone, Python with identify_levels(experiment.step_captures())")
 
 
 # ------------------------------------------------------------------------------ identification

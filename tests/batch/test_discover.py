@@ -191,3 +191,18 @@ def test_of_two_velocity_looking_captures_the_step_from_rest_is_taken(class_root
     shifted = replace(vel, input_v=vel.input_v + 3.0)
     with pytest.raises(OptionError, match="2 captures look like velocity"):
         assign_roles({("ALL0001",): shifted, ("ALL0005",): square})
+
+
+def test_a_text_log_is_a_capture_and_a_note_is_not(tmp_path):
+    """A serial monitor's log saved as ``.txt`` was passed over without a word (the class's summary
+    simply had one experiment fewer); now a ``.txt``/``.log``/``.dat`` file whose content reads as a
+    log is a capture, and a student's notes are still left alone."""
+    folder = tmp_path / "class" / "dana"
+    folder.mkdir(parents=True)
+    (folder / "serial.txt").write_text("".join(f"t:{0.01 * k:.2f},u:{6.0 * (k >= 50):.1f},rpm:{k:.1f}\n"
+                                               for k in range(200)))
+    (folder / "notes.txt").write_text("the motor got warm after the third run\n")
+    (folder / "run.log").write_text("time,voltage,speed\n" + "".join(f"{0.01 * k:.2f},{6.0 * (k >= 50):.1f},{k}\n"
+                                                                     for k in range(200)))
+    (spec,) = discover_experiments([tmp_path / "class"])
+    assert spec.captures == (("run.log",), ("serial.txt",))

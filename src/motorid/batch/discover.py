@@ -44,6 +44,9 @@ EXPERIMENT_TOML = "experiment.toml"
 MANIFEST_CSV = "manifest.csv"
 #: Suffixes of loose capture files (the readers recognise the format from the content).
 CAPTURE_SUFFIXES = (".csv", ".xlsx", ".tsv")
+#: Suffixes of text files that are captures only when their content reads as a log (a serial
+#: monitor's ``.txt``, a logger's ``.log``/``.dat``): a student's ``notes.txt`` is not one.
+TEXT_LOG_SUFFIXES = (".txt", ".log", ".dat")
 #: Roles a manifest can give; ``validate`` marks validation captures (sine, triangle ...).
 MANIFEST_ROLES = ("position", "velocity", "current", "validate")
 #: Keys an ``experiment.toml`` may hold besides the roles.
@@ -165,7 +168,13 @@ def _capture_entries(folder: Path) -> list[tuple[str, ...]]:
             if _ALL_FOLDER.match(p.name):
                 captures.append((p.name,))
             continue
-        if p.name.lower() in (MANIFEST_CSV, "summary.csv") or p.suffix.lower() not in CAPTURE_SUFFIXES:
+        if p.name.lower() in (MANIFEST_CSV, "summary.csv"):
+            continue
+        if p.suffix.lower() in TEXT_LOG_SUFFIXES:
+            if _reads_as_log(p):
+                captures.append((p.name,))
+            continue
+        if p.suffix.lower() not in CAPTURE_SUFFIXES:
             continue
         m = _TDS_CHANNEL.match(p.name)
         if m:
@@ -174,6 +183,17 @@ def _capture_entries(folder: Path) -> list[tuple[str, ...]]:
             captures.append((p.name,))
     captures.extend(tuple(sorted(names)) for names in pairs.values())
     return sorted(captures)
+
+
+def _reads_as_log(path: Path) -> bool:
+    """Whether a text file's head is a table or log the readers take (its format from its content)."""
+    from motorid.errors import MotorIdError
+    from motorid.io import detect_format
+
+    try:
+        return detect_format(path) == "plain-csv"
+    except (MotorIdError, OSError):
+        return False
 
 
 def _files_of(folder: Path, captures: Iterable[Sequence[str]]) -> list[str]:
