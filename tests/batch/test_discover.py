@@ -206,3 +206,20 @@ def test_a_text_log_is_a_capture_and_a_note_is_not(tmp_path):
                                                                      for k in range(200)))
     (spec,) = discover_experiments([tmp_path / "class"])
     assert spec.captures == (("run.log",), ("serial.txt",))
+
+
+def test_folders_with_files_but_no_capture_are_named(tmp_path):
+    """A student who handed in a photo of the scope was missing from the summary without a word."""
+    from motorid.batch.discover import folders_without_captures
+
+    root = tmp_path / "class"
+    (root / "erin").mkdir(parents=True)
+    (root / "erin" / "log.csv").write_text("time,voltage,speed\n" + "".join(
+        f"{0.01 * k:.2f},{6.0 * (k >= 50):.1f},{k}\n" for k in range(200)))
+    (root / "finn").mkdir()
+    (root / "finn" / "scope.jpg").write_bytes(b"\xff\xd8\xff")
+    (root / "finn" / "notes.txt").write_text("forgot to save the CSV\n")
+    (root / "week2" / "gus").mkdir(parents=True)  # an empty folder is nobody's hand-in
+    (root / "instructions.pdf").write_bytes(b"%PDF")  # the root's own files are not a folder of it
+    assert folders_without_captures([root]) == [("finn", ("notes.txt", "scope.jpg"))]
+    assert [s.name for s in discover_experiments([root])] == ["erin"]

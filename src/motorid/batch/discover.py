@@ -36,6 +36,7 @@ __all__ = [
     "MANIFEST_CSV",
     "ExperimentSpec",
     "discover_experiments",
+    "folders_without_captures",
     "read_roles_file",
 ]
 
@@ -356,6 +357,47 @@ def _walk(root: Path, skip: Path | None) -> Iterable[tuple[Path, list[tuple[str,
         subs = [p for p in sorted(folder.iterdir(), reverse=True)
                 if p.is_dir() and _visible(p) and not _ALL_FOLDER.match(p.name)]
         stack.extend(subs)
+
+
+def folders_without_captures(roots: Sequence[str | os.PathLike[str]], *,
+                             skip: str | os.PathLike[str] | None = None) -> list[tuple[str, tuple[str, ...]]]:
+    """Folders under the roots that hold files but no capture and no experiment below them.
+
+    A student who handed in a photo of the scope, a ``.pdf`` or a log in a format no reader takes
+    would otherwise be missing from the summary without a word.
+
+    Parameters
+    ----------
+    roots : sequence of paths
+        The batch's roots (files among them are ignored).
+    skip : path, optional
+        A folder not to search (the batch's output).
+
+    Returns
+    -------
+    list of (str, tuple of str)
+        Each such folder by its path relative to its root, with the names of up to five of its files.
+    """
+    skip_path = None if skip is None else Path(skip).resolve()
+    out: list[tuple[str, tuple[str, ...]]] = []
+    for raw in roots:
+        root = Path(raw).absolute()
+        if not root.is_dir() or _ALL_FOLDER.match(root.name):
+            continue
+        with_experiments = {folder.resolve() for folder, _ in _walk(root, skip_path)}
+        for folder in sorted(p for p in root.rglob("*") if p.is_dir() and _visible(p)):
+            if (any(part.startswith((".", "~$", "_")) for part in folder.relative_to(root).parts)
+                    or _ALL_FOLDER.match(folder.name) or any(_ALL_FOLDER.match(part) for part in folder.parts)):
+                continue
+            real = folder.resolve()
+            if real in with_experiments or any(e == real or real in e.parents for e in with_experiments):
+                continue
+            if skip_path is not None and (real == skip_path or skip_path in real.parents):
+                continue
+            files = tuple(sorted(f.name for f in folder.iterdir() if f.is_file() and _visible(f)))
+            if files:
+                out.append((folder.relative_to(root).as_posix(), files[:5]))
+    return out
 
 
 def discover_experiments(roots: Sequence[str | os.PathLike[str]], *, skip: str | os.PathLike[str] | None = None

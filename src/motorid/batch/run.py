@@ -19,7 +19,7 @@ from fnmatch import fnmatchcase
 from pathlib import Path
 from typing import Any
 
-from motorid.batch.discover import ExperimentSpec, discover_experiments
+from motorid.batch.discover import ExperimentSpec, discover_experiments, folders_without_captures
 from motorid.batch.engine import parallel_map
 from motorid.batch.lazy import render_command, report_stub
 from motorid.batch.page import summary_html
@@ -57,6 +57,8 @@ class BatchResult:
         Experiments whose stored result was kept (inputs and settings unchanged).
     seconds : float
         Wall time of the run.
+    without_captures : tuple of (str, tuple of str)
+        Folders under the roots that hold files but no capture (named with some of their files).
     """
 
     out: Path
@@ -64,6 +66,7 @@ class BatchResult:
     computed: tuple[str, ...]
     skipped: tuple[str, ...]
     seconds: float
+    without_captures: tuple[tuple[str, tuple[str, ...]], ...] = ()
 
     @property
     def failed(self) -> tuple[str, ...]:
@@ -217,4 +220,5 @@ def run_batch(
            "jobs": jobs, "scheduler": scheduler, "seconds": round(seconds, 3)}
     with open(out / LOG_FILE, "a", encoding="utf-8") as fh:
         fh.write(json.dumps(log) + "\n")
-    return BatchResult(out, tuple(rows), tuple(sorted(computed)), skipped, seconds)
+    return BatchResult(out, tuple(rows), tuple(sorted(computed)), skipped, seconds,
+                       tuple(folders_without_captures(roots, skip=out)))

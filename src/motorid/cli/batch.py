@@ -115,6 +115,9 @@ def batch(
         elif r.outlier:
             con.print(f"[yellow]outlier[/yellow] {escape(r.experiment)}: {r.outlier} (z gain {r.gain_z:.2f}, "
                       f"z τ {r.tau_z:.2f})", highlight=False)
+    for folder, files in result.without_captures:
+        con.print(f"[yellow]no capture[/yellow] {escape(folder)}: {escape(', '.join(files))} — not an experiment "
+                  "(captures are ALLnnnn folders, Tektronix or plain CSV logs, .xlsx exports)", highlight=False)
     con.print(f"summary: {Path(out) / 'summary.csv'}")
     con.print(f"summary page: {Path(out) / 'summary.html'}")
 
