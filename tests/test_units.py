@@ -57,3 +57,43 @@ def test_unit_helpers():
     assert physical_gain(0.9, {}, {"velocity": ChannelScale(0.1504, "rad/s")}) == pytest.approx(
         (0.9 / 0.1504, "(rad/s)/V"))
     assert physical_gain(245.0, {"velocity": "rpm"}, {"velocity": ChannelScale(0.1, "rad/s")}) is None
+
+
+def _pwm_log(path, column: str = "pwm", level: float = 200.0):
+    """A 100 Hz log whose command is an Arduino's ``analogWrite`` value (0 → 200), not volts."""
+    import numpy as np
+
+    t = np.arange(400) * 0.01
+    u = np.where(t >= 1.0, level, 0.0)
+    y = np.where(t >= 1.0, 5.4 * level * (1 - np.exp(-np.maximum(t - 1.0, 0) / 0.08)), 0.0)
+    y = y + np.random.default_rng(0).normal(0, 1.0, t.size)
+    path.write_text(f"time,{column},rpm\n" + "".join(f"{a:.2f},{b:g},{c:.2f}\n" for a, b, c in zip(t, u, y,
+                                                                                                  strict=True)))
+    return path
+
+
+def test_a_pwm_command_is_not_labelled_volts_anywhere(tmp_path, run_cli):
+    """A log whose command column is ``pwm`` (0–255 counts) printed "step 200 V" and "dc gain
+    (rpm/V)", the PID "V per rpm", simulate "peak |u| … V": every one a guessed label.  Now the
+    command's unit comes from its column name and travels to each output."""
+    log = _pwm_log(tmp_path / "log.csv")
+    m = tmp_path / "m.json"
+    res = run_cli("identify", "--velocity", log, "--json", m, "--matlab", tmp_path / "m.m")
+    assert res.code == 0, res.err
+    doc = json.loads(m.read_text())
+    assert doc["units"]["input"] == "pwm" and doc["dc_gain_unit"] == "rpm/pwm"
+    assert doc["first_order"]["dc_gain"] == pytest.approx(5.4, rel=0.01)
+    assert "step 200 pwm" in res.out.splitlines()[0] and "dc gain (rpm/pwm)" in res.out
+    assert "(step 200 pwm)" in (tmp_path / "m.m").read_text() and "amplifier volts" not in (tmp_path / "m.m").read_text()
+    des = tmp_path / "pid.json"
+    res = run_cli("design", m, "--pid", "--json", des)
+    assert res.code == 0, res.err
+    assert "pwm per rpm" in res.out and "rpm/pwm" in res.out and " V per " not in res.out
+    res = run_cli("design", m, "--damping", "1", "--wn", "20", "--integral")
+    assert res.code == 0 and "pwm per rpm of the tacho" in res.out
+    res = run_cli("simulate", m, des, "--level", "100")
+    assert res.code == 0, res.err
+    assert re.search(r"peak \|u\| \S+ pwm", res.out) and not re.search(r"peak \|u\| \S+ V\b", res.out)
+    # a duty cycle in percent
+    res = run_cli("identify", "--velocity", _pwm_log(tmp_path / "duty.csv", "duty_pct", 60.0), "--method", "classic")
+    assert res.code == 0 and "rpm/%" in res.out

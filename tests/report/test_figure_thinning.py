@@ -40,11 +40,11 @@ def test_closed_loop_canvas_redraws_in_place_and_keeps_a_figure_per_set_of_curve
     canvas = ClosedLoopCanvas()
     first = canvas.svg(t, {"reference": np.ones_like(t), "output (velocity)": 1 - np.exp(-t), "u (control)": np.exp(-t)},
                        "closed loop: ζ = 1")
-    fig, axes, _ = canvas._figures[names]
+    fig, axes, _ = canvas._figures[(*names, "V", "V")]
     second = canvas.svg(t, {"reference": 2 * np.ones_like(t), "output (velocity)": 2 * (1 - np.exp(-3 * t)),
                             "u (control)": 8 * np.exp(-3 * t)}, "closed loop: ζ = 0.7, and a title long enough to wrap "
                            "onto a second line of the heading")
-    assert canvas._figures[names][0] is fig  # same curves: the figure is reused
+    assert canvas._figures[(*names, "V", "V")][0] is fig  # same curves: the figure is reused
     assert first.startswith(b"<?xml") and second.startswith(b"<?xml") and first != second
     assert "ζ = 0.7" in axes[0].get_title(loc="left")
     # text is SVG text (the browser's fonts), not glyph outlines
@@ -52,10 +52,16 @@ def test_closed_loop_canvas_redraws_in_place_and_keeps_a_figure_per_set_of_curve
     # the axes follow the new data: the control axis now reaches 8
     assert axes[1].get_ylim()[1] >= 8.0
     canvas.svg(t, {"reference": np.ones_like(t), "output (position)": t}, "other curves")
-    assert canvas._figures[("reference", "output (position)")][0] is not fig
+    assert canvas._figures[("reference", "output (position)", "V", "V")][0] is not fig
     # the first set of curves comes back to its own figure, not a new one
     canvas.svg(t, {"reference": np.ones_like(t), "output (velocity)": t, "u (control)": t}, "back")
-    assert canvas._figures[names][0] is fig
+    assert canvas._figures[(*names, "V", "V")][0] is fig
+    # the data's units on the axes: another figure, labelled rpm and pwm (never a V for them)
+    canvas.svg(t, {"reference": np.ones_like(t), "output (velocity)": t, "u (control)": t}, "rpm",
+               output_unit="rpm", input_unit="pwm")
+    _, rpm_axes, _ = canvas._figures[(*names, "rpm", "pwm")]
+    assert rpm_axes[0].get_ylabel() == "rpm" and rpm_axes[1].get_ylabel() == "control u (pwm)"
+    assert axes[0].get_ylabel() == "V"
     for i in range(ClosedLoopCanvas.KEPT + 2):  # never more than KEPT figures
         canvas.svg(t, {f"curve {i}": t}, "many")
     assert len(canvas._figures) == ClosedLoopCanvas.KEPT

@@ -395,7 +395,7 @@ def _design_pid(model_file: Path, json_out: Path | None, force: bool, loop: str 
     model = load_model(model_file)  # for the step check and the sampled controller's code
     how = "SIMC (Skogestad 2003)" if p.rule == "simc" else "pole placement"
     say(f"{p.kind} on the {p.loop} ({p.output_unit}), tuned by {how} on "
-               f"{p.approximation.text(p.output_unit)}"
+               f"{p.approximation.text(p.output_unit, p.model_units.get('input') or 'V')}"
                + (f", τc = {sig(p.tau_c_s)} s" if p.tau_c_s is not None else ""))
     say("gains: " + ", ".join(f"{name} = {sig(v)} {unit}" for name, v, unit in p.gains()))
     say(f"u = kp·(r − y) + ki·∫(r − y)dt − kd·s/(tf·s + 1)·y   (y = {p.measured_signal}; "
@@ -414,7 +414,7 @@ def _design_pid(model_file: Path, json_out: Path | None, force: bool, loop: str 
     m = res.metrics
     settled = f"{sig(m.settling_time_s)} s" if math.isfinite(m.settling_time_s) else "not within the record"
     say(f"step response (simulated, no rails): overshoot {sig(m.overshoot_pct)} %, settling time (2 %) "
-               f"{settled}, rise time {sig(m.rise_time_s)} s, peak |u| {sig(m.peak_control_v)} V per "
+               f"{settled}, rise time {sig(m.rise_time_s)} s, peak |u| {sig(m.peak_control_v)} {res.input_unit} per "
                f"{p.output_unit} of step")
     for w in (*p.warnings, *(w for w in res.warnings if "dead time" not in w)):
         say(f"warning: {w}")
@@ -427,7 +427,7 @@ def _design_pid(model_file: Path, json_out: Path | None, force: bool, loop: str 
 #: The simulation metrics printed, in order, with their units (``output``: the output channel's).
 _METRIC_UNITS: tuple[tuple[str, str], ...] = (
     ("rise_time_s", "s"), ("settling_time_s", "s"), ("overshoot_pct", "%"), ("steady_state_error_v", "output"),
-    ("tracking_rms_v", "output"), ("peak_control_v", "V"))
+    ("tracking_rms_v", "output"), ("peak_control_v", "input"))
 
 
 def simulate(
@@ -484,7 +484,8 @@ def simulate(
                                       frequency_hz=frequency, start_s=start))
     m = res.metrics
     typer.echo(", ".join(f"{metric_name(key)} {sig(getattr(m, key))} "
-                         f"{res.output_unit if unit == 'output' else unit}" for key, unit in _METRIC_UNITS))
+                         f"{ {'output': res.output_unit, 'input': res.input_unit}.get(unit, unit)}"
+                         for key, unit in _METRIC_UNITS))
     for w in res.warnings:
         typer.echo(f"warning: {w}")
     with atomic_outputs(exclusive=not force) as outs:  # the CSV, JSON and plot appear together, or none

@@ -74,13 +74,15 @@ def sensor_unit(state: str, units: Mapping[str, str] | None = None) -> str:
     """
     units = units or {}
     per_time = ("", "/s", "/s²")
+    # a command that is not volts (a PWM register, a duty cycle) says so: "pwm per rpm of the tacho"
+    command = f"{units['input']} " if units.get("input") not in (None, "", "V") else ""
     if state in SENSORS:
         channel, sensor, order = SENSORS[state]
-        return f"per {units.get(channel) or 'V'}{per_time[order]} of {sensor}"
+        return f"{command}per {units.get(channel) or 'V'}{per_time[order]} of {sensor}"
     if state.startswith("velocity_d"):
-        return (f"per {units.get('velocity') or 'V'}/s^{state[len('velocity_d'):]} of the tacho's derivative "
-                "of that order")
-    return f"per unit of the model state {state}"
+        return (f"{command}per {units.get('velocity') or 'V'}/s^{state[len('velocity_d'):]} of the tacho's "
+                "derivative of that order")
+    return f"{command}per unit of the model state {state}"
 
 
 #: The phrases for scope volts (what :func:`sensor_unit` says without units).

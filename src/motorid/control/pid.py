@@ -220,13 +220,15 @@ class ReducedModel:
     order: int
     notes: tuple[str, ...] = ()
 
-    def text(self, unit: str = "V") -> str:
+    def text(self, unit: str = "V", input_unit: str = "V") -> str:
         """The approximation as a formula with its numbers.
 
         Parameters
         ----------
         unit : str
             The output's unit (``rpm``; ``V`` for scope volts).
+        input_unit : str
+            The command's unit (``V``; ``pwm`` for a PWM register, ``%`` for a duty cycle).
 
         Returns
         -------
@@ -235,7 +237,7 @@ class ReducedModel:
         """
         from motorid.numfmt import sig
 
-        per = f"{unit}/(V·s)" if self.integrating else f"{unit}/V"
+        per = f"{unit}/({input_unit}·s)" if self.integrating else f"{unit}/{input_unit}"
         lag = f"({sig(self.tau_s)}·s + 1)" if self.tau_s > 0 else "1"
         den = f"s·{lag}" if self.integrating else lag
         dead = f" · e^(−{sig(self.theta_s)}·s)" if self.theta_s > 0 else ""
@@ -666,9 +668,10 @@ class PidDesign:
                    float(p.get("dead_time_s", 0.0) or 0.0), model_units)
 
 
-def _gain_units(unit: str) -> dict[str, str]:
-    """Each gain's unit for a measured channel in ``unit``."""
-    return {"kp": f"V per {unit}", "ki": f"V per ({unit}·s)", "kd": f"V·s per {unit}", "tf_s": "s"}
+def _gain_units(unit: str, input_unit: str = "V") -> dict[str, str]:
+    """Each gain's unit for a measured channel in ``unit`` and a command in ``input_unit``."""
+    return {"kp": f"{input_unit} per {unit}", "ki": f"{input_unit} per ({unit}·s)",
+            "kd": f"{input_unit}·s per {unit}", "tf_s": "s"}
 
 
 def _simc(red: ReducedModel, s: PidSettings) -> tuple[float, float, float, float, list[str]]:
@@ -770,7 +773,8 @@ def design_pid(model: MotorModel, settings: PidSettings) -> PidDesign:
         td = kd / kp if kp != 0 else kd
         tf_s = abs(td) / s.derivative_filter if kd != 0 else 0.0
         pid = PidDesign(float(kp), float(ki), float(kd), float(tf_s), channel, s.rule, channel, unit,
-                        _gain_units(unit), tau_c, float(s.derivative_filter), red, None, np.zeros(0, complex), (),
+                        _gain_units(unit, model.units.get("input") or "V"), tau_c, float(s.derivative_filter), red,
+                        None, np.zeros(0, complex), (),
                         float(model.delay_s), dict(model.units))
         return _with_loop(pid, plant), notes
 

@@ -109,10 +109,27 @@ def check_role(role: str | None) -> str | None:
 _UNIT_NAMES = {"rpm": "rpm", "counts": "counts", "deg": "deg", "degrees": "deg", "rad": "rad", "radians": "rad"}
 
 
+#: Tokens of a column name that say its values are not volts: a duty cycle in percent, a duty
+#: cycle as a fraction, a PWM register's counts (an Arduino's ``analogWrite`` value).  A gain is
+#: then per %, per unit of duty or per count, and is labelled so.
+_PERCENT_TOKENS, _NOT_VOLTS = ("pct", "percent"), {"duty": "duty", "pwm": "pwm"}
+
+
 def _units_from_name(name: str) -> str:
     bracket = re.search(r"[\[(]\s*([^\])]+?)\s*[\])]\s*$", name)
     if bracket:
         return bracket.group(1)
+    unit = _unit_words(name)
+    if unit:
+        return unit
+    low = _tokens(name)
+    if "%" in name or any(t in _PERCENT_TOKENS for t in low):
+        return "%"
+    return next((_NOT_VOLTS[t] for t in low if t in _NOT_VOLTS), "")
+
+
+def _unit_words(name: str) -> str:
+    """A unit the name spells as a word of its own: ``rpm``, ``speed_rpm``, ``u_V``."""
     if name.strip().lower() in _UNIT_NAMES:
         return _UNIT_NAMES[name.strip().lower()]
     toks = re.split(r"[_\s]+", name.strip())

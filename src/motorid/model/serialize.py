@@ -231,10 +231,12 @@ def model_to_matlab(model: MotorModel, name: str = "motor") -> str:
     vnum, vden = model._row_tf("velocity")
     pnum, pden = _normalise_tf(*model.tf_coefficients("position"))
     fo = model.first_order()
+    in_unit = model.units.get("input") or "V"
     lines = [
         f"% {name}: DC servo-motor model identified by motorid (method: {model.method})",
-        f"% states x = [{', '.join(model.states)}]; input u = amplifier volts"
-        + ("" if model.step_volts is None else f" (step {model.step_volts:g} V)"),
+        f"% states x = [{', '.join(model.states)}]; input u = "
+        + ("amplifier volts" if in_unit == "V" else f"the logged command ({in_unit})")
+        + ("" if model.step_volts is None else f" (step {model.step_volts:g} {in_unit})"),
         "% outputs: " + ", ".join(f"{ch} ({channel_unit(model.units, ch)})" for ch in model.outputs)
         + "; C, D give the velocity channel",
         f"A = {mat(model.A)};",

@@ -600,7 +600,7 @@ def validation_overlay(time_s: np.ndarray, input_v: np.ndarray, measured: np.nda
 @styled
 def closed_loop(time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str, *,
                 rails_v: float | None = None, disturbances_s: Sequence[float] = (),
-                metrics: Sequence[str] = ()) -> bytes:
+                metrics: Sequence[str] = (), output_unit: str = "V", input_unit: str = "V") -> bytes:
     """Closed-loop response: output, reference, control effort (and estimated states).
 
     Parameters
@@ -618,6 +618,9 @@ def closed_loop(time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str
         Instants a load is applied (s), drawn on both panels.
     metrics : sequence of str
         Short texts (e.g. ``"overshoot: 4.3 %"``) shown under the title.
+    output_unit, input_unit : str
+        The units of the output (and reference) and of the command (the model's; volts when the
+        data did not say otherwise).
 
     Returns
     -------
@@ -625,11 +628,11 @@ def closed_loop(time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str
         The PNG image.
     """
     fig = Figure(figsize=(FULL_WIDTH_IN, 5.0), layout="constrained")
-    axes, _ = _closed_loop_axes(fig, np.asarray(time_s), series)
+    axes, _ = _closed_loop_axes(fig, np.asarray(time_s), series, output_unit=output_unit, input_unit=input_unit)
     if rails_v is not None:
         for sign in (1.0, -1.0):
             axes[1].axhline(sign * rails_v, color="k", ls="--", lw=1.0,
-                            label=f"rails ±{rails_v:g} V" if sign > 0 else None)
+                            label=f"rails ±{rails_v:g} {input_unit}" if sign > 0 else None)
     for i, t_d in enumerate(disturbances_s):
         for ax in axes:
             ax.axvline(t_d, color="C3", ls=":", lw=1.4, label="load applied" if i == 0 else None)
@@ -641,7 +644,8 @@ def closed_loop(time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str
     return png(fig)
 
 
-def _closed_loop_axes(fig: Figure, time_s: np.ndarray, series: Mapping[str, np.ndarray]) -> tuple[Any, dict[str, Any]]:
+def _closed_loop_axes(fig: Figure, time_s: np.ndarray, series: Mapping[str, np.ndarray], *, output_unit: str = "V",
+                      input_unit: str = "V") -> tuple[Any, dict[str, Any]]:
     """The closed loop's two panels on ``fig``: outputs above, control effort below, labelled.
 
     A name starting with ``u`` or containing ``control`` goes on the control-effort panel; each
@@ -652,8 +656,8 @@ def _closed_loop_axes(fig: Figure, time_s: np.ndarray, series: Mapping[str, np.n
     for name, y in series.items():
         ax = axes[1] if name.startswith("u") or "control" in name else axes[0]
         lines[name] = ax.plot(*thinned(time_s, np.asarray(y)), lw=1.3, label=name)[0]
-    axes[0].set_ylabel("V")
-    axes[1].set_ylabel("control u (V)")
+    axes[0].set_ylabel(output_unit)
+    axes[1].set_ylabel(f"control u ({input_unit})")
     axes[1].set_xlabel("time (s)")
     return axes, lines
 
@@ -676,11 +680,13 @@ class ClosedLoopCanvas:
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
+        # keyed by the series' names and the two units
         self._figures: dict[tuple[str, ...], tuple[Figure, Any, dict[str, Any]]] = {}
 
-    def _build(self, time_s: np.ndarray, series: Mapping[str, np.ndarray]) -> tuple[Figure, Any, dict[str, Any]]:
+    def _build(self, time_s: np.ndarray, series: Mapping[str, np.ndarray], units: tuple[str, str]
+               ) -> tuple[Figure, Any, dict[str, Any]]:
         fig = Figure(figsize=(FULL_WIDTH_IN, 5.0))
-        axes, lines = _closed_loop_axes(fig, time_s, series)
+        axes, lines = _closed_loop_axes(fig, time_s, series, output_unit=units[0], input_unit=units[1])
         for ax in axes:
             if ax.get_lines():  # a panel without curves gets no (empty) legend
                 ax.legend(loc="best")
@@ -690,10 +696,11 @@ class ClosedLoopCanvas:
         axes[-1].xaxis.set_label_coords(0.5, -0.2)
         if len(self._figures) >= self.KEPT:
             self._figures.pop(next(iter(self._figures)))
-        self._figures[tuple(series)] = (fig, axes, lines)
+        self._figures[(*series, *units)] = (fig, axes, lines)
         return fig, axes, lines
 
-    def svg(self, time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str) -> bytes:
+    def svg(self, time_s: np.ndarray, series: Mapping[str, np.ndarray], title: str, *, output_unit: str = "V",
+            input_unit: str = "V") -> bytes:
         """The figure for these curves, as SVG.
 
         Parameters
@@ -704,6 +711,8 @@ class ClosedLoopCanvas:
             The curves by name, as :func:`closed_loop` takes them.
         title : str
             The figure title.
+        output_unit, input_unit : str
+            The units of the output and of the command, on the axes.
 
         Returns
         -------
@@ -712,9 +721,9 @@ class ClosedLoopCanvas:
         """
         t = np.asarray(time_s, dtype=float)
         with self._lock, matplotlib.rc_context(cast("Any", _STYLE | {"svg.fonttype": "none"})):
-            kept = self._figures.get(tuple(series))
+            kept = self._figures.get((*series, output_unit, input_unit))
             if kept is None:
-                fig, axes, _ = self._build(t, series)
+                fig, axes, _ = self._build(t, series, (output_unit, input_unit))
             else:
                 fig, axes, lines = kept
                 for name, y in series.items():

@@ -233,7 +233,8 @@ def summary_section(inp: ReportInputs) -> dict[str, Any]:
     u = model.uncertainty
     gain_unit = model.dc_gain_unit
     rows: list[list[Any]] = [
-        ["method", model.method], ["states (size of A)", model.order], ["step", f"{_cell(cond.step_volts)} V"],
+        ["method", model.method], ["states (size of A)", model.order],
+        ["step", f"{_cell(cond.step_volts)} {model.units.get('input') or 'V'}"],
         ["dc gain", f"{_cell(fo.dc_gain)} {gain_unit}"], ["τ (by moments)", f"{_cell(fo.time_constant_s)} s"],
         ["63 % time (dead time included)", f"{_cell(model.t63_s())} s"],
         ["k/(s+p)", f"{_cell(fo.k)}/(s + {_cell(fo.p)})"]]
@@ -632,12 +633,14 @@ def design_section(inp: ReportInputs) -> dict[str, Any]:
         metric_rows = _metric_rows(metrics, out_unit)
         headline = _metric_rows({k: metrics[k] for k in _HEADLINE_METRICS if k in metrics}, out_unit)
         rails, disturbances = sim.get("rails_v"), tuple(sim.get("disturbances_s") or ())
+        in_unit = inp.identification.model.units.get("input") or "V"
         png = figures.closed_loop(np.asarray(sim["time"]), {k: np.asarray(v) for k, v in sim["series"].items()},
                                   "closed-loop step response on the identified model", rails_v=rails,
-                                  disturbances_s=disturbances, metrics=[f"{w}: {v}" for w, v in headline])
+                                  disturbances_s=disturbances, metrics=[f"{w}: {v}" for w, v in headline],
+                                  output_unit=out_unit, input_unit=in_unit)
         view["closed_loop_png"] = figures.data_uri(png)
         view["metric_rows"] = metric_rows
-        view["caption"] = ("Dashed: the actuator rails ±" + _cell(rails) + " V, where the command saturates. "
+        view["caption"] = ("Dashed: the actuator rails ±" + _cell(rails) + f" {in_unit}, where the command saturates. "
                            if rails is not None else "No actuator rails in this run. ") + (
             "Dotted: the instants a load is applied." if disturbances else "")
     gains = d.get("design_gains")

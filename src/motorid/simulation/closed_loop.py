@@ -224,6 +224,11 @@ class SimulationResult:
         """The unit of the output, the reference and the errors (the model's, e.g. ``rpm``; else ``V``)."""
         return self.units.get(self.output) or "V"
 
+    @property
+    def input_unit(self) -> str:
+        """The unit of the command ``u`` (the model's input: ``V``, or ``pwm``/``%`` for a logged PWM command)."""
+        return self.units.get("input") or "V"
+
     def columns(self) -> dict[str, np.ndarray]:
         """Named columns (``time``, ``reference``, ``output``, ``u``, ``u_raw``, states, ``*_hat``, ``z``).
 
@@ -887,7 +892,7 @@ def simulation_figure(result: SimulationResult, title: str = "", *, rails_v: flo
         ax.plot(t, result.control_raw_v, ":", label="u requested")
     if result.integrator is not None:
         ax.plot(t, result.integrator, label="z")
-    ax.set_ylabel("V")
+    ax.set_ylabel(result.input_unit)
     ax.legend(loc="best")
     ax = axes[2]
     for i, name in enumerate(result.state_names):
@@ -912,7 +917,7 @@ def simulation_figure(result: SimulationResult, title: str = "", *, rails_v: flo
     metrics = (f"rise {m.rise_time_s:.3g} s, settling (2 %) {settling}, overshoot "
                f"{m.overshoot_pct:.3g} %, steady-state error {m.steady_state_error_v:.3g} {result.output_unit}, "
                "peak |u| "
-               f"{m.peak_control_v:.3g} V")
+               f"{m.peak_control_v:.3g} {result.input_unit}")
     fig.suptitle(f"{title}\n{metrics}" if title else metrics, fontsize=10)
     fig.tight_layout()
     return fig

@@ -404,9 +404,11 @@ def _plot(des: Any, sim: SimulationResult, form: DesignForm, canvas: Any) -> str
     cols = sim.columns()
     series = {"reference": cols["reference"], f"output ({sim.output})": cols["output"], "u (control)": cols["u"]}
     series.update(_robust_band(des, cols["time"], form))
-    sat = f", rails ±{form.saturation_v:g} V" if form.saturation_v else ""
+    in_unit = sim.units.get("input") or "V"
+    sat = f", rails ±{form.saturation_v:g} {in_unit}" if form.saturation_v else ""
     return figures.data_uri(canvas.svg(cols["time"], series,
-                                       f"closed loop: ζ = {form.damping:g}, ωn = {form.wn:g} rad/s{sat}"), "svg+xml")
+                                       f"closed loop: ζ = {form.damping:g}, ωn = {form.wn:g} rad/s{sat}",
+                                       output_unit=sim.output_unit, input_unit=in_unit), "svg+xml")
 
 
 #: Plausible motors the page checks a design on (the command line checks 2000), in a request of
