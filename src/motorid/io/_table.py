@@ -306,9 +306,13 @@ def _assign(
                 # "time, value": a lone channel is the measured quantity, not the step.
                 output, inp, hint = inp, None, role
             else:
+                # an example with this file's own names (a PicoScope's "Channel A", "Channel B")
+                bare = [_UNIT_SUFFIX.sub("", names[i]).strip() for i in ([inp] if inp is not None else []) + rest]
+                example = (f", e.g. --columns \"input={bare[0]},velocity={bare[1]}\"" if inp is None and len(bare) >= 2
+                           else f", e.g. --columns \"velocity={bare[-1]}\"" if bare else "")
                 raise CaptureFormatError(
                     f"cannot tell which column is the measured output among {available}: "
-                    "map it with --columns velocity=NAME (or position=, current=, output=)",
+                    f"map it with --columns velocity=NAME (or position=, current=, output=){example}",
                     file=file,
                 )
     if inp == output:
