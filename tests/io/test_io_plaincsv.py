@@ -194,7 +194,7 @@ def test_a_units_row_under_the_header_gives_the_units(tmp_path, monkeypatch, car
     if careful_max is not None:
         monkeypatch.setattr(_common, "CAREFUL_MAX_BYTES", careful_max)
         monkeypatch.setattr(_common, "PANDAS_MIN_BYTES", 1 << 62)
-    with pytest.raises(CaptureFormatError, match='e.g. --columns "input=Channel A,velocity=Channel B"'):
+    with pytest.raises(CaptureFormatError, match=r'e\.g\. --columns "input=Channel A,velocity=Channel B"'):
         read_capture(f)  # channels named A and B: the message shows the map with this file's names
     cap = read_capture(f, columns={"time": "Time", "input": "Channel A", "velocity": "Channel B"})
     np.testing.assert_allclose(cap.time_s, t, rtol=0, atol=1e-12)
