@@ -130,3 +130,13 @@ def test_report_takes_a_segment_too(tmp_path, run_cli):
     res = run_cli("report", "--velocity", str(f), "--segment", "3", "--out", str(tmp_path / "r.html"))
     assert res.code == 0, res.err
     assert "segment 3: step at 9 s, 4 → 6 V ← identified" in res.out and (tmp_path / "r.html").is_file()
+
+
+def test_sweep_takes_a_segment(tmp_path, run_cli):
+    """``sweep`` read a staircase whole and failed with "no step in the input channel"."""
+    f = _write(tmp_path / "stair.csv", [0, 2, 4, 6, 8])
+    res = run_cli("sweep", "--velocity", str(f), "--segment", "2")
+    assert res.code == 0, res.err
+    assert "segment 2: step at 6 s, 2 → 4 V ← identified" in res.out and "spread (half-range / median)" in res.out
+    res = run_cli("sweep", "--velocity", str(f))
+    assert res.code == 2 and "4 input steps found" in res.err and "--segment N" in res.err

@@ -381,11 +381,6 @@ def _read_experiment(position, velocity, current, columns: str | None, **options
                                      current=paths["current"], columns=_parse_columns(columns), **options)
 
 
-def _read_roles(position, velocity, current, columns: str | None, *, force_role: bool = False) -> dict:
-    """The captures of :func:`_read_experiment` by role."""
-    return dict(_read_experiment(position, velocity, current, columns, force_role=force_role).captures)
-
-
 def _conditioning(ratio, sample_interval, record_length, reduction, sync):
     from motorid.conditioning.pipeline import ConditioningSettings
 
@@ -790,6 +785,7 @@ def sweep(
     force_role: Annotated[bool, typer.Option(
         "--force-role",
         help="Keep a capture's role flag even when it looks like another role.")] = False,
+    segment: Annotated[int | None, typer.Option("--segment", help=SEGMENT_HELP)] = None,
 ) -> None:
     """The paper's Tables 1-3: k and τ over record length × sample interval."""
     columns = _with_time_unit(columns, time_unit)
@@ -813,7 +809,13 @@ def sweep(
         method=method, order=order if order == "auto" else int(order),
         conditioning=ConditioningSettings(reduction=reduction),
     )
-    caps = _read_roles(position, velocity, current, columns, force_role=force_role)
+    exp = _read_experiment(position, velocity, current, columns, force_role=force_role, segment=segment)
+    _print_steps(exp)
+    if exp.several_steps():
+        from motorid.frontdoor import several_steps_message
+
+        raise OptionError(several_steps_message(exp))
+    caps = dict(exp.captures)
     grid_note = None
     lens: Sequence[float]
     ints: Sequence[float]
