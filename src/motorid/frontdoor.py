@@ -364,8 +364,8 @@ def _log_steps(captures: Mapping[str, Capture], segment: int | None
     moving = sorted({round(s.to_v, 6) for s in steps if abs(s.to_v) > 0.05 * span})
     if len(moving) < 2:
         first = cut_segment(cap, steps[0])
-        note = (f"one level moves the motor ({', '.join(f'{v:g} V' for v in moving)}): identified from segment 1 "
-                "(--segment N for another)")
+        note = (f"one level moves the motor ({', '.join(f'{v:g} {steps[0].unit}' for v in moving)}): identified "
+                "from segment 1 (--segment N for another)")
         return steps, (1, replace(first, warnings=(*first.warnings, note)))
     return steps, None
 

@@ -140,3 +140,15 @@ def test_sweep_takes_a_segment(tmp_path, run_cli):
     assert "segment 2: step at 6 s, 2 → 4 V ← identified" in res.out and "spread (half-range / median)" in res.out
     res = run_cli("sweep", "--velocity", str(f))
     assert res.code == 2 and "4 input steps found" in res.err and "--segment N" in res.err
+
+
+def test_the_steps_of_a_pwm_log_are_in_its_unit(tmp_path):
+    """A staircase of PWM counts was listed as "0 → 100 V"."""
+    import motorid as mi
+
+    t, u, y = _log([0, 2, 4, 6, 8])
+    f = tmp_path / "pwm.csv"
+    f.write_text("time_s,pwm,speed_rpm\n" + "\n".join(f"{a:.2f},{50 * b:.0f},{c:.3f}" for a, b, c in
+                                                      zip(t, u, y, strict=True)))
+    exp = mi.read_experiment(velocity=f)
+    assert exp.steps[1].describe() == "segment 2: step at 6 s, 100 → 200 pwm"

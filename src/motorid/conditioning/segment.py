@@ -49,6 +49,8 @@ class StepSegment:
     settled : bool
         Whether the output settled before the next step (see :data:`SETTLED_REL`): a segment that
         did not is still identified, but its final level is not its steady state.
+    unit : str
+        The input's unit (the log's: ``V``, or ``pwm``/``%`` for a logged PWM command).
     """
 
     index: int
@@ -59,6 +61,7 @@ class StepSegment:
     from_v: float
     to_v: float
     settled: bool
+    unit: str = "V"
 
     def describe(self) -> str:
         """One line for the printout.
@@ -68,7 +71,7 @@ class StepSegment:
         str
             ``segment N: step at T s, A → B V`` (and whether the output settled).
         """
-        return (f"segment {self.index}: step at {self.time_s:.6g} s, {self.from_v:.4g} → {self.to_v:.4g} V"
+        return (f"segment {self.index}: step at {self.time_s:.6g} s, {self.from_v:.4g} → {self.to_v:.4g} {self.unit}"
                 + ("" if self.settled else " (the output had not settled before the next step)"))
 
 
@@ -101,6 +104,7 @@ def find_steps(capture: Capture) -> tuple[StepSegment, ...]:
     if any(b - a < MIN_PLATEAU_SAMPLES for a, b in plateaus):
         return ()  # not a staircase of levels: a ramp, a sine, a noisy command
     levels = [float(np.median(u[a:b])) for a, b in plateaus]
+    unit = getattr(capture.input_info, "units", "") or "V"
     y = np.asarray(capture.output_v, dtype=float)
     out: list[StepSegment] = []
     for i, k in enumerate(edges):
@@ -111,7 +115,7 @@ def find_steps(capture: Capture) -> tuple[StepSegment, ...]:
         change = last - float(np.mean(y[max(start, k - tail):k]))
         settled = abs(last - before) <= SETTLED_REL * abs(change) if change else True
         out.append(StepSegment(i + 1, float(capture.time_s[k]), k, start, stop, levels[i], levels[i + 1],
-                               bool(settled)))
+                               bool(settled), unit))
     return tuple(out)
 
 
