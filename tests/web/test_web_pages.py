@@ -345,3 +345,21 @@ def test_every_action_of_the_page_shows_a_busy_line(client, demo_files):
         assert "htmx-indicator" in target.group(0) and "busy" in target.group(0)
     # the report (seconds of work) is a plain download: it shows its busy line through data-busy
     assert re.search(r'<a id="dl-report"[^>]*data-busy="[^"]+"', page)
+
+
+def test_the_page_identifies_one_step_of_a_staircase_log(client, tmp_path):
+    """The page's form has the segment field the front door reads: a staircase dropped on the page
+    was refused ("no step in the input channel") with no field to pick a step."""
+    from motorid.trainer.realsetups import write_real_setup
+
+    rec = write_real_setup("staircase", tmp_path / "stair", seed=0)
+    tab = open_tab(client)
+    res = client.post(f"/tab/{tab}/upload", files=multipart("files", [rec.files["log"]]))
+    assert res.status_code == 200 and 'name="segment"' in res.text
+    whole = client.post(f"/tab/{tab}/identify", data={"role_c0": "velocity"})
+    assert whole.status_code == 422 and "4 input steps found" in whole.text and "segment N" in whole.text
+    res = client.post(f"/tab/{tab}/identify", data={"role_c0": "velocity", "segment": "2"})
+    assert res.status_code == 200, res.text
+    want = mi.identify(mi.read_experiment(velocity=rec.files["log"], segment=2)).model.to_json()
+    got = client.get(f"/tab/{tab}/download/model.json").json()
+    assert got["first_order"]["dc_gain"] == pytest.approx(want["first_order"]["dc_gain"], rel=1e-9)
