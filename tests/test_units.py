@@ -97,3 +97,20 @@ def test_a_pwm_command_is_not_labelled_volts_anywhere(tmp_path, run_cli):
     # a duty cycle in percent
     res = run_cli("identify", "--velocity", _pwm_log(tmp_path / "duty.csv", "duty_pct", 60.0), "--method", "classic")
     assert res.code == 0 and "rpm/%" in res.out
+
+
+@pytest.mark.parametrize(("name", "unit"), [
+    ("omega_rad_s", "rad/s"), ("rad_s", "rad/s"), ("speed_deg_per_s", "deg/s"), ("speed_rps", "rev/s"),
+    ("vel_m_s", "m/s"), ("time_s", "s"), ("t_s", "s"), ("speed_rpm", "rpm"), ("u_V", "V"), ("pwm", "pwm"),
+    ("duty_pct", "%"), ("w [rad/s]", "rad/s"), ("voltage", ""),
+])
+def test_a_column_name_gives_its_unit_and_a_rate_is_read_whole(name, unit):
+    """``omega_rad_s`` (the arduino-millis rig's column) was read as seconds: "dc gain (s/V)"."""
+    from motorid.io._table import _units_from_name
+
+    assert _units_from_name(name) == unit
+
+
+def test_a_rate_gain_unit_is_written_with_parentheses():
+    assert dc_gain_unit({"velocity": "rad/s"}) == "(rad/s)/V"
+    assert dc_gain_unit({"velocity": "rpm", "input": "pwm"}) == "rpm/pwm"

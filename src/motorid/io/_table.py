@@ -128,13 +128,30 @@ def _units_from_name(name: str) -> str:
     return next((_NOT_VOLTS[t] for t in low if t in _NOT_VOLTS), "")
 
 
+#: Quantities a rate is written of at the end of a name: ``omega_rad_s``, ``speed_deg_per_s``.
+_PER_SECOND = {"rad": "rad/s", "deg": "deg/s", "rev": "rev/s", "counts": "counts/s", "ticks": "ticks/s", "m": "m/s",
+               "mm": "mm/s"}
+#: Rates written as one word.
+_RATE_WORDS = {"rps": "rev/s", "dps": "deg/s", "radps": "rad/s", "cps": "counts/s"}
+
+
 def _unit_words(name: str) -> str:
-    """A unit the name spells as a word of its own: ``rpm``, ``speed_rpm``, ``u_V``."""
+    """A unit the name spells as words of its own: ``rpm``, ``speed_rpm``, ``u_V``, ``omega_rad_s``.
+
+    A rate is read whole (``omega_rad_s`` is rad/s, not seconds: the last word alone would say
+    ``s``).
+    """
     if name.strip().lower() in _UNIT_NAMES:
         return _UNIT_NAMES[name.strip().lower()]
-    toks = re.split(r"[_\s]+", name.strip())
-    if len(toks) > 1 and toks[-1].lower() in _UNITS:
-        return _UNITS[toks[-1].lower()]
+    toks = [t.lower() for t in re.split(r"[_\s]+", name.strip()) if t]
+    if len(toks) > 1 and toks[-1] in ("s", "sec"):
+        quantity = toks[-3] if toks[-2] == "per" and len(toks) > 2 else toks[-2]
+        if quantity in _PER_SECOND:
+            return _PER_SECOND[quantity]
+    if len(toks) > 1 and toks[-1] in _RATE_WORDS:
+        return _RATE_WORDS[toks[-1]]
+    if len(toks) > 1 and toks[-1] in _UNITS:
+        return _UNITS[toks[-1]]
     return ""
 
 

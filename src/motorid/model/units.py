@@ -211,7 +211,9 @@ def dc_gain_unit(units: Mapping[str, str], channel: str = "velocity") -> str:
     -------
     str
     """
-    return f"{units.get(channel) or 'V'}/{units.get('input') or 'V'}"
+    out, inp = units.get(channel) or "V", units.get("input") or "V"
+    # a rate is one unit: (rad/s)/V, not rad/s/V
+    return f"{f'({out})' if '/' in out else out}/{f'({inp})' if '/' in inp else inp}"
 
 
 def physical_gain(dc_gain: float, units: Mapping[str, str], scales: Mapping[str, ChannelScale],
