@@ -225,9 +225,14 @@ def demanded_zero_note(re_: float, lo: float) -> str | None:
     if re_ <= 0 or zero_undemanded(re_, lo):
         return None
     return (f"right half-plane, demanded by the data (its whole interval is there): an inverse response a DC "
-            f"motor's velocity does not have; it stands for a lag the structures with a dead time fit worse, "
-            f"worth a dead time of about 2/z = {sig(2e3 / re_)} ms (first-order Padé), and it keeps a loop's "
-            f"crossover below about z/2 = {sig(re_ / 2)} rad/s; check the sensor and its filter")
+            f"motor's velocity does not have; {_lag_reading(re_)}")
+
+
+def _lag_reading(re_: float) -> str:
+    """What a demanded right-half-plane zero at ``re_`` (1/s) is worth: a dead time, a crossover bound."""
+    return (f"it stands for a lag the structures with a dead time fit worse, worth a dead time of about "
+            f"2/z = {sig(2e3 / re_)} ms (first-order Padé), and it keeps a loop's crossover below about "
+            f"z/2 = {sig(re_ / 2)} rad/s; check the sensor and its filter")
 
 
 def _resolved_roots(u: Uncertainty | None) -> list[SanityCheck]:
@@ -266,7 +271,7 @@ def _resolved_roots(u: Uncertainty | None) -> list[SanityCheck]:
             "no unphysical right-half-plane zero", demanded,
             f"zero {i + 1} at {re_:+.4g} (95 % interval [{lo:.4g}, {hi:.4g}]) is in the right half-plane: an inverse "
             "response, which a DC motor's velocity does not have"
-            + (f"; {demanded_zero_note(re_, lo)}" if demanded else
+            + (f"; the data demand it (its whole interval is there): {_lag_reading(re_)}" if demanded else
                "; the data do not demand it (its interval reaches the left half-plane): a structure with fewer "
                "zeros describes the record as well (try --order, or --method oe with fewer zeros)")))
     return checks
