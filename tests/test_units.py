@@ -114,3 +114,18 @@ def test_a_column_name_gives_its_unit_and_a_rate_is_read_whole(name, unit):
 def test_a_rate_gain_unit_is_written_with_parentheses():
     assert dc_gain_unit({"velocity": "rad/s"}) == "(rad/s)/V"
     assert dc_gain_unit({"velocity": "rpm", "input": "pwm"}) == "rpm/pwm"
+
+
+def test_the_command_unit_can_be_declared(tmp_path, run_cli):
+    """A log whose command column says nothing of its unit (``u``) was labelled volts with no way to
+    say otherwise: ``--units input=pwm`` was refused ("unknown channel 'input'")."""
+    import motorid as mi
+
+    log = _pwm_log(tmp_path / "log.csv", column="u")
+    res = run_cli("identify", "--velocity", log, "--units", "input=pwm", "--method", "classic")
+    assert res.code == 0, res.err
+    assert " rpm/pwm" in res.out and "step 200 pwm" in res.out
+    fit = mi.identify(mi.read_experiment(velocity=log, units={"input": "pwm"}), method="classic")
+    assert fit.model.dc_gain_unit == "rpm/pwm"
+    res = run_cli("identify", "--velocity", log, "--units", "torque=Nm")
+    assert res.code == 2 and "use position, velocity, current, input" in res.err

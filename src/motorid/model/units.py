@@ -66,7 +66,7 @@ class ChannelScale:
         return {"volts_per_unit": self.volts_per_unit, "unit": self.unit}
 
 
-def _pairs(texts: Iterable[str], option: str) -> list[tuple[str, str]]:
+def _pairs(texts: Iterable[str], option: str, channels: tuple[str, ...] = CHANNELS) -> list[tuple[str, str]]:
     out = []
     for text in texts:
         for part in str(text).split(","):
@@ -75,8 +75,8 @@ def _pairs(texts: Iterable[str], option: str) -> list[tuple[str, str]]:
             if "=" not in part:
                 raise OptionError(f"{option} {part!r}: write CHANNEL=VALUE, e.g. {option} velocity=rpm")
             name, value = (s.strip() for s in part.split("=", 1))
-            if name not in CHANNELS:
-                raise OptionError(f"{option} {part!r}: unknown channel {name!r}; use {', '.join(CHANNELS)}")
+            if name not in channels:
+                raise OptionError(f"{option} {part!r}: unknown channel {name!r}; use {', '.join(channels)}")
             out.append((name, value))
     return out
 
@@ -120,7 +120,7 @@ def check_unit(text: str, option: str, channel: str) -> str:
 
 
 def parse_units(texts: Iterable[str] | None) -> dict[str, str]:
-    """``--units velocity=rpm,current=A``: the unit of each channel's data.
+    """``--units velocity=rpm,current=A``: the unit of each channel's data (``input=pwm`` for the command).
 
     Parameters
     ----------
@@ -137,7 +137,7 @@ def parse_units(texts: Iterable[str] | None) -> dict[str, str]:
         On a malformed entry or an unknown channel.
     """
     out = {}
-    for name, value in _pairs(texts or (), "--units"):
+    for name, value in _pairs(texts or (), "--units", (*CHANNELS, "input")):
         if not value:
             raise OptionError(f"--units {name}=: give a unit, e.g. {name}=rpm")
         out[name] = check_unit(value, "--units", name)
