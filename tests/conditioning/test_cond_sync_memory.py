@@ -85,3 +85,18 @@ def test_the_synchronised_input_is_the_interpolated_one(noisy):
     assert np.ascontiguousarray(s.input_v).tobytes() == want_u.tobytes()
     assert s.input_v.flags.writeable is noisy  # the constant is a read-only view of one number
     assert s.outputs["velocity"].tobytes() == np.interp(want_t, r.time_s, r.output_v).tobytes()
+
+
+@pytest.mark.parametrize("t0", [0.0, 1.5, 0.0005, -0.25])
+def test_the_samples_after_the_step_are_the_masked_ones(t0):
+    """The sanity gate's recorded input: a tail view, the same values as the mask ``time_s >= 0``."""
+    from motorid.identification.pipeline import _after_step
+
+    k = np.arange(4000)
+    u = np.where(k >= 700, 5.0, 0.0) + np.random.default_rng(2).normal(0, 1e-3, k.size)
+    r = step_response(_capture(u), "velocity")
+    for time_s in (r.time_s, r.time_s - t0, np.array([-1.0, -0.0, 0.0, 2.0]), np.array([-2.0, -1.0])):
+        values = np.arange(time_s.size, dtype=float)
+        got = _after_step(time_s, values)
+        assert np.shares_memory(got, values) or got.size == 0
+        assert got.tobytes() == values[time_s >= 0].tobytes()
