@@ -183,7 +183,4 @@ def level_throughout(time: np.ndarray, xp: np.ndarray, fp: np.ndarray, level: fl
     if lo < 0:
         return False  # samples left of the first node take fp[0] (np.interp's left)
     hi = min(int(np.searchsorted(xp, time[-1], side="right")) + 1, fp.size)
-    for start in range(lo, hi, _BLOCK):
-        if not np.all(fp[start : min(start + _BLOCK, hi)] == level):
-            return False
-    return True
+    return all(bool(np.all(fp[start : min(start + _BLOCK, hi)] == level)) for start in range(lo, hi, _BLOCK))
