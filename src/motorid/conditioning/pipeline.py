@@ -94,7 +94,8 @@ class ConditionedExperiment:
     outputs : dict[str, ndarray]
         Reduced output increments keyed by role.
     full_time_s, full_input_v : ndarray
-        The same before reduction.
+        The same before reduction (the input a read-only view of the step level when a logged
+        step stays at it: :func:`~motorid.conditioning.sync.synchronise`).
     full_outputs : dict[str, ndarray]
         Output increments before reduction (current not denoised).
     step_volts : float

@@ -18,7 +18,7 @@ import numpy as np
 from motorid.conditioning.response import StepResponse
 from motorid.errors import ConditioningError, OptionError
 
-__all__ = ["SYNC_METHODS", "Synchronised", "synchronise"]
+__all__ = ["SYNC_METHODS", "Synchronised", "grid_times", "level_throughout", "synchronise"]
 
 #: Values of ``method`` (the command line's ``--sync``).
 SYNC_METHODS: tuple[str, ...] = ("interp", "index")
@@ -33,7 +33,8 @@ class Synchronised:
     time_s : ndarray
         Common time from the step edge (starts at 0).
     input_v : ndarray
-        Input increment (from the first response that has a measured input).
+        Input increment (from the first response that has a measured input); a read-only
+        broadcast of the step level when the input stays at it after the edge.
     outputs : dict[str, ndarray]
         Output increment of each response, keyed by role.
     sources : dict[str, str]
@@ -110,12 +111,76 @@ def synchronise(
         u = responses[0].input_v[responses[0].edge.index : responses[0].edge.index + n].copy()
     else:
         n = int(np.floor(avail / dt + 1e-9)) + 1
-        time = np.arange(n) * dt
+        time = grid_times(n, dt)
         for r in responses:
             outputs[r.role] = np.interp(time, r.time_s, r.output_v)
         # the input is a step: after the edge it is its level (interpolating would smear
         # the edge sample); keep its recorded wiggles after the edge
         r0 = responses[0]
-        u = np.interp(time, r0.time_s, r0.input_v)
-        u[0] = r0.input_v[r0.edge.index]
+        level = r0.input_v[r0.edge.index]
+        if level_throughout(time, r0.time_s, r0.input_v, float(level)):
+            # a logged step that stays at its level: the interpolation is that level at every
+            # sample (0·slope + level); a read-only view of the one number instead of an array of
+            # the record's length (80 MB for a 10 M-sample log)
+            u = np.broadcast_to(np.float64(level), (n,))
+        else:
+            u = np.interp(time, r0.time_s, r0.input_v)
+            u[0] = level
     return Synchronised(time, u, outputs, {r.role: r.source for r in responses})
+
+
+#: Samples per block of the checks over a long record (their temporaries stay small).
+_BLOCK = 1 << 18
+
+
+def grid_times(n: int, dt: float) -> np.ndarray:
+    """``np.arange(n) * dt``, the same bits without the array of integers (one array, not two).
+
+    Parameters
+    ----------
+    n : int
+        Number of samples.
+    dt : float
+        Sample interval in s.
+
+    Returns
+    -------
+    ndarray
+        The grid ``k·dt``, ``k = 0 … n−1``.
+    """
+    # the integers below 2**53 are exact in float64: the products are those of the integer arange
+    time = np.arange(n, dtype=float)
+    time *= dt
+    return time
+
+
+def level_throughout(time: np.ndarray, xp: np.ndarray, fp: np.ndarray, level: float) -> bool:
+    """Whether ``np.interp(time[1:], xp, fp)`` is ``level`` at every sample, bit for bit.
+
+    True when every node ``np.interp`` reads for ``time[1:]`` (from the one at or before
+    ``time[1]`` to the one after ``time[-1]``, or the right end) holds ``level``: each sample is then
+    a node's value, the right end's, or ``0·(x − xp[j]) + level``, all ``level`` (checked in
+    blocks: no full-length temporary).  A zero or non-finite level is left to ``np.interp``
+    (``0·s + (−0.0)`` is ``+0.0``).
+
+    Parameters
+    ----------
+    time : ndarray
+        Increasing sample times, at least two.
+    xp, fp : ndarray
+        The nodes, as for :func:`numpy.interp` (``xp`` strictly increasing).
+    level : float
+        The value looked for.
+
+    Returns
+    -------
+    bool
+        Whether the interpolation after the first sample is ``level`` throughout.
+    """
+    if time.size < 2 or level == 0.0 or not np.isfinite(level):
+        return False
+    lo = int(np.searchsorted(xp, time[1], side="right")) - 1
+    if lo < 0:
+        return False  # samples left of the first node take fp[0] (np.interp's left)
+    hi = min(int(np.searchsorted(xp, time[-1], side="right")) + 1, fp.size)
+    return all(bool(np.all(fp[start : min(start + _BLOCK, hi)] == level)) for start in range(lo, hi, _BLOCK))
