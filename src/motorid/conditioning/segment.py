@@ -15,7 +15,7 @@ from itertools import pairwise
 import numpy as np
 
 from motorid.capture import Capture
-from motorid.conditioning.edge import noise_level
+from motorid.conditioning.edge import MIN_POST_STEP_SAMPLES, noise_level
 
 __all__ = ["MIN_STEP_FRACTION", "StepSegment", "cut_segment", "find_steps"]
 
@@ -24,6 +24,9 @@ __all__ = ["MIN_STEP_FRACTION", "StepSegment", "cut_segment", "find_steps"]
 MIN_STEP_FRACTION = 0.05
 #: A plateau shorter than this many samples is an edge's ramp, not a level.
 MIN_PLATEAU_SAMPLES = 5
+#: On a plateau the input stays within this fraction of its nearest step of the level, but for at most
+#: :data:`MAX_OFF_LEVEL` of its samples (its first two, an edge's last, are not counted).
+MAX_LEVEL_SPREAD, MAX_OFF_LEVEL = 0.25, 0.01
 #: The output has settled on a plateau when its last tenth and the tenth before differ by less
 #: than this fraction of the step's change of the output.
 SETTLED_REL = 0.02
@@ -104,6 +107,20 @@ def find_steps(capture: Capture) -> tuple[StepSegment, ...]:
     if any(b - a < MIN_PLATEAU_SAMPLES for a, b in plateaus):
         return ()  # not a staircase of levels: a ramp, a sine, a noisy command
     levels = [float(np.median(u[a:b])) for a, b in plateaus]
+    if not edges:
+        return ()
+    if any(b - a < MIN_POST_STEP_SAMPLES for a, b in plateaus[1:]):
+        # a level held for less than a step needs after it (a controller's brief rail): no staircase
+        # whose steps can be identified, and the step path says what the record is
+        return ()
+    jumps = np.abs(np.diff(levels))
+    for i, (a, b) in enumerate(plateaus):
+        # a level the input wanders off (a controller's output leaving its rail and settling) is no
+        # plateau: the log is a closed-loop record, which the step path names as such
+        near = float(min(jumps[max(i - 1, 0):i + 1]))
+        off = np.count_nonzero(np.abs(u[a + 2:b] - levels[i]) > MAX_LEVEL_SPREAD * near)
+        if off > MAX_OFF_LEVEL * (b - a):
+            return ()
     unit = getattr(capture.input_info, "units", "") or "V"
     y = np.asarray(capture.output_v, dtype=float)
     out: list[StepSegment] = []
