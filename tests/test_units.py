@@ -129,3 +129,23 @@ def test_the_command_unit_can_be_declared(tmp_path, run_cli):
     assert fit.model.dc_gain_unit == "rpm/pwm"
     res = run_cli("identify", "--velocity", log, "--units", "torque=Nm")
     assert res.code == 2 and "use position, velocity, current, input" in res.err
+
+
+def test_a_position_only_log_gives_its_velocity_gain_per_second_of_its_unit(tmp_path, run_cli):
+    """An encoder log in counts (the encoder-counts and host-loop rigs) printed "dc gain (V/V): 6692":
+    the gain of the position's derivative, in counts/s per volt, labelled volts per volt."""
+    from motorid.model.units import with_velocity_of_position
+    from motorid.trainer.realsetups import write_real_setup
+
+    rec = write_real_setup("encoder-counts", tmp_path / "enc", seed=0)
+    m = tmp_path / "m.json"
+    res = run_cli("identify", *rec.cli_args, "--json", m)
+    assert res.code == 0, res.err
+    doc = json.loads(m.read_text())
+    assert doc["units"] == {"position": "counts", "velocity": "counts/s"}
+    assert doc["dc_gain_unit"] == "(counts/s)/V" and "dc gain ((counts/s)/V)" in res.out
+    assert doc["first_order"]["dc_gain"] == pytest.approx(rec.truth.dc_gain, rel=0.01)
+    # a velocity unit given by the user is kept; a scope's potentiometer gives V/s
+    assert with_velocity_of_position({"position": "deg", "velocity": "rpm"}, ["position"])["velocity"] == "rpm"
+    assert with_velocity_of_position({}, ["position"]) == {"velocity": "V/s"}
+    assert with_velocity_of_position({"position": "rad"}, ["position", "velocity"]) == {"position": "rad"}

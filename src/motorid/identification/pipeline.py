@@ -814,9 +814,9 @@ def identify_experiment(
         progress(0, PROGRESS_STEPS, "conditioning")
     cond = condition_experiment(captures, settings.conditioning, step_volts=step_volts, t0_s=t0_s)
     ident = identify_conditioned(cond, settings, progress)
-    from motorid.model.units import units_of
+    from motorid.model.units import units_of, with_velocity_of_position
 
-    units = units_of(captures)
+    units = with_velocity_of_position(units_of(captures), captures)
     if not units:
         return ident
     # the data's units (a plain-CSV log in rpm): the gain reads rpm/V

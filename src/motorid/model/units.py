@@ -243,6 +243,32 @@ def physical_gain(dc_gain: float, units: Mapping[str, str], scales: Mapping[str,
     return dc_gain / sc.volts_per_unit, f"{unit}/{units.get('input') or 'V'}"
 
 
+def with_velocity_of_position(units: Mapping[str, str], roles: Iterable[str]) -> dict[str, str]:
+    """``units`` with the velocity's unit derived from the position's when only a position was captured.
+
+    A position-only experiment's velocity channel is the position's derivative: a log in encoder
+    counts gives counts/s, one in degrees deg/s, a potentiometer's volts V/s, so its gain reads
+    ``(counts/s)/V`` and not ``V/V``.  A velocity unit given (``--units velocity=…``) is kept.
+
+    Parameters
+    ----------
+    units : Mapping[str, str]
+        The channels' units so far (missing: volts).
+    roles : iterable of str
+        The roles of the experiment's captures.
+
+    Returns
+    -------
+    dict of str to str
+    """
+    out = dict(units)
+    present = set(roles)
+    if "position" in present and "velocity" not in present and not out.get("velocity"):
+        pos = out.get("position") or "V"
+        out["velocity"] = f"({pos})/s" if "/" in pos else f"{pos}/s"
+    return out
+
+
 def units_of(captures: Mapping[str, object], declared: Mapping[str, str] | None = None) -> dict[str, str]:
     """The data unit of each role's capture (volts are left out: they are the default).
 
