@@ -102,7 +102,7 @@ def test_a_pwm_command_is_not_labelled_volts_anywhere(tmp_path, run_cli):
 @pytest.mark.parametrize(("name", "unit"), [
     ("omega_rad_s", "rad/s"), ("rad_s", "rad/s"), ("speed_deg_per_s", "deg/s"), ("speed_rps", "rev/s"),
     ("vel_m_s", "m/s"), ("time_s", "s"), ("t_s", "s"), ("speed_rpm", "rpm"), ("u_V", "V"), ("pwm", "pwm"),
-    ("duty_pct", "%"), ("w [rad/s]", "rad/s"), ("voltage", ""),
+    ("duty_pct", "%"), ("w [rad/s]", "rad/s"), ("voltage", ""), ("pwm_volts", "V"), ("i_amps", "A"),
 ])
 def test_a_column_name_gives_its_unit_and_a_rate_is_read_whole(name, unit):
     """``omega_rad_s`` (the arduino-millis rig's column) was read as seconds: "dc gain (s/V)"."""

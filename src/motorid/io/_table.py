@@ -48,7 +48,8 @@ TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
 MS_STEP_MIN, MS_STEP_MAX = 1.0, 100.0
 #: ... and up to this step it could be ms or µs (larger steps are neither: the range check refuses).
 MS_TO_US_MAX = 1e4
-_UNITS = {"v": "V", "mv": "mV", "a": "A", "ma": "mA", "rpm": "rpm", "deg": "deg", "rad": "rad",
+_UNITS = {"v": "V", "volt": "V", "volts": "V", "mv": "mV", "a": "A", "amp": "A", "amps": "A", "ma": "mA",
+          "rpm": "rpm", "deg": "deg", "rad": "rad",
           "raw": "raw", "counts": "counts", "s": "s", "ms": "ms"}
 
 
