@@ -149,3 +149,15 @@ def test_a_position_only_log_gives_its_velocity_gain_per_second_of_its_unit(tmp_
     assert with_velocity_of_position({"position": "deg", "velocity": "rpm"}, ["position"])["velocity"] == "rpm"
     assert with_velocity_of_position({}, ["position"]) == {"velocity": "V/s"}
     assert with_velocity_of_position({"position": "rad"}, ["position", "velocity"]) == {"position": "rad"}
+
+
+def test_a_gain_names_the_sensor_the_units_speak_of():
+    """An encoder log's gains read "per counts of the potentiometer" and "per deg/s/s"."""
+    from motorid.control.coordinates import SENSOR_UNITS, sensor_unit
+
+    assert sensor_unit("position", {"position": "counts"}) == "per counts of the encoder"
+    assert sensor_unit("position", {"position": "deg"}) == "per deg of the angle sensor"
+    assert sensor_unit("velocity", {"velocity": "counts/s"}) == "per counts/s of the measured velocity"
+    assert sensor_unit("acceleration", {"velocity": "deg/s"}) == "per deg/s² of the measured velocity's derivative"
+    assert sensor_unit("velocity", {"velocity": "rpm"}) == "per rpm of the tacho"  # a tacho in rpm stays one
+    assert SENSOR_UNITS["acceleration"] == "per V/s of the tacho's derivative"  # the scope's words, as before

@@ -57,6 +57,23 @@ SENSORS: dict[str, tuple[str, str, int]] = {  # state: (channel, sensor, derivat
     "acceleration": ("velocity", "the tacho's derivative", 1),
     "jerk": ("velocity", "the tacho's second derivative", 2),
 }
+def _per_seconds(unit: str, order: int) -> str:
+    """``unit`` divided by seconds ``order`` times: ``V/s``, ``rpm/s²``, and ``deg/s²`` for ``deg/s`` once."""
+    base, power = (unit[:-2], 1) if unit.endswith("/s") else (unit, 0)
+    power += order
+    return base + ("", "/s", "/s²", "/s³")[power] if power <= 3 else f"{base}/s^{power}"
+
+
+def _sensor_of(sensor: str, unit: str) -> str:
+    """The sensor a channel's unit speaks of: an encoder's counts are no potentiometer, nor its rate a tacho."""
+    counted = any(word in unit for word in ("counts", "ticks"))
+    if sensor == "the potentiometer" and (counted or unit in ("deg", "rad", "rev")):
+        return "the encoder" if counted else "the angle sensor"
+    if sensor.startswith("the tacho") and (counted or "deg" in unit or "rev" in unit or unit == "V/s"):
+        return sensor.replace("the tacho", "the measured velocity")
+    return sensor
+
+
 def sensor_unit(state: str, units: Mapping[str, str] | None = None) -> str:
     """How a gain on ``state`` is read (``per V of the tacho``, ``per rpm of the tacho``).
 
@@ -73,14 +90,15 @@ def sensor_unit(state: str, units: Mapping[str, str] | None = None) -> str:
         The unit phrase, e.g. ``per V of the tacho``, ``per rpm/s of the tacho's derivative``.
     """
     units = units or {}
-    per_time = ("", "/s", "/s²")
     # a command that is not volts (a PWM register, a duty cycle) says so: "pwm per rpm of the tacho"
     command = f"{units['input']} " if units.get("input") not in (None, "", "V") else ""
     if state in SENSORS:
         channel, sensor, order = SENSORS[state]
-        return f"{command}per {units.get(channel) or 'V'}{per_time[order]} of {sensor}"
+        unit = units.get(channel) or "V"
+        return f"{command}per {_per_seconds(unit, order)} of {_sensor_of(sensor, unit)}"
     if state.startswith("velocity_d"):
-        return (f"{command}per {units.get('velocity') or 'V'}/s^{state[len('velocity_d'):]} of the tacho's "
+        unit = units.get("velocity") or "V"
+        return (f"{command}per {unit}/s^{state[len('velocity_d'):]} of {_sensor_of('the tacho', unit)}'s "
                 "derivative of that order")
     return f"{command}per unit of the model state {state}"
 
