@@ -292,7 +292,7 @@ def read_experiment(
     from motorid.conditioning.role import role_conflict
     from motorid.io import read_capture
 
-    from motorid.model.units import parse_scales, parse_units, units_of
+    from motorid.model.units import channel_unit, parse_scales, parse_units, units_of
 
     named = {"position": position, "velocity": velocity, "current": current}
     given = {role: spec for role, spec in named.items() if spec is not None}
@@ -328,7 +328,7 @@ def read_experiment(
         digests.update(_file_digests(paths))
     data_units = units_of(captures, declared)
     for channel, sc in scales.items():
-        if (data_units.get(channel) or "V") != "V":
+        if channel_unit(data_units, channel) != "V":
             raise OptionError(f"--scale {channel}: the {channel} data are already in {data_units[channel]}, not volts "
                               f"(a sensor constant turns volts into {sc.unit}); leave --scale {channel} out, or "
                               f"declare --units {channel}=V if the column is volts")

@@ -186,3 +186,14 @@ def test_the_real_closed_loop_record_is_not_cut_into_steps(real_dir, run_cli):
     res = run_cli("identify", "--velocity", str(f))
     assert res.code == 0, res.err
     assert "input steps found" not in res.out and "it is not a step" in res.out
+
+
+def test_the_levels_table_of_a_pwm_staircase_is_in_its_unit(tmp_path, run_cli):
+    """The several-levels table headed its steps "step (V)" on a staircase of PWM counts."""
+    t, u, y = _log([0, 2, 4, 6, 8])
+    f = tmp_path / "pwm.csv"
+    f.write_text("time_s,pwm,speed_rpm\n" + "\n".join(f"{a:.2f},{50 * b:.0f},{c:.3f}" for a, b, c in
+                                                      zip(t, u, y, strict=True)))
+    res = run_cli("identify", "--velocity", str(f))
+    assert res.code == 0, res.err
+    assert "step (pwm)" in res.out and "step (V)" not in res.out

@@ -385,6 +385,7 @@ def _design_pid(model_file: Path, json_out: Path | None, force: bool, loop: str 
 
     from motorid import frontdoor
     from motorid.model.serialize import load_model
+    from motorid.model.units import channel_unit
     from motorid.options import DESIGN_PID, defaults
     from motorid.simulation.closed_loop import step_check
 
@@ -395,7 +396,7 @@ def _design_pid(model_file: Path, json_out: Path | None, force: bool, loop: str 
     model = load_model(model_file)  # for the step check and the sampled controller's code
     how = "SIMC (Skogestad 2003)" if p.rule == "simc" else "pole placement"
     say(f"{p.kind} on the {p.loop} ({p.output_unit}), tuned by {how} on "
-               f"{p.approximation.text(p.output_unit, p.model_units.get('input') or 'V')}"
+               f"{p.approximation.text(p.output_unit, channel_unit(p.model_units, 'input'))}"
                + (f", τc = {sig(p.tau_c_s)} s" if p.tau_c_s is not None else ""))
     say("gains: " + ", ".join(f"{name} = {sig(v)} {unit}" for name, v, unit in p.gains()))
     say(f"u = kp·(r − y) + ki·∫(r − y)dt − kd·s/(tf·s + 1)·y   (y = {p.measured_signal}; "

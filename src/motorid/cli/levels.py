@@ -118,8 +118,8 @@ def identify_levels_cmd(
     result = frontdoor.identify_levels(captures, step_volts=step_volts)
     st = result.static
     table = Table(title="static characteristic (one row per step experiment)")
-    out_unit = result.model.units.get("velocity", "V")
-    for col in ("capture", "step (V)", f"steady output ({out_unit})", "± 95 %", "status"):
+    out_unit, in_unit = result.model.units.get("velocity") or "V", result.model.input_unit
+    for col in ("capture", f"step ({in_unit})", f"steady output ({out_unit})", "± 95 %", "status"):
         table.add_column(col, justify="left" if col in ("capture", "status") else "right")
     for point, _ in result.responses:
         table.add_row(Path(point.source).name or point.source, f"{point.step_volts:.4g}",

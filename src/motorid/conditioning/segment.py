@@ -102,17 +102,17 @@ def find_steps(capture: Capture) -> tuple[StepSegment, ...]:
     changes = np.flatnonzero(jump > threshold) + 1  # first sample at the new level
     # a change spread over a few samples (a slewing driver) is one step: keep its last sample
     edges = [int(k) for i, k in enumerate(changes) if i + 1 == len(changes) or changes[i + 1] - k > 1]
+    if not edges:
+        return ()
     bounds = [0, *edges, u.size]
     plateaus = list(pairwise(bounds))
     if any(b - a < MIN_PLATEAU_SAMPLES for a, b in plateaus):
         return ()  # not a staircase of levels: a ramp, a sine, a noisy command
-    levels = [float(np.median(u[a:b])) for a, b in plateaus]
-    if not edges:
-        return ()
     if any(b - a < MIN_POST_STEP_SAMPLES for a, b in plateaus[1:]):
         # a level held for less than a step needs after it (a controller's brief rail): no staircase
         # whose steps can be identified, and the step path says what the record is
         return ()
+    levels = [float(np.median(u[a:b])) for a, b in plateaus]
     jumps = np.abs(np.diff(levels))
     for i, (a, b) in enumerate(plateaus):
         # a level the input wanders off (a controller's output leaving its rail and settling) is no

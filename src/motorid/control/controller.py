@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from motorid.control.coordinates import SENSORS
+from motorid.model.units import channel_unit
 
 if TYPE_CHECKING:
     import control
@@ -61,14 +62,14 @@ def signal_unit(name: str, units: Mapping[str, str] | None = None, *, output: st
     """
     units = units or {}
     if name == COMMAND:
-        return units.get("input") or "V"
+        return channel_unit(units, "input")
     if name == REFERENCE:
         return signal_unit(output, units) if output else "V"
     if name in SENSORS:
         channel, _, order = SENSORS[name]
-        return (units.get(channel) or "V") + ("", "/s", "/s²")[order]
+        return channel_unit(units, channel) + ("", "/s", "/s²")[order]
     if name.startswith("velocity_d"):
-        return f"{units.get('velocity') or 'V'}/s^{name[len('velocity_d'):]}"
+        return f"{channel_unit(units, 'velocity')}/s^{name[len('velocity_d'):]}"
     return ""
 
 

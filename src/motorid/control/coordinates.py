@@ -24,6 +24,7 @@ import numpy as np
 import scipy.linalg
 
 from motorid.model import MotorModel
+from motorid.model.units import channel_unit
 
 __all__ = [
     "CONDITION_MAX",
@@ -91,13 +92,13 @@ def sensor_unit(state: str, units: Mapping[str, str] | None = None) -> str:
     """
     units = units or {}
     # a command that is not volts (a PWM register, a duty cycle) says so: "pwm per rpm of the tacho"
-    command = f"{units['input']} " if units.get("input") not in (None, "", "V") else ""
+    command = "" if channel_unit(units, "input") == "V" else f"{channel_unit(units, 'input')} "
     if state in SENSORS:
         channel, sensor, order = SENSORS[state]
-        unit = units.get(channel) or "V"
+        unit = channel_unit(units, channel)
         return f"{command}per {_per_seconds(unit, order)} of {_sensor_of(sensor, unit)}"
     if state.startswith("velocity_d"):
-        unit = units.get("velocity") or "V"
+        unit = channel_unit(units, "velocity")
         return (f"{command}per {unit}/s^{state[len('velocity_d'):]} of {_sensor_of('the tacho', unit)}'s "
                 "derivative of that order")
     return f"{command}per unit of the model state {state}"

@@ -52,6 +52,7 @@ from motorid.control.feedback import ControlDesignError
 from motorid.control.margins import LoopMargins, closed_loop_bandwidth, dead_time_pade, open_loop_margins
 from motorid.errors import OptionError
 from motorid.model import MotorModel
+from motorid.model.units import channel_unit
 
 if TYPE_CHECKING:
     import control
@@ -751,7 +752,7 @@ def design_pid(model: MotorModel, settings: PidSettings) -> PidDesign:
     channel = s.loop
     plant, num, den = channel_system(model, channel)
     red = reduce_half_rule(num, den, model.delay_s, integrating=channel == "position", channel=channel)
-    unit = model.units.get(channel) or "V"
+    unit = channel_unit(model.units, channel)
 
     def tuned(tau_c_s: float | None) -> tuple[PidDesign, list[str]]:
         notes: list[str] = []
@@ -773,7 +774,7 @@ def design_pid(model: MotorModel, settings: PidSettings) -> PidDesign:
         td = kd / kp if kp != 0 else kd
         tf_s = abs(td) / s.derivative_filter if kd != 0 else 0.0
         pid = PidDesign(float(kp), float(ki), float(kd), float(tf_s), channel, s.rule, channel, unit,
-                        _gain_units(unit, model.units.get("input") or "V"), tau_c, float(s.derivative_filter), red,
+                        _gain_units(unit, model.input_unit), tau_c, float(s.derivative_filter), red,
                         None, np.zeros(0, complex), (),
                         float(model.delay_s), dict(model.units))
         return _with_loop(pid, plant), notes

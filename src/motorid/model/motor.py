@@ -32,7 +32,7 @@ from motorid.model import lti
 from motorid.model.nonlinearity import StaticNonlinearity
 from motorid.model.stage import Stage
 from motorid.model.uncertainty import Uncertainty
-from motorid.model.units import ChannelScale, dc_gain_unit
+from motorid.model.units import ChannelScale, channel_unit, dc_gain_unit
 from motorid.model.serialize import SCHEMA, model_from_dict, model_to_dict, model_to_matlab
 from motorid.model.simplify import (
     CANCEL_TOL_REL,
@@ -431,6 +431,11 @@ class MotorModel:
         return dc_gain_unit(self.units)
 
     @property
+    def input_unit(self) -> str:
+        """Unit of the command ``u``: ``V``, or the logged command's (``pwm``, ``%``)."""
+        return channel_unit(self.units, "input")
+
+    @property
     def order(self) -> int:
         """Number of states."""
         return int(self.A.shape[0])
@@ -490,7 +495,7 @@ class MotorModel:
         str
             ``"<channel> [<unit>]"``, the unit being the data's (``V`` for scope volts).
         """
-        return f"{channel} [{self.units.get(channel) or 'V'}]"
+        return f"{channel} [{channel_unit(self.units, channel)}]"
 
     def _row(self, channel: str) -> tuple[np.ndarray, np.ndarray]:
         i = self.outputs.index(channel)

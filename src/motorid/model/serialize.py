@@ -231,7 +231,7 @@ def model_to_matlab(model: MotorModel, name: str = "motor") -> str:
     vnum, vden = model._row_tf("velocity")
     pnum, pden = _normalise_tf(*model.tf_coefficients("position"))
     fo = model.first_order()
-    in_unit = model.units.get("input") or "V"
+    in_unit = model.input_unit
     lines = [
         f"% {name}: DC servo-motor model identified by motorid (method: {model.method})",
         f"% states x = [{', '.join(model.states)}]; input u = "

@@ -187,7 +187,7 @@ def channel_unit(units: Mapping[str, str], channel: str) -> str:
     units : Mapping[str, str]
         A model's or capture's units by channel.
     channel : str
-        ``position``, ``velocity`` or ``current``.
+        ``position``, ``velocity``, ``current``, or ``input`` for the command.
 
     Returns
     -------
@@ -195,6 +195,11 @@ def channel_unit(units: Mapping[str, str], channel: str) -> str:
         The unit (``"V"`` when the data did not name one).
     """
     return units.get(channel) or "V"
+
+
+def _grouped(unit: str) -> str:
+    """A rate is one unit in a quotient: ``(rad/s)``, not ``rad/s``; other units as they are."""
+    return f"({unit})" if "/" in unit else unit
 
 
 def dc_gain_unit(units: Mapping[str, str], channel: str = "velocity") -> str:
@@ -211,9 +216,8 @@ def dc_gain_unit(units: Mapping[str, str], channel: str = "velocity") -> str:
     -------
     str
     """
-    out, inp = units.get(channel) or "V", units.get("input") or "V"
     # a rate is one unit: (rad/s)/V, not rad/s/V
-    return f"{f'({out})' if '/' in out else out}/{f'({inp})' if '/' in inp else inp}"
+    return f"{_grouped(channel_unit(units, channel))}/{_grouped(channel_unit(units, 'input'))}"
 
 
 def physical_gain(dc_gain: float, units: Mapping[str, str], scales: Mapping[str, ChannelScale],
@@ -237,10 +241,9 @@ def physical_gain(dc_gain: float, units: Mapping[str, str], scales: Mapping[str,
         ``(gain, "rad/s/V")``-style pair, or ``None`` without a scale for that channel.
     """
     sc = scales.get(channel)
-    if sc is None or (units.get(channel) or "V") != "V":
+    if sc is None or channel_unit(units, channel) != "V":
         return None
-    unit = sc.unit if "/" not in sc.unit else f"({sc.unit})"
-    return dc_gain / sc.volts_per_unit, f"{unit}/{units.get('input') or 'V'}"
+    return dc_gain / sc.volts_per_unit, f"{_grouped(sc.unit)}/{channel_unit(units, 'input')}"
 
 
 def with_velocity_of_position(units: Mapping[str, str], roles: Iterable[str]) -> dict[str, str]:
@@ -264,8 +267,7 @@ def with_velocity_of_position(units: Mapping[str, str], roles: Iterable[str]) ->
     out = dict(units)
     present = set(roles)
     if "position" in present and "velocity" not in present and not out.get("velocity"):
-        pos = out.get("position") or "V"
-        out["velocity"] = f"({pos})/s" if "/" in pos else f"{pos}/s"
+        out["velocity"] = f"{_grouped(channel_unit(out, 'position'))}/s"
     return out
 
 

@@ -29,6 +29,7 @@ from motorid.conditioning.denoise import fft_denoise
 from motorid.conditioning.derivative import derivative
 from motorid.conditioning.pipeline import ConditionedExperiment
 from motorid.model import MotorModel
+from motorid.model.units import channel_unit
 
 __all__ = [
     "DPI",
@@ -264,7 +265,7 @@ def conditioned_signals(cond: ConditionedExperiment, derivative_method: str = "f
     for ax, role in zip(axes[:, 0], roles, strict=False):
         ax.plot(cond.full_time_s, cond.full_outputs[role], lw=0.9, label=f"{role}, synchronised")
         ax.plot(cond.time_s, cond.outputs[role], "o", ms=3, label=f"reduced ×{cond.ratio}")
-        ax.set_ylabel(f"{role} ({(units or {}).get(role) or 'V'})")
+        ax.set_ylabel(f"{role} ({channel_unit(units or {}, role)})")
         ax.legend(loc="best")
     if extra:
         ax = axes[-1, 0]
@@ -273,7 +274,7 @@ def conditioned_signals(cond: ConditionedExperiment, derivative_method: str = "f
         ax.plot(cond.time_s, dpos, "o-", ms=3, lw=0.9, label=f"d/dt position ({derivative_method})")
         if "velocity" in cond.outputs:
             ax.plot(cond.full_time_s, cond.full_outputs["velocity"], lw=0.9, label="tacho velocity")
-        pos_unit = (units or {}).get("position") or "V"
+        pos_unit = channel_unit(units or {}, "position")
         ax.set_ylabel(f"{pos_unit}/s")
         ax.legend(loc="best")
     axes[-1, 0].set_xlabel("time from the step (s)")
@@ -396,7 +397,7 @@ def step_fit_figure(model: MotorModel, cond: ConditionedExperiment) -> Figure:
             top.plot(t, yh, lw=1.5, label=f"model ({model.method})")
             bottom.plot(t, y - yh, lw=0.7, color="C3")
         top.set_title(role, loc="left")
-        unit = model.units.get(role) or "V"
+        unit = channel_unit(model.units, role)
         top.set_ylabel(f"{role} ({unit})")
         top.legend(loc="best")
         top.tick_params(labelbottom=False)

@@ -31,7 +31,7 @@ from motorid.identification.noise_json import noise_of
 from motorid.identification.pipeline import Identification
 from motorid.identification.sanity import SanityReport, demanded_zero_note
 from motorid.model.notation import poly_text
-from motorid.model.units import physical_gain
+from motorid.model.units import channel_unit, physical_gain
 from motorid.numfmt import DIGITS, complex_text, metric_name, roots_text, sig
 from motorid.report import figures
 from motorid.report.truth import reference_values, truth_checks
@@ -234,7 +234,7 @@ def summary_section(inp: ReportInputs) -> dict[str, Any]:
     gain_unit = model.dc_gain_unit
     rows: list[list[Any]] = [
         ["method", model.method], ["states (size of A)", model.order],
-        ["step", f"{_cell(cond.step_volts)} {model.units.get('input') or 'V'}"],
+        ["step", f"{_cell(cond.step_volts)} {model.input_unit}"],
         ["dc gain", f"{_cell(fo.dc_gain)} {gain_unit}"], ["τ (by moments)", f"{_cell(fo.time_constant_s)} s"],
         ["63 % time (dead time included)", f"{_cell(model.t63_s())} s"],
         ["k/(s+p)", f"{_cell(fo.k)}/(s + {_cell(fo.p)})"]]
@@ -371,7 +371,7 @@ def model_section(inp: ReportInputs) -> dict[str, Any]:
                 rows.append([f"{name} {i + 1}", complex(item.value), item.stderr, f"[{_cell(lo)}, {_cell(hi)}]"])
     root_notes = [f"zero {i + 1}: {note}" for i, item in enumerate(u.zeros if u is not None else ())
                   if (note := demanded_zero_note(float(np.real(item.value)), item.interval_or_nan()[0]))]
-    noise_rows = [[f"{role} ({model.units.get(role) or 'V'})", nm.sigma, nm.ar_order, nm.pre_step_sigma,
+    noise_rows = [[f"{role} ({channel_unit(model.units, role)})", nm.sigma, nm.ar_order, nm.pre_step_sigma,
                    "its scale only: 8-bit codes not dithered by noise" if nm.scale_only
                    else "the dynamics"] for role, nm in noise_of(model).items()]
     return {
@@ -611,7 +611,7 @@ def design_section(inp: ReportInputs) -> dict[str, Any]:
                 check = RobustCheck.from_json(d["robust"])
                 gain_rows.append(["on plausible motors", check.text()])
                 if check.band[0]:
-                    unit = inp.identification.model.units.get(str(d.get("output") or "position")) or "V"
+                    unit = channel_unit(inp.identification.model.units, str(d.get("output") or "position"))
                     robust_png = figures.data_uri(figures.robust_band(d["robust"]["band"], unit, check.text()))
         try:
             des = controller_from_json(d)
@@ -633,7 +633,7 @@ def design_section(inp: ReportInputs) -> dict[str, Any]:
         metric_rows = _metric_rows(metrics, out_unit)
         headline = _metric_rows({k: metrics[k] for k in _HEADLINE_METRICS if k in metrics}, out_unit)
         rails, disturbances = sim.get("rails_v"), tuple(sim.get("disturbances_s") or ())
-        in_unit = inp.identification.model.units.get("input") or "V"
+        in_unit = inp.identification.model.input_unit
         png = figures.closed_loop(np.asarray(sim["time"]), {k: np.asarray(v) for k, v in sim["series"].items()},
                                   "closed-loop step response on the identified model", rails_v=rails,
                                   disturbances_s=disturbances, metrics=[f"{w}: {v}" for w, v in headline],

@@ -14,6 +14,7 @@ import numpy as np
 
 from motorid.identification.hammerstein import MultiLevelResult
 from motorid.model.notation import poly_text
+from motorid.model.units import channel_unit
 from motorid.report import figures
 from motorid.report.html import render_page, render_section
 
@@ -57,8 +58,8 @@ def static_characteristic_png(result: MultiLevelResult) -> bytes:
             ax.errorbar([p.step_volts for p in pts], [p.steady_state for p in pts],
                         yerr=[1.96 * p.stderr for p in pts], fmt=marker, color=colour, label=f"{status} level")
     ax.axvline(st.dead_zone_v, color="0.4", ls=":", lw=1)
-    ax.set_xlabel("step level u (V)")
-    ax.set_ylabel(f"steady output y_ss ({result.model.units.get('velocity', 'V')})")
+    ax.set_xlabel(f"step level u ({result.model.input_unit})")
+    ax.set_ylabel(f"steady output y_ss ({channel_unit(result.model.units, 'velocity')})")
     ax.legend(loc="best")
     ax.grid(alpha=0.3)
     return figures.png(fig)
@@ -126,7 +127,7 @@ def static_section(result: MultiLevelResult) -> dict[str, Any]:
                      f"[{st.negative.dead_zone_ci95[0]:.4g}, {st.negative.dead_zone_ci95[1]:.4g}] V"])
     if st.saturation_input_v is not None:
         rows.append(["saturation seen from", f"{st.saturation_input_v:.4g} V",
-                     f"output ≈ {st.saturation_output_v:.4g} {result.model.units.get('velocity', 'V')}"])
+                     f"output ≈ {st.saturation_output_v:.4g} {channel_unit(result.model.units, 'velocity')}"])
     rows.append(["time constant (joint fit)", f"{fo.time_constant_s:.4g} s", ""])
     return {"rows": rows, "png": figures.data_uri(static_characteristic_png(result))}
 

@@ -49,7 +49,7 @@ def _header(model: Any, title: str) -> list[SummaryLine]:
         ((title, "bold"), (f": method {model.method}, {model.order} states {list(model.states)}, "
                            f"{_velocity_poles(model)} poles of the velocity TF"
                            # a model built from a transfer function has no step of its own
-                           + (f", step {sig(model.step_volts)} {model.units.get('input') or 'V'}"
+                           + (f", step {sig(model.step_volts)} {model.input_unit}"
                               if model.step_volts is not None else ""), ""))]
     lines.append(_plain(f"A = {_array_text(model.A)}"))
     lines.append(_plain(f"B = {_array_text(model.B.ravel())}ᵀ"))

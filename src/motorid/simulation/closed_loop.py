@@ -26,6 +26,7 @@ from motorid.control.design import Design, design_model, output_row
 from motorid.control.pid import PidDesign
 from motorid.errors import OptionError
 from motorid.model import MotorModel
+from motorid.model.units import channel_unit
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -222,12 +223,12 @@ class SimulationResult:
     @property
     def output_unit(self) -> str:
         """The unit of the output, the reference and the errors (the model's, e.g. ``rpm``; else ``V``)."""
-        return self.units.get(self.output) or "V"
+        return channel_unit(self.units, self.output)
 
     @property
     def input_unit(self) -> str:
         """The unit of the command ``u`` (the model's input: ``V``, or ``pwm``/``%`` for a logged PWM command)."""
-        return self.units.get("input") or "V"
+        return channel_unit(self.units, "input")
 
     def columns(self) -> dict[str, np.ndarray]:
         """Named columns (``time``, ``reference``, ``output``, ``u``, ``u_raw``, states, ``*_hat``, ``z``).
@@ -260,7 +261,7 @@ class SimulationResult:
         from motorid.frames import to_dataframe
 
         cols = self.columns()
-        units = {name: (self.units.get(name) or "V") for name in cols}
+        units = {name: channel_unit(self.units, name) for name in cols}
         units.update({"reference": self.output_unit, "output": self.output_unit, "u": "V", "u_raw": "V", "z": ""})
         return to_dataframe(cols, units)
 

@@ -404,7 +404,7 @@ def _plot(des: Any, sim: SimulationResult, form: DesignForm, canvas: Any) -> str
     cols = sim.columns()
     series = {"reference": cols["reference"], f"output ({sim.output})": cols["output"], "u (control)": cols["u"]}
     series.update(_robust_band(des, cols["time"], form))
-    in_unit = sim.units.get("input") or "V"
+    in_unit = sim.input_unit
     sat = f", rails ±{form.saturation_v:g} {in_unit}" if form.saturation_v else ""
     return figures.data_uri(canvas.svg(cols["time"], series,
                                        f"closed loop: ζ = {form.damping:g}, ωn = {form.wn:g} rad/s{sat}",
