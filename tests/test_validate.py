@@ -118,6 +118,17 @@ def test_a_constant_offset_is_estimated_not_scored():
     assert c.nrmse > 10 * a.nrmse
 
 
+
+def test_the_offset_is_given_in_the_channels_unit():
+    """A model of a log in rpm printed "output offset estimated: +0.7 V"."""
+    t = np.arange(0, 6, 0.002)
+    u, y = _sine_run(t)
+    r = validate_capture(_first_order(units={"velocity": "rpm"}), _capture(t, y + 0.7, u))
+    note = next(n for n in r.notes if n.startswith("output offset estimated"))
+    assert note.endswith(" rpm") and " V" not in note
+    volts = validate_capture(_first_order(), _capture(t, y + 0.7, u))
+    assert next(n for n in volts.notes if n.startswith("output offset estimated")).endswith(" V")
+
 def test_the_models_delay_is_applied():
     dt, t0, d, step = 0.001, 0.5, 0.04, 5.0
     t = np.arange(0, 3, dt)

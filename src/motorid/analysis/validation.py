@@ -21,7 +21,6 @@ import math
 from dataclasses import dataclass
 from typing import Any, Literal
 
-import control
 import numpy as np
 
 from motorid._threads import single_blas_thread
@@ -33,6 +32,8 @@ from motorid.errors import CaptureDataError, OptionError, StepNotFoundError
 from motorid.identification.metrics import fit_percent, nrmse
 from motorid.identification.sanity import TOLERANCES
 from motorid.model import CHANNELS, MotorModel
+from motorid.model.forced import linear_hold_response
+from motorid.model.units import channel_unit
 
 __all__ = ["ValidationResult", "check_channel", "check_options", "model_delay_s", "validate_capture"]
 
@@ -177,11 +178,11 @@ def model_delay_s(model: MotorModel) -> float:
     return d if math.isfinite(d) and d > 0 else 0.0
 
 
-def _channel_system(model: MotorModel, channel: str) -> tuple[control.StateSpace, tuple[str, ...]]:
-    """Input volts → the channel's volts, in the model's own state coordinates."""
+def _channel_system(model: MotorModel, channel: str) -> tuple[tuple[np.ndarray, ...], tuple[str, ...]]:
+    """``(A, B, C, D)`` from the input to the channel, in the model's own state coordinates."""
     if channel in model.outputs:
         i = model.outputs.index(channel)
-        return control.ss(model.A, model.B, model.C[i:i + 1], model.D[i:i + 1]), model.states
+        return (model.A, model.B, model.C[i:i + 1], model.D[i:i + 1]), model.states
     # position of a model without a position row: the integral of the velocity channel
     n = model.order
     iv = model.outputs.index("velocity")
@@ -191,7 +192,7 @@ def _channel_system(model: MotorModel, channel: str) -> tuple[control.StateSpace
     b = np.vstack([model.B, model.D[iv:iv + 1]])
     c = np.zeros((1, n + 1))
     c[0, n] = 1.0
-    return control.ss(a, b, c, np.zeros((1, 1))), (*model.states, "position (integral)")
+    return (a, b, c, np.zeros((1, 1))), (*model.states, "position (integral)")
 
 
 #: An input that varies by more than this (RMS, relative to its edge) after its edge is not a step:
@@ -409,9 +410,9 @@ def validate_capture(
         notes.append(f"input delayed by the model's dead time {delay:.4g} s")
     else:
         u_model = u
-    sys, names = _channel_system(model, channel)
-    # python-control simulates on an evenly spaced grid: a logger's jittered time stamps are
-    # simulated on the even grid of the same span and read back at the samples
+    (a, b, c, d), names = _channel_system(model, channel)
+    # the input is linear between samples on an evenly spaced grid: a logger's jittered time
+    # stamps are simulated on the even grid of the same span and read back at the samples
     dt = np.diff(t)
     even = bool(np.allclose(dt, t[-1] / (t.size - 1), rtol=1e-6, atol=0.0))
     grid = t if even else np.linspace(0.0, t[-1], t.size)
@@ -423,8 +424,12 @@ def validate_capture(
     u_grid = u_model if even else np.interp(grid, t, u_model)
     if not even:
         notes.append("uneven time stamps: simulated on an even grid and interpolated")
-    with np.errstate(over="ignore", invalid="ignore"):
-        forced = on_samples(control.forced_response(sys, grid, u_grid).outputs)
+    n = a.shape[0]
+    # python-control's forced_response and initial_response (the same first-order hold), in one
+    # state recursion run in blocks instead of a Python loop over the samples
+    forced_grid, free = linear_hold_response(a, b, c, d, float(grid[1] - grid[0]), u_grid,
+                                             np.eye(n) if estimate_initial_state else None)
+    forced = on_samples(forced_grid)
     scored = t >= warmup_s - 1e-12 * max(1.0, t[-1])
     if int(scored.sum()) < MIN_SCORED:
         raise CaptureDataError(
@@ -434,14 +439,7 @@ def validate_capture(
         )
     if warmup_s > 0:
         notes.append(f"first {warmup_s:g} s simulated but not scored (--warmup)")
-    n = sys.nstates
-    cols: list[np.ndarray] = []
-    if estimate_initial_state:
-        with np.errstate(over="ignore", invalid="ignore"):
-            for i in range(n):
-                x0 = np.zeros(n)
-                x0[i] = 1.0
-                cols.append(on_samples(control.initial_response(sys, grid, X0=x0).outputs))
+    cols = [on_samples(free[:, i]) for i in range(free.shape[1])]
     x0_hat = np.full(n, np.nan)
     offset = 0.0
     yhat = forced.copy()
@@ -470,7 +468,7 @@ def validate_capture(
                              + ("" if np.all(seen[:n]) else " (states the channel cannot see: null)"))
             if use_offset:
                 offset = float(coef[n if cols else 0])
-                notes.append(f"output offset estimated: {offset:+.4g} V")
+                notes.append(f"output offset estimated: {offset:+.4g} {channel_unit(model.units, channel)}")
         else:
             warnings.append("the model's free response overflows (unstable model): initial state not estimated")
     elif not np.all(np.isfinite(forced)):

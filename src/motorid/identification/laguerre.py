@@ -54,6 +54,7 @@ from motorid.identification.laguerre_refine import (
 )
 from motorid.identification.result import IdentificationError
 from motorid.model import lti
+from motorid.model.forced import held_states
 
 __all__ = [
     "LaguerreCoefficients",
@@ -353,7 +354,7 @@ def laguerre_regressors(
     f, g = zoh(h)
     if input_v is None:
         _f0, g0 = zoh(float(te[start]))  # the first sample lies a fraction of a step after the edge
-        held = _held_recursion(f, g0[:, None] * step_volts, g[:, None] * step_volts, None, t.size - start)
+        held = held_states(f, g0[:, None] * step_volts, g[:, None] * step_volts, None, t.size - start)
         out[start:] = held[..., 0]
     else:
         u = np.asarray(input_v, dtype=float).ravel()
@@ -361,7 +362,7 @@ def laguerre_regressors(
             raise OptionError(f"the input has {u.size} samples for {t.size} times")
         # the input as the network sees it: delayed by delay_s, held between samples
         ud = np.interp(te, t, u, left=0.0)
-        out[start:] = _held_recursion(f, np.zeros((ns, 1)), g[:, None], ud[start:], t.size - start)[..., 0]
+        out[start:] = held_states(f, np.zeros((ns, 1)), g[:, None], ud[start:], t.size - start)[..., 0]
     return out[:, -n_terms:] if integrate else out
 
 
@@ -937,57 +938,10 @@ def _simulate(a: np.ndarray, b: np.ndarray, t: np.ndarray, u: np.ndarray | None,
     f, g = zoh(h)
     if u is None:
         _, g0 = zoh(float(te[start]))
-        out[start:] = _held_recursion(f, g0 * step_volts, g * step_volts, None, t.size - start)
+        out[start:] = held_states(f, g0 * step_volts, g * step_volts, None, t.size - start)
     else:
         ud = np.interp(te, t, u, left=0.0)
-        out[start:] = _held_recursion(f, np.zeros((ns, ni)), g, ud[start:], t.size - start)
-    return out
-
-
-#: Samples per block of :func:`_held_recursion`.
-RECURSION_BLOCK = 64
-
-
-def _held_recursion(f: np.ndarray, x0: np.ndarray, g: np.ndarray, w: np.ndarray | None, n: int) -> np.ndarray:
-    """``X[0] = x0``, ``X[k+1] = F X[k] + G·w[k]`` (``w ≡ 1`` when None) for ``k < n``, shape (n, states, inputs).
-
-    In blocks of :data:`RECURSION_BLOCK` samples: within a block ``X[j] = F^j X[0] + Σ_{i<j} F^{j−1−i} G w[i]``
-    from the block's powers of ``F`` (array products), and one step per block carries the
-    state on.  The same products as the sample-by-sample loop it replaces (a Python
-    iteration per sample: 16 ms of the Laguerre stage's 2500-sample fits, twelve times).
-    """
-    ns = f.shape[0]
-    size = min(RECURSION_BLOCK, n)
-    powers = np.empty((size + 1, ns, ns))
-    powers[0] = np.eye(ns)
-    for j in range(size):
-        powers[j + 1] = f @ powers[j]
-    fg = powers[:size] @ g  # F^j G
-    lag = np.arange(size)[:, None] - 1 - np.arange(size)[None, :]  # j − 1 − i
-    causal = lag >= 0
-    kernel = np.where(causal[:, :, None, None], fg[np.clip(lag, 0, None)], 0.0)  # (j, i, states, inputs)
-    ni = x0.shape[1]
-    out = np.empty((n, ns, ni))
-    x = x0
-    # every block's forced response in one matrix product: the kernel as a (rows, i) matrix
-    # against the blocks' inputs as columns (a held step, w ≡ 1, forces every block alike; a
-    # short last block uses its first rows)
-    n_blocks = -(-n // size)
-    inputs = np.ones((size, 1 if w is None else n_blocks))
-    if w is not None:
-        padded = np.zeros(n_blocks * size)
-        padded[:n] = w[:n]
-        inputs = padded.reshape(n_blocks, size).T
-    flat = kernel.transpose(0, 2, 3, 1).reshape(size * ns * ni, size)
-    forced_all = (flat @ inputs).reshape(size, ns, ni, -1)
-    for b, s0 in enumerate(range(0, n, size)):
-        m = min(size, n - s0)
-        wb = inputs[:, 0 if w is None else b]
-        forced = forced_all[..., 0 if w is None else b]
-        block = powers[:size] @ x + forced
-        out[s0 : s0 + m] = block[:m]
-        # the state one step after the block's last sample
-        x = f @ block[size - 1] + g * wb[size - 1]
+        out[start:] = held_states(f, np.zeros((ns, ni)), g, ud[start:], t.size - start)
     return out
 
 
