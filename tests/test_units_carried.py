@@ -18,7 +18,8 @@ from clihelpers import motorid_ok
 from motorid.trainer.realsetups import write_real_setup
 
 #: Labels that would put volts on a value in rpm.
-V_ON_RPM = (r"V/V", r"\(volts\)", r"per V of the tacho", r"velocity σ [0-9.e+-]+ V\b", r"dc gain \(V", r"error [-0-9.e+]+ V\b")
+V_ON_RPM = (r"V/V", r"\(volts\)", r"per V of the tacho", r"velocity σ [0-9.e+-]+ V\b", r"dc gain \(V", r"error [-0-9.e+]+ V\b",
+            r"offset estimated: [-+0-9.e]+ V\b")
 
 
 def _cli(*args: object) -> str:
@@ -60,6 +61,15 @@ def test_identify_prints_and_writes_rpm(rig):
     _no_volts_on_rpm("report", report)
     assert "rpm/V" in report
 
+
+
+def test_the_reports_validation_gives_the_offset_in_rpm(rig):
+    """The report's validation table and notes gave the offset of an rpm log in V."""
+    log = rig / "rig" / "l298n_log.csv"
+    _cli("report", "--velocity", log, "--validate", log, "--out", rig / "rv.html", "--force")
+    html = (rig / "rv.html").read_text()
+    _no_volts_on_rpm("report's validation", re.sub(r'src="data:[^"]*"', "", html))
+    assert re.search(r"<td>[-+0-9.e]+ rpm</td>", html) and re.search(r"offset estimated: [-+0-9.e]+ rpm", html)
 
 def test_validate_design_and_simulate_speak_rpm(rig):
     if not (rig / "m.json").exists():

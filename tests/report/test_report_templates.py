@@ -160,6 +160,15 @@ def _check_style(fig):
     assert not small, small
 
 
+def test_the_validation_overlay_gives_an_rpm_output_and_a_volts_input_their_own_axes(drawn):
+    """The overlay drew a log's rpm and its volts on one axis labelled "V"."""
+    t = np.linspace(0, 2, 200)
+    figures.validation_overlay(t, np.sin(t), 800 * np.sin(t), 790 * np.sin(t), "sine", "rpm", "V")
+    labels = sorted(ax.get_ylabel() for ax in drawn[0].axes)
+    assert labels == ["input (V)", "output (rpm)"]
+    figures.validation_overlay(t, np.sin(t), np.sin(t), 0.9 * np.sin(t), "sine")
+    assert [ax.get_ylabel() for ax in drawn[1].axes] == ["V"]
+
 def test_figures_are_full_width_with_fonts_of_at_least_11_pt(drawn):
     before = dict(matplotlib.rcParams)
     t = np.linspace(0, 2, 200)

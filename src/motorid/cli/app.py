@@ -689,7 +689,7 @@ def validate(
         for r in results:
             verdict = "—" if max_nrmse is None else ("FAIL" if r in failed else "pass")
             table.add_row(Path(r.source).name, r.input_kind, f"{sig(100 * r.nrmse)} %", f"{sig(r.fit_percent)} %",
-                          f"{sig(r.offset_v)} {(model.units or {}).get(channel, 'V')}", verdict)
+                          f"{sig(r.offset_v)} {model.units.get(channel) or 'V'}", verdict)
         con.print(table)
         for r in results:
             for w in r.warnings:

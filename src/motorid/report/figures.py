@@ -566,7 +566,7 @@ def sweep_maps(lengths: Sequence[float], intervals: Sequence[float], k: np.ndarr
 
 @styled
 def validation_overlay(time_s: np.ndarray, input_v: np.ndarray, measured: np.ndarray, simulated: np.ndarray,
-                       title: str) -> bytes:
+                       title: str, output_unit: str = "V", input_unit: str = "V") -> bytes:
     """Model driven by a recorded test signal vs the measured response (paper Figs. 36–38).
 
     Parameters
@@ -574,13 +574,16 @@ def validation_overlay(time_s: np.ndarray, input_v: np.ndarray, measured: np.nda
     time_s : ndarray
         Times in s.
     input_v : ndarray
-        The recorded input in volts.
+        The recorded input, in ``input_unit``.
     measured : ndarray
-        The measured output in volts.
+        The measured output, in ``output_unit``.
     simulated : ndarray
-        The model's output in volts.
+        The model's output, in ``output_unit``.
     title : str
         The figure title.
+    output_unit, input_unit : str
+        The channels' units: an input in another unit than the output (volts against rpm) gets
+        its own axis on the right.
 
     Returns
     -------
@@ -588,13 +591,21 @@ def validation_overlay(time_s: np.ndarray, input_v: np.ndarray, measured: np.nda
         The PNG image.
     """
     fig, ax = _subplots(figsize=(FULL_WIDTH_IN, 3.0))
-    ax.plot(time_s, input_v, lw=0.7, alpha=0.5, label="input (CH1)")
-    ax.plot(time_s, measured, lw=0.8, label="measured")
-    ax.plot(time_s, simulated, lw=1.4, label="model")
+    own_axis = input_unit != output_unit
+    ax_in = ax.twinx() if own_axis else ax
+    ax_in.plot(time_s, input_v, lw=0.7, alpha=0.5, color="C0", label="input (CH1)")
+    ax.plot(time_s, measured, lw=0.8, color="C1", label="measured")
+    ax.plot(time_s, simulated, lw=1.4, color="C2", label="model")
     ax.set_title(_wrapped(title), loc="left")
     ax.set_xlabel("time (s)")
-    ax.set_ylabel("V")
-    ax.legend(loc="best")
+    if own_axis:
+        ax.set_ylabel(f"output ({output_unit})")
+        ax_in.set_ylabel(f"input ({input_unit})")
+        lines = ax.get_lines() + ax_in.get_lines()
+        ax.legend(lines, [ln.get_label() for ln in lines], loc="best")
+    else:
+        ax.set_ylabel(output_unit)
+        ax.legend(loc="best")
     return png(fig)
 
 

@@ -548,11 +548,13 @@ def validation_section(inp: ReportInputs) -> dict[str, Any]:
         except MotorIdError as exc:
             rows.append([name, "—", "—", "—", f"not validated: {exc.message}"])
             continue
-        rows.append([name, f"{100 * r.nrmse:.2f} %", f"{r.fit_percent:.1f} %", f"{r.offset_v:+.4g} V",
+        model = inp.identification.model
+        unit = channel_unit(model.units, r.channel)
+        rows.append([name, f"{100 * r.nrmse:.2f} %", f"{r.fit_percent:.1f} %", f"{r.offset_v:+.4g} {unit}",
                      "; ".join(r.notes + r.warnings)])
         overlays.append((name, figures.data_uri(figures.validation_overlay(
             r.time_s, r.input_v, r.measured_v, r.simulated_v,
-            f"{name}: NRMSE {100 * r.nrmse:.2f} %, fit {r.fit_percent:.1f} %"))))
+            f"{name}: NRMSE {100 * r.nrmse:.2f} %, fit {r.fit_percent:.1f} %", unit, model.input_unit))))
     return {"rows": rows, "overlays": overlays}
 
 
