@@ -225,7 +225,7 @@ def _fine_grid_response(a, b, c, d, h, u, delay, k=200):
 
 @pytest.mark.parametrize("delay", [0.0, 0.0137, 0.05])
 def test_delayed_response_is_exact_for_fractional_delays(delay: float) -> None:
-    from motorid.identification.laguerre_refine import _delayed_response
+    from motorid.model.forced import zero_hold_delayed
 
     a = np.array([[0.0, 1.0], [-6.0, -5.0]])
     b = np.array([[0.0], [1.0]])
@@ -235,12 +235,13 @@ def test_delayed_response_is_exact_for_fractional_delays(delay: float) -> None:
     t = np.arange(300) * h
     u = 2.0 + 0.3 * np.sin(7 * t) * (np.arange(300) > 50)
     # 13.7 ms = 1.37 samples: the fine grid (50 µs) represents it exactly
-    y = _delayed_response(a, b, c, d, h, u, delay)
+    y = zero_hold_delayed(a, b, c, d, h, u, delay)
     assert np.max(np.abs(y - _fine_grid_response(a, b, c, d, h, u, delay))) < 1e-9
 
 
 def test_polish_recovers_shared_poles_scale_current_and_delay_from_a_rough_start() -> None:
-    from motorid.identification.laguerre_refine import _delayed_response, laguerre_polish
+    from motorid.identification.laguerre_refine import laguerre_polish
+    from motorid.model.forced import zero_hold_delayed
 
     # velocity G = 9/((s + 2)(s + 15)), position 0.4·G/s, current (2s² + 40s + 10)/((s + 2)(s + 15)): a direct
     # term and shared poles; 3.3 ms dead time; exact noiseless samples from the independent fine-grid simulator
@@ -271,7 +272,7 @@ def test_polish_recovers_shared_poles_scale_current_and_delay_from_a_rough_start
     assert max(pol.sigma.values()) < 1e-6 * np.max(np.abs(pos))
     # and the simulator used by the polish agrees with the reference on the polished model
     sys_p = control.ss(control.tf(pol.num, pol.den))
-    y = _delayed_response(sys_p.A, sys_p.B, sys_p.C, np.zeros(1), h, u, pol.delay_s)[:, 0]
+    y = zero_hold_delayed(sys_p.A, sys_p.B, sys_p.C, np.zeros(1), h, u, pol.delay_s)[:, 0]
     assert np.max(np.abs(y - vel)) < 1e-6 * np.max(np.abs(vel))
 
 

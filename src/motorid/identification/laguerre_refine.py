@@ -10,7 +10,6 @@ of the polished fits, compared on a common effective sample size (:func:`laguerr
 from __future__ import annotations
 
 import functools
-import math
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -21,6 +20,7 @@ import numpy as np
 from motorid.identification.metrics import bic
 from motorid.identification.result import IdentificationError
 from motorid.model import lti
+from motorid.model.forced import zero_hold_delayed
 
 if TYPE_CHECKING:
     from motorid.identification.laguerre import _Candidate
@@ -259,46 +259,6 @@ def _lag1_inflation(r: np.ndarray) -> float:
     return (1 + rho) / (1 - rho)
 
 
-def _delayed_response(a_c: np.ndarray, b_c: np.ndarray, c_rows: np.ndarray, d_col: np.ndarray, h: float,
-                      u: np.ndarray, delay: float) -> np.ndarray:
-    """Exact sampled response of ``ẋ = Ax + Bu(t − θ)``, ``y = Cx + Du(t − θ)`` to a held input.
-
-    The input ``u_k`` holds over ``[t_k, t_k + h)``; a delay ``θ = n·h + f`` splits each sample
-    interval at ``f`` (the modified z-transform), so the response is smooth in ``θ`` and the
-    fit can move the dead time by fractions of a sample.  Returns shape (len(u), outputs).
-    """
-    # scipy.signal loads here, when the Markov method's polish runs (``auto`` does not: start-up);
-    # motorid.model.lti's filter differs from it in the last bits, which the polish's finite
-    # differences feel (8x the evaluations on a first-order record)
-    from scipy.signal import lfilter
-
-    whole = math.floor(delay / h + 1e-12)
-    frac = delay - whole * h
-    idx = np.arange(u.size) - whole  # a negative delay (a capture triggered late) advances the input
-    v = np.where(idx < 0, 0.0, u[np.clip(idx, 0, u.size - 1)])
-    v_prev = np.r_[0.0, v[:-1]]
-
-    def gamma(step: float) -> tuple[np.ndarray, np.ndarray]:
-        return lti.zoh(a_c, b_c, step)
-
-    e_rest, g_rest = gamma(h - frac)  # the part of the interval fed by the current sample
-    e_head, g_head = gamma(frac)
-    phi = e_rest @ e_head
-    g_a = g_rest
-    g_b = e_rest @ g_head  # the head of the interval, still fed by the previous sample
-    out = np.empty((u.size, c_rows.shape[0]))
-    den = np.poly(phi)
-    for i, c in enumerate(c_rows):
-        with warnings.catch_warnings():  # a leading numerator coefficient of zero is expected here
-            warnings.simplefilter("ignore", lti.BadCoefficients)
-            na = lti.ss2tf(phi, g_a, c.reshape(1, -1), np.zeros((1, 1)))[0][0]
-            nb = lti.ss2tf(phi, g_b, c.reshape(1, -1), np.zeros((1, 1)))[0][0]
-        # x_{k+1} = Φ x_k + Γa v_k + Γb v_(k−1): y_k = C x_k (a one-sample lag in both filters)
-        y = lfilter(np.r_[0.0, na[1:]], den, v) + lfilter(np.r_[0.0, nb[1:]], den, v_prev)
-        out[:, i] = y + d_col[i] * (v_prev if frac > 0 else v)
-    return out
-
-
 def _input_for_polish(t: np.ndarray, input_v: Any, step_volts: float) -> np.ndarray:
     """The recorded input, or its mean level when it is a step plus white noise.
 
@@ -450,7 +410,7 @@ def laguerre_polish(
         If the primary channel is missing.
     """
     import scipy.optimize
-    from scipy.signal import lfilter  # as in _delayed_response
+    from scipy.signal import lfilter  # as in zero_hold_delayed
 
     t = np.asarray(time_s, dtype=float).ravel()
     if primary not in outputs:
@@ -470,7 +430,7 @@ def laguerre_polish(
 
     def predict(model: _PolishModel, xx: np.ndarray) -> np.ndarray:
         a_s, b_s, rows, dcol, dls = model.system(xx)
-        return np.column_stack([_delayed_response(a_s, b_s, rows[i:i + 1], dcol[i:i + 1], h, u, dls[i])[:, 0]
+        return np.column_stack([zero_hold_delayed(a_s, b_s, rows[i:i + 1], dcol[i:i + 1], h, u, dls[i])[:, 0]
                                 for i in range(rows.shape[0])])
 
     # the current jumps at the step: its sample at the edge depends on the sub-sample trigger time
@@ -542,13 +502,13 @@ def laguerre_polish(
     if (pm.free_scale or pm.current) and not resumed:
         a_s, b_s, _, _, dls = _PolishModel(m, (primary,)).system(x)
         dl = float(dls[0])
-        basis = _delayed_response(a_s, b_s, np.eye(m), np.zeros(m), h, u, dl)  # the state responses
+        basis = zero_hold_delayed(a_s, b_s, np.eye(m), np.zeros(m), h, u, dl)  # the state responses
         if pm.free_scale:
             vel = basis @ x[m:2 * m]
             pos = np.cumsum(np.r_[0.0, (vel[1:] + vel[:-1]) / 2]) * h
             x = np.r_[x, float(pos @ ys["position"] / max(pos @ pos, 1e-300))]
         if pm.current:
-            udel = _delayed_response(np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)), np.ones(1), h, u, dl)[:, 0]
+            udel = zero_hold_delayed(np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)), np.ones(1), h, u, dl)[:, 0]
             keep = mask_of["current"]
             coef, *_ = np.linalg.lstsq(np.column_stack([basis, udel])[keep], ys["current"][keep], rcond=None)
             x = np.r_[x, coef]
