@@ -27,6 +27,7 @@ from motorid.conditioning.edge import quantisation_step
 from motorid.conditioning.response import StepResponse, step_response
 from motorid.conditioning.timescale import response_times
 from motorid.errors import OptionError
+from motorid.identification.metrics import bic
 from motorid.identification.static import (
     LevelPoint,
     StaticCharacteristic,
@@ -310,8 +311,8 @@ def identify_levels(
     t63 = float(np.median([m[2] for m in usable]))
     joint_in = [(resp, point.noise) for point, resp, _ in usable]
     fits = {order: _joint_fit(joint_in, order, t63) for order in (1, 2)}
-    bic = {o: n * math.log(rss / n) + (o + len(joint_in)) * math.log(n) for o, (_, rss, n) in fits.items()}
-    order = min(bic, key=lambda o: bic[o])
+    scores = {o: bic({"y": n}, {"y": rss / n}, o + len(joint_in)) for o, (_, rss, n) in fits.items()}
+    order = min(scores, key=lambda o: scores[o])
     den = fits[order][0]
     nl = StaticNonlinearity(
         dead_zone_v=static.dead_zone_v, dead_zone_ci95=static.dead_zone_ci95,

@@ -52,6 +52,7 @@ from motorid.identification.laguerre_refine import (
     _transfer_function,
     laguerre_polish,
 )
+from motorid.identification.metrics import bic
 from motorid.identification.result import IdentificationError
 from motorid.model import lti
 from motorid.model.forced import held_states
@@ -385,10 +386,10 @@ def _coefficients(phi: np.ndarray, y: np.ndarray, pole: float, delay: float) -> 
     inflation = (1 + rho) / (1 - rho)
     cov_q = (vt.T / s**2) @ vt
     cov = s2 * inflation * cov_q / np.outer(norms, norms)
-    bic = n * math.log(max(rss, 1e-300) / n) + k * math.log(n)
+    score = bic({"y": n}, {"y": rss / n}, k)
     return LaguerreCoefficients(pole=float(pole), values=coef, covariance=cov, delay_s=float(delay),
                                 residual_rms=math.sqrt(rss / n), n_samples=n, condition=float(s[0] / s[-1]),
-                                inflation=inflation, bic=bic)
+                                inflation=inflation, bic=score)
 
 
 def laguerre_coefficients(
@@ -786,9 +787,9 @@ def _best_coefficients(grid: _Grid, a: float, delay: float, settings: LaguerreSe
         if sv[-1] <= 0 or (settings.n_terms is None and sv[0] / sv[-1] > MAX_CONDITION):
             continue
         rss = tail + float(qty[k:] @ qty[k:])
-        bic = n * math.log(max(rss, 1e-300) / n) + k * math.log(n)
-        if bic < best_bic:
-            best_k, best_bic = k, bic
+        score = bic({"y": n}, {"y": rss / n}, k)
+        if score < best_bic:
+            best_k, best_bic = k, score
     if best_k == 0:
         if settings.n_terms is not None:
             errors.append("the Laguerre regressors are rank deficient; use fewer terms")
@@ -827,7 +828,7 @@ def _realised_orders(grid: _Grid, best: LaguerreCoefficients, settings: Laguerre
         if not stable and grid.fixed_order is None:
             continue
         b_c, rss = _refit_input_gains(a_c, c_c, grid.t, grid.y, grid.u, grid.step_volts, delay, grid.integrate)
-        score = n * math.log(max(rss, 1e-300) / n) + (2 * m + (delay > 0)) * math.log(n)
+        score = bic({"y": n}, {"y": rss / n}, 2 * m + (delay > 0))
         out.append(_Candidate(score, best, sv, floor, above, m, a_c, b_c, c_c, stable))
     return out
 
