@@ -1,5 +1,6 @@
 """Synchronisation of separately triggered captures, role guessing and the pipeline checks."""
 
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -52,6 +53,17 @@ def test_classify_analytic_responses():
     assert classify_response(1 - np.exp(-t / 0.4)).role == "velocity"
     assert classify_response(t - 0.4 * (1 - np.exp(-t / 0.4))).role == "position"
     assert classify_response(3 * np.exp(-t / 0.4) + 0.5).role == "current"
+
+
+def test_a_transient_that_falls_back_to_zero_says_so_without_an_absurd_ratio():
+    """A spike that returns to its pre-step level (a Tek sample's encoder pulse) was described as
+    "peaks at 1000000000.0× its final value"."""
+    t = np.linspace(0, 2, 500)
+    g = classify_response(np.exp(-t / 0.05) - np.exp(-t / 0.01))
+    assert g.role == "current" and "×" not in g.reason and "falls back to" in g.reason and "% of its peak" in g.reason
+    assert re.fullmatch(r"peaks at [0-9.]+× its final value and falls back",
+                        classify_response(3 * np.exp(-t / 0.4) + 0.5).reason)
+    assert "past its pre-step level" in classify_response(np.exp(-t / 0.05) - 1.1 * np.exp(-t / 0.01) - 0.05).reason
 
 
 @pytest.mark.parametrize("role", ["velocity", "position", "current"])

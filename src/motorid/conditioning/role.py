@@ -90,7 +90,11 @@ def classify_response(y: np.ndarray) -> RoleGuess:
     if final > 0.9 and slope_last > 0.3 and slope_last >= POSITION_RATE_KEPT * slope_prev:
         return RoleGuess("position", "keeps rising at a steady rate after the step (integrates velocity)")
     if final < CURRENT_FINAL_OF_PEAK:
-        return RoleGuess("current", f"peaks at {1 / max(final, 1e-9):.1f}× its final value and falls back")
+        # a final level near zero (or past it) has no meaningful ratio: "1000000000.0×" said nothing
+        how = (f"peaks at {1 / final:.1f}× its final value and falls back" if final >= 0.01
+               else f"peaks and falls back to {100 * final:.2g} % of its peak" if final >= 0
+               else f"peaks and falls back past its pre-step level (to {100 * final:.2g} % of its peak)")
+        return RoleGuess("current", how)
     if abs(slope_last) < 0.1:
         i10, i50, i90 = (int(np.argmax(z >= f * final)) for f in (0.1, 0.5, 0.9))
         concave = i90 > i10 and (i50 - i10) <= VELOCITY_T50_OF_T90 * (i90 - i10)
