@@ -52,6 +52,8 @@ def test_identify_prints_and_writes_rpm(rig):
                    "--report", rig / "r.html", "--force")
     _no_volts_on_rpm("identify printout", printed)
     assert "dc gain (rpm/V)" in printed and "velocity σ" in printed and re.search(r"velocity σ \S+ rpm", printed)
+    # the stages' gains carry it too ("stage … dc gain 245.6, τ 0.29 s" had none)
+    assert re.search(r"stage .*dc gain [-0-9.e+]+ rpm/V", printed) and not re.search(r"dc gain [-0-9.e+]+[,;]", printed)
     model = json.loads((rig / "m.json").read_text())
     assert model["dc_gain_unit"] == "rpm/V" and model["units"]["velocity"] == "rpm"
     script = (rig / "m.m").read_text()

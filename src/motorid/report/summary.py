@@ -20,7 +20,7 @@ from motorid.identification.noise_json import noise_of
 from motorid.identification.sanity import SanityReport, demanded_zero_note
 from motorid.model.notation import poly_text
 from motorid.model.uncertainty import Uncertainty
-from motorid.model.units import physical_gain
+from motorid.model.units import channel_unit, physical_gain
 from motorid.numfmt import complex_text, metric_name, roots_text, sig
 
 __all__ = ["Span", "SummaryLine", "model_summary", "model_summary_lines"]
@@ -128,11 +128,11 @@ def _noise_and_stages(model: Any) -> list[SummaryLine]:
         parts = []
         for role, nm in noise.items():
             use = "; scale only: its 8-bit codes are not dithered by noise" if nm.scale_only else ""
-            unit = (model.units or {}).get(role, "V")  # the data's own unit (rpm on a rig log)
+            unit = channel_unit(model.units or {}, role)  # the data's own unit (rpm on a rig log)
             parts.append(f"{role} σ {sig(nm.sigma)} {unit} (AR order {nm.ar_order}{use})")
         lines.append(_plain("noise model of the output-error fit: " + ", ".join(parts)))
     for st in model.stages:
-        desc = ", ".join(_stage_item(k, v) for k, v in st.items()
+        desc = ", ".join(_stage_item(k, v, model.dc_gain_unit) for k, v in st.items()
                          if k in ("method", "order", "dc_gain", "time_constant", "markov_order", "oe_order", "agree"))
         extra = f" — {st['evidence']}" if "evidence" in st else ""
         lines.append(_plain(f"stage {st['stage']}: {desc}{extra}"))
@@ -145,12 +145,14 @@ def _velocity_poles(model: Any) -> int:
     return int(den.size - 1)
 
 
-def _stage_item(key: str, value: Any) -> str:
+def _stage_item(key: str, value: Any, gain_unit: str) -> str:
     # one word per idea: a stage's "order" is its model's number of states
     if key == "order":
         return f"states {value}"
     if key == "time_constant" and isinstance(value, float):
         return f"τ {sig(value)} s"
+    if key == "dc_gain" and isinstance(value, float):
+        return f"dc gain {sig(value)} {gain_unit}"  # every stage fits the same data: the model's unit
     return f"{metric_name(key)} {sig(value) if isinstance(value, float) else value}"
 
 
