@@ -768,7 +768,7 @@ def identify(
     )
     check_record_length(experiment.captures, record_length_s)
     ident = identify_experiment(experiment.captures, settings, step_volts=experiment.step_volts,
-                                t0_s=experiment.t0_s, progress=progress)
+                                t0_s=experiment.t0_s, progress=progress, units=experiment.units)
     if experiment.units or experiment.scales:  # the maths stays in the data's units; the labels travel
         from motorid.model.units import with_velocity_of_position
 

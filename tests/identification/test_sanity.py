@@ -52,7 +52,7 @@ def test_headline_outside_its_interval_is_flagged() -> None:
     m = m.replace(uncertainty={"dc_gain": {"value": 0.95, "std": 0.001, "ci95": [0.948, 0.952]},
                                "time_constant": {"value": 0.4, "std": 0.001, "ci95": [0.398, 0.402]}})
     rep = sanity_checks(m, t, y, 5.0, sample_interval_s=4e-3)
-    assert any("headline DC gain 0.9 OUTSIDE its 95 % interval" in f for f in rep.failures)
+    assert any("headline DC gain 0.9 V/V OUTSIDE its 95 % interval [0.948, 0.952] V/V" in f for f in rep.failures)
 
 
 def test_whitened_and_unwhitened_disagreement_is_flagged(real_dir) -> None:

@@ -99,6 +99,28 @@ def test_a_pwm_command_is_not_labelled_volts_anywhere(tmp_path, run_cli):
     assert res.code == 0 and "rpm/%" in res.out
 
 
+
+def test_the_sanity_gate_speaks_the_datas_units(tmp_path, run_cli):
+    """The gate's messages said "of the 200 V step" on a PWM log and gave its first-order
+    baseline's gain without a unit ("K 1080")."""
+    import numpy as np
+
+    log = _pwm_log(tmp_path / "sag.csv")
+    rows = log.read_text().splitlines()
+    t = np.arange(len(rows) - 1) * 0.01
+    # the command sags and recovers after its step (a drive that cannot hold it): not a step
+    sag = [f"{a:.2f},{200.0 * (1 - 0.15 * np.sin(3 * (a - 1.0))) if a >= 1.0 else 0.0:g},{r.split(',')[2]}"
+           for a, r in zip(t, rows[1:], strict=True)]
+    log.write_text(rows[0] + "\n" + "\n".join(sag) + "\n")
+    res = run_cli("identify", "--velocity", log, "--json", tmp_path / "m.json")
+    text = " ".join((res.out + res.err).split())  # the console wraps long lines where the path puts them
+    assert re.search(r"of the [0-9.]+ pwm step", text) and " V step" not in text
+    details = " | ".join(c["detail"] for c in json.loads((tmp_path / "m.json").read_text())["extras"]["sanity"]["checks"])
+    assert re.search(r"\(K [0-9.e+-]+ rpm/pwm, τ", details) and "per volt" not in details
+    assert re.search(r"DC gain [0-9.e+-]+ rpm/pwm; the model's final level per pwm of step", details)
+    assert re.search(r"headline DC gain [0-9.e+-]+ rpm/pwm inside its 95 % interval \[.*\] rpm/pwm", details)
+    assert re.search(r"headline τ [0-9.e+-]+ s inside", details)
+
 @pytest.mark.parametrize(("name", "unit"), [
     ("omega_rad_s", "rad/s"), ("rad_s", "rad/s"), ("speed_deg_per_s", "deg/s"), ("speed_rps", "rev/s"),
     ("vel_m_s", "m/s"), ("time_s", "s"), ("t_s", "s"), ("speed_rpm", "rpm"), ("u_V", "V"), ("pwm", "pwm"),

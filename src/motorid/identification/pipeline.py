@@ -596,7 +596,7 @@ def _worse_than_a_stage(model: MotorModel, stages: list[dict[str, Any]], sel: An
 @single_blas_thread
 def identify_conditioned(
     cond: ConditionedExperiment, settings: IdentifySettings = IdentifySettings(),
-    progress: Callable[..., None] | None = None,
+    progress: Callable[..., None] | None = None, *, units: Mapping[str, str] | None = None,
 ) -> Identification:
     """Identify a model from conditioned data (see :func:`identify_experiment`).
 
@@ -608,6 +608,9 @@ def identify_conditioned(
         Method and options (the conditioning part is already applied).
     progress : callable, optional
         ``progress(done, total, label)`` before each stage (the CLI draws a bar with it).
+    units : Mapping, optional
+        The data's units by channel (``input`` for the command): the chosen model carries them,
+        and the sanity gate's messages speak them.
 
     Returns
     -------
@@ -633,6 +636,8 @@ def identify_conditioned(
         model, reason, unwhitened = step.model, step.reason, step.unwhitened
         start.candidates[step.name] = model
     report(3, PROGRESS_STEPS, "sanity checks")
+    if units:
+        model = model.replace(units=dict(units))
     model, sanity = _gated(cond, settings, model, reason, unwhitened, start.stages, extra_warn, t, v)
     report(PROGRESS_STEPS, PROGRESS_STEPS, "done")
     return Identification(model, cond, start.candidates, start.failures, reason, sanity)
@@ -783,6 +788,7 @@ def identify_experiment(
     step_volts: float | None = None,
     t0_s: float | None = None,
     progress: Callable[..., None] | None = None,
+    units: Mapping[str, str] | None = None,
 ) -> Identification:
     """Identify a motor model from the captures of one step experiment.
 
@@ -797,6 +803,8 @@ def identify_experiment(
     progress : callable, optional
         ``progress(done, total, label)`` before each stage (conditioning, paper methods,
         refinement, sanity checks); the CLI's progress bar.
+    units : Mapping, optional
+        Declared units by channel (``--units``), over what the captures' columns say.
 
     Returns
     -------
@@ -813,14 +821,11 @@ def identify_experiment(
     if progress is not None:
         progress(0, PROGRESS_STEPS, "conditioning")
     cond = condition_experiment(captures, settings.conditioning, step_volts=step_volts, t0_s=t0_s)
-    ident = identify_conditioned(cond, settings, progress)
     from motorid.model.units import units_of, with_velocity_of_position
 
-    units = with_velocity_of_position(units_of(captures), captures)
-    if not units:
-        return ident
-    # the data's units (a plain-CSV log in rpm): the gain reads rpm/V
-    return replace(ident, model=ident.model.replace(units=units))
+    # the data's units (a plain-CSV log in rpm: the gain reads rpm/V), the declared ones over them
+    data_units = with_velocity_of_position({**units_of(captures), **(units or {})}, captures)
+    return identify_conditioned(cond, settings, progress, units=data_units)
 
 
 def with_conditioning(settings: IdentifySettings, **changes: Any) -> IdentifySettings:

@@ -346,7 +346,8 @@ def sanity_checks(
     checks.append(SanityCheck(
         "better than a first-order baseline", err <= limit,
         f"fit NRMSE {100 * err:.3g}% against {100 * base_err:.3g}% of a plain first order plus dead time "
-        f"(K {bpar['dc_gain']:.4g}, τ {bpar['time_constant']:.4g} s, θ {bpar['delay']:.3g} s) fitted to the "
+        f"(K {bpar['dc_gain']:.4g} {model.dc_gain_unit}, τ {bpar['time_constant']:.4g} s, θ {bpar['delay']:.3g} s) "
+        "fitted to the "
         "same samples" + ("" if err <= limit else ": the model explains the record worse than three "
                           "parameters do — its structure or its data are wrong")))
     if err > tol["max_nrmse"]:
@@ -356,6 +357,7 @@ def sanity_checks(
     # the model's level over the same last 10 % of the record (its DC gain × step once the
     # record has settled; an unsettled record is compared where it ends, not at infinity)
     dc = model.dc_gain()
+    gain_unit = model.dc_gain_unit
     tail = max(2, v.size // 10)
     end_model = float(np.mean(yhat[-tail:])) / step_volts if finite and step_volts else float("nan")
     dc_meas = final / step_volts if step_volts else float("nan")
@@ -363,9 +365,9 @@ def sanity_checks(
     ok = bool(rel <= tol["dc_gain_rel"])
     checks.append(SanityCheck(
         "DC gain vs the final level", ok,
-        f"DC gain {dc:.4g}; the model's final level per volt {end_model:.4g} vs {dc_meas:.4g} read off the "
-        f"record ({100 * rel:.2g}% apart" + (")" if ok else f", more than {100 * tol['dc_gain_rel']:g}%): the "
-                                               "model's steady state is not the record's")))
+        f"DC gain {dc:.4g} {gain_unit}; the model's final level per {model.input_unit} of step {end_model:.4g} vs "
+        f"{dc_meas:.4g} read off the record ({100 * rel:.2g}% apart"
+        + (")" if ok else f", more than {100 * tol['dc_gain_rel']:g}%): the model's steady state is not the record's")))
     if finite and final:
         t63_meas = measured_t63_s if measured_t63_s is not None and np.isfinite(measured_t63_s) else _t63(t, v, final)
         model_final = dc * step_volts
@@ -380,8 +382,9 @@ def sanity_checks(
     fo = model.first_order()
     u = model.uncertainty
     checks += _resolved_roots(u)
-    for key, label, value in (("dc_gain", "DC gain", fo.dc_gain), ("time_constant", "τ", fo.time_constant_s),
-                              ("residence_time_s", "mean residence time", model.residence_time_s())):
+    for key, label, value, unit in (("dc_gain", "DC gain", fo.dc_gain, gain_unit),
+                                    ("time_constant", "τ", fo.time_constant_s, "s"),
+                                    ("residence_time_s", "mean residence time", model.residence_time_s(), "s")):
         item = None if u is None else u.headline(key)
         if item is None:
             continue
@@ -389,10 +392,10 @@ def sanity_checks(
         inside = bool(lo <= value <= hi)
         checks.append(SanityCheck(
             f"headline {label} inside its interval", inside,
-            f"headline {label} {value:.5g} " + ("inside" if inside else "OUTSIDE") + f" its 95 % interval "
-            f"[{lo:.5g}, {hi:.5g}]"))
+            f"headline {label} {value:.5g} {unit} " + ("inside" if inside else "OUTSIDE") + f" its 95 % interval "
+            f"[{lo:.5g}, {hi:.5g}] {unit}"))
     if unwhitened:
-        for key, label in (("dc_gain", "DC gain"), ("time_constant", "τ + dead time")):
+        for key, label, unit in (("dc_gain", "DC gain", gain_unit), ("time_constant", "τ + dead time", "s")):
             a = fo.dc_gain if key == "dc_gain" else fo.time_constant_s + model.delay_s
             b = float(unwhitened[key])
             sd = float(unwhitened.get(f"{key}_std", 0.0))
@@ -400,7 +403,7 @@ def sanity_checks(
             ok = bool(apart <= max(tol["white_sigmas"] * sd, tol["white_rel"] * abs(a)))
             checks.append(SanityCheck(
                 f"{label} with and without the noise model", ok,
-                f"{label} {a:.4g} with the AR noise model, {b:.4g} without" + ("" if ok else
+                f"{label} {a:.4g} {unit} with the AR noise model, {b:.4g} {unit} without" + ("" if ok else
                  ": the noise model absorbed a misfit of the structure (try --order auto, or --delay when "
                  "the drive has a dead time)")))
     for source, u in (input_v or {}).items():
@@ -411,7 +414,8 @@ def sanity_checks(
         ok = bool(var <= tol["input_rms_rel"])
         checks.append(SanityCheck(
             "the input is a step", ok,
-            f"the input recorded in {source} varies by {100 * var:.2g}% (RMS) of the {step_volts:.4g} V step "
+            f"the input recorded in {source} varies by {100 * var:.2g}% (RMS) of the {step_volts:.4g} "
+            f"{model.input_unit} step "
             "after its edge"
             + ("" if ok else ": it is not a step (a closed-loop record, or a drive that sags), and every method here "
                "models the response to a step — this is the model of a step that did not happen; identify from an "
