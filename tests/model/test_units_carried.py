@@ -54,6 +54,9 @@ def test_identify_prints_and_writes_rpm(rig):
     assert "dc gain (rpm/V)" in printed and "velocity σ" in printed and re.search(r"velocity σ \S+ rpm", printed)
     # the stages' gains carry it too ("stage … dc gain 245.6, τ 0.29 s" had none)
     assert re.search(r"stage .*dc gain [-0-9.e+]+ rpm/V", printed) and not re.search(r"dc gain [-0-9.e+]+[,;]", printed)
+    # the Markov method's Laguerre gain too ("DC gain from them 180.7 ± 0.24 (95 %)")
+    markov = " ".join(_cli("identify", "--velocity", log, "--method", "markov").split())
+    assert re.search(r"DC gain from them [-0-9.e+]+ ± [-0-9.e+]+ rpm/V \(95 %\)", markov)
     model = json.loads((rig / "m.json").read_text())
     assert model["dc_gain_unit"] == "rpm/V" and model["units"]["velocity"] == "rpm"
     script = (rig / "m.m").read_text()
@@ -62,6 +65,9 @@ def test_identify_prints_and_writes_rpm(rig):
     report = _visible((rig / "r.html").read_text())
     _no_volts_on_rpm("report", report)
     assert "rpm/V" in report
+    # the parameter table gives each row its unit (it had none)
+    assert re.search(r"<td class=l>dc gain</td><td>[^<]+</td><td>[^<]+</td><td>\[[^<]+\]</td><td>rpm/V</td>",
+                     (rig / "r.html").read_text())
 
 
 

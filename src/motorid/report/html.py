@@ -364,11 +364,13 @@ def model_section(inp: ReportInputs) -> dict[str, Any]:
             item = u.headline(key)
             if item is not None:
                 lo, hi = item.interval_or_nan()
-                rows.append([key.replace("_", " "), item.value, item.stderr, f"[{_cell(lo)}, {_cell(hi)}]"])
+                rows.append([key.replace("_", " "), item.value, item.stderr, f"[{_cell(lo)}, {_cell(hi)}]",
+                             model.dc_gain_unit if key == "dc_gain" else "s"])
         for name, items in (("pole", u.poles), ("zero", u.zeros)):
             for i, item in enumerate(items):
                 lo, hi = item.interval_or_nan()
-                rows.append([f"{name} {i + 1}", complex(item.value), item.stderr, f"[{_cell(lo)}, {_cell(hi)}]"])
+                rows.append([f"{name} {i + 1}", complex(item.value), item.stderr, f"[{_cell(lo)}, {_cell(hi)}]",
+                             "1/s"])
     root_notes = [f"zero {i + 1}: {note}" for i, item in enumerate(u.zeros if u is not None else ())
                   if (note := demanded_zero_note(float(np.real(item.value)), item.interval_or_nan()[0]))]
     noise_rows = [[f"{role} ({channel_unit(model.units, role)})", nm.sigma, nm.ar_order, nm.pre_step_sigma,

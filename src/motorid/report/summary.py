@@ -161,7 +161,7 @@ def _polish_shifts(extras: Mapping[str, Any]) -> dict[str, float]:
     return dict((extras.get("laguerre_polish") or {}).get("shifts_s") or {})
 
 
-def _markov(extras: Mapping[str, Any]) -> list[SummaryLine]:
+def _markov(extras: Mapping[str, Any], gain_unit: str) -> list[SummaryLine]:
     ex = extras
     if ex.get("markov_basis") == "laguerre":
         return [
@@ -169,7 +169,7 @@ def _markov(extras: Mapping[str, Any]) -> list[SummaryLine]:
                    + ", ".join(sig(x) for x in ex["laguerre_coefficients"][:8])
                    + (" …" if ex["laguerre_terms"] > 8 else "")
                    + f"; DC gain from them {sig(ex['laguerre_dc_gain'])} ± "
-                   f"{sig(1.96 * ex['laguerre_dc_gain_std'], 2)} (95 %)"),
+                   f"{sig(1.96 * ex['laguerre_dc_gain_std'], 2)} {gain_unit} (95 %)"),
             _plain("Hankel singular values of the Laguerre coefficients (normalised): "
                    + ", ".join(sig(x) for x in ex["hankel_singular_values_scaled"])
                    + f"; noise floor {sig(ex['hankel_noise_floor'])}"),
@@ -229,7 +229,7 @@ def model_summary_lines(model: Any, title: str = "identified model") -> list[Sum
         One entry per printed line, each a tuple of ``(text, rich style)`` spans.
     """
     return (_header(model, title) + _uncertainty(model.uncertainty, model.dc_gain_unit) + _noise_and_stages(model)
-            + _markov(model.extras) + _fit_and_checks(model))
+            + _markov(model.extras, model.dc_gain_unit) + _fit_and_checks(model))
 
 
 def model_summary(model: Any, title: str = "identified model") -> list[str]:
