@@ -88,6 +88,9 @@ def test_validate_design_and_simulate_speak_rpm(rig):
     designed = _cli("design", rig / "m.json", "--poles", "-30", "--json", rig / "d.json", "--force")
     _no_volts_on_rpm("design", designed)
     assert "per rpm of the tacho" in designed
+    assert re.search(r"kr = [0-9.e+-]+ V per rpm of the reference", designed)  # it had no unit
+    integral = _cli("design", rig / "m.json", "--damping", "1", "--wn", "20", "--integral")
+    assert re.search(r"ki = [0-9.e+-]+ V per \(rpm·s\) of the integrated error", integral)
     doc = json.loads((rig / "d.json").read_text())
     assert doc["units"]["velocity"] == "rpm"
     assert [g["unit"] for g in doc["gains"]] == ["per rpm of the tacho"]

@@ -267,10 +267,11 @@ def design(
                    f"{', '.join(r.estimated)} = w + L·[{', '.join(r.measured)}]; F, G, H, L in the JSON)")
     elif d.sensors is not None:
         say(f"sensors: {', '.join(d.sensors)}")
+    kr_unit, ki_unit = d.reference_units()
     if d.kr is not None:
-        say(f"kr = {sig(d.kr)}")
+        say(f"kr = {sig(d.kr)} {kr_unit}")
     if d.ki is not None:
-        say(f"ki = {sig(d.ki)}")
+        say(f"ki = {sig(d.ki)} {ki_unit}")
     cl_poles = sorted(d.closed_loop_poles, key=lambda p: (p.real, p.imag))
     say("closed-loop poles: " + roots_text(cl_poles))
     if d.L is not None:

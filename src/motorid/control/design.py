@@ -38,6 +38,7 @@ from motorid.control.robust import RobustCheck, RobustCheckUnavailable, RobustSp
 from motorid.control.routh import affine_char_poly, routh_conditions
 from motorid.errors import OptionError
 from motorid.model import MotorModel
+from motorid.model.units import channel_unit
 
 __all__ = ["LARGE_GAIN", "SCHEMA", "Design", "DesignSettings", "design_controller", "design_model", "output_row"]
 
@@ -256,6 +257,17 @@ class Design:
             One ``(state, gain, unit)`` per state of ``K``.
         """
         return [(name, float(k), sensor_unit(name, self.units)) for name, k in zip(self.states, self.K, strict=False)]
+
+    def reference_units(self) -> tuple[str, str]:
+        """The units of ``kr`` and ``ki``: command per unit of the reference, per unit·s of the error.
+
+        Returns
+        -------
+        tuple of (str, str)
+            E.g. ``("V per rpm of the reference", "V per (rpm·s) of the integrated error")``.
+        """
+        command, out = channel_unit(self.units, "input"), channel_unit(self.units, self.output)
+        return f"{command} per {out} of the reference", f"{command} per ({out}·s) of the integrated error"
 
     def to_dict(self) -> dict[str, Any]:
         """The design JSON as a dict (:meth:`to_json` is the older name of the same).

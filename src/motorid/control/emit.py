@@ -416,8 +416,8 @@ def _design_notes(model: MotorModel, design: Design) -> tuple[str, ...]:
         f"Design: {how}; y = {design.output}",
         "  K = [" + ", ".join(f"{k:.6g}" for k in design.K) + "] on ["
         + ", ".join(f"{s} [{unit_of[s] or '-'}]" for s in design.states) + "]"
-        + (f", kr = {design.kr:.6g}" if design.kr is not None else "")
-        + (f", ki = {design.ki:.6g}" if design.ki is not None else ""),
+        + (f", kr = {design.kr:.6g} [{design.reference_units()[0]}]" if design.kr is not None else "")
+        + (f", ki = {design.ki:.6g} [{design.reference_units()[1]}]" if design.ki is not None else ""),
         "  closed-loop poles: " + roots_text(design.closed_loop_poles) + " rad/s",
     ]
     if design.L is not None and design.observer_poles is not None:
