@@ -101,6 +101,13 @@ def test_validate_design_and_simulate_speak_rpm(rig):
     assert json.loads((rig / "s.json").read_text())["output_unit"] == "rpm"
 
 
+
+def test_the_sweep_table_says_what_its_k_is_in(rig):
+    """The paper's sensitivity table gave k = 1474 with no unit; on a log in rpm it is (rpm/V)/s."""
+    swept = " ".join(_cli("sweep", "--velocity", rig / "rig" / "l298n_log.csv").split())
+    _no_volts_on_rpm("sweep", swept)
+    assert "k in (rpm/V)/s" in swept and "τ (s)" in swept
+
 def test_python_and_the_web_page_give_each_parameter_its_unit(rig):
     import motorid as mi
 

@@ -832,7 +832,10 @@ def sweep(
     with _bar("sweep", total=len(lens) * len(ints)) as progress:
         res = sensitivity_table(caps, lengths_s=lens, intervals_s=ints, settings=settings, step_volts=step_volts,
                                 progress=progress)
-    table = Table(title=f"k/(s+p) and τ by record length × sample interval (method {method})")
+    from motorid.model.units import dc_gain_unit, units_of, with_velocity_of_position
+
+    gain = dc_gain_unit(with_velocity_of_position(units_of(caps, exp.units), caps))
+    table = Table(title=f"k/(s+p) (k in ({gain})/s) and τ (s) by record length × sample interval (method {method})")
     table.add_column("ΔT")
     for length in res.lengths_s:
         table.add_column(f"{length:g} s")
