@@ -254,3 +254,29 @@ def test_a_demanded_right_half_plane_zero_is_explained_where_it_is_printed():
         model=replace(m, uncertainty=demanded))))["root_notes"]
     printed = next(ln for ln in model_summary(replace(m, uncertainty=demanded)) if ln.startswith("zero 1"))
     assert notes == ["zero 1: " + printed.split(" — ", 1)[1]]
+
+
+def test_a_pair_that_coincides_has_no_damping_interval_rather_than_plus_minus_zero():
+    """Moving a real log's samples by 1 % of a sample put the fit on an exactly double pole, and the
+    printout read "damping 1 ± 3.7e-06": the damping of two real poles has a zero first derivative
+    where they coincide, so the delta method's interval collapses.  There it now has none."""
+    from types import SimpleNamespace
+
+    from motorid.identification.stages import _pair_damping
+    from motorid.model.uncertainty import ParameterEstimate, PolePair
+    from motorid.report.summary import model_summary
+
+    collapsed = ParameterEstimate(1.0, 1.9e-6, (1.0 - 3.7e-6, 1.0 + 3.7e-6))
+    on_each_other = SimpleNamespace(poles=np.array([-14.24, -14.24 * (1 + 2e-6), -5.15]))
+    assert _pair_damping(on_each_other, 0, collapsed).ci95 is None
+    assert np.isnan(_pair_damping(on_each_other, 0, collapsed).stderr)
+    apart = SimpleNamespace(poles=np.array([-14.24, -14.25, -5.15]))  # the HSLU log's pair: ±0.089 stands
+    assert _pair_damping(apart, 0, collapsed) is collapsed
+    model = model_from_velocity_tf([1.0], [1.0, 33.6, 349.5, 1044.0], step_volts=10.0)
+    pair = PolePair((0, 1), ParameterEstimate(14.24, 0.3, (13.6, 14.8)), _pair_damping(on_each_other, 0, collapsed))
+    u = Uncertainty(poles=tuple(ParameterEstimate(complex(p)) for p in model.poles()), pole_pairs=(pair,))
+    text = " ".join(" ".join(model_summary(model.replace(uncertainty=u))).split())
+    assert "its interval unknown: the two poles coincide" in text and "± 3.7e-06" not in text
+    # and the JSON carries no interval (null), read back as none
+    back = Uncertainty.from_dict(json.loads(json.dumps(u.to_dict())))
+    assert back.pole_pairs[0].damping.ci95 is None

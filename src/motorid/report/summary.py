@@ -108,7 +108,10 @@ def _uncertainty(u: Uncertainty | None, gain_unit: str = "V/V") -> list[SummaryL
         wn, zeta = pair.natural_frequency, pair.damping
         lines.append(_plain(f"poles {i + 1} and {j + 1}: known as a pair only (each one's interval holds the "
                             f"other): natural frequency {sig(wn.value.real)} ± {sig(1.96 * wn.stderr, 2)} rad/s, "
-                            f"damping {sig(zeta.value.real)} ± {sig(1.96 * zeta.stderr, 2)} (95 %)"))
+                            + (f"damping {sig(zeta.value.real)} ± {sig(1.96 * zeta.stderr, 2)} (95 %)"
+                               if np.isfinite(zeta.stderr) else
+                               f"damping {sig(zeta.value.real)}, its interval unknown: the two poles coincide, where "
+                               "the damping's first derivative is zero and the delta method's interval would be ±0")))
     paired = u.paired_poles()
     for name, items in (("pole", u.poles), ("zero", u.zeros)):
         for i, item in enumerate(items):
