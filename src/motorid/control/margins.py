@@ -270,6 +270,13 @@ def open_loop_margins(loop: Any, delay_s: float, bandwidth_rad_s: float) -> Loop
     # and a loop whose |1 + L| only falls towards ω → 0 or ∞ has none
     grid_ms = _grid_sensitivity_peak(loop, fastest, 2000)
     ms = max(grid_ms, 1.0 / float(sm) if sm is not None and math.isfinite(sm) and float(sm) > 0 else 0.0)
+    # |S| tends to 1/|1 + D| as ω → ∞ (1 for a strictly proper loop): the peak is at least that limit.
+    # python-control's stationary points leave it out, and the grid reaches it or not by how far it
+    # goes, so a design printed "Ms 0.897" — below what any strictly proper loop can have — or 1.0
+    # from one run to the next
+    d = float(np.real(np.asarray(loop.D, dtype=float).ravel()[0])) if np.size(loop.D) else 0.0
+    if 1.0 + d != 0.0:
+        ms = max(ms, 1.0 / abs(1.0 + d))
     used = delay_s if pade is not None else 0.0
     return LoopMargins(gain_db, phase, delay, wgc, ms, bandwidth_rad_s, used)
 
