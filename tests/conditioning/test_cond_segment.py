@@ -8,6 +8,7 @@ command applies from its stamp): a 0.5 V dead-zone in front of 100 rpm/V, τ 0.1
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import control
@@ -197,3 +198,6 @@ def test_the_levels_table_of_a_pwm_staircase_is_in_its_unit(tmp_path, run_cli):
     res = run_cli("identify", "--velocity", str(f))
     assert res.code == 0, res.err
     assert "step (pwm)" in res.out and "step (V)" not in res.out
+    # the dead-zone and the rest of the static characteristic are in the command's unit too
+    text = " ".join(res.out.split())
+    assert re.search(r"dead-zone u0 = [-0-9.e+]+ pwm \(95 % interval \[.*\] pwm\)", text)

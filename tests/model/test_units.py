@@ -121,6 +121,16 @@ def test_the_sanity_gate_speaks_the_datas_units(tmp_path, run_cli):
     assert re.search(r"headline DC gain [0-9.e+-]+ rpm/pwm inside its 95 % interval \[.*\] rpm/pwm", details)
     assert re.search(r"headline τ [0-9.e+-]+ s inside", details)
 
+
+def test_a_simulations_table_gives_the_command_its_unit(tmp_path):
+    """``SimulationResult.to_dataframe`` labelled the command "V" on a PWM model."""
+    import motorid as mi
+
+    fit = mi.identify(mi.read_experiment(velocity=_pwm_log(tmp_path / "log.csv")))
+    sim = mi.simulate(fit.model, mi.design(fit.model, damping=1.0, wn=20.0, integral=True), duration_s=0.5)
+    units = sim.to_dataframe().attrs["units"]
+    assert units["u"] == "pwm" and units["u_raw"] == "pwm" and units["output"] == "rpm"
+
 @pytest.mark.parametrize(("name", "unit"), [
     ("omega_rad_s", "rad/s"), ("rad_s", "rad/s"), ("speed_deg_per_s", "deg/s"), ("speed_rps", "rev/s"),
     ("vel_m_s", "m/s"), ("time_s", "s"), ("t_s", "s"), ("speed_rpm", "rpm"), ("u_V", "V"), ("pwm", "pwm"),

@@ -666,6 +666,7 @@ def validate(
     columns = _with_time_unit(columns, time_unit)
     from motorid import frontdoor
     from motorid.model.serialize import load_model
+    from motorid.model.units import channel_unit
 
     if max_nrmse is not None and not max_nrmse >= 0:
         raise OptionError(f"--max-nrmse must be a non-negative fraction (e.g. 0.05), got {max_nrmse:g}")
@@ -689,7 +690,7 @@ def validate(
         for r in results:
             verdict = "—" if max_nrmse is None else ("FAIL" if r in failed else "pass")
             table.add_row(Path(r.source).name, r.input_kind, f"{sig(100 * r.nrmse)} %", f"{sig(r.fit_percent)} %",
-                          f"{sig(r.offset_v)} {model.units.get(channel) or 'V'}", verdict)
+                          f"{sig(r.offset_v)} {channel_unit(model.units, channel)}", verdict)
         con.print(table)
         for r in results:
             for w in r.warnings:

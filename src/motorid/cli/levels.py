@@ -114,11 +114,12 @@ def identify_levels_cmd(
         Fewer than two moving levels, or a step-volts list of the wrong length.
     """
     from motorid import frontdoor
+    from motorid.model.units import channel_unit
 
     result = frontdoor.identify_levels(captures, step_volts=step_volts)
     st = result.static
     table = Table(title="static characteristic (one row per step experiment)")
-    out_unit, in_unit = result.model.units.get("velocity") or "V", result.model.input_unit
+    out_unit, in_unit = channel_unit(result.model.units, "velocity"), result.model.input_unit
     for col in ("capture", f"step ({in_unit})", f"steady output ({out_unit})", "± 95 %", "status"):
         table.add_column(col, justify="left" if col in ("capture", "status") else "right")
     for point, _ in result.responses:
@@ -126,17 +127,18 @@ def identify_levels_cmd(
                       f"{point.steady_state:.4g}", f"{1.96 * point.stderr:.2g}", point.status)
     con.print(table)
     lo, hi = st.dead_zone_ci95
-    con.print(f"dead-zone u0 = {st.dead_zone_v:.4g} V (95 % interval [{lo:.4g}, {hi:.4g}] V), input-referred: "
+    con.print(f"dead-zone u0 = {st.dead_zone_v:.4g} {in_unit} (95 % interval [{lo:.4g}, {hi:.4g}] {in_unit}), "
+              "input-referred: "
               "amplifier dead-zone plus Coulomb friction")
     con.print(f"static gain K = {st.gain:.4g} {result.model.dc_gain_unit} "
               f"(95 % interval [{st.gain_ci95[0]:.4g}, {st.gain_ci95[1]:.4g}])")
     if st.negative is not None:
         n = st.negative
-        con.print(f"negative steps: dead-zone {n.dead_zone_v:.4g} V [{n.dead_zone_ci95[0]:.4g}, "
+        con.print(f"negative steps: dead-zone {n.dead_zone_v:.4g} {in_unit} [{n.dead_zone_ci95[0]:.4g}, "
                   f"{n.dead_zone_ci95[1]:.4g}], gain {n.gain:.4g}")
     if st.saturation_input_v is not None:
         con.print(f"saturation: output ≈ {st.saturation_output_v:.4g} {out_unit}, "
-                  f"reached from u ≈ {st.saturation_input_v:.4g} V")
+                  f"reached from u ≈ {st.saturation_input_v:.4g} {in_unit}")
     con.print(f"dynamics: {result.dynamics_note}")
     for w in result.warnings:
         if w != result.dynamics_note:

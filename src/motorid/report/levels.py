@@ -43,7 +43,8 @@ def static_characteristic_png(result: MultiLevelResult) -> bytes:
     u = np.array([p.step_volts for p in st.points])
     span = np.linspace(min(0.0, u.min()) * 1.05, max(0.0, u.max()) * 1.05, 300)
     law = st.predict(span)
-    ax.plot(span, law, "k-", lw=1.2, label=f"K·(u − u₀): K = {st.gain:.4g}, u₀ = {st.dead_zone_v:.3g} V")
+    ax.plot(span, law, "k-", lw=1.2,
+            label=f"K·(u − u₀): K = {st.gain:.4g}, u₀ = {st.dead_zone_v:.3g} {result.model.input_unit}")
     # the band: the law at the ends of the gain and dead-zone intervals (the extremes of the box)
     lo_dz, hi_dz = st.dead_zone_ci95
     lo_k, hi_k = st.gain_ci95
@@ -89,7 +90,7 @@ def normalised_responses_png(result: MultiLevelResult) -> bytes:
         colour = cmap(i / max(len(levels) - 1, 1))
         ls = "--" if point.status == "saturated" else "-"
         ax.plot(resp.time_s, resp.output_v / point.steady_state, ls, color=colour, lw=1,
-                label=f"{point.step_volts:.3g} V ({point.status})")
+                label=f"{point.step_volts:.3g} {result.model.input_unit} ({point.status})")
     handles, labels = ax.get_legend_handles_labels()
     seen: dict[str, object] = {}
     for h, lab in zip(handles, labels, strict=True):
@@ -118,15 +119,15 @@ def static_section(result: MultiLevelResult) -> dict[str, Any]:
     """
     st = result.static
     fo = result.model.first_order()
-    unit = result.model.dc_gain_unit
-    rows = [["dead-zone u₀ (input-referred)", f"{st.dead_zone_v:.4g} V",
-             f"[{st.dead_zone_ci95[0]:.4g}, {st.dead_zone_ci95[1]:.4g}] V"],
+    unit, u_unit = result.model.dc_gain_unit, result.model.input_unit
+    rows = [["dead-zone u₀ (input-referred)", f"{st.dead_zone_v:.4g} {u_unit}",
+             f"[{st.dead_zone_ci95[0]:.4g}, {st.dead_zone_ci95[1]:.4g}] {u_unit}"],
             ["static gain K", f"{st.gain:.4g} {unit}", f"[{st.gain_ci95[0]:.4g}, {st.gain_ci95[1]:.4g}] {unit}"]]
     if st.negative is not None:
-        rows.append(["dead-zone for negative steps", f"{st.negative.dead_zone_v:.4g} V",
-                     f"[{st.negative.dead_zone_ci95[0]:.4g}, {st.negative.dead_zone_ci95[1]:.4g}] V"])
+        rows.append(["dead-zone for negative steps", f"{st.negative.dead_zone_v:.4g} {u_unit}",
+                     f"[{st.negative.dead_zone_ci95[0]:.4g}, {st.negative.dead_zone_ci95[1]:.4g}] {u_unit}"])
     if st.saturation_input_v is not None:
-        rows.append(["saturation seen from", f"{st.saturation_input_v:.4g} V",
+        rows.append(["saturation seen from", f"{st.saturation_input_v:.4g} {u_unit}",
                      f"output ≈ {st.saturation_output_v:.4g} {channel_unit(result.model.units, 'velocity')}"])
     rows.append(["time constant (joint fit)", f"{fo.time_constant_s:.4g} s", ""])
     return {"rows": rows, "png": figures.data_uri(static_characteristic_png(result))}
@@ -145,8 +146,9 @@ def levels_section(result: MultiLevelResult) -> dict[str, Any]:
     dict
         The names ``levels/levels.html`` shows.
     """
+    u_unit = result.model.input_unit
     return {"png": figures.data_uri(normalised_responses_png(result)), "note": result.dynamics_note,
-            "rows": [[f"{d.step_volts:.3g} V", f"{d.time_constant_s:.4g} s", f"{d.stderr:.2g} s", d.count]
+            "rows": [[f"{d.step_volts:.3g} {u_unit}", f"{d.time_constant_s:.4g} s", f"{d.stderr:.2g} s", d.count]
                      for d in result.dynamics]}
 
 

@@ -262,7 +262,8 @@ class SimulationResult:
 
         cols = self.columns()
         units = {name: channel_unit(self.units, name) for name in cols}
-        units.update({"reference": self.output_unit, "output": self.output_unit, "u": "V", "u_raw": "V", "z": ""})
+        units.update({"reference": self.output_unit, "output": self.output_unit, "u": self.input_unit,
+                      "u_raw": self.input_unit, "z": ""})
         return to_dataframe(cols, units)
 
     def to_csv_text(self) -> str:
