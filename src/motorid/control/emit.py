@@ -401,6 +401,7 @@ def _design_notes(model: MotorModel, design: Design) -> tuple[str, ...]:
     from motorid.numfmt import roots_text
 
     unit_of = {name: signal_unit(name, design.units, output=design.output) for name in design.states}
+    kr_unit, ki_unit = design.reference_units()
     how = "state feedback u = -K x + kr r"
     if design.ki is not None:
         how = "state feedback with integral action u = -K x - ki z, dz/dt = y - r"
@@ -416,8 +417,8 @@ def _design_notes(model: MotorModel, design: Design) -> tuple[str, ...]:
         f"Design: {how}; y = {design.output}",
         "  K = [" + ", ".join(f"{k:.6g}" for k in design.K) + "] on ["
         + ", ".join(f"{s} [{unit_of[s] or '-'}]" for s in design.states) + "]"
-        + (f", kr = {design.kr:.6g} [{design.reference_units()[0]}]" if design.kr is not None else "")
-        + (f", ki = {design.ki:.6g} [{design.reference_units()[1]}]" if design.ki is not None else ""),
+        + (f", kr = {design.kr:.6g} [{kr_unit}]" if design.kr is not None else "")
+        + (f", ki = {design.ki:.6g} [{ki_unit}]" if design.ki is not None else ""),
         "  closed-loop poles: " + roots_text(design.closed_loop_poles) + " rad/s",
     ]
     if design.L is not None and design.observer_poles is not None:

@@ -274,7 +274,7 @@ def open_loop_margins(loop: Any, delay_s: float, bandwidth_rad_s: float) -> Loop
     # python-control's stationary points leave it out, and the grid reaches it or not by how far it
     # goes, so a design printed "Ms 0.897" — below what any strictly proper loop can have — or 1.0
     # from one run to the next
-    d = float(np.real(np.asarray(loop.D, dtype=float).ravel()[0])) if np.size(loop.D) else 0.0
+    d = float(np.asarray(loop.D, dtype=float).ravel()[0]) if np.size(loop.D) else 0.0
     if 1.0 + d != 0.0:
         ms = max(ms, 1.0 / abs(1.0 + d))
     used = delay_s if pade is not None else 0.0

@@ -360,8 +360,7 @@ def sanity_checks(
         "better than a first-order baseline", err <= limit,
         f"fit NRMSE {100 * err:.3g}% against {100 * base_err:.3g}% of a plain first order plus dead time "
         f"(K {bpar['dc_gain']:.4g} {model.dc_gain_unit}, τ {bpar['time_constant']:.4g} s, θ {bpar['delay']:.3g} s) "
-        "fitted to the "
-        "same samples" + ("" if err <= limit else ": the model explains the record worse than three "
+        "fitted to the same samples" + ("" if err <= limit else ": the model explains the record worse than three "
                           "parameters do — its structure or its data are wrong")))
     if err > tol["max_nrmse"]:
         checks.append(SanityCheck("fits the record", False,

@@ -102,6 +102,22 @@ def held_states(f: np.ndarray, x0: np.ndarray, g: np.ndarray, w: np.ndarray | No
     return out
 
 
+def _linear_hold(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """``(A_d, B_0, B_1)`` of an input linear over a sample, None when the exponential overflows.
+
+    One exponential of the augmented matrix: ``x[k+1] = A_d x[k] + B_0 u[k] + B_1 u[k+1]``.
+    """
+    n = a.shape[0]
+    m = np.zeros((n + 2, n + 2))
+    m[:n, :n], m[:n, n : n + 1], m[n, n + 1] = a * dt, b * dt, 1.0
+    with np.errstate(over="ignore", invalid="ignore"):
+        e = scipy.linalg.expm(m)
+    if not np.all(np.isfinite(e)):
+        return None
+    b1 = e[:n, n + 1 : n + 2]
+    return e[:n, :n], e[:n, n : n + 1] - b1, b1
+
+
 def linear_hold_response(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, dt: float,
                          u: np.ndarray, initial: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Output of ``ẋ = A x + B u``, ``y = C x + D u`` from rest, ``u`` linear between samples.
@@ -130,15 +146,11 @@ def linear_hold_response(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndar
     """
     n = a.shape[0]
     u = np.asarray(u, dtype=float).ravel()
-    m = np.zeros((n + 2, n + 2))
-    m[:n, :n], m[:n, n : n + 1], m[n, n + 1] = a * dt, b * dt, 1.0
-    with np.errstate(over="ignore", invalid="ignore"):
-        e = scipy.linalg.expm(m)
     k = 0 if initial is None else initial.shape[1]
-    if not np.all(np.isfinite(e)):
+    hold = _linear_hold(a, b, dt)
+    if hold is None:
         return np.full(u.size, np.nan), np.full((u.size, k), np.nan)
-    ad, b1 = e[:n, :n], e[:n, n + 1 : n + 2]
-    b0 = e[:n, n : n + 1] - b1
+    ad, b0, b1 = hold
     # u[k] drives through B_0 and u[k+1] through B_1: one recursion each (the free responses, input
     # columns of zero, ride along with the first).  Not z[k] = x[k] − B_1 u[k], which needs one
     # recursion only but cancels digits when the model grows much over a sample (A_d B_1 ≫ B_0)
@@ -178,17 +190,12 @@ def linear_hold_filtered(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndar
     list of ndarray, each of shape (outputs, samples)
         One entry per signal (``nan`` when the model's exponential overflows).
     """
-    n = a.shape[0]
-    dt = float(t[1] - t[0])
-    m = np.zeros((n + 2, n + 2))
-    m[:n, :n], m[:n, n : n + 1], m[n, n + 1] = a * dt, b * dt, 1.0
-    e = scipy.linalg.expm(m)
-    ad, b1 = e[:n, :n], e[:n, n + 1 : n + 2]
-    b0 = e[:n, n : n + 1] - b1
     u = np.asarray(inputs, dtype=float)
-    if not np.all(np.isfinite(e)):
+    hold = _linear_hold(a, b, float(t[1] - t[0]))
+    if hold is None:
         # an unstable estimate's exponential overflows: its response is not finite (lsim's too)
         return [np.full((c.shape[0], u.shape[1]), np.nan) for _ in range(u.shape[0])]
+    ad, b0, b1 = hold
     ahead = np.concatenate([u[:, 1:], u[:, -1:]], axis=1)
     den = np.real(np.poly(ad))
     n0, n1 = _numerators(ad, b0, c, den), _numerators(ad, b1, c, den)

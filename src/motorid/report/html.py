@@ -544,13 +544,13 @@ def validation_section(inp: ReportInputs) -> dict[str, Any]:
 
     rows: list[list[Any]] = []
     overlays: list[tuple[str, str]] = []
+    model = inp.identification.model
     for name, cap in inp.validation.items():
         try:
-            r = validate_capture(inp.identification.model, cap)
+            r = validate_capture(model, cap)
         except MotorIdError as exc:
             rows.append([name, "—", "—", "—", f"not validated: {exc.message}"])
             continue
-        model = inp.identification.model
         unit = channel_unit(model.units, r.channel)
         rows.append([name, f"{100 * r.nrmse:.2f} %", f"{r.fit_percent:.1f} %", f"{r.offset_v:+.4g} {unit}",
                      "; ".join(r.notes + r.warnings)])
