@@ -769,13 +769,8 @@ def identify(
     check_record_length(experiment.captures, record_length_s)
     ident = identify_experiment(experiment.captures, settings, step_volts=experiment.step_volts,
                                 t0_s=experiment.t0_s, progress=progress, units=experiment.units)
-    if experiment.units or experiment.scales:  # the maths stays in the data's units; the labels travel
-        from motorid.model.units import with_velocity_of_position
-
-        declared = {k: v for k, v in ident.model.units.items()
-                    if not (k == "velocity" and "velocity" not in experiment.captures)}
-        units = with_velocity_of_position({**declared, **experiment.units}, experiment.captures)
-        ident = replace(ident, model=ident.model.replace(units=units, scales=dict(experiment.scales)))
+    if experiment.scales:  # the maths stays in the data's units (the identification carries them); the constants travel
+        ident = replace(ident, model=ident.model.replace(scales=dict(experiment.scales)))
     model = ident.model
     provenance = Provenance(
         version=_package_version(),
