@@ -37,6 +37,7 @@ from typing import Literal
 
 import numpy as np
 
+from motorid.blockwise import BLOCK
 from motorid.errors import OptionError
 
 __all__ = ["REFERENCES", "bic", "fit_percent", "nrmse", "response_change", "step_fit"]
@@ -187,23 +188,24 @@ def _fit_of(residual: np.ndarray, spread: float) -> float:
 
 def step_fit(
     measured: Mapping[str, np.ndarray],
-    simulate: Callable[[], Mapping[str, np.ndarray]],
+    simulate: Callable[[slice], Mapping[str, np.ndarray]],
     nrmse_channels: Sequence[str],
 ) -> tuple[dict[str, float], dict[str, float]]:
-    """:func:`nrmse` (``reference="final"``) and :func:`fit_percent` of a simulation, holding one record less.
+    """:func:`nrmse` (``reference="final"``) and :func:`fit_percent` of a simulation, a block at a time.
 
-    The same numbers as calling them one by one, from one residual per channel: the measured
-    side (``Δy``, the fit's spread) is taken before ``simulate`` runs, and each channel's residual
-    ``y − ŷ`` is written over the simulated channel when that is a contiguous array of its own
-    (a model with one output: no second array of a 10 M-sample record's length), its fit % taken
-    from it, then it is squared in place for the NRMSE.
+    The same numbers as calling them one by one (to rounding: the sums are taken a block at a
+    time), without an array of the record's length: the measured side (``Δy``, the fit's spread)
+    is taken first, then the simulation is asked for one block of samples after another and each
+    channel's sum of squared residuals accumulated (a 10 M-sample record's fit held a simulated
+    record and its residual, 80 MB each).
 
     Parameters
     ----------
     measured : Mapping[str, ndarray]
         The measured channels (1-D, equally long) by name.
     simulate : callable
-        Returns the simulated channels by name (fresh arrays: they are overwritten).
+        ``simulate(block)`` returns the simulated channels by name at the samples ``block`` (a
+        slice) of the record.
     nrmse_channels : sequence of str
         The channels whose NRMSE is wanted; each must be measured and simulated.
 
@@ -226,28 +228,43 @@ def step_fit(
             raise OptionError("the measured response has no change (final); NRMSE is undefined")
     spreads: dict[str, float] = {}
     for ch, y in measured.items():
-        try:
-            spreads[ch] = _spread(y)
-        except OptionError:  # a constant record has no fit %
-            continue
-    simulated = dict(simulate())
+        spread = _block_spread(y)
+        if spread != 0.0:  # a constant record has no fit %
+            spreads[ch] = spread
+    n = min((y.size for y in measured.values()), default=0)
+    squares: dict[str, float] = {}
+    for start in range(0, max(n, 1), BLOCK):
+        block = slice(start, min(start + BLOCK, n))
+        simulated = simulate(block)
+        for ch, y in measured.items():
+            if ch not in simulated or (ch not in spreads and ch not in deltas):
+                continue
+            with np.errstate(over="ignore", invalid="ignore"):
+                residual = np.subtract(y[block], simulated[ch])
+                squares[ch] = squares.get(ch, 0.0) + float(np.dot(residual, residual))
     errors: dict[str, float] = {}
     fits: dict[str, float] = {}
-    for ch, y in measured.items():
-        if ch not in simulated or (ch not in spreads and ch not in deltas):
-            continue
-        yhat = simulated.pop(ch)
-        own = isinstance(yhat, np.ndarray) and yhat.dtype == np.float64 and yhat.flags.c_contiguous \
-            and yhat.flags.writeable and yhat.shape == np.shape(y)
-        with np.errstate(over="ignore", invalid="ignore"):
-            residual = np.subtract(y, yhat, out=yhat) if own else np.subtract(y, yhat)
-        del yhat
-        if ch in spreads:
-            fits[ch] = _fit_of(residual, spreads[ch])
-        if ch in deltas:
-            errors[ch] = _nrmse_of(residual, deltas[ch])
-        del residual
+    with np.errstate(over="ignore", invalid="ignore"):
+        for ch, ss in squares.items():
+            if ch in spreads:
+                fit = 100.0 * (1.0 - math.sqrt(ss) / spreads[ch]) if math.isfinite(ss) else float("-inf")
+                fits[ch] = fit if math.isfinite(fit) else float("-inf")
+            if ch in deltas:
+                err = math.sqrt(ss / n) / deltas[ch] if math.isfinite(ss) else float("inf")
+                errors[ch] = err if math.isfinite(err) else float("inf")
     return {ch: errors[ch] for ch in nrmse_channels}, fits
+
+
+def _block_spread(y: np.ndarray) -> float:
+    """``‖y − mean(y)‖`` (:func:`_spread`, 0 for a constant record), a block at a time."""
+    if y.size == 0:
+        return 0.0
+    mean = sum(float(np.sum(y[i : i + BLOCK])) for i in range(0, y.size, BLOCK)) / y.size
+    total = 0.0
+    for i in range(0, y.size, BLOCK):
+        d = y[i : i + BLOCK] - mean
+        total += float(np.dot(d, d))
+    return math.sqrt(total)
 
 
 def bic(n_samples: Mapping[str, float], mse: Mapping[str, float], n_params: int) -> float:

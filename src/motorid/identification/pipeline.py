@@ -14,6 +14,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from motorid._threads import single_blas_thread
+from motorid.blockwise import line_slope
 from motorid.capture import Capture
 from motorid.conditioning.denoise import fft_denoise
 from motorid.conditioning.derivative import derivative, savgol_derivative
@@ -173,7 +174,7 @@ def _settled_warning(t: np.ndarray, v: np.ndarray) -> list[str]:
     if final == 0:
         return []
     tt = t[-tail.size:]
-    drift = float(np.polyfit(tt, tail, 1)[0]) * (t[-1] - tt[0])
+    drift = line_slope(tt, tail) * (t[-1] - tt[0])
     # a drift is only real when it stands out of the ripple: the slope of ten block means
     # (ripple and noise average out in each) against its own standard error — a low-speed
     # step whose ripple never goes away is not told to record longer
@@ -449,12 +450,11 @@ def _with_fit(model: MotorModel, cond: ConditionedExperiment) -> MotorModel:
     measured = {"velocity": v, **{k: y for k, y in cond.full_outputs.items() if k != "velocity"}}
     channels = ["velocity"] + (["position"] if "position" in cond.full_outputs and "position" in model.outputs else [])
 
-    def simulate() -> dict[str, np.ndarray]:
+    def simulate(block: slice) -> dict[str, np.ndarray]:
         with np.errstate(over="ignore", invalid="ignore"):
-            return model.step_response(t, cond.step_volts)
+            return model.step_response(t[block], cond.step_volts)
 
-    # one residual per channel, over the simulated response where it can be (step_fit): a 10 M-sample
-    # record's fit holds one array of its length less
+    # the residuals a block at a time (step_fit): a 10 M-sample record's fit holds no array of its length
     errors, fits = step_fit(measured, simulate, channels)
     fit = dict(model.fit)
     for channel, value in errors.items():
