@@ -78,9 +78,14 @@ def _response_times_by_convolution(t: np.ndarray, v: np.ndarray) -> tuple[float,
     return (float(t[above[0]]) if above.size else float("nan")), max(float(t[k - 1]) if k > 0 else 0.0, 0.0)
 
 
-@pytest.mark.parametrize("delay", [0, 7, 400])
-def test_response_times_are_the_full_length_pass(delay: int) -> None:
+@pytest.mark.parametrize("block", [1 << 18, 64, 401])
+@pytest.mark.parametrize("delay", [0, 7, 400, 62, 63, 64])
+def test_response_times_are_the_full_length_pass(delay: int, block: int, monkeypatch) -> None:
+    # small blocks put the response's start and its run of PERSISTENCE samples across block edges
+    from motorid.conditioning import timescale
     from motorid.conditioning.timescale import response_times
+
+    monkeypatch.setattr(timescale, "_BLOCK", block)
 
     n = 20_000
     t = np.arange(n) * 1e-3

@@ -100,3 +100,20 @@ def test_the_samples_after_the_step_are_the_masked_ones(t0):
         got = _after_step(time_s, values)
         assert np.shares_memory(got, values) or got.size == 0
         assert got.tobytes() == values[time_s >= 0].tobytes()
+
+
+def test_blocked_interpolation_has_the_bits_of_numpys(monkeypatch):
+    """Block by block, each block with the nodes that bracket it: every sample has the whole call's bracket."""
+    from motorid.conditioning import sync
+
+    monkeypatch.setattr(sync, "_BLOCK", 16)
+    rng = np.random.default_rng(3)
+    for trial in range(200):
+        n = int(rng.integers(2, 150))
+        xp = np.cumsum(rng.uniform(0.01, 1.0, n))
+        fp = rng.normal(size=n)
+        fp[int(rng.integers(0, n))] = -0.0  # a node's −0.0 stays −0.0 only with its own bracket
+        x = xp.copy() if trial % 3 == 0 else np.sort(rng.uniform(xp[0] - 1.0, xp[-1] + 1.0, int(rng.integers(1, 200))))
+        if trial % 5 == 0:
+            x = np.sort(np.r_[x, xp[-1], xp[0]])  # the ends exactly
+        assert sync.blocked_interp(x, xp, fp).tobytes() == np.interp(x, xp, fp).tobytes(), trial

@@ -22,6 +22,8 @@ from dataclasses import replace
 
 import numpy as np
 
+from motorid.blockwise import BLOCK
+
 from motorid.capture import Capture, ChannelInfo
 from motorid.conditioning.response import StepResponse
 from motorid.errors import ConditioningError
@@ -47,6 +49,44 @@ VOLTS_PER_DIV: tuple[float, ...] = (2e-3, 5e-3, 1e-2, 2e-2, 5e-2, 0.1, 0.2, 0.5,
 CLIP_FRACTION = 0.05
 #: Rails are the codes within this many LSB of ±128 (the existing reader check uses 3).
 RAIL_TOLERANCE_LSB = 3.0
+
+
+def _split_at(t: np.ndarray, y: np.ndarray, t0: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(y[t < t0], y[t >= t0])`` for increasing times: views of ``y``, not masked copies of a long record."""
+    k = int(np.searchsorted(t, t0, side="left"))
+    return y[:k], y[k:]
+
+
+def _max_abs(y: np.ndarray) -> float:
+    """``max(|y|)`` without the array ``|y|`` (the larger of ``|max|`` and ``|min|``); 0 when empty."""
+    return max(abs(float(y.max())), abs(float(y.min()))) if y.size else 0.0
+
+
+def _abs_percentile(y: np.ndarray, level: float, q: float) -> float:
+    """``np.percentile(|y − level|, q)`` holding one array of ``y``'s length, not three (partitioned in place)."""
+    d = np.subtract(y, level)
+    np.abs(d, out=d)
+    return float(np.percentile(d, q, overwrite_input=True))
+
+
+def _near(y: np.ndarray, value: float, tol: float) -> np.ndarray:
+    """``|y − value| ≤ tol``, built a block at a time (the boolean result is the only array of ``y``'s length)."""
+    out = np.empty(y.size, dtype=bool)
+    for start in range(0, y.size, BLOCK):
+        d = y[start : start + BLOCK] - value
+        np.less_equal(np.abs(d, out=d), tol, out=out[start : start + BLOCK])
+    return out
+
+
+def _peak_change(y: np.ndarray, base: float) -> float:
+    """``c[argmax |c|]`` of ``c = y − base`` without ``c``: the larger change of the maximum and the minimum.
+
+    On a tie the first of them in the record, as ``argmax`` finds it.
+    """
+    hi, lo = float(y.max()) - base, float(y.min()) - base
+    if abs(hi) != abs(lo):
+        return hi if abs(hi) > abs(lo) else lo
+    return hi if int(np.argmax(y)) <= int(np.argmin(y)) else lo
 
 
 def _quantum(values: np.ndarray, info: ChannelInfo | None) -> float:
@@ -77,14 +117,13 @@ def stalled_response(resp: StepResponse, quantum: float = 0.0) -> str | None:
         The reason, or ``None`` when the output moves.
     """
     y = np.asarray(resp.output_v, dtype=float)
-    t = np.asarray(resp.time_s, dtype=float)
-    pre, post = y[t < 0], y[t >= 0]
+    pre, post = _split_at(np.asarray(resp.time_s, dtype=float), y, 0.0)
     if post.size < 2:
         return None
     level = float(np.median(pre)) if pre.size else float(post[0])
     dev_pre = float(np.percentile(np.abs(pre - level), 99)) if pre.size >= 10 else 0.0
-    dev_post = float(np.percentile(np.abs(post - level), 95))
-    scale = max(float(np.max(np.abs(y))), 1e-300)
+    dev_post = _abs_percentile(post, level, 95)
+    scale = max(_max_abs(y), 1e-300)
     band = 2.0 * dev_pre + 1.5 * quantum + 1e-9 * scale
     if dev_post > band:
         return None
@@ -136,14 +175,14 @@ def clipping(capture: Capture, resp: StepResponse) -> tuple[str, bool] | None:
     """
     raw = np.asarray(capture.output_v, dtype=float)
     t = np.asarray(capture.time_s, dtype=float)
-    post = raw[t >= resp.edge.time_s]
+    pre, post = _split_at(t, raw, resp.edge.time_s)
     if post.size < 20:
         return None
     info = capture.output_info
     lsb = _quantum(raw, info)
-    tol = 0.01 * lsb if lsb > 0 else 1e-9 * max(float(np.max(np.abs(post))), 1e-300)
+    tol = 0.01 * lsb if lsb > 0 else 1e-9 * max(_max_abs(post), 1e-300)
     for extreme, sign in ((float(post.max()), 1.0), (float(post.min()), -1.0)):
-        at = np.abs(post - extreme) <= tol
+        at = _near(post, extreme, tol)
         n_at = int(np.count_nonzero(at))
         if n_at < max(10, CLIP_FRACTION * post.size):
             continue
@@ -166,10 +205,10 @@ def clipping(capture: Capture, resp: StepResponse) -> tuple[str, bool] | None:
         if run < max(20, 0.10 * post.size):
             continue
         start = int(np.argmax(at))
-        span = extreme - float(np.median(raw[t < resp.edge.time_s])) if np.any(t < resp.edge.time_s) else np.nan
+        span = extreme - float(np.median(pre)) if pre.size else np.nan
         if not np.isfinite(span) or span == 0 or start == 0:
             continue
-        if _steep_entry(t[t >= resp.edge.time_s], post, start, extreme, span):
+        if _steep_entry(t[pre.size :], post, start, extreme, span):
             return (f"the {resp.role} capture looks clipped: it sits at exactly {extreme:.4g} V (its {edge} "
                     f"value) on {pct:.0f}% of the record after the step and reached it without slowing down "
                     "(a response settles gradually); if the scope screen or an amplifier limited it, record "
@@ -227,9 +266,7 @@ def no_dynamics(resp: StepResponse, quantum: float = 0.0) -> str | None:
     """
     if resp.role not in ("velocity", "position"):
         return None  # the armature current may legitimately jump within a sample
-    y = np.asarray(resp.output_v, dtype=float)
-    t = np.asarray(resp.time_s, dtype=float)
-    pre, post = y[t < 0], y[t >= 0]
+    pre, post = _split_at(np.asarray(resp.time_s, dtype=float), np.asarray(resp.output_v, dtype=float), 0.0)
     if post.size < 10:
         return None
     base = float(np.median(pre)) if pre.size else 0.0
@@ -238,9 +275,11 @@ def no_dynamics(resp: StepResponse, quantum: float = 0.0) -> str | None:
     if abs(final) <= max(4.0 * noise, 2.0 * quantum, 1e-12):
         return None
     second = float(post[min(1, post.size - 1)]) - base
+    if second / final < 0.9:
+        return None  # (most responses: no array of the record's length for the rest)
     rel = (post - base) / final
-    if second / final >= 0.9 and float(np.max(rel)) <= 1.1 and float(np.min(rel[1:])) >= 0.9:
-        dt = float(np.median(np.diff(t)))
+    if float(np.max(rel)) <= 1.1 and float(np.min(rel[1:])) >= 0.9:
+        dt = resp.sample_interval_s
         return (f"the {resp.role} capture jumps to its final level within one sample ({dt:.3g} s) of the step "
                 "and stays there: no dynamics to identify at this sample rate; use a faster time base "
                 "(s/div), or check that CH2 is the motor's response and not the step itself")
@@ -272,22 +311,23 @@ def falls_back_to_rest(resp: StepResponse, record_length_s: float | None = None)
     """
     t, y = resp.time_s, resp.output_v
     if record_length_s is not None:
-        t, y = t[t <= record_length_s], y[t <= record_length_s]
+        # (increasing times: the kept part is a prefix, a view)
+        keep = int(np.searchsorted(t, record_length_s, side="right"))
+        t, y = t[:keep], y[:keep]
         resp = replace(resp, time_s=t, output_v=y, input_v=np.asarray(resp.input_v)[: t.size])
-    before, after = t < 0, t >= 0
-    if before.sum() < 2 or after.sum() < 20:
+    pre, post = _split_at(t, y, 0.0)
+    if pre.size < 2 or post.size < 20:
         return None
-    base = float(np.median(y[before]))
-    change = y[after] - base
-    peak = float(change[np.argmax(np.abs(change))])
-    n_tail = max(2, int(after.sum()) // 10)
-    tail = change[-n_tail:]
+    base = float(np.median(pre))
+    peak = _peak_change(post, base)
+    n_tail = max(2, post.size // 10)
+    tail = post[-n_tail:] - base
     if peak == 0 or abs(float(np.median(tail))) > BACK_TO_REST * abs(peak):
         return None
     u = np.asarray(resp.input_v, dtype=float)
-    if u.size == y.size and abs(float(np.median(u[-n_tail:]) - np.median(u[before]))) < 0.5 * abs(resp.step_volts):
+    if u.size == y.size and abs(float(np.median(u[-n_tail:]) - np.median(u[: pre.size]))) < 0.5 * abs(resp.step_volts):
         return None  # the input went back too (a pulse): the motor did what it was told
-    ta, ya = t[after], change
+    ta, ya = t[pre.size :], post - base
     i_peak = int(np.argmax(np.abs(ya)))
     falling = np.flatnonzero(np.abs(ya[i_peak:]) < 0.5 * abs(peak))
     t_stop = float(ta[i_peak + falling[0]]) if falling.size else float(ta[-1])

@@ -84,24 +84,17 @@ def response_times(time_s: np.ndarray, y: np.ndarray, *, pre: np.ndarray | None 
     noise = max(sd, quantum / np.sqrt(12.0), 1e-12)
     if final == 0.0 or abs(final) < 4.0 * noise:
         return ResponseTimes(float("nan"), float("nan"), final, noise)
-    # (in place, first hits by argmax: no index arrays of the record's length on a 10 M-sample log)
-    z = v * np.sign(final)
-    z /= abs(final)
+    # the response normalised, z = v·sign/|final|, a block at a time, and first hits by argmax: no
+    # array of the record's length on a 10 M-sample log
+    norm = (float(np.sign(final)), abs(final))
     # a running median over a few samples takes ripple and spikes out without a phase lag
     width = int(min(max(3, n // 200 * 2 + 1), 31))
     import scipy.ndimage  # loads on use (start-up)
 
-    first = _first_filtered_hit(z, width, 1.0 - np.exp(-1.0), scipy.ndimage.median_filter)
+    first = _first_filtered_hit(v, width, 1.0 - np.exp(-1.0), scipy.ndimage.median_filter, norm=norm)
     t63 = float(t[first]) if first >= 0 else float("nan")
     band = (3.0 * noise + quantum) / abs(final)
-    out = z > band
-    del z
-    # the response has started at the first sample from which PERSISTENCE samples in a row
-    # are out of the band
-    started = out[: max(n - PERSISTENCE + 1, 0)].copy()
-    for j in range(1, PERSISTENCE):
-        started &= out[j : j + started.size]
-    k = int(np.argmax(started)) if started.size and started.any() else 0
+    k = _first_run_above(v, band, norm)
     dead = float(t[k - 1]) if k > 0 else 0.0
     return ResponseTimes(t63, max(dead, 0.0), final, noise)
 
@@ -110,18 +103,49 @@ def response_times(time_s: np.ndarray, y: np.ndarray, *, pre: np.ndarray | None 
 _BLOCK = 1 << 18
 
 
-def _first_filtered_hit(z: np.ndarray, width: int, level: float, median_filter) -> int:
+def _normalised(v: np.ndarray, norm: tuple[float, float] | None) -> np.ndarray:
+    """``v·sign/|final|`` for ``norm = (sign, |final|)`` (a new array), ``v`` itself without one."""
+    if norm is None:
+        return v
+    z = v * norm[0]
+    z /= norm[1]
+    return z
+
+
+def _first_run_above(v: np.ndarray, band: float, norm: tuple[float, float]) -> int:
+    """First sample from which :data:`PERSISTENCE` normalised samples in a row are above ``band`` (0 if none).
+
+    The response has started there.  In blocks of :data:`_BLOCK` (each with the ``PERSISTENCE − 1``
+    samples after it): the same index as the test on the whole record.
+    """
+    n = v.size
+    for start in range(0, max(n - PERSISTENCE + 1, 0), _BLOCK):
+        hi = min(n, start + _BLOCK + PERSISTENCE - 1)
+        out = _normalised(v[start:hi], norm) > band
+        started = out[: hi - start - PERSISTENCE + 1].copy()
+        for j in range(1, PERSISTENCE):
+            started &= out[j : j + started.size]
+        if started.any():
+            return start + int(np.argmax(started))
+    return 0
+
+
+def _first_filtered_hit(z: np.ndarray, width: int, level: float, median_filter,
+                        norm: tuple[float, float] | None = None) -> int:
     """First index where the running median of ``z`` (``width`` samples, ``mode="nearest"``) is ≥ ``level``; −1 if none.
 
     In blocks of :data:`_BLOCK`, each filtered with ``width // 2`` samples of its neighbours on
     either side (at the record's ends, its own edge as the whole record's): a median is one of its
     window's samples, so every value is the whole record's, and the search stops at the block of
-    the first hit instead of filtering a 10 M-sample record whole.
+    the first hit instead of filtering a 10 M-sample record whole.  With ``norm = (sign, |final|)``
+    each block is normalised, ``z·sign/|final|``, before it is filtered (the same bits as normalising
+    the whole record first).
     """
     half = width // 2
     for start in range(0, z.size, _BLOCK):
         lo, hi = max(0, start - half), min(z.size, start + _BLOCK + half)
-        filtered = median_filter(z[lo:hi], size=width, mode="nearest")[start - lo : start - lo + _BLOCK]
+        filtered = median_filter(_normalised(z[lo:hi], norm), size=width, mode="nearest")
+        filtered = filtered[start - lo : start - lo + _BLOCK]
         hit = filtered >= level
         if hit.any():
             return start + int(np.argmax(hit))

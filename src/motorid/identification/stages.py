@@ -16,8 +16,10 @@ from typing import Any
 
 import numpy as np
 
+from motorid.blockwise import variance
 from motorid.conditioning.edge import noise_level, quantisation_step
 from motorid.conditioning.pipeline import ConditionedExperiment
+from motorid.conditioning.response import StepResponse
 from motorid.identification.output_error import (  # _block_mean: the fit's own block averaging
     OeResult,
     _block_mean,
@@ -131,7 +133,7 @@ def quantisation_bias_std(y: np.ndarray, quantum: float) -> float:
     """
     if quantum <= 0.0 or y.size < 2 or not np.any(y):
         return 0.0
-    amplitude = np.sqrt(2.0 * max(float(np.var(y)) - quantum**2 / 12.0, 0.0))
+    amplitude = np.sqrt(2.0 * max(variance(y) - quantum**2 / 12.0, 0.0))
     k = np.arange(1, 33, dtype=float)
     smooth2 = np.minimum(1.0, quantum / (2.0 * np.pi**2 * k * amplitude)) if amplitude > 0 else np.ones_like(k)
     return float(np.sqrt(np.sum((quantum / (np.pi * k)) ** 2 * smooth2 / 2.0)))
@@ -158,13 +160,14 @@ def step_level_std(cond: ConditionedExperiment) -> float:
     """
     random, systematic = [], []
     for r in cond.responses.values():
-        u, before = r.input_v, r.time_s < 0
-        if before.sum() < 2 or (~before).sum() < 2:
+        # the samples before the step are a prefix of the increasing times: views, not masked copies
+        u, nb = r.input_v, _before_step(r)
+        before, after = u[:nb], u[nb:]
+        if before.size < 2 or after.size < 2:
             continue
         quantum = quantisation_step(u, below=0.5 * abs(r.step_volts))
-        random.append(float(np.var(u[before])) * (1.0 / before.sum() + 1.0 / (~before).sum()))
-        systematic.append(quantisation_bias_std(u[before], quantum) ** 2
-                          + quantisation_bias_std(u[~before], quantum) ** 2)
+        random.append(variance(before) * (1.0 / before.size + 1.0 / after.size))
+        systematic.append(quantisation_bias_std(before, quantum) ** 2 + quantisation_bias_std(after, quantum) ** 2)
     if not random:
         return 0.0
     return float(np.sqrt(np.sum(random) / len(random) ** 2 + np.mean(systematic)))
@@ -172,6 +175,11 @@ def step_level_std(cond: ConditionedExperiment) -> float:
 
 #: The velocity's last part taken as its settled level (for the quantiser's error of the level).
 SETTLED_FRACTION = 0.25
+
+
+def _before_step(r: StepResponse) -> int:
+    """How many of a response's samples come before its step: ``(r.time_s < 0).sum()`` for increasing times."""
+    return int(np.searchsorted(r.time_s, 0.0, side="left"))
 
 
 def output_level_rel_std(cond: ConditionedExperiment) -> float:
@@ -196,16 +204,16 @@ def output_level_rel_std(cond: ConditionedExperiment) -> float:
     r = cond.responses.get("velocity")
     if r is None:
         return 0.0
-    y, before = r.output_v, r.time_s < 0
-    after = np.flatnonzero(~before)
-    settled = y[after[int((1.0 - SETTLED_FRACTION) * after.size):]]
-    if before.sum() < 2 or settled.size < 2:
+    y, nb = r.output_v, _before_step(r)
+    before = y[:nb]
+    settled = y[nb + int((1.0 - SETTLED_FRACTION) * (y.size - nb)):]
+    if before.size < 2 or settled.size < 2:
         return 0.0
-    change = float(np.mean(settled) - np.mean(y[before]))
+    change = float(np.mean(settled) - np.mean(before))
     quantum = quantisation_step(y, below=0.25 * abs(change)) if change else 0.0
     if quantum == 0.0 or change == 0.0:
         return 0.0
-    q = np.hypot(quantisation_bias_std(y[before], quantum), quantisation_bias_std(settled, quantum))
+    q = np.hypot(quantisation_bias_std(before, quantum), quantisation_bias_std(settled, quantum))
     return float(q / abs(change))
 
 
@@ -223,9 +231,15 @@ def _srivc_data(cond: ConditionedExperiment, max_samples: int) -> tuple[np.ndarr
     centres).
     """
     t = cond.full_time_s
+    length = fit_record_length(cond)
+    # the output-error fit's record (at most MAX_RECORD_TIME_CONSTANTS 63 % times): a 10 000 s log of a
+    # 0.3 s motor sub-sampled whole to 1000 samples left one sample per 10 s, and SRIVC read τ 0.9 s
+    keep = t.size if length is None else max(int(np.searchsorted(t, length, side="right")), min(t.size, 6))
+    t = t[:keep]
     ratio = max(1, int(np.ceil(t.size / max_samples)))
     outs = {}
     for k, v in cond.full_outputs.items():
+        v = v[:keep]
         # a scope-sampled step happened about half a sample before its edge sample: the record is
         # read on a grid that starts at that instant (where the response is still 0), so that the
         # filters' step at t = 0 is the motor's
@@ -353,22 +367,36 @@ def fit_record_length(cond: ConditionedExperiment) -> float | None:
     return length
 
 
+def _read_only(a: np.ndarray) -> np.ndarray:
+    """``a`` (a view or a copy) made read-only: the fit's data are never written."""
+    a = a.view()
+    a.flags.writeable = False
+    return a
+
+
 def _channel_data(cond: ConditionedExperiment, max_samples: int = MAX_FIT_SAMPLES) -> _ChannelData:
     length = fit_record_length(cond)
     times, outs, pre, block, wraps = {}, {}, {}, {}, {}
     for role in cond.full_outputs:
         r = cond.responses[role]
-        good = np.ones(r.time_s.size, dtype=bool)
+        # the times increase: the record before the step and the part fitted are ranges (views, not the
+        # masks and masked copies of a long record), less the interpolated glitches of a position
+        t, dt = r.time_s, r.sample_interval_s
+        k_pre = int(np.searchsorted(t, 0.0, side="left"))
+        k0 = int(np.searchsorted(t, -1e-9 * dt, side="left"))
+        k1 = t.size if length is None else max(k0, int(np.searchsorted(t, length + 0.5 * dt, side="right")))
+        fitted, before = slice(k0, k1), slice(0, k_pre)
+        keep_pre: np.ndarray | slice = before
+        keep: np.ndarray | slice = fitted
         if r.glitches is not None:
+            good = np.ones(t.size, dtype=bool)
             good[r.glitches] = False
-        after = good & (r.time_s >= -1e-9 * r.sample_interval_s)
-        if length is not None:
-            after &= r.time_s <= length + 0.5 * r.sample_interval_s
-        times[role], outs[role] = r.time_s[after] + _sampled_phase(r), r.output_v[after]
-        pre[role] = r.output_v[good & (r.time_s < 0)]
+            keep, keep_pre = np.flatnonzero(good[fitted]) + k0, np.flatnonzero(good[before])
+        times[role], outs[role] = t[keep] + _sampled_phase(r), _read_only(r.output_v[keep])
+        pre[role] = _read_only(r.output_v[keep_pre])
         block[role] = max(1, int(np.ceil(times[role].size / max_samples)))
         if r.wrap_count is not None:
-            wraps[role] = r.wrap_count[after]
+            wraps[role] = _read_only(r.wrap_count[keep])
     return _ChannelData(times, outs, pre, block, wraps)
 
 
