@@ -79,12 +79,37 @@ def test_the_synchronised_input_is_the_interpolated_one(noisy):
     u = np.where(k >= 700, 5.0, 0.0) + (np.random.default_rng(1).normal(0, 1e-3, k.size) if noisy else 0.0)
     r = step_response(_capture(u), "velocity")
     s = synchronise([r])
-    want_t = np.arange(s.time_s.size) * r.sample_interval_s
+    # a log on its grid: the grid's step is the stamps' mean step from the edge, the velocity the log's own samples
+    i0 = r.edge.index
+    want_t = np.arange(s.time_s.size) * ((r.time_s[-1] - r.time_s[i0]) / (r.time_s.size - 1 - i0))
     want_u = _interp_from_one(want_t, r.time_s, r.input_v, r.input_v[r.edge.index])
     assert s.time_s.tobytes() == want_t.tobytes()
     assert np.ascontiguousarray(s.input_v).tobytes() == want_u.tobytes()
     assert s.input_v.flags.writeable is noisy  # the constant is a read-only view of one number
+    velocity = s.outputs["velocity"]
+    assert np.shares_memory(velocity, r.output_v) and not velocity.flags.writeable  # a view, never written
+    assert velocity.tobytes() == r.output_v[i0 : i0 + velocity.size].tobytes()
+    # what the interpolation onto the grid gives, to a millionth of a sample's change
+    step = float(np.max(np.abs(np.diff(r.output_v))))
+    assert np.max(np.abs(velocity - np.interp(want_t, r.time_s, r.output_v))) <= 1e-6 * step
+
+
+@pytest.mark.parametrize("case", ["jittered", "scope"])
+def test_a_log_off_its_grid_and_a_scope_capture_are_interpolated(case):
+    from dataclasses import replace
+
+    k = np.arange(4000)
+    cap = _capture(np.where(k >= 700, 5.0, 0.0))
+    if case == "jittered":  # stamps off k·dt by 1e-3 of a sample: the interpolation's grid, as always
+        cap = replace(cap, time_s=cap.time_s + 1e-6 * np.random.default_rng(4).uniform(-1.0, 1.0, k.size))
+    r = step_response(cap, "velocity")
+    if case == "scope":
+        r = replace(r, timing="sampled")
+    s = synchronise([r])
+    want_t = np.arange(s.time_s.size) * r.sample_interval_s
+    assert s.time_s.tobytes() == want_t.tobytes()
     assert s.outputs["velocity"].tobytes() == np.interp(want_t, r.time_s, r.output_v).tobytes()
+    assert not np.shares_memory(s.outputs["velocity"], r.output_v)
 
 
 @pytest.mark.parametrize("t0", [0.0, 1.5, 0.0005, -0.25])

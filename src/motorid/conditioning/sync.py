@@ -110,10 +110,19 @@ def synchronise(
             outputs[r.role] = r.output_v[r.edge.index : r.edge.index + n].copy()
         u = responses[0].input_v[responses[0].edge.index : responses[0].edge.index + n].copy()
     else:
-        n = int(np.floor(avail / dt + 1e-9)) + 1
-        time = grid_times(n, dt)
-        for r in responses:
-            outputs[r.role] = blocked_interp(time, r.time_s, r.output_v)
+        on_grid = _own_grid(responses, avail)
+        if on_grid is not None:
+            # logs sampled on one grid from their edges (the logged input changes at a stamp): their
+            # own samples are the interpolation's values (to a millionth of a sample's change), as
+            # read-only views instead of copies (80 MB fewer for a 10 M-row log's velocity)
+            time, views = on_grid
+            n = time.size
+            outputs.update(views)
+        else:
+            n = int(np.floor(avail / dt + 1e-9)) + 1
+            time = grid_times(n, dt)
+            for r in responses:
+                outputs[r.role] = blocked_interp(time, r.time_s, r.output_v)
         # the input is a step: after the edge it is its level (interpolating would smear
         # the edge sample); keep its recorded wiggles after the edge
         r0 = responses[0]
@@ -131,6 +140,56 @@ def synchronise(
 
 #: Samples per block of the checks over a long record (their temporaries stay small).
 _BLOCK = 1 << 18
+
+
+#: How far, in samples, a log's stamp may sit off the grid ``k·dt`` for its own sample to stand for
+#: the interpolation onto it: a millionth of a sample moves a value by a millionth of a sample's change.
+ON_GRID_TOL = 1e-6
+
+
+def _own_grid(responses: Sequence[StepResponse], avail: float) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
+    """The grid and each log's own samples on it, when every response is a log sampled on one grid from its edge.
+
+    Only logs (``timing == "logged"``: a logged input's change fixes each edge at a stamp), whose
+    records can be long; a scope's record keeps its interpolation.  The grid is ``k·dt`` with ``dt``
+    the mean step of the first response's stamps from its edge to its end: the median of a long
+    log's steps is off by their rounding, which ``k`` multiplies (2e-3 of a sample at the end of a
+    10 M-row log).  ``None`` when a stamp from an edge on is further than :data:`ON_GRID_TOL` of a
+    sample from the grid, or a record is shorter than the common length.
+    """
+    if any(r.timing != "logged" for r in responses):
+        return None
+    first = responses[0]
+    i0 = first.edge.index
+    t = first.time_s
+    if t.size - i0 < 3:
+        return None
+    dt = float(t[-1] - t[i0]) / (t.size - 1 - i0)
+    if not (np.isfinite(dt) and dt > 0):
+        return None
+    n = int(np.floor(avail / dt + 1e-9)) + 1
+    views: dict[str, np.ndarray] = {}
+    for r in responses:
+        j0 = r.edge.index
+        if r.time_s.size - j0 < n or not _stamps_on_grid(r.time_s[j0 : j0 + n], dt):
+            return None
+        view = r.output_v[j0 : j0 + n]
+        view.flags.writeable = False
+        views[r.role] = view
+    return grid_times(n, dt), views
+
+
+def _stamps_on_grid(stamps: np.ndarray, dt: float) -> bool:
+    """Whether ``|stamps[k] − k·dt| ≤ ON_GRID_TOL·dt`` for every ``k`` (in blocks: no full-length temporary)."""
+    tol = ON_GRID_TOL * dt
+    for start in range(0, stamps.size, _BLOCK):
+        block = stamps[start : start + _BLOCK]
+        grid = np.arange(start, start + block.size, dtype=float)
+        grid *= dt
+        np.subtract(block, grid, out=grid)
+        if not bool(np.all(np.abs(grid, out=grid) <= tol)):
+            return False
+    return True
 
 
 def blocked_interp(x: np.ndarray, xp: np.ndarray, fp: np.ndarray) -> np.ndarray:
