@@ -440,28 +440,34 @@ def check_samples(
     if n < min_samples:
         raise CaptureDataError(f"only {n} sample(s): a capture needs at least {min_samples}", file=file)
     # one array of the steps, reordered by the median and the 99th percentile (order statistics:
-    # the same values in any order); the tests that need the steps in order take them again in
-    # blocks of the time column, while they are in cache
-    back = _first_step(t, lambda d: d <= 0)
+    # the same values in any order); its smallest and largest step decide the tests that need the
+    # steps in order, which take them again in blocks of the time column only to find the first bad
+    # one (a record that passes, the usual case, is not scanned again)
+    steps = np.diff(t)
+    smallest, largest = (float(steps.min()), float(steps.max())) if steps.size else (1.0, 1.0)
+    back = _first_step(t, lambda d: d <= 0) if smallest <= 0 else None
     if back is not None:
         what = "duplicated" if t[back] == t[back - 1] else "goes backwards"
         raise CaptureDataError(f"{time_name} {what} ({plain_number(t[back - 1])} then {plain_number(t[back])}): "
                                "time must increase", file=file, row=line_of(back))
-    steps = np.diff(t)
     med = float(np.median(steps, overwrite_input=True))
     lo, hi = SAMPLE_INTERVAL_RANGE_S
     if not lo <= med <= hi:
         raise CaptureDataError(
             f"sample interval {plain_number(med)} s is outside {lo:g}…{hi:g} s: the time column is not in "
             "seconds (or not a time axis); map the right column, or give --time-unit ms or us", file=file)
+    # (rounding is monotonic: no step is beyond a bound that the largest and the smallest are within)
     if jitter_ok:
-        limit = _gap_limit(steps, med)
+        # a gap is beyond GAP_MEDIANS medians in any case: below that, no percentile is needed
+        limit = _gap_limit(steps, med) if largest > GAP_MEDIANS * med else largest
         del steps
-        gap = _first_step(t, lambda d: d > limit)
+        gap = _first_step(t, lambda d: d > limit) if largest > limit else None
     else:
         del steps
-        tol = rel_jitter * med + 1e-12 * max(1.0, _max_abs(t))
-        gap = _first_step(t, lambda d: np.abs(d - med) > tol)
+        # (increasing times: the largest magnitude is at an end)
+        tol = rel_jitter * med + 1e-12 * max(1.0, abs(float(t[0])), abs(float(t[-1])))
+        within = abs(largest - med) <= tol and abs(smallest - med) <= tol
+        gap = None if within else _first_step(t, lambda d: np.abs(d - med) > tol)
     if gap is not None:
         raise CaptureDataError(
             f"time step {plain_number(t[gap] - t[gap - 1])} s differs from the sample interval {plain_number(med)} s "
@@ -480,11 +486,6 @@ def _first_step(t: np.ndarray, bad: Callable[[np.ndarray], np.ndarray]) -> int |
         if hit.size:
             return start + int(hit[0]) + 1
     return None
-
-
-def _max_abs(t: np.ndarray) -> float:
-    """``max(|t|)`` in blocks of :data:`_CHECK_BLOCK` (the same value, no array of the column's length)."""
-    return max(float(np.max(np.abs(t[i : i + _CHECK_BLOCK]))) for i in range(0, t.size, _CHECK_BLOCK))
 
 
 #: A step longer than this many median steps, and than :data:`GAP_OVER_P99` × the 99th
@@ -813,14 +814,23 @@ def _load_with_pandas(read_csv, path: PathLike, skiprows: int, delimiter: str,
             _warnings.simplefilter("error")
             for _ in range(skiprows):
                 fh.readline()
-            rest = b""
+            chunk = PANDAS_BLOCK_BYTES
             while True:
-                block = fh.read(PANDAS_BLOCK_BYTES)
-                data = rest + block
+                # a block cut after its last line feed; the file read again from there (one copy of
+                # the block, not a concatenation with the last one's rest and then a cut)
+                start = fh.tell()
+                data = fh.read(chunk)
+                block = len(data) == chunk  # (a short read of a regular file is its end)
                 if block:
                     cut = data.rfind(b"\n") + 1
-                    data, rest = data[:cut], data[cut:]
-                if not data.strip():
+                    if cut == 0:  # a line longer than the block: read more of it at once
+                        fh.seek(start)
+                        chunk *= 2
+                        continue
+                    if cut < len(data):
+                        fh.seek(start + cut)
+                        data = data[:cut]
+                if not data or data.isspace():
                     if block:
                         continue
                     break
