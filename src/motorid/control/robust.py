@@ -277,10 +277,16 @@ class _Joint:
 
         Returns the stacked :class:`~motorid.model.motor.TfRealisation` and each motor's dead time.
         """
-        from motorid.model.motor import realise_tfs_stacked
-
         s = theta.shape[0]
         idx = {n: i for i, n in enumerate(self.names)}
+        # a draw from a wide interval can overflow (a time constant of e^800 s): its realisation is
+        # not finite, and _plants drops it with the other draws that are not motors
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            return self._realised(model, theta, s, idx)
+
+    def _realised(self, model: MotorModel, theta: np.ndarray, s: int, idx: dict[str, int]) -> tuple[Any, np.ndarray]:
+        from motorid.model.motor import realise_tfs_stacked
+
         taus = np.exp(self.column(theta, "log_tau_"))
         n = taus.shape[1]
         den = np.ones((s, 1))
@@ -466,14 +472,18 @@ def _steps(a: np.ndarray, b: np.ndarray, c: np.ndarray, horizon: float) -> tuple
     """Unit reference steps of stacked closed loops, exact at the grid's instants."""
     m, size = a.shape[0], a.shape[1]
     dt = horizon / (STEP_POINTS - 1)
-    # Φ and Γ of the zero-order hold (exact for a step), every loop of the stack in one call
-    phi, gammas = zoh(a, b, dt)
-    gamma = gammas[:, :, 0]
-    x = np.zeros((m, size))
-    y = np.zeros((m, STEP_POINTS))
-    for i in range(1, STEP_POINTS):
-        x = np.einsum("mij,mj->mi", phi, x) + gamma
-        y[:, i] = np.einsum("mj,mj->m", c[:, 0, :], x)
+    # a draw far out in a wide interval can give a loop whose exponential overflows: its response
+    # is not finite, and it is NaN (unknown) rather than a number such as a 1e19 % overshoot
+    with np.errstate(over="ignore", invalid="ignore"):
+        # Φ and Γ of the zero-order hold (exact for a step), every loop of the stack in one call
+        phi, gammas = zoh(a, b, dt)
+        gamma = gammas[:, :, 0]
+        x = np.zeros((m, size))
+        y = np.zeros((m, STEP_POINTS))
+        for i in range(1, STEP_POINTS):
+            x = np.einsum("mij,mj->mi", phi, x) + gamma
+            y[:, i] = np.einsum("mj,mj->m", c[:, 0, :], x)
+    y[~np.all(np.isfinite(y), axis=1)] = np.nan
     return np.linspace(0.0, horizon, STEP_POINTS), y
 
 
@@ -634,9 +644,12 @@ def _per_motor(pl: _Plants, nominal: tuple[np.ndarray, np.ndarray, np.ndarray], 
     if stable.any():
         t, y = _steps(a[stable], b[stable], c[stable], horizon)
         finals = -(c[stable] @ np.linalg.solve(a[stable], b[stable]))[:, 0, 0]
-        over[stable], settle[stable] = _step_metrics(t, y, finals)
+        o, st = _step_metrics(t, y, finals)
+        known = np.all(np.isfinite(y), axis=1)  # (a response that overflowed has no overshoot or settling)
+        over[stable], settle[stable] = np.where(known, o, np.nan), np.where(known, st, np.nan)
         pick = np.linspace(0, t.size - 1, BAND_POINTS).round().astype(int)
-        band = np.vstack([t[pick], np.percentile(y[:, pick], [2.5, 50.0, 97.5], axis=0)])
+        if known.any():
+            band = np.vstack([t[pick], np.percentile(y[known][:, pick], [2.5, 50.0, 97.5], axis=0)])
     la, lb, lc = _loop(pl, nominal, design)
     # the grid around the nominal loop's crossover (where every plausible motor's is): four and
     # a half decades; the nominal's fastest pole's seven decades without a crossover
