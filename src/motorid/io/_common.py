@@ -369,8 +369,14 @@ _CHECK_BLOCK = 1 << 20
 def _first_out_of_range(col: np.ndarray) -> np.ndarray:
     """Index (as a 0- or 1-element array) of the first value that is NaN or beyond :data:`MAX_ABS_VALUE`."""
     for start in range(0, col.size, _CHECK_BLOCK):
+        block = col[start : start + _CHECK_BLOCK]
+        # the block's extremes first (two reductions, no temporaries; NaN makes them NaN): the
+        # elementwise test only for a block that has a bad value
+        lo, hi = float(np.min(block)), float(np.max(block))
+        if lo >= -MAX_ABS_VALUE and hi <= MAX_ABS_VALUE:
+            continue
         with np.errstate(invalid="ignore"):
-            bad = np.flatnonzero(~(np.abs(col[start : start + _CHECK_BLOCK]) <= MAX_ABS_VALUE))
+            bad = np.flatnonzero(~(np.abs(block) <= MAX_ABS_VALUE))
         if bad.size:
             return bad[:1] + start
     return np.empty(0, dtype=np.intp)
@@ -849,7 +855,7 @@ def _load_with_pandas(read_csv, path: PathLike, skiprows: int, delimiter: str,
                     columns = [_grown(c, n, rows) for c in columns]
                 for k, col in enumerate(columns):
                     np.copyto(col[n : n + m], frame.iloc[:, k].to_numpy(dtype=np.float64, copy=False))
-                    if np.isnan(col[n : n + m]).any():
+                    if np.isnan(np.min(col[n : n + m])):  # (the minimum is NaN when any value is: no mask)
                         return None
                 n += m
                 del frame
