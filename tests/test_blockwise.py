@@ -28,3 +28,9 @@ def test_variance_is_numpys(n):
     y = 5.0 + np.random.default_rng(n).normal(0, 0.3, n)
     assert blockwise.variance(y) == pytest.approx(float(np.var(y)), rel=1e-10, abs=1e-15)
     assert np.isnan(blockwise.variance(np.array([])))
+
+
+def test_the_centred_sum_of_squares_is_the_spread_squared():
+    y = 3.0 + np.random.default_rng(5).normal(0, 0.2, (1 << 18) + 11)
+    assert blockwise.centred_sum_of_squares(y) == pytest.approx(float(np.linalg.norm(y - y.mean())) ** 2, rel=1e-10)
+    assert blockwise.centred_sum_of_squares(np.array([])) == 0.0

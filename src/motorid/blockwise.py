@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["BLOCK", "line_slope", "variance"]
+__all__ = ["BLOCK", "centred_sum_of_squares", "line_slope", "max_abs", "variance"]
 
 #: Samples per block: 2 MB of float64, small beside a long record and large enough that the
 #: per-block overhead of a few numpy calls is lost in the arithmetic.
@@ -38,11 +38,7 @@ def line_slope(x: np.ndarray, y: np.ndarray) -> float:
     n = x.size
     if n != y.size or n < 2:
         raise ValueError(f"line_slope needs two arrays of the same length >= 2, got {x.size} and {y.size}")
-    sx = sy = 0.0
-    for start in range(0, n, BLOCK):
-        sx += float(np.sum(x[start : start + BLOCK]))
-        sy += float(np.sum(y[start : start + BLOCK]))
-    mx, my = sx / n, sy / n
+    mx, my = _mean(x), _mean(y)
     sxy = sxx = 0.0
     for start in range(0, n, BLOCK):
         dx = x[start : start + BLOCK] - mx
@@ -64,12 +60,48 @@ def variance(y: np.ndarray) -> float:
     float
         The mean square deviation from the mean; NaN for no samples.
     """
-    n = y.size
-    if n == 0:
-        return float("nan")
-    mean = sum(float(np.sum(y[i : i + BLOCK])) for i in range(0, n, BLOCK)) / n
+    return centred_sum_of_squares(y) / y.size if y.size else float("nan")
+
+
+def centred_sum_of_squares(y: np.ndarray) -> float:
+    """``Σ(y − ȳ)²``, two passes a block at a time (0 for no samples).
+
+    Parameters
+    ----------
+    y : ndarray
+        One-dimensional samples.
+
+    Returns
+    -------
+    float
+        The sum of squared deviations from the mean.
+    """
+    if y.size == 0:
+        return 0.0
+    mean = _mean(y)
     total = 0.0
-    for i in range(0, n, BLOCK):
+    for i in range(0, y.size, BLOCK):
         d = y[i : i + BLOCK] - mean
         total += float(np.dot(d, d))
-    return total / n
+    return total
+
+
+def max_abs(y: np.ndarray) -> float:
+    """``max(|y|)`` without the array ``|y|``: the larger of ``|max|`` and ``|min|`` (0 when empty).
+
+    Parameters
+    ----------
+    y : ndarray
+        Samples.
+
+    Returns
+    -------
+    float
+        The largest magnitude.
+    """
+    return max(abs(float(y.max())), abs(float(y.min()))) if y.size else 0.0
+
+
+def _mean(y: np.ndarray) -> float:
+    """The mean, its sum taken a block at a time."""
+    return sum(float(np.sum(y[i : i + BLOCK])) for i in range(0, y.size, BLOCK)) / y.size

@@ -5,7 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from motorid.blockwise import max_abs
 from motorid.conditioning import checks
+from motorid.conditioning.response import split_at
 
 
 def test_the_split_at_the_step_is_the_masks():
@@ -13,7 +15,7 @@ def test_the_split_at_the_step_is_the_masks():
     t = np.sort(rng.uniform(-1.0, 3.0, 500))
     y = rng.normal(size=500)
     for t0 in (-2.0, -0.5, 0.0, float(t[17]), 3.5):
-        pre, post = checks._split_at(t, y, t0)
+        pre, post = split_at(t, y, t0)
         assert np.array_equal(pre, y[t < t0]) and np.array_equal(post, y[t >= t0])
         assert np.shares_memory(post, y) or post.size == 0  # a view, not a copy
 
@@ -23,12 +25,12 @@ def test_the_one_temporary_helpers_are_the_formulas(monkeypatch):
     rng = np.random.default_rng(1)
     y = rng.normal(size=1001)
     y[[5, 700]] = y.max() + 1e-12  # near the extreme: inside a tolerance
-    assert checks._max_abs(y) == float(np.max(np.abs(y)))
+    assert max_abs(y) == float(np.max(np.abs(y)))
     assert checks._abs_percentile(y, 0.3, 95) == float(np.percentile(np.abs(y - 0.3), 95))
     top = float(y.max())
     for tol in (0.0, 1e-9, 0.5):
         assert np.array_equal(checks._near(y, top, tol), np.abs(y - top) <= tol)
-    assert checks._max_abs(np.array([])) == 0.0
+    assert max_abs(np.array([])) == 0.0
 
 
 @pytest.mark.parametrize("values", [[0.0, 1.0, -3.0, 2.0], [0.0, 3.0, -3.0], [0.0, -3.0, 3.0], [2.0, 2.0], [1.0, -0.5]])

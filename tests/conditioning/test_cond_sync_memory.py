@@ -115,14 +115,14 @@ def test_a_log_off_its_grid_and_a_scope_capture_are_interpolated(case):
 @pytest.mark.parametrize("t0", [0.0, 1.5, 0.0005, -0.25])
 def test_the_samples_after_the_step_are_the_masked_ones(t0):
     """The sanity gate's recorded input: a tail view, the same values as the mask ``time_s >= 0``."""
-    from motorid.identification.pipeline import _after_step
+    from motorid.conditioning.response import split_at
 
     k = np.arange(4000)
     u = np.where(k >= 700, 5.0, 0.0) + np.random.default_rng(2).normal(0, 1e-3, k.size)
     r = step_response(_capture(u), "velocity")
     for time_s in (r.time_s, r.time_s - t0, np.array([-1.0, -0.0, 0.0, 2.0]), np.array([-2.0, -1.0])):
         values = np.arange(time_s.size, dtype=float)
-        got = _after_step(time_s, values)
+        got = split_at(time_s, values)[1]
         assert np.shares_memory(got, values) or got.size == 0
         assert got.tobytes() == values[time_s >= 0].tobytes()
 

@@ -50,7 +50,7 @@ def test_the_fitted_ranges_are_the_masked_samples(trainer_velocity, monkeypatch,
 def test_the_quantiser_terms_read_the_step_as_a_prefix(trainer_velocity):
     cond = condition_experiment({"velocity": trainer_velocity})
     r = cond.responses["velocity"]
-    assert stages._before_step(r) == int(np.count_nonzero(r.time_s < 0))
+    assert stages.split_at(r.time_s, r.output_v)[0].size == int(np.count_nonzero(r.time_s < 0))
     # the old formula of the level's quantiser term, on the masks
     y, before = r.output_v, r.time_s < 0
     after = np.flatnonzero(~before)

@@ -9,7 +9,8 @@ import pytest
 
 from motorid.identification.metrics import nrmse, response_change
 from motorid.model import MotorModel
-from motorid.model.response import _BLOCK, _max_abs, _uniform_steps, step_response
+from motorid.blockwise import max_abs
+from motorid.model.response import _BLOCK, _uniform_steps, step_response
 
 
 def _model(delay_s: float = 0.0) -> MotorModel:
@@ -45,7 +46,7 @@ def test_block_checks_match_the_full_length_computation() -> None:
     d = np.diff(t)
     for tol in (0.0, 5e-10, 2e-9, 1e-8):
         assert _uniform_steps(t, float(t[1] - t[0]), tol) == bool(np.all(np.abs(d - d[0]) <= tol))
-    assert _max_abs(-t) == float(np.max(np.abs(t)))
+    assert max_abs(-t) == float(np.max(np.abs(t)))
     t[2 * _BLOCK] += 1e-6  # one step off in the last block
     assert not _uniform_steps(t, float(t[1] - t[0]), 1e-8)
 

@@ -22,10 +22,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from motorid.blockwise import BLOCK
-
+from motorid.blockwise import BLOCK, max_abs
 from motorid.capture import Capture, ChannelInfo
-from motorid.conditioning.response import StepResponse
+from motorid.conditioning.response import StepResponse, split_at
 from motorid.errors import ConditioningError
 
 __all__ = [
@@ -49,17 +48,6 @@ VOLTS_PER_DIV: tuple[float, ...] = (2e-3, 5e-3, 1e-2, 2e-2, 5e-2, 0.1, 0.2, 0.5,
 CLIP_FRACTION = 0.05
 #: Rails are the codes within this many LSB of ±128 (the existing reader check uses 3).
 RAIL_TOLERANCE_LSB = 3.0
-
-
-def _split_at(t: np.ndarray, y: np.ndarray, t0: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(y[t < t0], y[t >= t0])`` for increasing times: views of ``y``, not masked copies of a long record."""
-    k = int(np.searchsorted(t, t0, side="left"))
-    return y[:k], y[k:]
-
-
-def _max_abs(y: np.ndarray) -> float:
-    """``max(|y|)`` without the array ``|y|`` (the larger of ``|max|`` and ``|min|``); 0 when empty."""
-    return max(abs(float(y.max())), abs(float(y.min()))) if y.size else 0.0
 
 
 def _abs_percentile(y: np.ndarray, level: float, q: float) -> float:
@@ -117,13 +105,13 @@ def stalled_response(resp: StepResponse, quantum: float = 0.0) -> str | None:
         The reason, or ``None`` when the output moves.
     """
     y = np.asarray(resp.output_v, dtype=float)
-    pre, post = _split_at(np.asarray(resp.time_s, dtype=float), y, 0.0)
+    pre, post = split_at(np.asarray(resp.time_s, dtype=float), y)
     if post.size < 2:
         return None
     level = float(np.median(pre)) if pre.size else float(post[0])
     dev_pre = float(np.percentile(np.abs(pre - level), 99)) if pre.size >= 10 else 0.0
     dev_post = _abs_percentile(post, level, 95)
-    scale = max(_max_abs(y), 1e-300)
+    scale = max(max_abs(y), 1e-300)
     band = 2.0 * dev_pre + 1.5 * quantum + 1e-9 * scale
     if dev_post > band:
         return None
@@ -175,12 +163,12 @@ def clipping(capture: Capture, resp: StepResponse) -> tuple[str, bool] | None:
     """
     raw = np.asarray(capture.output_v, dtype=float)
     t = np.asarray(capture.time_s, dtype=float)
-    pre, post = _split_at(t, raw, resp.edge.time_s)
+    pre, post = split_at(t, raw, resp.edge.time_s)
     if post.size < 20:
         return None
     info = capture.output_info
     lsb = _quantum(raw, info)
-    tol = 0.01 * lsb if lsb > 0 else 1e-9 * max(_max_abs(post), 1e-300)
+    tol = 0.01 * lsb if lsb > 0 else 1e-9 * max(max_abs(post), 1e-300)
     for extreme, sign in ((float(post.max()), 1.0), (float(post.min()), -1.0)):
         at = _near(post, extreme, tol)
         n_at = int(np.count_nonzero(at))
@@ -266,7 +254,7 @@ def no_dynamics(resp: StepResponse, quantum: float = 0.0) -> str | None:
     """
     if resp.role not in ("velocity", "position"):
         return None  # the armature current may legitimately jump within a sample
-    pre, post = _split_at(np.asarray(resp.time_s, dtype=float), np.asarray(resp.output_v, dtype=float), 0.0)
+    pre, post = split_at(np.asarray(resp.time_s, dtype=float), np.asarray(resp.output_v, dtype=float))
     if post.size < 10:
         return None
     base = float(np.median(pre)) if pre.size else 0.0
@@ -315,7 +303,7 @@ def falls_back_to_rest(resp: StepResponse, record_length_s: float | None = None)
         keep = int(np.searchsorted(t, record_length_s, side="right"))
         t, y = t[:keep], y[:keep]
         resp = replace(resp, time_s=t, output_v=y, input_v=np.asarray(resp.input_v)[: t.size])
-    pre, post = _split_at(t, y, 0.0)
+    pre, post = split_at(t, y)
     if pre.size < 2 or post.size < 20:
         return None
     base = float(np.median(pre))

@@ -12,7 +12,7 @@ from motorid.conditioning.edge import StepEdge, ramp_onset, response_onset, step
 from motorid.conditioning.unwrap import unwrap_position
 from motorid.errors import ConditioningError, OptionError, StepNotFoundError
 
-__all__ = ["STEP_TIMINGS", "STEP_VOLTS_TOLERANCE", "StepResponse", "step_response"]
+__all__ = ["STEP_TIMINGS", "STEP_VOLTS_TOLERANCE", "StepResponse", "split_at", "step_response"]
 
 #: Where a response's step instant comes from (:attr:`StepResponse.timing`):
 #: ``logged`` — a logged input column (a DAQ or Arduino log writes the command at the stamp it
@@ -197,6 +197,31 @@ def step_response(
         glitches=glitches,
         timing=timing,
     )
+
+
+def split_at(time_s: np.ndarray, values: np.ndarray, t0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """``(values[time_s < t0], values[time_s >= t0])`` as views, for times that never decrease.
+
+    A response's times are a strictly increasing capture minus its edge time, so the samples before
+    an instant are a prefix and the rest a tail: the same values as the masks, without the masks and
+    their copies of the record's length (90 MB each for a 10 M-sample log).
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Non-decreasing times, s.
+    values : ndarray
+        Samples on ``time_s``.
+    t0 : float
+        The instant (0: the step).
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        The samples before ``t0`` and those at or after it (views of ``values``).
+    """
+    k = int(np.searchsorted(time_s, t0, side="left"))
+    return values[:k], values[k:]
 
 
 def _minus(a: np.ndarray, b: float) -> np.ndarray:

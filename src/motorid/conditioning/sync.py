@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from motorid.blockwise import BLOCK
 from motorid.conditioning.response import StepResponse
 from motorid.errors import ConditioningError, OptionError
 
@@ -139,7 +140,7 @@ def synchronise(
 
 
 #: Samples per block of the checks over a long record (their temporaries stay small).
-_BLOCK = 1 << 18
+_BLOCK = BLOCK
 
 
 #: How far, in samples, a log's stamp may sit off the grid ``k·dt`` for its own sample to stand for

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from motorid.blockwise import BLOCK
 from motorid.conditioning.edge import noise_level, quantisation_step
 
 __all__ = ["SAMPLES_PER_TIME_CONSTANT", "ResponseTimes", "auto_reduction_ratio", "response_times"]
@@ -100,7 +101,7 @@ def response_times(time_s: np.ndarray, y: np.ndarray, *, pre: np.ndarray | None 
 
 
 #: Samples per block of the running median's search for the 63 % time.
-_BLOCK = 1 << 18
+_BLOCK = BLOCK
 
 
 def _normalised(v: np.ndarray, norm: tuple[float, float] | None) -> np.ndarray:

@@ -272,21 +272,18 @@ class _Joint:
         cols = [i for i, n in enumerate(self.names) if n.startswith(prefix)]
         return theta[:, cols]
 
+    # a draw from a wide interval can overflow (a time constant of e^800 s): its realisation is not
+    # finite, and _plants drops it with the other draws that are not motors
+    @np.errstate(over="ignore", invalid="ignore", divide="ignore")
     def plants(self, model: MotorModel, theta: np.ndarray) -> tuple[Any, np.ndarray]:
         """The motors the rows of ``theta`` describe, realised as the fit realises its model.
 
         Returns the stacked :class:`~motorid.model.motor.TfRealisation` and each motor's dead time.
         """
-        s = theta.shape[0]
-        idx = {n: i for i, n in enumerate(self.names)}
-        # a draw from a wide interval can overflow (a time constant of e^800 s): its realisation is
-        # not finite, and _plants drops it with the other draws that are not motors
-        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            return self._realised(model, theta, s, idx)
-
-    def _realised(self, model: MotorModel, theta: np.ndarray, s: int, idx: dict[str, int]) -> tuple[Any, np.ndarray]:
         from motorid.model.motor import realise_tfs_stacked
 
+        s = theta.shape[0]
+        idx = {n: i for i, n in enumerate(self.names)}
         taus = np.exp(self.column(theta, "log_tau_"))
         n = taus.shape[1]
         den = np.ones((s, 1))

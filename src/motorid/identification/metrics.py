@@ -37,7 +37,7 @@ from typing import Literal
 
 import numpy as np
 
-from motorid.blockwise import BLOCK
+from motorid.blockwise import BLOCK, centred_sum_of_squares
 from motorid.errors import OptionError
 
 __all__ = ["REFERENCES", "bic", "fit_percent", "nrmse", "response_change", "step_fit"]
@@ -228,7 +228,7 @@ def step_fit(
             raise OptionError("the measured response has no change (final); NRMSE is undefined")
     spreads: dict[str, float] = {}
     for ch, y in measured.items():
-        spread = _block_spread(y)
+        spread = math.sqrt(centred_sum_of_squares(y))  # ‖y − mean(y)‖ (_spread), a block at a time
         if spread != 0.0:  # a constant record has no fit %
             spreads[ch] = spread
     n = min((y.size for y in measured.values()), default=0)
@@ -253,18 +253,6 @@ def step_fit(
                 err = math.sqrt(ss / n) / deltas[ch] if math.isfinite(ss) else float("inf")
                 errors[ch] = err if math.isfinite(err) else float("inf")
     return {ch: errors[ch] for ch in nrmse_channels}, fits
-
-
-def _block_spread(y: np.ndarray) -> float:
-    """``‖y − mean(y)‖`` (:func:`_spread`, 0 for a constant record), a block at a time."""
-    if y.size == 0:
-        return 0.0
-    mean = sum(float(np.sum(y[i : i + BLOCK])) for i in range(0, y.size, BLOCK)) / y.size
-    total = 0.0
-    for i in range(0, y.size, BLOCK):
-        d = y[i : i + BLOCK] - mean
-        total += float(np.dot(d, d))
-    return math.sqrt(total)
 
 
 def bic(n_samples: Mapping[str, float], mse: Mapping[str, float], n_params: int) -> float:

@@ -19,6 +19,7 @@ from motorid.capture import Capture
 from motorid.conditioning.denoise import fft_denoise
 from motorid.conditioning.derivative import derivative, savgol_derivative
 from motorid.conditioning.pipeline import ConditionedExperiment, ConditioningSettings, condition_experiment
+from motorid.conditioning.response import split_at
 from motorid.errors import OptionError
 from motorid.identification.classic import classic_first_order
 from motorid.identification.markov import MarkovSettings, markov_identify
@@ -286,28 +287,6 @@ def _dynamic_part(cond: ConditionedExperiment, max_samples: int, time_s: np.ndar
     keep = np.ones(time_s.size, dtype=bool) if length is None else time_s <= length * (1 + 1e-9)
     step = max(1, int(np.ceil(np.count_nonzero(keep) / max_samples)))
     return tuple(a[keep][::step] for a in (time_s, *arrays))
-
-
-def _after_step(time_s: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """``values[time_s >= 0]`` as a view: the samples from the step on.
-
-    A response's times never decrease (a strictly increasing capture minus its edge time), so the
-    samples at or after 0 are a tail, from the first index where ``time_s >= 0``: the same values,
-    without a mask and a copy of the record's length (90 MB for a 10 M-sample log).
-
-    Parameters
-    ----------
-    time_s : ndarray
-        Non-decreasing times from the step, s.
-    values : ndarray
-        Samples on ``time_s``.
-
-    Returns
-    -------
-    ndarray
-        The samples whose time is at least 0 (a view of ``values``).
-    """
-    return values[int(np.searchsorted(time_s, 0.0, side="left")):]
 
 
 def _markov_laguerre(cond: ConditionedExperiment, s: IdentifySettings) -> MotorModel:
@@ -758,7 +737,7 @@ def _gated(cond: ConditionedExperiment, settings: IdentifySettings, model: Motor
         sample_interval_chosen_s=cond.sample_interval_s,
     )
     model = model.replace(settings=settings_doc, step_volts=cond.step_volts)
-    recorded = {r.source: _after_step(r.time_s, r.input_v) for r in cond.responses.values() if r.edge.method != "onset"}
+    recorded = {r.source: split_at(r.time_s, r.input_v)[1] for r in cond.responses.values() if r.edge.method != "onset"}
     # its first-order baseline is a nonlinear fit: 9 s on a 10-million-sample log
     t_gate, v_gate = _dynamic_part(cond, SANITY_SAMPLES, t, v)
     sanity = sanity_checks(model, t_gate, v_gate, cond.step_volts,

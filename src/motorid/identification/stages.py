@@ -19,7 +19,7 @@ import numpy as np
 from motorid.blockwise import variance
 from motorid.conditioning.edge import noise_level, quantisation_step
 from motorid.conditioning.pipeline import ConditionedExperiment
-from motorid.conditioning.response import StepResponse
+from motorid.conditioning.response import split_at
 from motorid.identification.output_error import (  # _block_mean: the fit's own block averaging
     OeResult,
     _block_mean,
@@ -160,9 +160,8 @@ def step_level_std(cond: ConditionedExperiment) -> float:
     """
     random, systematic = [], []
     for r in cond.responses.values():
-        # the samples before the step are a prefix of the increasing times: views, not masked copies
-        u, nb = r.input_v, _before_step(r)
-        before, after = u[:nb], u[nb:]
+        u = r.input_v
+        before, after = split_at(r.time_s, u)
         if before.size < 2 or after.size < 2:
             continue
         quantum = quantisation_step(u, below=0.5 * abs(r.step_volts))
@@ -175,11 +174,6 @@ def step_level_std(cond: ConditionedExperiment) -> float:
 
 #: The velocity's last part taken as its settled level (for the quantiser's error of the level).
 SETTLED_FRACTION = 0.25
-
-
-def _before_step(r: StepResponse) -> int:
-    """How many of a response's samples come before its step: ``(r.time_s < 0).sum()`` for increasing times."""
-    return int(np.searchsorted(r.time_s, 0.0, side="left"))
 
 
 def output_level_rel_std(cond: ConditionedExperiment) -> float:
@@ -204,9 +198,9 @@ def output_level_rel_std(cond: ConditionedExperiment) -> float:
     r = cond.responses.get("velocity")
     if r is None:
         return 0.0
-    y, nb = r.output_v, _before_step(r)
-    before = y[:nb]
-    settled = y[nb + int((1.0 - SETTLED_FRACTION) * (y.size - nb)):]
+    y = r.output_v
+    before, after = split_at(r.time_s, y)
+    settled = after[int((1.0 - SETTLED_FRACTION) * after.size):]
     if before.size < 2 or settled.size < 2:
         return 0.0
     change = float(np.mean(settled) - np.mean(before))
@@ -382,7 +376,7 @@ def _channel_data(cond: ConditionedExperiment, max_samples: int = MAX_FIT_SAMPLE
         # the times increase: the record before the step and the part fitted are ranges (views, not the
         # masks and masked copies of a long record), less the interpolated glitches of a position
         t, dt = r.time_s, r.sample_interval_s
-        k_pre = int(np.searchsorted(t, 0.0, side="left"))
+        k_pre = split_at(t, t)[0].size
         k0 = int(np.searchsorted(t, -1e-9 * dt, side="left"))
         k1 = t.size if length is None else max(k0, int(np.searchsorted(t, length + 0.5 * dt, side="right")))
         fitted, before = slice(k0, k1), slice(0, k_pre)

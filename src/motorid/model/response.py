@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from motorid.blockwise import max_abs
 from motorid.errors import OptionError
 from motorid.model.lti import zoh
 
@@ -64,7 +65,7 @@ def step_response(model: MotorModel, time_s: Any, step_volts: float | None = Non
             # uniform within float64's resolution of the stamps themselves: t/dt beyond ~4.5 million made
             # 1e-9·dt tighter than the rounding of t, and a 10 M-row log took an expm per sample
             d0 = float(ta[1] - ta[0]) if ta.size > 1 else 0.0
-            resolution = 16.0 * np.finfo(float).eps * _max_abs(ta)
+            resolution = 16.0 * np.finfo(float).eps * max_abs(ta)
             if ta.size > 2 and _uniform_steps(ta, d0, 1e-9 * max(abs(d0), 1e-300) + resolution):
                 # uniform grid: one exact step matrix, then the recursion
                 # x[k+1] = Φ x[k] + Γ·step (exact for a step; 100x faster than an expm
@@ -114,11 +115,6 @@ def _outputs(x: np.ndarray, c: np.ndarray) -> np.ndarray:
         stop = starts[i + 1] if i + 1 < len(starts) else count
         x[start:stop] = x[start:stop] @ c.T
     return x
-
-
-def _max_abs(t: np.ndarray) -> float:
-    """``max(|t|)`` over a 1-D array, in blocks (no full-length temporary; the maximum is exact)."""
-    return max(float(np.max(np.abs(t[i : i + _BLOCK]))) for i in range(0, t.size, _BLOCK))
 
 
 def _uniform_steps(t: np.ndarray, d0: float, tol: float) -> bool:
