@@ -32,7 +32,6 @@ call, on that recursion.
 from __future__ import annotations
 
 import math
-import warnings
 
 import numpy as np
 import scipy.linalg
@@ -271,13 +270,12 @@ def zero_hold_delayed(a_c: np.ndarray, b_c: np.ndarray, c_rows: np.ndarray, d_co
     g_a = g_rest
     g_b = e_rest @ g_head  # the head of the interval, still fed by the previous sample
     out = np.empty((u.size, c_rows.shape[0]))
-    den = np.poly(phi)
-    for i, c in enumerate(c_rows):
-        with warnings.catch_warnings():  # a leading numerator coefficient of zero is expected here
-            warnings.simplefilter("ignore", lti.BadCoefficients)
-            na = lti.ss2tf(phi, g_a, c.reshape(1, -1), np.zeros((1, 1)))[0][0]
-            nb = lti.ss2tf(phi, g_b, c.reshape(1, -1), np.zeros((1, 1)))[0][0]
+    den = np.real(np.poly(phi))
+    # every row's numerators from Φ's Markov parameters (one eigenvalue problem in all, for the
+    # denominator; two per row through ss2tf), their leading coefficient exactly zero
+    n_a, n_b = _numerators(phi, g_a, c_rows, den), _numerators(phi, g_b, c_rows, den)
+    for i in range(c_rows.shape[0]):
         # x_{k+1} = Φ x_k + Γa v_k + Γb v_(k−1): y_k = C x_k (a one-sample lag in both filters)
-        y = lfilter(np.r_[0.0, na[1:]], den, v) + lfilter(np.r_[0.0, nb[1:]], den, v_prev)
+        y = lfilter(n_a[i], den, v) + lfilter(n_b[i], den, v_prev)
         out[:, i] = y + d_col[i] * (v_prev if frac > 0 else v)
     return out
