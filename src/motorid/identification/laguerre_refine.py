@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from motorid.identification.method_options import FIT_TOLERANCE, MAX_NFEV
 from motorid.identification.metrics import bic
 from motorid.identification.result import IdentificationError
 from motorid.model import lti
@@ -477,10 +478,13 @@ def laguerre_polish(
         if model.n_shifts:
             lo[-model.n_shifts:], hi[-model.n_shifts:] = -h, h
         # diff_step: the sampled response carries ~1e-11 of rounding (polynomial filters with poles
-        # near z = 1), too much for the default √eps finite-difference step
+        # near z = 1), too much for the default √eps finite-difference step.  The output-error fit's
+        # tolerance and evaluation budget: at 1e-10 and 100 evaluations a parameter, an order with a
+        # pole–zero pair to spare crept on for 900 evaluations (8 s) and changed no order chosen
         with np.errstate(over="ignore"):  # a trial step far off: its cost overflows and the step is refused
             return scipy.optimize.least_squares(resid, x0, bounds=(lo, hi), x_scale="jac", method="trf",
-                                                diff_step=1e-6, xtol=1e-10, ftol=1e-10, max_nfev=100 * x0.size).x
+                                                diff_step=1e-6, xtol=FIT_TOLERANCE, ftol=FIT_TOLERANCE,
+                                                max_nfev=MAX_NFEV).x
 
     def stats(pred: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         # RMS and lag-1 inflation (1 when whitened) of the residuals as fitted (whitened when a noise model is given)
