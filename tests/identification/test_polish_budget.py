@@ -43,3 +43,35 @@ def test_every_polish_fit_stops_within_the_output_error_budget(monkeypatch):
     assert res.model.order == 1
     assert res.model.first_order().dc_gain == pytest.approx(0.905, rel=2e-3)
     assert laguerre_refine.MAX_NFEV == MAX_NFEV
+
+
+def test_the_polish_reuses_its_sampled_systems_and_gets_the_same_model(monkeypatch):
+    """A finite-difference column of a numerator moves neither ``A`` nor the delay: the polish keeps the sampled
+    system (the exponentials and the eigenvalue problem) and passes it back; kept or made anew, the model JSON is
+    the same to the bit."""
+    import json
+
+    from motorid.model import forced
+    from motorid.trainer import run_experiment
+
+    made = []
+    real = forced.delayed_discretisation
+
+    def counting(*args):
+        made.append(1)
+        return real(*args)
+
+    monkeypatch.setattr(laguerre_refine, "delayed_discretisation", counting)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rec = run_experiment("second-order", seed=2, validation=False)
+        exp = mi.Experiment(captures=dict(rec.captures))
+        kept = mi.identify(exp, method="markov").model.to_dict()
+        n_kept = len(made)
+        made.clear()
+        monkeypatch.setattr(laguerre_refine, "SAMPLED_KEPT", 1)  # only the last one: made anew almost every time
+        anew = mi.identify(exp, method="markov").model.to_dict()
+    assert n_kept < 0.7 * len(made), (n_kept, len(made))
+    for d in (kept, anew):
+        d.pop("provenance", None)
+    assert json.dumps(kept, sort_keys=True, default=str) == json.dumps(anew, sort_keys=True, default=str)

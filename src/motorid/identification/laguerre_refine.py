@@ -21,7 +21,7 @@ from motorid.identification.method_options import FIT_TOLERANCE, MAX_NFEV
 from motorid.identification.metrics import bic
 from motorid.identification.result import IdentificationError
 from motorid.model import lti
-from motorid.model.forced import zero_hold_delayed
+from motorid.model.forced import delayed_discretisation, zero_hold_delayed
 
 if TYPE_CHECKING:
     from motorid.identification.laguerre import _Candidate
@@ -184,6 +184,11 @@ def _polish_bic(n_samples: dict[str, int], sigma: dict[str, float], inflation: d
     """:func:`~motorid.identification.metrics.bic` on each channel's effective samples ``n_ch/f_ch``."""
     return bic({ch: n_samples[ch] / inflation[ch] for ch in n_samples}, {ch: sigma[ch] ** 2 for ch in n_samples},
                n_params)
+
+
+#: Sampled systems the polish keeps (:func:`laguerre_polish`): enough for a Jacobian's columns of the
+#: denominator (one new system per channel each) to leave the point's own in place for its other columns.
+SAMPLED_KEPT = 16
 
 
 #: Channels the polish can use besides the primary one, and how they relate to the velocity TF ``G = n/d``:
@@ -429,10 +434,23 @@ def laguerre_polish(
     lower = np.full(pm.n_params, -np.inf)
     lower[2 * m] = 0.0
 
+    # the sampled systems of the last evaluations, by their A and delay: a finite-difference column of a
+    # numerator, a scale or a direct term moves neither, and the exponentials and Φ's eigenvalue problem
+    # are most of a prediction's cost (the same numbers: the same function of the same arguments)
+    sampled: dict[tuple[bytes, float], Any] = {}
+
     def predict(model: _PolishModel, xx: np.ndarray) -> np.ndarray:
         a_s, b_s, rows, dcol, dls = model.system(xx)
-        return np.column_stack([zero_hold_delayed(a_s, b_s, rows[i:i + 1], dcol[i:i + 1], h, u, dls[i])[:, 0]
-                                for i in range(rows.shape[0])])
+        cols = []
+        for i in range(rows.shape[0]):
+            key = (a_s.tobytes(), float(dls[i]))
+            if key not in sampled:
+                if len(sampled) >= SAMPLED_KEPT:
+                    del sampled[next(iter(sampled))]  # the oldest
+                sampled[key] = delayed_discretisation(a_s, b_s, h, float(dls[i]))
+            cols.append(zero_hold_delayed(a_s, b_s, rows[i:i + 1], dcol[i:i + 1], h, u, dls[i],
+                                          discretisation=sampled[key])[:, 0])
+        return np.column_stack(cols)
 
     # the current jumps at the step: its sample at the edge depends on the sub-sample trigger time
     # discontinuously, so it is left out (as in the output-error method)

@@ -222,8 +222,40 @@ def _numerators(a: np.ndarray, b: np.ndarray, c: np.ndarray, den: np.ndarray) ->
     return num
 
 
+def delayed_discretisation(a_c: np.ndarray, b_c: np.ndarray, h: float,
+                           delay: float) -> tuple[int, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The sampled system of :func:`zero_hold_delayed`: what depends on ``A``, ``B``, ``h`` and the delay only.
+
+    Parameters
+    ----------
+    a_c, b_c : ndarray
+        ``A`` (n, n) and ``B`` (n, 1).
+    h : float
+        The sample interval [s].
+    delay : float
+        The dead time ``θ = whole·h + frac`` [s].
+
+    Returns
+    -------
+    tuple
+        ``(whole, frac, Φ, Γa, Γb, den)``: ``x_{k+1} = Φ x_k + Γa v_k + Γb v_(k−1)`` and
+        ``den = det(zI − Φ)``.  A fit that varies only a model's output rows (its numerators) can
+        keep this and pass it back (``discretisation=``): the exponentials and the eigenvalue
+        problem are most of a call's cost.
+    """
+    whole = math.floor(delay / h + 1e-12)
+    frac = delay - whole * h
+    e_rest, g_rest = lti.zoh(a_c, b_c, h - frac)  # the part of the interval fed by the current sample
+    e_head, g_head = lti.zoh(a_c, b_c, frac)
+    phi = e_rest @ e_head
+    g_b = e_rest @ g_head  # the head of the interval, still fed by the previous sample
+    return whole, frac, phi, g_rest, g_b, np.real(np.poly(phi))
+
+
 def zero_hold_delayed(a_c: np.ndarray, b_c: np.ndarray, c_rows: np.ndarray, d_col: np.ndarray, h: float,
-                      u: np.ndarray, delay: float) -> np.ndarray:
+                      u: np.ndarray, delay: float,
+                      discretisation: tuple[int, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
+                      ) -> np.ndarray:
     """Exact sampled response of ``ẋ = Ax + Bu(t − θ)``, ``y = Cx + Du(t − θ)`` to a held input.
 
     The input ``u_k`` holds over ``[t_k, t_k + h)``; a delay ``θ = n·h + f`` splits each sample
@@ -245,6 +277,9 @@ def zero_hold_delayed(a_c: np.ndarray, b_c: np.ndarray, c_rows: np.ndarray, d_co
         The input samples, each held over its interval.
     delay : float
         The dead time ``θ`` [s] (negative: the input advanced).
+    discretisation : tuple, optional
+        :func:`delayed_discretisation` of the same ``a_c``, ``b_c``, ``h`` and ``delay``, computed
+        before; computed here when not given.
 
     Returns
     -------
@@ -255,24 +290,15 @@ def zero_hold_delayed(a_c: np.ndarray, b_c: np.ndarray, c_rows: np.ndarray, d_co
     # differences feel (8x the evaluations on a first-order record)
     from scipy.signal import lfilter
 
-    whole = math.floor(delay / h + 1e-12)
-    frac = delay - whole * h
+    if discretisation is None:
+        discretisation = delayed_discretisation(a_c, b_c, h, delay)
+    whole, frac, phi, g_a, g_b, den = discretisation
     idx = np.arange(u.size) - whole  # a negative delay (a capture triggered late) advances the input
     v = np.where(idx < 0, 0.0, u[np.clip(idx, 0, u.size - 1)])
     v_prev = np.r_[0.0, v[:-1]]
-
-    def gamma(step: float) -> tuple[np.ndarray, np.ndarray]:
-        return lti.zoh(a_c, b_c, step)
-
-    e_rest, g_rest = gamma(h - frac)  # the part of the interval fed by the current sample
-    e_head, g_head = gamma(frac)
-    phi = e_rest @ e_head
-    g_a = g_rest
-    g_b = e_rest @ g_head  # the head of the interval, still fed by the previous sample
     out = np.empty((u.size, c_rows.shape[0]))
-    den = np.real(np.poly(phi))
-    # every row's numerators from Φ's Markov parameters (one eigenvalue problem in all, for the
-    # denominator; two per row through ss2tf), their leading coefficient exactly zero
+    # every row's numerators from Φ's Markov parameters (the denominator's eigenvalue problem is the
+    # only one; ss2tf took two per row), their leading coefficient exactly zero
     n_a, n_b = _numerators(phi, g_a, c_rows, den), _numerators(phi, g_b, c_rows, den)
     for i in range(c_rows.shape[0]):
         # x_{k+1} = Φ x_k + Γa v_k + Γb v_(k−1): y_k = C x_k (a one-sample lag in both filters)
