@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["BLOCK", "centred_sum_of_squares", "line_slope", "max_abs", "variance"]
+__all__ = ["BLOCK", "centred_sum_of_squares", "line_slope", "max_abs", "sum_of_squares_about", "variance"]
 
 #: Samples per block: 2 MB of float64, small beside a long record and large enough that the
 #: per-block overhead of a few numpy calls is lost in the arithmetic.
@@ -76,12 +76,27 @@ def centred_sum_of_squares(y: np.ndarray) -> float:
     float
         The sum of squared deviations from the mean.
     """
-    if y.size == 0:
-        return 0.0
-    mean = _mean(y)
+    return sum_of_squares_about(y, _mean(y)) if y.size else 0.0
+
+
+def sum_of_squares_about(y: np.ndarray, level: float) -> float:
+    """``Σ(y − level)²``, a block at a time (no temporary of the record's length; 0 for no samples).
+
+    Parameters
+    ----------
+    y : ndarray
+        One-dimensional samples.
+    level : float
+        The level the deviations are taken from.
+
+    Returns
+    -------
+    float
+        The sum of squared deviations from ``level``.
+    """
     total = 0.0
     for i in range(0, y.size, BLOCK):
-        d = y[i : i + BLOCK] - mean
+        d = y[i : i + BLOCK] - level
         total += float(np.dot(d, d))
     return total
 

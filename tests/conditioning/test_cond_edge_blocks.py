@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from motorid.conditioning.edge import _SPLIT_BLOCK, _best_split
+from motorid.blockwise import BLOCK as _SPLIT_BLOCK  # the blocks _best_split works in
+from motorid.conditioning.edge import _best_split
 
 
 def _full_length(y: np.ndarray, lo: int, hi: int) -> tuple[int, float]:
@@ -85,7 +86,7 @@ def test_response_times_are_the_full_length_pass(delay: int, block: int, monkeyp
     from motorid.conditioning import timescale
     from motorid.conditioning.timescale import response_times
 
-    monkeypatch.setattr(timescale, "_BLOCK", block)
+    monkeypatch.setattr(timescale, "BLOCK", block)
 
     n = 20_000
     t = np.arange(n) * 1e-3

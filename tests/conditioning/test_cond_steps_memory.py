@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from motorid.blockwise import BLOCK
 from motorid.conditioning import segment
 from motorid.conditioning.edge import noise_level
 from motorid.identification import sanity
@@ -30,13 +31,13 @@ def test_the_noise_level_with_its_medians_in_place_is_the_same_bits(n):
     assert noise_level(y) == _noise_level_as_it_was(y)
 
 
-@pytest.mark.parametrize("n", [0, 1, 5, segment._BLOCK - 1, segment._BLOCK, 2 * segment._BLOCK + 7])
+@pytest.mark.parametrize("n", [0, 1, 5, BLOCK - 1, BLOCK, 2 * BLOCK + 7])
 def test_the_samples_off_a_level_are_counted_in_blocks(n):
     u = np.random.default_rng(n).normal(2.0, 0.3, n)
     assert segment._count_off(u, 2.0, 0.25) == np.count_nonzero(np.abs(u - 2.0) > 0.25)
 
 
-@pytest.mark.parametrize("n", [1, 5, sanity._BLOCK, 3 * sanity._BLOCK + 11])
+@pytest.mark.parametrize("n", [1, 5, BLOCK, 3 * BLOCK + 11])
 def test_the_input_checks_mean_square_in_blocks(n):
     u = np.random.default_rng(n).normal(5.0, 0.05, n)
     assert sanity._mean_square_about(u, 5.0) == pytest.approx(float(np.mean((u - 5.0) ** 2)), rel=1e-12)

@@ -131,7 +131,7 @@ def test_blocked_interpolation_has_the_bits_of_numpys(monkeypatch):
     """Block by block, each block with the nodes that bracket it: every sample has the whole call's bracket."""
     from motorid.conditioning import sync
 
-    monkeypatch.setattr(sync, "_BLOCK", 16)
+    monkeypatch.setattr(sync, "BLOCK", 16)
     rng = np.random.default_rng(3)
     for trial in range(200):
         n = int(rng.integers(2, 150))

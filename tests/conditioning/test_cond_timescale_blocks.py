@@ -17,7 +17,7 @@ def _whole(z: np.ndarray, width: int, level: float) -> int:
 
 @pytest.mark.parametrize("width", [3, 5, 31])
 def test_blocks_find_the_first_hit_of_the_whole_filter(monkeypatch, width):
-    monkeypatch.setattr(timescale, "_BLOCK", 16)
+    monkeypatch.setattr(timescale, "BLOCK", 16)
     rng = np.random.default_rng(width)
     n = 200
     for at in (0, 1, 14, 15, 16, 17, 40, 47, 48, 150, 199, None):

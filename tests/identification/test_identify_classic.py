@@ -46,15 +46,16 @@ def test_classic_rejects_flat_response() -> None:
 
 
 def test_first_crossing_in_blocks_is_the_first_sample_past_the_level() -> None:
-    """The search runs in blocks of ``_BLOCK`` samples: a crossing on either side of a block edge, a level
+    """The search runs in blocks of ``BLOCK`` samples: a crossing on either side of a block edge, a level
     never reached, a negative level and a NaN are found as by the whole-array ``flatnonzero``."""
     import numpy as np
 
+    from motorid.blockwise import BLOCK  # the blocks the crossing search works in
     from motorid.identification import classic
 
-    n = 3 * classic._BLOCK + 5
+    n = 3 * BLOCK + 5
     t = np.arange(n) * 1e-3
-    for at in (0, 1, classic._BLOCK - 1, classic._BLOCK, classic._BLOCK + 1, 2 * classic._BLOCK, n - 1):
+    for at in (0, 1, BLOCK - 1, BLOCK, BLOCK + 1, 2 * BLOCK, n - 1):
         for sign in (1.0, -1.0):
             y = np.where(np.arange(n) >= at, 2.0, 0.5) * sign
             if at >= 4:

@@ -10,7 +10,8 @@ import pytest
 from motorid.identification.metrics import nrmse, response_change
 from motorid.model import MotorModel
 from motorid.blockwise import max_abs
-from motorid.model.response import _BLOCK, _uniform_steps, step_response
+from motorid.blockwise import BLOCK as _BLOCK  # the blocks the response module works in
+from motorid.model.response import _uniform_steps, step_response
 
 
 def _model(delay_s: float = 0.0) -> MotorModel:

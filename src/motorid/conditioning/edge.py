@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from motorid.blockwise import BLOCK
 from motorid.errors import ResponseNotStepError, StepNotFoundError
 
 __all__ = [
@@ -99,11 +100,6 @@ def noise_level(y: np.ndarray) -> float:
     return float(1.4826 * np.median(d, overwrite_input=True) / np.sqrt(2.0))
 
 
-#: Samples (candidate splits, steps) handled at a time by :func:`_best_split` and
-#: :func:`quantisation_step`: their temporaries stay small on a long log.
-_SPLIT_BLOCK = 1 << 18
-
-
 def quantisation_step(y: np.ndarray, *, below: float = np.inf, valid: np.ndarray | None = None) -> float:
     """Smallest non-zero change between consecutive samples (one code of an 8-bit scope).
 
@@ -126,8 +122,8 @@ def quantisation_step(y: np.ndarray, *, below: float = np.inf, valid: np.ndarray
     ok = None if valid is None else np.asarray(valid, dtype=bool)
     quantum = np.inf
     # in blocks of steps: the smallest is the same, without three arrays of the record's length
-    for start in range(0, max(y.size - 1, 0), _SPLIT_BLOCK):
-        d = np.diff(y[start : start + _SPLIT_BLOCK + 1])
+    for start in range(0, max(y.size - 1, 0), BLOCK):
+        d = np.diff(y[start : start + BLOCK + 1])
         np.abs(d, out=d)
         if ok is not None:
             d = d[ok[start : start + d.size]]
@@ -149,8 +145,8 @@ def _best_split(y: np.ndarray, lo: int, hi: int) -> tuple[int, float]:
     c2 = np.multiply(y, y)
     np.cumsum(c2, out=c2)  # a running sum is sequential: in place gives the same sums
     best_k, best = lo, np.inf
-    for start in range(lo, hi, _SPLIT_BLOCK):
-        k = np.arange(start, min(hi, start + _SPLIT_BLOCK))
+    for start in range(lo, hi, BLOCK):
+        k = np.arange(start, min(hi, start + BLOCK))
         s_left, q_left = c1[k - 1], c2[k - 1]
         s_right, q_right = c1[-1] - s_left, c2[-1] - q_left
         sse = (q_left - s_left**2 / k) + (q_right - s_right**2 / (n - k))

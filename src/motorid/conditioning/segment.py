@@ -14,6 +14,7 @@ from itertools import pairwise
 
 import numpy as np
 
+from motorid.blockwise import BLOCK
 from motorid.capture import Capture
 from motorid.conditioning.edge import MIN_POST_STEP_SAMPLES, noise_level
 
@@ -140,15 +141,11 @@ def find_steps(capture: Capture) -> tuple[StepSegment, ...]:
     return tuple(out)
 
 
-#: Samples per block of :func:`_count_off` (its temporaries stay small on a long log).
-_BLOCK = 1 << 18
-
-
 def _count_off(u: np.ndarray, level: float, limit: float) -> int:
     """``count_nonzero(|u − level| > limit)`` in blocks: no temporaries of the log's length."""
     off = 0
-    for start in range(0, u.size, _BLOCK):
-        d = u[start : start + _BLOCK] - level
+    for start in range(0, u.size, BLOCK):
+        d = u[start : start + BLOCK] - level
         np.abs(d, out=d)
         off += int(np.count_nonzero(d > limit))
     return off

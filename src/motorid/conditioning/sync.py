@@ -139,10 +139,6 @@ def synchronise(
     return Synchronised(time, u, outputs, {r.role: r.source for r in responses})
 
 
-#: Samples per block of the checks over a long record (their temporaries stay small).
-_BLOCK = BLOCK
-
-
 #: How far, in samples, a log's stamp may sit off the grid ``k·dt`` for its own sample to stand for
 #: the interpolation onto it: a millionth of a sample moves a value by a millionth of a sample's change.
 ON_GRID_TOL = 1e-6
@@ -183,8 +179,8 @@ def _own_grid(responses: Sequence[StepResponse], avail: float) -> tuple[np.ndarr
 def _stamps_on_grid(stamps: np.ndarray, dt: float) -> bool:
     """Whether ``|stamps[k] − k·dt| ≤ ON_GRID_TOL·dt`` for every ``k`` (in blocks: no full-length temporary)."""
     tol = ON_GRID_TOL * dt
-    for start in range(0, stamps.size, _BLOCK):
-        block = stamps[start : start + _BLOCK]
+    for start in range(0, stamps.size, BLOCK):
+        block = stamps[start : start + BLOCK]
         grid = np.arange(start, start + block.size, dtype=float)
         grid *= dt
         np.subtract(block, grid, out=grid)
@@ -216,8 +212,8 @@ def blocked_interp(x: np.ndarray, xp: np.ndarray, fp: np.ndarray) -> np.ndarray:
         The interpolated values.
     """
     out = np.empty(x.size)
-    for start in range(0, x.size, _BLOCK):
-        block = x[start : start + _BLOCK]
+    for start in range(0, x.size, BLOCK):
+        block = x[start : start + BLOCK]
         lo = max(int(np.searchsorted(xp, block[0], side="right")) - 1, 0)
         hi = min(int(np.searchsorted(xp, block[-1], side="right")) + 1, xp.size)
         out[start : start + block.size] = np.interp(block, xp[lo:hi], fp[lo:hi])
@@ -274,4 +270,4 @@ def level_throughout(time: np.ndarray, xp: np.ndarray, fp: np.ndarray, level: fl
     if lo < 0:
         return False  # samples left of the first node take fp[0] (np.interp's left)
     hi = min(int(np.searchsorted(xp, time[-1], side="right")) + 1, fp.size)
-    return all(bool(np.all(fp[start : min(start + _BLOCK, hi)] == level)) for start in range(lo, hi, _BLOCK))
+    return all(bool(np.all(fp[start : min(start + BLOCK, hi)] == level)) for start in range(lo, hi, BLOCK))

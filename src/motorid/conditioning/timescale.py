@@ -100,10 +100,6 @@ def response_times(time_s: np.ndarray, y: np.ndarray, *, pre: np.ndarray | None 
     return ResponseTimes(t63, max(dead, 0.0), final, noise)
 
 
-#: Samples per block of the running median's search for the 63 % time.
-_BLOCK = BLOCK
-
-
 def _normalised(v: np.ndarray, norm: tuple[float, float] | None) -> np.ndarray:
     """``v·sign/|final|`` for ``norm = (sign, |final|)`` (a new array), ``v`` itself without one."""
     if norm is None:
@@ -116,12 +112,12 @@ def _normalised(v: np.ndarray, norm: tuple[float, float] | None) -> np.ndarray:
 def _first_run_above(v: np.ndarray, band: float, norm: tuple[float, float]) -> int:
     """First sample from which :data:`PERSISTENCE` normalised samples in a row are above ``band`` (0 if none).
 
-    The response has started there.  In blocks of :data:`_BLOCK` (each with the ``PERSISTENCE − 1``
+    The response has started there.  In blocks of :data:`BLOCK` (each with the ``PERSISTENCE − 1``
     samples after it): the same index as the test on the whole record.
     """
     n = v.size
-    for start in range(0, max(n - PERSISTENCE + 1, 0), _BLOCK):
-        hi = min(n, start + _BLOCK + PERSISTENCE - 1)
+    for start in range(0, max(n - PERSISTENCE + 1, 0), BLOCK):
+        hi = min(n, start + BLOCK + PERSISTENCE - 1)
         out = _normalised(v[start:hi], norm) > band
         started = out[: hi - start - PERSISTENCE + 1].copy()
         for j in range(1, PERSISTENCE):
@@ -135,7 +131,7 @@ def _first_filtered_hit(z: np.ndarray, width: int, level: float, median_filter,
                         norm: tuple[float, float] | None = None) -> int:
     """First index where the running median of ``z`` (``width`` samples, ``mode="nearest"``) is ≥ ``level``; −1 if none.
 
-    In blocks of :data:`_BLOCK`, each filtered with ``width // 2`` samples of its neighbours on
+    In blocks of :data:`BLOCK`, each filtered with ``width // 2`` samples of its neighbours on
     either side (at the record's ends, its own edge as the whole record's): a median is one of its
     window's samples, so every value is the whole record's, and the search stops at the block of
     the first hit instead of filtering a 10 M-sample record whole.  With ``norm = (sign, |final|)``
@@ -143,10 +139,10 @@ def _first_filtered_hit(z: np.ndarray, width: int, level: float, median_filter,
     the whole record first).
     """
     half = width // 2
-    for start in range(0, z.size, _BLOCK):
-        lo, hi = max(0, start - half), min(z.size, start + _BLOCK + half)
+    for start in range(0, z.size, BLOCK):
+        lo, hi = max(0, start - half), min(z.size, start + BLOCK + half)
         filtered = median_filter(_normalised(z[lo:hi], norm), size=width, mode="nearest")
-        filtered = filtered[start - lo : start - lo + _BLOCK]
+        filtered = filtered[start - lo : start - lo + BLOCK]
         hit = filtered >= level
         if hit.any():
             return start + int(np.argmax(hit))

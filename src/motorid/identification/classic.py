@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from motorid.blockwise import line_slope
+from motorid.blockwise import BLOCK, line_slope
 from motorid.identification.arrays import check_step_level, response_arrays
 from motorid.identification.result import IdentificationError
 
@@ -22,8 +22,6 @@ __all__ = ["SETTLE_WARN", "ClassicResult", "classic_first_order", "first_crossin
 #: record is reported as not settled.
 SETTLE_WARN = 0.02
 _RISE = 1.0 - math.exp(-1.0)  # 0.632…
-#: Samples per block of the crossing search (its temporaries stay small on a 10 M-sample record).
-_BLOCK = 1 << 18
 
 
 @dataclass(frozen=True, slots=True)
@@ -99,9 +97,9 @@ def first_crossing(time_s: np.ndarray, y: np.ndarray, level: float) -> tuple[flo
     """
     sign = np.sign(level) or 1.0
     i = -1
-    for start in range(0, y.size, _BLOCK):
+    for start in range(0, y.size, BLOCK):
         # in blocks: the same test per sample, without the index array of a long record's samples past it
-        hit = (y[start : start + _BLOCK] - level) * sign >= 0
+        hit = (y[start : start + BLOCK] - level) * sign >= 0
         if hit.any():
             i = start + int(np.argmax(hit))
             break

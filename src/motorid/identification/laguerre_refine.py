@@ -21,7 +21,7 @@ from motorid.identification.method_options import FIT_TOLERANCE, MAX_NFEV
 from motorid.identification.metrics import bic
 from motorid.identification.result import IdentificationError
 from motorid.model import lti
-from motorid.model.forced import delayed_discretisation, zero_hold_delayed
+from motorid.model.forced import DelayedHold, delayed_discretisation, zero_hold_delayed
 
 if TYPE_CHECKING:
     from motorid.identification.laguerre import _Candidate
@@ -437,7 +437,7 @@ def laguerre_polish(
     # the sampled systems of the last evaluations, by their A and delay: a finite-difference column of a
     # numerator, a scale or a direct term moves neither, and the exponentials and Φ's eigenvalue problem
     # are most of a prediction's cost (the same numbers: the same function of the same arguments)
-    sampled: dict[tuple[bytes, float], Any] = {}
+    sampled: dict[tuple[bytes, float], DelayedHold] = {}
 
     def predict(model: _PolishModel, xx: np.ndarray) -> np.ndarray:
         a_s, b_s, rows, dcol, dls = model.system(xx)

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.optimize
 
+from motorid.blockwise import sum_of_squares_about
 from motorid.identification.classic import first_crossing
 from motorid.model.uncertainty import Uncertainty
 from motorid.numfmt import sig
@@ -282,17 +283,9 @@ def _t63(t: np.ndarray, y: np.ndarray, final: float) -> float:
     return first_crossing(t, y, (1.0 - np.exp(-1.0)) * final)[0]
 
 
-#: Samples per block of :func:`_mean_square_about` (its temporaries stay small on a long log).
-_BLOCK = 1 << 18
-
-
 def _mean_square_about(u: np.ndarray, level: float) -> float:
     """``mean((u − level)²)`` in blocks: no temporary of the record's length (160 MB at 10 M samples)."""
-    total = 0.0
-    for start in range(0, u.size, _BLOCK):
-        d = u[start : start + _BLOCK] - level
-        total += float(d @ d)
-    return total / u.size
+    return sum_of_squares_about(u, level) / u.size
 
 
 def sanity_checks(

@@ -376,7 +376,7 @@ def _channel_data(cond: ConditionedExperiment, max_samples: int = MAX_FIT_SAMPLE
         # the times increase: the record before the step and the part fitted are ranges (views, not the
         # masks and masked copies of a long record), less the interpolated glitches of a position
         t, dt = r.time_s, r.sample_interval_s
-        k_pre = split_at(t, t)[0].size
+        k_pre = int(np.searchsorted(t, 0.0, side="left"))
         k0 = int(np.searchsorted(t, -1e-9 * dt, side="left"))
         k1 = t.size if length is None else max(k0, int(np.searchsorted(t, length + 0.5 * dt, side="right")))
         fitted, before = slice(k0, k1), slice(0, k_pre)

@@ -32,6 +32,7 @@ call, on that recursion.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
@@ -222,8 +223,31 @@ def _numerators(a: np.ndarray, b: np.ndarray, c: np.ndarray, den: np.ndarray) ->
     return num
 
 
-def delayed_discretisation(a_c: np.ndarray, b_c: np.ndarray, h: float,
-                           delay: float) -> tuple[int, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+@dataclass(frozen=True, slots=True)
+class DelayedHold:
+    """A held input's sampled system with a dead time: ``x_{k+1} = Φ x_k + Γa v_k + Γb v_(k−1)``.
+
+    Attributes
+    ----------
+    whole : int
+        Whole samples of the dead time.
+    frac : float
+        The rest of the dead time [s], ``0 ≤ frac < h``.
+    phi, gamma_a, gamma_b : ndarray
+        ``Φ`` (n, n), ``Γa`` and ``Γb`` (n, 1).
+    den : ndarray
+        ``det(zI − Φ)``, highest power first.
+    """
+
+    whole: int
+    frac: float
+    phi: np.ndarray
+    gamma_a: np.ndarray
+    gamma_b: np.ndarray
+    den: np.ndarray
+
+
+def delayed_discretisation(a_c: np.ndarray, b_c: np.ndarray, h: float, delay: float) -> DelayedHold:
     """The sampled system of :func:`zero_hold_delayed`: what depends on ``A``, ``B``, ``h`` and the delay only.
 
     Parameters
@@ -237,11 +261,10 @@ def delayed_discretisation(a_c: np.ndarray, b_c: np.ndarray, h: float,
 
     Returns
     -------
-    tuple
-        ``(whole, frac, Φ, Γa, Γb, den)``: ``x_{k+1} = Φ x_k + Γa v_k + Γb v_(k−1)`` and
-        ``den = det(zI − Φ)``.  A fit that varies only a model's output rows (its numerators) can
-        keep this and pass it back (``discretisation=``): the exponentials and the eigenvalue
-        problem are most of a call's cost.
+    DelayedHold
+        A fit that varies only a model's output rows (its numerators) can keep it and pass it
+        back (``discretisation=``): the exponentials and the eigenvalue problem are most of a
+        call's cost.
     """
     whole = math.floor(delay / h + 1e-12)
     frac = delay - whole * h
@@ -249,13 +272,11 @@ def delayed_discretisation(a_c: np.ndarray, b_c: np.ndarray, h: float,
     e_head, g_head = lti.zoh(a_c, b_c, frac)
     phi = e_rest @ e_head
     g_b = e_rest @ g_head  # the head of the interval, still fed by the previous sample
-    return whole, frac, phi, g_rest, g_b, np.real(np.poly(phi))
+    return DelayedHold(whole, frac, phi, g_rest, g_b, np.real(np.poly(phi)))
 
 
 def zero_hold_delayed(a_c: np.ndarray, b_c: np.ndarray, c_rows: np.ndarray, d_col: np.ndarray, h: float,
-                      u: np.ndarray, delay: float,
-                      discretisation: tuple[int, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
-                      ) -> np.ndarray:
+                      u: np.ndarray, delay: float, discretisation: DelayedHold | None = None) -> np.ndarray:
     """Exact sampled response of ``ẋ = Ax + Bu(t − θ)``, ``y = Cx + Du(t − θ)`` to a held input.
 
     The input ``u_k`` holds over ``[t_k, t_k + h)``; a delay ``θ = n·h + f`` splits each sample
@@ -277,7 +298,7 @@ def zero_hold_delayed(a_c: np.ndarray, b_c: np.ndarray, c_rows: np.ndarray, d_co
         The input samples, each held over its interval.
     delay : float
         The dead time ``θ`` [s] (negative: the input advanced).
-    discretisation : tuple, optional
+    discretisation : DelayedHold, optional
         :func:`delayed_discretisation` of the same ``a_c``, ``b_c``, ``h`` and ``delay``, computed
         before; computed here when not given.
 
@@ -292,14 +313,15 @@ def zero_hold_delayed(a_c: np.ndarray, b_c: np.ndarray, c_rows: np.ndarray, d_co
 
     if discretisation is None:
         discretisation = delayed_discretisation(a_c, b_c, h, delay)
-    whole, frac, phi, g_a, g_b, den = discretisation
+    whole, frac, phi, den = discretisation.whole, discretisation.frac, discretisation.phi, discretisation.den
     idx = np.arange(u.size) - whole  # a negative delay (a capture triggered late) advances the input
     v = np.where(idx < 0, 0.0, u[np.clip(idx, 0, u.size - 1)])
     v_prev = np.r_[0.0, v[:-1]]
     out = np.empty((u.size, c_rows.shape[0]))
     # every row's numerators from Φ's Markov parameters (the denominator's eigenvalue problem is the
     # only one; ss2tf took two per row), their leading coefficient exactly zero
-    n_a, n_b = _numerators(phi, g_a, c_rows, den), _numerators(phi, g_b, c_rows, den)
+    n_a = _numerators(phi, discretisation.gamma_a, c_rows, den)
+    n_b = _numerators(phi, discretisation.gamma_b, c_rows, den)
     for i in range(c_rows.shape[0]):
         # x_{k+1} = Φ x_k + Γa v_k + Γb v_(k−1): y_k = C x_k (a one-sample lag in both filters)
         y = lfilter(n_a[i], den, v) + lfilter(n_b[i], den, v_prev)

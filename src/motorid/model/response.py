@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from motorid.blockwise import max_abs
+from motorid.blockwise import BLOCK, max_abs
 from motorid.errors import OptionError
 from motorid.model.lti import zoh
 
@@ -90,15 +90,11 @@ def step_response(model: MotorModel, time_s: Any, step_volts: float | None = Non
     return {name: y[:, i] for i, name in enumerate(model.outputs)}
 
 
-#: Samples per block of the checks over a long time axis (their temporaries stay small).
-_BLOCK = 1 << 18
-
-
 def _outputs(x: np.ndarray, c: np.ndarray) -> np.ndarray:
     """``x @ c.T``: the outputs of the states ``x`` (one row a sample), written over ``x`` when it fits.
 
-    A long record (at least two :data:`_BLOCK` of samples) with as many outputs as states has its
-    outputs computed in row blocks of at least ``_BLOCK`` rows (the last block takes the remainder,
+    A long record (at least two :data:`BLOCK` of samples) with as many outputs as states has its
+    outputs computed in row blocks of at least ``BLOCK`` rows (the last block takes the remainder,
     so no product is small) and stored over ``x``: each output row depends on its own state row
     only, and each block is the same BLAS product as the whole (tests/model/test_response_memory.py
     compares the bits), so the states and the outputs of a 10 M-sample record are not held
@@ -108,9 +104,9 @@ def _outputs(x: np.ndarray, c: np.ndarray) -> np.ndarray:
     """
     count, n = x.shape
     m = c.shape[0]
-    if count < 2 * _BLOCK or m != n or not x.flags.c_contiguous:
+    if count < 2 * BLOCK or m != n or not x.flags.c_contiguous:
         return x @ c.T
-    starts = list(range(0, count - _BLOCK, _BLOCK))  # the last block holds _BLOCK to 2·_BLOCK − 1 rows
+    starts = list(range(0, count - BLOCK, BLOCK))  # the last block holds BLOCK to 2·BLOCK − 1 rows
     for i, start in enumerate(starts):
         stop = starts[i + 1] if i + 1 < len(starts) else count
         x[start:stop] = x[start:stop] @ c.T
@@ -119,8 +115,8 @@ def _outputs(x: np.ndarray, c: np.ndarray) -> np.ndarray:
 
 def _uniform_steps(t: np.ndarray, d0: float, tol: float) -> bool:
     """Whether every step of ``t`` is within ``tol`` of ``d0``: ``all(|diff(t) − d0| <= tol)``, in blocks."""
-    for i in range(0, t.size - 1, _BLOCK):
-        d = np.diff(t[i : i + _BLOCK + 1])
+    for i in range(0, t.size - 1, BLOCK):
+        d = np.diff(t[i : i + BLOCK + 1])
         d -= d0
         np.abs(d, out=d)
         if not np.all(d <= tol):
