@@ -240,3 +240,18 @@ def test_python_design_matches_cli_on_demo(models):
     assert d.states == ("position", "velocity", "current", "acceleration")
     assert d.model_states == tuple(m.states)
     _same_poles(np.linalg.eigvals(m.A - m.B @ d.K_model.reshape(1, -1)), _requested(4))
+
+
+def test_simulate_says_when_the_record_is_too_short_to_settle(models, run_cli, tmp_path):
+    """A 20 ms record of a loop that takes a second: rise and settling times are not reached, and the
+    printout says so instead of "nan s"; on a record long enough they are numbers."""
+    path = models["demo"]
+    d_file = tmp_path / "d.json"
+    res = run_cli("design", path, *_spec(_model(path).A.shape[0]), "--json", d_file)
+    assert res.code == 0, res.err
+    res = run_cli("simulate", path, d_file, "--duration", "0.02")
+    assert res.code == 0, res.err
+    first = res.out.splitlines()[0]
+    assert "settling time (2 %) not within the record" in first and "nan" not in first, first
+    res = run_cli("simulate", path, d_file, "--duration", "8")
+    assert res.code == 0 and "settling time (2 %) not within" not in res.out, res.out

@@ -363,3 +363,27 @@ def test_the_page_identifies_one_step_of_a_staircase_log(client, tmp_path):
     want = mi.identify(mi.read_experiment(velocity=rec.files["log"], segment=2)).model.to_json()
     got = client.get(f"/tab/{tab}/download/model.json").json()
     assert got["first_order"]["dc_gain"] == pytest.approx(want["first_order"]["dc_gain"], rel=1e-9)
+
+
+def test_the_closed_loop_table_gives_the_data_units_and_says_when_a_time_was_not_reached(client, tmp_path):
+    """On an rpm log the steady-state error is in rpm and the peak command in V (both were labelled V
+    whatever the data); a record too short for the response to settle says so, not "nan s"."""
+    from motorid.trainer.realsetups import write_real_setup
+
+    rec = write_real_setup("l298n-rpm", tmp_path / "rig", seed=0)
+    tab = open_tab(client)
+    res = client.post(f"/tab/{tab}/upload", files=multipart("files", [rec.files["log"]]))
+    assert res.status_code == 200, res.text
+    res = client.post(f"/tab/{tab}/identify", data={"role_c0": "velocity"})
+    assert res.status_code == 200, res.text
+    # 20 ms of a loop whose poles are at 2 rad/s: neither 90 % of the rise nor the 2 % band is reached
+    res = client.post(f"/tab/{tab}/design", data={"damping": "1", "wn": "2", "integral": "on", "level": "100",
+                                                     "duration": "0.02"})
+    assert res.status_code == 200, res.text
+    table = res.text[res.text.index('<table id="metrics">'):]
+    table = table[: table.index("</table>")]
+    assert "not within the record" in table and "nan" not in table
+    row = re.search(r"steady-state error</td><td>([^<]*)</td>", table)
+    assert row is not None and row.group(1).endswith(" rpm"), table
+    row = re.search(r"peak \|u\|</td><td>([^<]*)</td>", table)
+    assert row is not None and row.group(1).endswith(" V"), table

@@ -432,6 +432,13 @@ _METRIC_UNITS: tuple[tuple[str, str], ...] = (
     ("tracking_rms_v", "output"), ("peak_control_v", "input"))
 
 
+def _metric_text(key: str, value: float, unit: str) -> str:
+    """One closed-loop metric in words with its unit; a time the response never reached says so (not ``nan s``)."""
+    if key in ("rise_time_s", "settling_time_s") and not math.isfinite(value):
+        return f"{metric_name(key)} not within the record"
+    return f"{metric_name(key)} {sig(value)} {unit}"
+
+
 def simulate(
     model_file: Annotated[Path, typer.Argument(help="Model JSON.")],
     design_file: Annotated[Path, typer.Argument(help="Design JSON (motorid design --json).")],
@@ -485,8 +492,8 @@ def simulate(
             reference=ReferenceSignal(kind=reference, level_v=level, initial_v=initial_ref, amplitude_v=amplitude,
                                       frequency_hz=frequency, start_s=start))
     m = res.metrics
-    typer.echo(", ".join(f"{metric_name(key)} {sig(getattr(m, key))} "
-                         f"{ {'output': res.output_unit, 'input': res.input_unit}.get(unit, unit)}"
+    typer.echo(", ".join(_metric_text(key, getattr(m, key), {"output": res.output_unit,
+                                                              "input": res.input_unit}.get(unit, unit))
                          for key, unit in _METRIC_UNITS))
     for w in res.warnings:
         typer.echo(f"warning: {w}")
