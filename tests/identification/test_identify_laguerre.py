@@ -239,6 +239,33 @@ def test_delayed_response_is_exact_for_fractional_delays(delay: float) -> None:
     assert np.max(np.abs(y - _fine_grid_response(a, b, c, d, h, u, delay))) < 1e-9
 
 
+def _fine_grid_advanced(a, b, c, d, h, u, delay, k=200):
+    """Reference for a negative delay: the input starts at ``delay`` < 0, simulated from rest there on a fine grid."""
+    sh = round(-delay / (h / k))
+    uf = np.r_[np.repeat(u, k), np.full(sh, u[-1])]
+    ad, bd, cd, dd, _ = scipy.signal.cont2discrete((a, b, c, np.zeros((c.shape[0], 1))), h / k)
+    _, y, _ = scipy.signal.dlsim((ad, bd, cd, dd, h / k), uf)
+    return y[sh::k][:u.size] + np.outer(uf[sh::k][:u.size], d)
+
+
+@pytest.mark.parametrize("delay", [-0.0137, -0.01, -0.004, -0.05])
+def test_a_negative_delay_advances_the_response(delay: float) -> None:
+    # a capture triggered late (the polish's shift of the current beside a dead time near 0): the output
+    # sample k is the response at k·h + |delay| after the input's start; it used to give the response of +|delay|
+    from motorid.model.forced import zero_hold_delayed
+
+    a = np.array([[0.0, 1.0], [-6.0, -5.0]])
+    b = np.array([[0.0], [1.0]])
+    c = np.array([[3.0, 1.0], [1.0, 0.0]])
+    d = np.array([0.5, 0.0])
+    h = 0.01
+    t = np.arange(300) * h
+    u = 2.0 + 0.3 * np.sin(7 * t) * (np.arange(300) > 50)
+    y = zero_hold_delayed(a, b, c, d, h, u, delay)
+    assert y.shape == (300, 2)
+    assert np.max(np.abs(y - _fine_grid_advanced(a, b, c, d, h, u, delay))) < 1e-9
+
+
 def test_polish_recovers_shared_poles_scale_current_and_delay_from_a_rough_start() -> None:
     from motorid.identification.laguerre_refine import laguerre_polish
     from motorid.model.forced import zero_hold_delayed

@@ -314,7 +314,13 @@ def zero_hold_delayed(a_c: np.ndarray, b_c: np.ndarray, c_rows: np.ndarray, d_co
     if discretisation is None:
         discretisation = delayed_discretisation(a_c, b_c, h, delay)
     whole, frac, phi, den = discretisation.whole, discretisation.frac, discretisation.phi, discretisation.den
-    idx = np.arange(u.size) - whole  # a negative delay (a capture triggered late) advances the input
+    # a negative delay (a capture triggered late) advances the input: the input started `lead` samples before
+    # the first output sample, so the response runs from there (the state at the first sample is not zero), the
+    # input held at its last sample for the samples it runs ahead at the end
+    lead = max(-whole, 0)
+    if lead:
+        u = np.r_[u, np.full(lead, u[-1])]
+    idx = np.arange(u.size) - max(whole, 0)
     v = np.where(idx < 0, 0.0, u[np.clip(idx, 0, u.size - 1)])
     v_prev = np.r_[0.0, v[:-1]]
     out = np.empty((u.size, c_rows.shape[0]))
@@ -326,4 +332,4 @@ def zero_hold_delayed(a_c: np.ndarray, b_c: np.ndarray, c_rows: np.ndarray, d_co
         # x_{k+1} = Φ x_k + Γa v_k + Γb v_(k−1): y_k = C x_k (a one-sample lag in both filters)
         y = lfilter(n_a[i], den, v) + lfilter(n_b[i], den, v_prev)
         out[:, i] = y + d_col[i] * (v_prev if frac > 0 else v)
-    return out
+    return out[lead:]
