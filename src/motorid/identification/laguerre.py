@@ -635,6 +635,7 @@ def laguerre_identify(
     dead_time_s: float = 0.0,
     extra_outputs: dict[str, Any] | None = None,
     pre_step: dict[str, Any] | None = None,
+    phase_s: float = 0.0,
 ) -> LaguerreResult:
     """Identify a transfer function from one step response by Laguerre–Hankel realisation.
 
@@ -661,6 +662,9 @@ def laguerre_identify(
     pre_step : dict, optional
         Channel → its samples before the step, baseline removed, at the spacing of ``time_s``:
         the polish fits each such channel's offset on them (:func:`laguerre_polish`).
+    phase_s : float
+        Seconds from the step instant to the first sample of ``time_s`` (half a sample for a
+        scope's sampled edge): the polish's dead time is counted from the step instant.
 
     Returns
     -------
@@ -712,7 +716,7 @@ def laguerre_identify(
         raise IdentificationError("no stable realisation of the Laguerre coefficients for any pole, number of "
                                   "terms or order" + (f" ({errors[0]})" if errors else ""))
     chosen = min(candidates, key=lambda c: c.score)
-    polished = (_polish_orders(candidates, t, {output: yy, **extras}, u, step_volts, output, pre_step)
+    polished = (_polish_orders(candidates, t, {output: yy, **extras}, u, step_volts, output, pre_step, phase_s)
                 if settings.polish else [])
     polish: LaguerrePolish | None = None
     if polished:

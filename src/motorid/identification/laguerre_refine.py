@@ -62,7 +62,7 @@ def _transfer_function(a: Any, b: Any, c: Any) -> tuple[np.ndarray, np.ndarray]:
 
 def _polish_orders(candidates: list[_Candidate], t: np.ndarray, outputs: dict[str, np.ndarray],
                    u: np.ndarray | None, step_volts: float, primary: str,
-                   pre_step: dict[str, np.ndarray] | None = None) -> list[tuple[Any, ...]]:
+                   pre_step: dict[str, np.ndarray] | None = None, phase_s: float = 0.0) -> list[tuple[Any, ...]]:
     """The best realisation of each order, polished; (BIC, candidate, polish, A, B, C) of the stable ones."""
     best: dict[int, _Candidate] = {}
     for c in candidates:
@@ -70,7 +70,7 @@ def _polish_orders(candidates: list[_Candidate], t: np.ndarray, outputs: dict[st
             best[c.order] = c
     chosen: list[tuple[_Candidate, list[LaguerrePolish]]] = []
     run = functools.partial(laguerre_polish, t, outputs, input_v=u, step_volts=step_volts, primary=primary,
-                            pre_step=pre_step)
+                            pre_step=pre_step, phase_s=phase_s)
     for m, c in sorted(best.items()):
         fits = _polish_order(m, [{"A": c.A, "B": c.B, "C": c.C, "delay_s": c.coefficients.delay_s}],
                              chosen[-1][1][0] if chosen else None, float(t[1] - t[0]), run)
@@ -78,7 +78,7 @@ def _polish_orders(candidates: list[_Candidate], t: np.ndarray, outputs: dict[st
             chosen.append((c, fits))
     if not chosen:
         return []
-    final = _with_shared_noise_model(chosen, t, outputs, u, step_volts, primary, pre_step)
+    final = _with_shared_noise_model(chosen, t, outputs, u, step_volts, primary, pre_step, phase_s)
     out: list[tuple[Any, ...]] = []
     for c, pol in final:
         sys = _state_space(pol.num, pol.den)
@@ -88,7 +88,8 @@ def _polish_orders(candidates: list[_Candidate], t: np.ndarray, outputs: dict[st
 
 def _with_shared_noise_model(orders: list[tuple[_Candidate, list[LaguerrePolish]]], t: np.ndarray,
                              outputs: dict[str, np.ndarray], u: np.ndarray | None, step_volts: float, primary: str,
-                             pre_step: dict[str, np.ndarray] | None) -> list[tuple[_Candidate, LaguerrePolish]]:
+                             pre_step: dict[str, np.ndarray] | None,
+                             phase_s: float = 0.0) -> list[tuple[_Candidate, LaguerrePolish]]:
     """The orders compared, refitted by generalised least squares under one noise model when residuals are coloured.
 
     ``orders`` holds each order's polished fits (best first).  Their best ones are scored on one effective
@@ -107,7 +108,7 @@ def _with_shared_noise_model(orders: list[tuple[_Candidate, list[LaguerrePolish]
     if all(poly.size == 1 for poly in noise.values()):
         return scored
     run = functools.partial(laguerre_polish, t, outputs, input_v=u, step_volts=step_volts, primary=primary,
-                            pre_step=pre_step, noise=noise)
+                            pre_step=pre_step, noise=noise, phase_s=phase_s)
     out: list[tuple[_Candidate, LaguerrePolish]] = []
     # the two best orders compete again (a third one behind both under the lag-1 inflation has not come back in
     # the bench's runs, and each GLS refit costs a full fit)
@@ -150,7 +151,39 @@ def _polish_order(m: int, firsts: list[dict[str, Any]], prev: LaguerrePolish | N
     if prev is not None and prev.den.size == m:
         sysp = _state_space(*_one_pole_more(prev, h))
         attempt(A=sysp.A, B=sysp.B, C=sysp.C, delay_s=0.0)
+    # a zero the data do not determine (the numerator's top coefficient inside its own error: a far zero on
+    # either side of the imaginary axis by chance) is dropped when BIC agrees: refitted with one zero fewer
+    while fits and (fewer := _one_zero_fewer(best := min(_on_common_inflation(fits), key=lambda f: f.bic))):
+        count = len(fits)
+        attempt(**fewer)
+        if len(fits) == count:
+            break
+        pair = _on_common_inflation([best, fits[-1]])
+        if pair[1].bic > pair[0].bic:
+            fits.pop()
+            break
+        fits[:] = [f for f in fits if f.n_zeros == fits[-1].n_zeros]  # the fewer zeros stand for the order
     return sorted(_on_common_inflation(fits), key=lambda f: f.bic)
+
+
+def _one_zero_fewer(fit: LaguerrePolish) -> dict[str, Any] | None:
+    """Keywords of :func:`laguerre_polish` for ``fit`` with one zero fewer, or None when its zeros are determined.
+
+    The numerator's highest free coefficient is inside its 95 % interval of 0 (a t-ratio under 1.96):
+    the data do not say on which side of the imaginary axis, or how far, that zero lies.  Refitted
+    from ``fit``'s poles, dead time and the rest of its numerator.
+    """
+    m = fit.den.size - 1
+    free = m if fit.n_zeros is None else fit.n_zeros + 1
+    if free <= 1 or fit.covariance is None:
+        return None
+    top = m + free - 1
+    value, std = float(fit.params[top]), float(np.sqrt(max(fit.covariance[top, top], 0.0)))
+    if not abs(value) < 1.96 * std:
+        return None
+    num = np.trim_zeros(np.asarray(fit.params[m:top], dtype=float)[::-1], "f")
+    sys = _state_space(num if num.size else np.zeros(1), fit.den)
+    return {"A": sys.A, "B": sys.B, "C": sys.C, "delay_s": fit.delay_s, "n_zeros": free - 2}
 
 
 def _one_pole_more(fit: LaguerrePolish, h: float) -> tuple[np.ndarray, np.ndarray]:
@@ -234,6 +267,12 @@ class LaguerrePolish:
     shifts : dict
         Per channel after the primary: its fitted trigger shift against the primary's step
         instant (s, within one grid step), reported with the model (``extras.laguerre_polish``).
+    covariance : ndarray or None
+        Covariance of ``params`` (Gauss–Newton at the fit, scaled by the weighted residual's
+        variance; :func:`_covariance`); ``None`` when the Fisher information is singular.
+    n_zeros : int or None
+        Zeros of the velocity transfer function the fit had free (``None``: one fewer than the
+        poles, every numerator coefficient); ``params`` holds that many numerator coefficients plus one.
     """
 
     num: np.ndarray
@@ -250,6 +289,8 @@ class LaguerrePolish:
     ar_order: dict[str, int]
     params: np.ndarray
     shifts: dict[str, float] = field(default_factory=dict)
+    covariance: np.ndarray | None = None
+    n_zeros: int | None = None
 
     @property
     def n_samples(self) -> dict[str, int]:
@@ -265,13 +306,50 @@ def _lag1_inflation(r: np.ndarray) -> float:
     return (1 + rho) / (1 - rho)
 
 
+def _covariance(jac: np.ndarray, fun: np.ndarray, inflation: float = 1.0) -> np.ndarray | None:
+    """Gauss–Newton covariance of a least-squares fit: ``s²·(JᵀJ)⁻¹·inflation``.
+
+    ``J`` and the residual ``fun`` are those of the weighted (whitened) residual at the solution,
+    ``s² = ‖fun‖²/(N − p)`` its variance; ``inflation`` the lag-1 factor of a residual left
+    correlated (one channel, no noise model).  A Fisher information whose smallest singular
+    value is at the rounding of the largest (a direction the data do not move) gives ``None``,
+    not a pseudo-inverse's small variance for a parameter nothing determines.
+    """
+    jac = np.asarray(jac, dtype=float)
+    if jac.ndim != 2 or not np.all(np.isfinite(jac)) or fun.size <= jac.shape[1]:
+        return None
+    _, sv, vt = np.linalg.svd(jac, full_matrices=False)
+    if sv.size == 0 or sv[-1] <= np.finfo(float).eps * max(jac.shape) * sv[0]:
+        return None
+    s2 = float(fun @ fun) / (fun.size - jac.shape[1])
+    return (vt.T / sv**2) @ vt * s2 * inflation
+
+
+def _full_jacobian(resid: Callable[[np.ndarray], np.ndarray], sol: Any) -> np.ndarray:
+    """The Jacobian at a bounded least-squares solution, the columns of parameters at a bound included.
+
+    scipy's ``trf`` returns those columns as zeros (its "modified" Jacobian); a dead time that
+    ends at 0 would then get no variance and leave a singular Fisher information.  Each is a
+    one-sided difference into the feasible side, with the fit's own relative step.
+    """
+    jac = np.array(sol.jac, dtype=float)
+    for i in np.flatnonzero(sol.active_mask):
+        h = 1e-6 * max(1.0, abs(float(sol.x[i]))) * (1.0 if sol.active_mask[i] < 0 else -1.0)
+        moved = sol.x.copy()
+        moved[i] += h
+        jac[:, i] = (resid(moved) - sol.fun) / h
+    return jac
+
+
 def _input_for_polish(t: np.ndarray, input_v: Any, step_volts: float) -> np.ndarray:
-    """The recorded input, or its mean level when it is a step plus white noise.
+    """The recorded input, or the step level when it is a step plus white noise.
 
     A current channel's direct term passes the recorded input's noise straight into the
     prediction (and every channel gets it low-passed): a recorded step whose variation after the
-    edge is uncorrelated noise is replaced by its mean level; an input with a shape (droop,
-    overshoot, a ramp) is kept sample by sample.
+    edge is uncorrelated noise is replaced by ``step_volts``, the level read off every capture's
+    whole record (whose error the DC gain's interval carries), or by its own mean when that is
+    not within 5 % of it; an input with a shape (droop, overshoot, a ramp) is kept sample by
+    sample.
     """
     if input_v is None:
         return np.full(t.size, float(step_volts))
@@ -282,15 +360,20 @@ def _input_for_polish(t: np.ndarray, input_v: Any, step_volts: float) -> np.ndar
     level = float(np.mean(after))
     r = after - level
     if level and float(np.sqrt(np.mean(r**2))) < 0.05 * abs(level) and _lag1_inflation(r) < 1.5:
-        return np.full(t.size, level)
+        # the window's own mean is a noisier level (its thinned samples, one capture's baseline): with it the
+        # DC gain's white-noise interval, which carries the level's error from all captures, was a fifth too narrow
+        read_off = float(step_volts)
+        return np.full(t.size, read_off if abs(read_off - level) <= 0.05 * abs(level) else level)
     return u
 
 
 class _PolishModel:
     """Parameter vector ↔ augmented state space of every fitted channel."""
 
-    def __init__(self, order: int, channels: tuple[str, ...]) -> None:
+    def __init__(self, order: int, channels: tuple[str, ...], n_zeros: int | None = None) -> None:
         self.m = order
+        # the velocity numerator's free coefficients, lowest powers first (the higher ones are 0): n_zeros + 1
+        self.n_num = order if n_zeros is None else min(max(int(n_zeros), 0) + 1, order)
         self.channels = channels
         self.primary = channels[0]
         self.integrate = "position" in channels
@@ -298,12 +381,19 @@ class _PolishModel:
         self.current = "current" in channels
         # each other capture has its own sub-sample trigger time: a shift against the primary's dead time
         self.n_shifts = len(channels) - 1
-        self.n_params = 2 * order + 1 + int(self.free_scale) + (order + 1) * int(self.current) + self.n_shifts
+        self.n_params = (order + self.n_num + 1 + int(self.free_scale) + (order + 1) * int(self.current)
+                         + self.n_shifts)
+
+    @property
+    def delay_index(self) -> int:
+        """Index of the dead time in the parameter vector (after the denominator and the numerator)."""
+        return self.m + self.n_num
 
     def unpack(self, x: np.ndarray) -> dict[str, Any]:
-        m = self.m
-        q: dict[str, Any] = {"d": x[:m], "n": x[m:2 * m], "delay": float(x[2 * m])}
-        i = 2 * m + 1
+        m, k = self.m, self.n_num
+        n = x[m:m + k] if k == m else np.r_[x[m:m + k], np.zeros(m - k)]
+        q: dict[str, Any] = {"d": x[:m], "n": n, "delay": float(x[m + k])}
+        i = m + k + 1
         q["c"] = float(x[i]) if self.free_scale else 1.0
         i += int(self.free_scale)
         if self.current:
@@ -357,6 +447,8 @@ def laguerre_polish(
     pre_step: dict[str, Any] | None = None,
     noise: dict[str, Any] | None = None,
     start: LaguerrePolish | None = None,
+    phase_s: float = 0.0,
+    n_zeros: int | None = None,
 ) -> LaguerrePolish:
     """Polish a realisation by output-error least squares on every channel given.
 
@@ -405,6 +497,15 @@ def laguerre_polish(
     start : LaguerrePolish, optional
         A polish of the same order and channels to resume from: every parameter starts where it
         left it (``A, B, C`` and ``delay_s`` are then not used).
+    phase_s : float
+        Seconds from the step instant to the first sample (half a sample for a scope's sampled
+        edge, whose step lies anywhere in the interval before it): every sample is that much
+        later after the step than ``time_s`` says, so the fitted dead time counts from the step
+        instant and is ≥ 0 from there (read from the edge sample, the response of a motor with
+        no dead time starts half a sample early, and a dead time held at 0 left τ short by it).
+    n_zeros : int, optional
+        Zeros of the velocity transfer function (its numerator's higher coefficients held at 0);
+        default one fewer than the poles (every coefficient free), or ``start``'s.
 
     Returns
     -------
@@ -429,10 +530,12 @@ def laguerre_polish(
     m = den.size - 1
     num, den = num / den[0], den / den[0]
     num = np.r_[np.zeros(m - num.size), num][-m:]
-    pm = _PolishModel(m, channels)
-    x = np.r_[den[1:][::-1], num[::-1], max(float(delay_s), 0.0)]
+    if start is not None and n_zeros is None:
+        n_zeros = start.n_zeros
+    pm = _PolishModel(m, channels, n_zeros)
+    x = np.r_[den[1:][::-1], num[::-1][:pm.n_num], max(float(delay_s), 0.0)]
     lower = np.full(pm.n_params, -np.inf)
-    lower[2 * m] = 0.0
+    lower[pm.delay_index] = 0.0
 
     # the sampled systems of the last evaluations, by their A and delay: a finite-difference column of a
     # numerator, a scale or a direct term moves neither, and the exponentials and Φ's eigenvalue problem
@@ -441,6 +544,7 @@ def laguerre_polish(
 
     def predict(model: _PolishModel, xx: np.ndarray) -> np.ndarray:
         a_s, b_s, rows, dcol, dls = model.system(xx)
+        dls = dls - phase_s
         cols = []
         for i in range(rows.shape[0]):
             key = (a_s.tobytes(), float(dls[i]))
@@ -482,7 +586,7 @@ def laguerre_polish(
             before = lfilter(poly, [1.0], before) if before.size else before
         return np.r_[post, before]
 
-    def fit(model: _PolishModel, x0: np.ndarray, w: np.ndarray) -> np.ndarray:
+    def fit(model: _PolishModel, x0: np.ndarray, w: np.ndarray) -> tuple[Any, np.ndarray]:
         y_all = np.column_stack([ys[ch] for ch in model.channels])
 
         def resid(xx: np.ndarray) -> np.ndarray:
@@ -500,9 +604,10 @@ def laguerre_polish(
         # tolerance and evaluation budget: at 1e-10 and 100 evaluations a parameter, an order with a
         # pole–zero pair to spare crept on for 900 evaluations (8 s) and changed no order chosen
         with np.errstate(over="ignore"):  # a trial step far off: its cost overflows and the step is refused
-            return scipy.optimize.least_squares(resid, x0, bounds=(lo, hi), x_scale="jac", method="trf",
-                                                diff_step=1e-6, xtol=FIT_TOLERANCE, ftol=FIT_TOLERANCE,
-                                                max_nfev=MAX_NFEV).x
+            sol = scipy.optimize.least_squares(resid, x0, bounds=(lo, hi), x_scale="jac", method="trf",
+                                               diff_step=1e-6, xtol=FIT_TOLERANCE, ftol=FIT_TOLERANCE,
+                                               max_nfev=MAX_NFEV)
+        return sol, _full_jacobian(resid, sol)
 
     def stats(pred: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         # RMS and lag-1 inflation (1 when whitened) of the residuals as fitted (whitened when a noise model is given)
@@ -515,18 +620,22 @@ def laguerre_polish(
     #    realisation (reweighting from a poor start locks onto whichever channel happens to fit best); with a noise
     #    model the start is already a polished fit
     resumed = start is not None and start.channels == channels and start.params.size == pm.n_params
+    # the covariance comes from the last fit of every channel: (its solution, the inflation its weights left out)
+    last: tuple[np.ndarray, np.ndarray, bool] | None = None
     if resumed:
         assert start is not None
         x = start.params.copy()  # every parameter where that fit left it (the other channels', the shifts too)
     elif not whiten:
-        x = fit(_PolishModel(m, (primary,)), x, np.ones(1))
+        sol, jac = fit(_PolishModel(m, (primary,), n_zeros), x, np.ones(1))
+        x, last = sol.x, (jac, sol.fun, len(channels) == 1)
     # 2. the other channels' linear parameters by least squares with those poles
     if (pm.free_scale or pm.current) and not resumed:
-        a_s, b_s, _, _, dls = _PolishModel(m, (primary,)).system(x)
-        dl = float(dls[0])
+        alone = _PolishModel(m, (primary,), n_zeros)
+        a_s, b_s, _, _, dls = alone.system(x)
+        dl = float(dls[0]) - phase_s
         basis = zero_hold_delayed(a_s, b_s, np.eye(m), np.zeros(m), h, u, dl)  # the state responses
         if pm.free_scale:
-            vel = basis @ x[m:2 * m]
+            vel = basis @ alone.unpack(x)["n"]
             pos = np.cumsum(np.r_[0.0, (vel[1:] + vel[:-1]) / 2]) * h
             x = np.r_[x, float(pos @ ys["position"] / max(pos @ pos, 1e-300))]
         if pm.current:
@@ -540,9 +649,15 @@ def laguerre_polish(
     sig, infl = stats(pred)
     if len(channels) > 1 or whiten:
         for _ in range(max(1, rounds)):
-            x = fit(pm, x, 1.0 / (np.maximum(sig, 1e-12 * np.max(sig)) * np.sqrt(infl)))
+            sol, jac = fit(pm, x, 1.0 / (np.maximum(sig, 1e-12 * np.max(sig)) * np.sqrt(infl)))
+            x, last = sol.x, (jac, sol.fun, False)
             pred = predict(pm, x)
             sig, infl = stats(pred)
+    if last is None:  # resumed, nothing refitted: the fit resumed from has it
+        cov = start.covariance if start is not None else None
+    else:
+        # one channel without a noise model is fitted unweighted: its residual's correlation inflates the variance
+        cov = _covariance(last[0], last[1], float(infl[0]) if last[2] else 1.0)
     q = pm.unpack(x)
     raw = {ch: residual(ys[ch] - pred[:, i], ch, False) for i, ch in enumerate(channels)}
     n_fitted = pm.n_params + len(pre)  # the offsets too
@@ -558,4 +673,5 @@ def laguerre_polish(
                           bic=_polish_bic(n_samples, sigma, inflation, n_fitted), n_params=n_fitted,
                           residuals=raw, params=x,
                           ar_order={ch: int(whiten[ch].size - 1) if ch in whiten else 0 for ch in channels},
-                          shifts={ch: float(v) for ch, v in zip(channels[1:], q["shifts"][1:], strict=False)})
+                          shifts={ch: float(v) for ch, v in zip(channels[1:], q["shifts"][1:], strict=False)},
+                          covariance=cov, n_zeros=None if pm.n_num == m else pm.n_num - 1)

@@ -298,6 +298,7 @@ def _markov_laguerre(cond: ConditionedExperiment, s: IdentifySettings) -> MotorM
     samples, with the current capture sharing the poles, and the order is the polished fits' BIC.
     """
     from motorid.identification.laguerre import LaguerreSettings, laguerre_identify
+    from motorid.identification.stages import _sampled_phase
 
     t = cond.full_time_s
     output = "velocity" if "velocity" in cond.full_outputs else "position"
@@ -320,12 +321,30 @@ def _markov_laguerre(cond: ConditionedExperiment, s: IdentifySettings) -> MotorM
                    order=given.order if s.order == "auto" else int(s.order))
     res = laguerre_identify(t, y, cond.step_volts, lset, input_v=u, output=output,
                             response_time_s=cond.response_time_s, dead_time_s=cond.dead_time_s,
-                            extra_outputs=dict(zip(others, rest, strict=True)), pre_step=pre_step)
+                            extra_outputs=dict(zip(others, rest, strict=True)), pre_step=pre_step,
+                            phase_s=_sampled_phase(cond.responses[output]))
     notes = [] if output == "velocity" else [
         "no velocity capture: the Laguerre expansion is of the position channel's derivative "
         "(position volts per second), fitted to the position itself"]
     model = res.to_model()
-    return model.replace(warnings=tuple(model.warnings) + tuple(notes), sample_interval_s=float(t[1] - t[0]))
+    model = model.replace(warnings=tuple(model.warnings) + tuple(notes), sample_interval_s=float(t[1] - t[0]),
+                          # first_order() cancels only pairs slower than the record: the intervals' models the same
+                          settings={**dict(model.settings), "record_length_s": float(cond.full_time_s[-1])})
+    return model if res.polish is None else model.replace(uncertainty=_polish_uncertainty(cond, model, res.polish))
+
+
+def _polish_uncertainty(cond: ConditionedExperiment, model: MotorModel, polish: Any) -> Any:
+    """The Markov polish's intervals, with the step level's and the step instant's errors the fit does not see."""
+    from motorid.identification.laguerre_uncertainty import polish_uncertainty
+    from motorid.identification.stages import TIMING_SOURCES, _sampled_phase, output_level_rel_std, step_level_std
+
+    primary = cond.responses[polish.channels[0]]
+    timing = {role: (TIMING_SOURCES.get(r.timing, r.timing), float(r.edge.time_s) - _sampled_phase(r))
+              for role, r in cond.responses.items() if role in polish.channels}
+    return polish_uncertainty(
+        model, polish, step_rel_std=float(np.hypot(step_level_std(cond) / cond.step_volts, output_level_rel_std(cond))),
+        instant_std=primary.sample_interval_s / np.sqrt(12.0) if primary.timing == "sampled" else 0.0, timing=timing,
+        shift_bound_s=float(model.sample_interval_s or np.inf))
 
 
 #: Most Markov parameters (or Laguerre terms) asked for: each needs several samples, and the

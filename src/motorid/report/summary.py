@@ -100,9 +100,11 @@ def _uncertainty(u: Uncertainty | None, gain_unit: str = "V/V") -> list[SummaryL
         if timing.shift is not None:
             shift = timing.shift
             lo, hi = shift.interval_or_nan()
+            spread = (f"± {sig(1.96e3 * shift.stderr, 2)} ms (95 % interval [{sig(1e3 * lo)}, {sig(1e3 * hi)}] ms)"
+                      if np.isfinite(shift.stderr) else
+                      f"— {timing.note or 'no interval'}: [{sig(1e3 * lo)}, {sig(1e3 * hi)}] ms")
             lines.append(_plain(f"{role} step instant {sig(timing.edge_s)} s ({timing.step_instant}): fitted "
-                                f"shift {sig(1e3 * shift.value.real)} ms ± {sig(1.96e3 * shift.stderr, 2)} ms "
-                                f"(95 % interval [{sig(1e3 * lo)}, {sig(1e3 * hi)}] ms)"))
+                                f"shift {sig(1e3 * shift.value.real)} ms {spread}"))
     for pair in u.pole_pairs:
         i, j = pair.poles
         wn, zeta = pair.natural_frequency, pair.damping
@@ -164,7 +166,13 @@ def _polish_shifts(extras: Mapping[str, Any]) -> dict[str, float]:
     return dict((extras.get("laguerre_polish") or {}).get("shifts_s") or {})
 
 
-def _markov(extras: Mapping[str, Any], gain_unit: str) -> list[SummaryLine]:
+def _shifted(u: Uncertainty | None) -> frozenset[str]:
+    """Channels whose fitted shift the uncertainty lines print."""
+    return frozenset() if u is None else frozenset(role for role, t in u.timing.items() if t.shift is not None)
+
+
+def _markov(extras: Mapping[str, Any], gain_unit: str, timed: frozenset[str] = frozenset()) -> list[SummaryLine]:
+    """The Markov method's own lines; a shift printed with its interval (``timed``) is not repeated."""
     ex = extras
     if ex.get("markov_basis") == "laguerre":
         return [
@@ -178,7 +186,7 @@ def _markov(extras: Mapping[str, Any], gain_unit: str) -> list[SummaryLine]:
                    + f"; noise floor {sig(ex['hankel_noise_floor'])}"),
             _plain(f"Markov settings: {ex.get('markov_choice', '')}"),
             *[_plain(f"{ch} trigger shift against the first capture's step (fitted, within one grid step): "
-                     f"{sig(1e3 * v)} ms") for ch, v in _polish_shifts(ex).items()],
+                     f"{sig(1e3 * v)} ms") for ch, v in _polish_shifts(ex).items() if ch not in timed],
         ]
     if "hankel_singular_values_scaled" in ex:
         return [
@@ -234,7 +242,7 @@ def model_summary_lines(model: Any, title: str = "identified model") -> list[Sum
         One entry per printed line, each a tuple of ``(text, rich style)`` spans.
     """
     return (_header(model, title) + _uncertainty(model.uncertainty, model.dc_gain_unit) + _noise_and_stages(model)
-            + _markov(model.extras, model.dc_gain_unit) + _fit_and_checks(model))
+            + _markov(model.extras, model.dc_gain_unit, _shifted(model.uncertainty)) + _fit_and_checks(model))
 
 
 def model_summary(model: Any, title: str = "identified model") -> list[str]:
