@@ -223,3 +223,19 @@ def test_a_zero_the_data_show_is_kept():
     fits = _second_order_fits(25.0)
     assert fits[0].n_zeros is None and fits[0].num.size == 2
     assert np.roots(fits[0].num)[0] == pytest.approx(-25.0, rel=0.1)
+
+
+def test_a_design_on_the_markov_model_is_checked_on_the_motors_its_intervals_allow(markov_fit):
+    # the joint covariance of the velocity TF's coefficients and dead time: design's robustness check samples it
+    # (it said "the model carries no joint covariance (a paper method's)")
+    res, _ = markov_fit
+    joint = res.model.uncertainty.joint
+    assert joint is not None and joint.parameters[0] == "den_0" and joint.parameters[-1] == "delay"
+    num, den = res.model.tf_coefficients("velocity")
+    d = den / den[0]
+    np.testing.assert_allclose(joint.values[:d.size - 1], d[1:][::-1], rtol=1e-9)  # den_i: the coefficient of sⁱ
+    np.testing.assert_allclose(joint.values[d.size - 1:-1], np.trim_zeros(num / den[0], "f")[::-1], rtol=1e-9)
+    design = mi.design(res.model, poles=[-6.0])
+    assert design.robust is not None and design.robust.parameters == joint.parameters
+    assert design.robust.stable_fraction == 1.0
+    assert "the fit's joint Gaussian" in design.robust.note

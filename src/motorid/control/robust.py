@@ -2,7 +2,8 @@
 
 An identified model is one motor out of many the captures cannot tell apart: the output-error
 fit's covariance (the model JSON's ``uncertainty.joint``: DC gain, log time constants, zero time
-constants, dead time, position scale and current numerator) describes them.  This module draws
+constants, dead time, position scale and current numerator; for the Markov method's polish, the
+velocity transfer function's coefficients and the dead time) describes them.  This module draws
 plausible motors from that Gaussian, restricted to its 95 % region (Mahalanobis distance below
 the χ² quantile), rebuilds each with the fit's own realisation
 (:func:`motorid.model.motor.realise_tfs`), re-expresses it in the sensors' coordinates the
@@ -263,7 +264,8 @@ class _Joint:
         names, values, cov = joint.parameters, joint.values, joint.covariance
         if not (np.all(np.isfinite(values)) and np.all(np.isfinite(cov))):
             return None
-        if "K" not in names or not any(n.startswith("log_tau_") for n in names):
+        by_time_constants = "K" in names and any(n.startswith("log_tau_") for n in names)
+        if not (by_time_constants or any(n.startswith("den_") for n in names)):
             return None
         return cls(names, values, 0.5 * (cov + cov.T))
 
@@ -284,6 +286,16 @@ class _Joint:
 
         s = theta.shape[0]
         idx = {n: i for i, n in enumerate(self.names)}
+        delay = (np.maximum(theta[:, idx["delay"]], 0.0) if "delay" in idx
+                 else np.full(s, float(model.delay_s)))
+        if any(n.startswith("den_") for n in self.names):
+            # the Markov polish's coefficients (lowest powers first): the monic denominator, the numerator
+            d = self.column(theta, "den_")[:, ::-1]
+            b = self.column(theta, "num_")[:, ::-1]
+            den_c = np.concatenate([np.ones((s, 1)), d], axis=1)
+            num_c = np.concatenate([np.zeros((s, den_c.shape[1] - b.shape[1])), b], axis=1)
+            pos: Any = 1.0 if "position" in model.outputs else None
+            return realise_tfs_stacked(num_c, den_c, current_num=None, position_scale=pos), delay
         taus = np.exp(self.column(theta, "log_tau_"))
         n = taus.shape[1]
         den = np.ones((s, 1))
@@ -299,10 +311,7 @@ class _Joint:
         if cur.shape[1] and "current" in model.outputs:
             current = np.concatenate([np.zeros((s, n + 1 - cur.shape[1])), cur / lead[:, None]], axis=1)
         scale: Any = theta[:, idx["c"]] if "c" in idx else (1.0 if "position" in model.outputs else None)
-        r = realise_tfs_stacked(num, den, current_num=current, position_scale=scale)
-        delay = (np.maximum(theta[:, idx["delay"]], 0.0) if "delay" in idx
-                 else np.full(s, float(model.delay_s)))
-        return r, delay
+        return realise_tfs_stacked(num, den, current_num=current, position_scale=scale), delay
 
 
 def _convolve_rows(p: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -669,7 +678,7 @@ def _summary(per: dict[str, np.ndarray], spec: RobustSpec, names: tuple[str, ...
         meets &= np.nan_to_num(per["overshoot_pct"], nan=np.inf) <= spec.overshoot_pct
     if spec.settling_time_s is not None:
         meets &= np.nan_to_num(per["settling_time_s"], nan=np.inf) <= spec.settling_time_s
-    note = (f"{count} motors drawn from the output-error fit's joint Gaussian inside its {REGION:.0%} region "
+    note = (f"{count} motors drawn from the fit's joint Gaussian inside its {REGION:.0%} region "
             f"(parameters {', '.join(names)}); the designed controller (its observer on the nominal model) "
             f"on each; the dead time as a Padé approximant of order {PADE_ORDER} in the eigenvalues and steps, "
             "exact in the margins")

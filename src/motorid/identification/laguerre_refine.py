@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from motorid.identification.method_options import FIT_TOLERANCE, MAX_NFEV
+from motorid.identification.method_options import FIT_TOLERANCE, MAX_NFEV, SEARCH_TOLERANCE
 from motorid.identification.metrics import bic
 from motorid.identification.result import IdentificationError
 from motorid.model import lti
@@ -69,8 +69,9 @@ def _polish_orders(candidates: list[_Candidate], t: np.ndarray, outputs: dict[st
         if c.stable and (c.order not in best or c.score < best[c.order].score):
             best[c.order] = c
     chosen: list[tuple[_Candidate, list[LaguerrePolish]]] = []
+    # the candidates stop at the output-error order search's tolerance, the chosen one at the final fit's (below)
     run = functools.partial(laguerre_polish, t, outputs, input_v=u, step_volts=step_volts, primary=primary,
-                            pre_step=pre_step, phase_s=phase_s)
+                            pre_step=pre_step, phase_s=phase_s, tolerance=SEARCH_TOLERANCE)
     for m, c in sorted(best.items()):
         fits = _polish_order(m, [{"A": c.A, "B": c.B, "C": c.C, "delay_s": c.coefficients.delay_s}],
                              chosen[-1][1][0] if chosen else None, float(t[1] - t[0]), run)
@@ -78,7 +79,10 @@ def _polish_orders(candidates: list[_Candidate], t: np.ndarray, outputs: dict[st
             chosen.append((c, fits))
     if not chosen:
         return []
-    final = _with_shared_noise_model(chosen, t, outputs, u, step_volts, primary, pre_step, phase_s)
+    final, noise = _with_shared_noise_model(chosen, t, outputs, u, step_volts, primary, pre_step, phase_s)
+    final = _chosen_refitted(final, noise, functools.partial(
+        laguerre_polish, t, outputs, input_v=u, step_volts=step_volts, primary=primary, pre_step=pre_step,
+        phase_s=phase_s))
     out: list[tuple[Any, ...]] = []
     for c, pol in final:
         sys = _state_space(pol.num, pol.den)
@@ -86,10 +90,37 @@ def _polish_orders(candidates: list[_Candidate], t: np.ndarray, outputs: dict[st
     return out
 
 
+def _chosen_refitted(final: list[tuple[_Candidate, LaguerrePolish]], noise: dict[str, np.ndarray] | None,
+                     run: Callable[..., LaguerrePolish]) -> list[tuple[_Candidate, LaguerrePolish]]:
+    """The least-BIC order refitted at the final fit's tolerance, resumed where its candidate fit stopped.
+
+    As the output-error method does: the candidates of the order search stop at
+    :data:`SEARCH_TOLERANCE` (an order with a pole to spare creeps along a ridge for its whole
+    budget at 1e-8, the cost moving by 1e-7 of itself), the chosen structure at :data:`FIT_TOLERANCE`.
+    """
+    if not final:
+        return final
+    i = min(range(len(final)), key=lambda k: final[k][1].bic)
+    pol = final[i][1]
+    sys = _state_space(pol.num, pol.den)
+    try:
+        again = run(A=sys.A, B=sys.B, C=sys.C, delay_s=pol.delay_s, start=pol, noise=noise, tolerance=FIT_TOLERANCE)
+    except (IdentificationError, np.linalg.LinAlgError, ValueError):
+        return final
+    if not (np.all(np.isfinite(again.den)) and np.all(np.real(np.roots(again.den)) < 0)):
+        return final
+    polishes = [p for _, p in final]
+    polishes[i] = again
+    if noise is None:  # scored on one effective sample size per channel, as the orders were compared
+        polishes = _on_common_inflation(polishes)
+    return [(cc, p) for (cc, _), p in zip(final, polishes, strict=True)]
+
+
 def _with_shared_noise_model(orders: list[tuple[_Candidate, list[LaguerrePolish]]], t: np.ndarray,
                              outputs: dict[str, np.ndarray], u: np.ndarray | None, step_volts: float, primary: str,
                              pre_step: dict[str, np.ndarray] | None,
-                             phase_s: float = 0.0) -> list[tuple[_Candidate, LaguerrePolish]]:
+                             phase_s: float = 0.0,
+                             ) -> tuple[list[tuple[_Candidate, LaguerrePolish]], dict[str, np.ndarray] | None]:
     """The orders compared, refitted by generalised least squares under one noise model when residuals are coloured.
 
     ``orders`` holds each order's polished fits (best first).  Their best ones are scored on one effective
@@ -106,9 +137,9 @@ def _with_shared_noise_model(orders: list[tuple[_Candidate, list[LaguerrePolish]
     ranked = sorted(range(len(orders)), key=lambda i: scored[i][1].bic)
     noise = {ch: ar_noise_model(r)[0] for ch, r in scored[ranked[0]][1].residuals.items()}
     if all(poly.size == 1 for poly in noise.values()):
-        return scored
+        return scored, None
     run = functools.partial(laguerre_polish, t, outputs, input_v=u, step_volts=step_volts, primary=primary,
-                            pre_step=pre_step, noise=noise, phase_s=phase_s)
+                            pre_step=pre_step, noise=noise, phase_s=phase_s, tolerance=SEARCH_TOLERANCE)
     out: list[tuple[_Candidate, LaguerrePolish]] = []
     # the two best orders compete again (a third one behind both under the lag-1 inflation has not come back in
     # the bench's runs, and each GLS refit costs a full fit)
@@ -122,7 +153,7 @@ def _with_shared_noise_model(orders: list[tuple[_Candidate, list[LaguerrePolish]
         gls = _polish_order(m, starts, out[-1][1] if out else None, float(t[1] - t[0]), run)
         if gls:
             out.append((c, gls[0]))
-    return out or scored
+    return (out, noise) if out else (scored, None)
 
 
 def _polish_order(m: int, firsts: list[dict[str, Any]], prev: LaguerrePolish | None, h: float,
@@ -449,6 +480,7 @@ def laguerre_polish(
     start: LaguerrePolish | None = None,
     phase_s: float = 0.0,
     n_zeros: int | None = None,
+    tolerance: float = FIT_TOLERANCE,
 ) -> LaguerrePolish:
     """Polish a realisation by output-error least squares on every channel given.
 
@@ -506,6 +538,8 @@ def laguerre_polish(
     n_zeros : int, optional
         Zeros of the velocity transfer function (its numerator's higher coefficients held at 0);
         default one fewer than the poles (every coefficient free), or ``start``'s.
+    tolerance : float
+        Relative change of the cost and of the parameters that ends the fit (``ftol``, ``xtol``).
 
     Returns
     -------
@@ -605,7 +639,7 @@ def laguerre_polish(
         # pole–zero pair to spare crept on for 900 evaluations (8 s) and changed no order chosen
         with np.errstate(over="ignore"):  # a trial step far off: its cost overflows and the step is refused
             sol = scipy.optimize.least_squares(resid, x0, bounds=(lo, hi), x_scale="jac", method="trf",
-                                               diff_step=1e-6, xtol=FIT_TOLERANCE, ftol=FIT_TOLERANCE,
+                                               diff_step=1e-6, xtol=tolerance, ftol=tolerance,
                                                max_nfev=MAX_NFEV)
         return sol, _full_jacobian(resid, sol)
 
@@ -653,7 +687,12 @@ def laguerre_polish(
             x, last = sol.x, (jac, sol.fun, False)
             pred = predict(pm, x)
             sig, infl = stats(pred)
-    if last is None:  # resumed, nothing refitted: the fit resumed from has it
+    elif resumed:  # one channel, no noise model: the fit resumed, unweighted as its first round was
+        sol, jac = fit(pm, x, np.ones(1))
+        x, last = sol.x, (jac, sol.fun, True)
+        pred = predict(pm, x)
+        sig, infl = stats(pred)
+    if last is None:  # nothing fitted (cannot happen: kept for the type checker)
         cov = start.covariance if start is not None else None
     else:
         # one channel without a noise model is fitted unweighted: its residual's correlation inflates the variance

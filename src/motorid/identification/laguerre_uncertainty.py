@@ -18,7 +18,7 @@ import numpy as np
 
 from motorid.identification.laguerre_refine import LaguerrePolish, _PolishModel
 from motorid.model import MotorModel, model_from_velocity_tf
-from motorid.model.uncertainty import ChannelTiming, ParameterEstimate, Uncertainty
+from motorid.model.uncertainty import ChannelTiming, JointCovariance, ParameterEstimate, Uncertainty
 
 __all__ = ["polish_uncertainty", "polished_tf"]
 
@@ -163,8 +163,21 @@ def polish_uncertainty(
         zeros=tuple(estimate(complex(z), std_of(f"zero_{k}")) for k, z in enumerate(base["zeros"])),
         delay=_at_least_zero(estimate(float(base["delay"]), std_of("delay", timing_extra))),
         method=METHOD,
+        joint=_joint(polish, cov, moving),
         timing=_shift_timing(polish, cov, timing or {}, shift_bound_s),
     )
+
+
+def _joint(polish: LaguerrePolish, cov: np.ndarray, moving: int) -> JointCovariance:
+    """The velocity TF's coefficients and dead time with their covariance (``uncertainty.joint``).
+
+    ``den_i`` are the monic denominator's coefficients of ``sⁱ``, ``num_j`` the numerator's of ``sʲ``
+    (lowest powers first, as the polish fits them), then ``delay``: what a robustness check
+    samples plausible motors from (complex poles included, which time constants cannot hold).
+    """
+    m = polish.den.size - 1
+    names = (*(f"den_{i}" for i in range(m)), *(f"num_{j}" for j in range(moving - m - 1)), "delay")
+    return JointCovariance(names, np.asarray(polish.params[:moving], dtype=float), cov[:moving, :moving])
 
 
 def _at_least_zero(item: ParameterEstimate) -> ParameterEstimate:
