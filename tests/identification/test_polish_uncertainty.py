@@ -153,6 +153,7 @@ def test_the_markov_json_and_printout_carry_them(markov_fit):
     assert "trigger shift against the first capture's step" not in text  # printed once, with its interval
 
 
+@pytest.mark.slow
 def test_the_dead_time_counts_from_the_step_instant_not_the_edge_sample():
     # a scope samples the input's edge: the step lies in the interval before the first sample at the new level,
     # its best estimate the middle.  Counted from the edge sample, the polish saw every response half a sample
