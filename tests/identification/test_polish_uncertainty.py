@@ -240,3 +240,22 @@ def test_a_design_on_the_markov_model_is_checked_on_the_motors_its_intervals_all
     assert design.robust is not None and design.robust.parameters == joint.parameters
     assert design.robust.stable_fraction == 1.0
     assert "the fit's joint Gaussian" in design.robust.note
+
+
+def test_a_realisation_with_a_numerator_term_at_rounding_starts_with_that_zero_fewer():
+    # an ERA realisation's numerator can carry its leading term at ~1e-13 of the rest.  Fitted as a free
+    # coefficient it never moved (scipy's step is relative to it: 1e-6 of 1e-13), its Jacobian column was 0 and the
+    # model had no covariance (the HSLU rig's 06_dc_step_5_15_00: no intervals at all)
+    from motorid.model.forced import zero_hold_delayed
+
+    rng = np.random.default_rng(2)
+    h = 0.004
+    t = np.arange(1000) * h
+    sys = _state_space(np.array([9.0]), np.polymul([1, 2], [1, 15]))
+    y = zero_hold_delayed(sys.A, sys.B, sys.C, np.zeros(1), h, np.full(t.size, 5.0), 0.0)[:, 0]
+    y = y + 0.01 * rng.standard_normal(t.size)
+    start = _state_space(np.array([1e-13, 8.0]), np.polymul([1, 2.3], [1, 12.0]))
+    pol = laguerre_polish(t, {"velocity": y}, start.A, start.B, start.C, input_v=np.full(t.size, 5.0), step_volts=5.0)
+    assert pol.n_zeros == 0 and pol.params.size == 4  # d0, d1, n0, dead time
+    assert pol.covariance is not None and np.all(np.isfinite(np.diag(pol.covariance)))
+    assert pol.num[-1] / pol.den[-1] == pytest.approx(9.0 / 30.0, rel=0.01)

@@ -342,18 +342,23 @@ def _covariance(jac: np.ndarray, fun: np.ndarray, inflation: float = 1.0) -> np.
 
     ``J`` and the residual ``fun`` are those of the weighted (whitened) residual at the solution,
     ``s² = ‖fun‖²/(N − p)`` its variance; ``inflation`` the lag-1 factor of a residual left
-    correlated (one channel, no noise model).  A Fisher information whose smallest singular
-    value is at the rounding of the largest (a direction the data do not move) gives ``None``,
-    not a pseudo-inverse's small variance for a parameter nothing determines.
+    correlated (one channel, no noise model).  A Jacobian whose smallest singular value, its
+    columns scaled to unit norm, is at the rounding of the largest (a direction the data do not
+    move) gives ``None``, not a pseudo-inverse's small variance for a parameter nothing determines.
     """
     jac = np.asarray(jac, dtype=float)
     if jac.ndim != 2 or not np.all(np.isfinite(jac)) or fun.size <= jac.shape[1]:
         return None
-    _, sv, vt = np.linalg.svd(jac, full_matrices=False)
+    # columns scaled to unit norm first: the parameters' units differ by orders of magnitude (a numerator in rpm
+    # beside a dead time in seconds), and the rank test is then one of the data, not of the units
+    norms = np.linalg.norm(jac, axis=0)
+    if np.any(norms == 0.0):
+        return None
+    _, sv, vt = np.linalg.svd(jac / norms, full_matrices=False)
     if sv.size == 0 or sv[-1] <= np.finfo(float).eps * max(jac.shape) * sv[0]:
         return None
     s2 = float(fun @ fun) / (fun.size - jac.shape[1])
-    return (vt.T / sv**2) @ vt * s2 * inflation
+    return ((vt.T / sv**2) @ vt) / np.outer(norms, norms) * s2 * inflation
 
 
 def _full_jacobian(resid: Callable[[np.ndarray], np.ndarray], sol: Any) -> np.ndarray:
@@ -564,8 +569,16 @@ def laguerre_polish(
     m = den.size - 1
     num, den = num / den[0], den / den[0]
     num = np.r_[np.zeros(m - num.size), num][-m:]
+    # a realisation whose numerator's leading terms are at the rounding of the rest (~1e-13 of it) has that many
+    # zeros fewer: fitted as free coefficients they never moved (scipy's finite-difference step is relative to the
+    # parameter, 1e-6 of 1e-13), left a zero column in the Jacobian and no covariance; freed from exactly 0 they
+    # opened slow pole-zero pairs on a first-order record.  Any other such coefficient starts at exactly 0.
+    tiny = np.abs(num) < 1e-9 * np.max(np.abs(num), initial=0.0)
+    num[tiny] = 0.0
     if start is not None and n_zeros is None:
         n_zeros = start.n_zeros
+    elif n_zeros is None and not np.all(tiny):
+        n_zeros = m - 1 - int(np.argmin(tiny))  # the leading coefficients that are 0 are not zeros to fit
     pm = _PolishModel(m, channels, n_zeros)
     x = np.r_[den[1:][::-1], num[::-1][:pm.n_num], max(float(delay_s), 0.0)]
     lower = np.full(pm.n_params, -np.inf)
