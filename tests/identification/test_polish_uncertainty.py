@@ -33,6 +33,21 @@ def test_covariance_is_curve_fits_on_a_linear_problem():
     np.testing.assert_allclose(_covariance(X, y - X @ beta, 2.5), 2.5 * pcov, rtol=1e-6)
 
 
+def test_the_covariance_does_not_depend_on_the_parameters_units():
+    # a numerator in rpm beside a dead time in seconds: columns 1e15 apart in scale.  Unscaled, the rank test saw a
+    # singular Jacobian (no intervals); the same problem in units of 1e15 is well-conditioned
+    rng = np.random.default_rng(4)
+    x = np.linspace(0.0, 1.0, 200)
+    y = 0.3 + 2.0 * x + 0.05 * rng.standard_normal(x.size)
+    plain = np.column_stack([np.ones_like(x), x])
+    beta, *_ = np.linalg.lstsq(plain, y, rcond=None)
+    _, pcov = scipy.optimize.curve_fit(lambda xx, a, b: a + b * xx, x, y, p0=[0.0, 0.0])
+    scaled = plain * [1.0, 1e15]  # the second parameter in units 1e15 times smaller
+    cov = _covariance(scaled, y - plain @ beta)
+    assert cov is not None
+    np.testing.assert_allclose(cov * np.outer([1.0, 1e15], [1.0, 1e15]), pcov, rtol=1e-6)
+
+
 def test_a_direction_the_data_do_not_move_gives_no_covariance():
     x = np.linspace(0.0, 1.0, 50)
     X = np.column_stack([x, x, np.ones_like(x)])  # the first two parameters only as their sum
