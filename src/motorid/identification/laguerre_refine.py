@@ -80,9 +80,7 @@ def _polish_orders(candidates: list[_Candidate], t: np.ndarray, outputs: dict[st
     if not chosen:
         return []
     final, noise = _with_shared_noise_model(chosen, t, outputs, u, step_volts, primary, pre_step, phase_s)
-    final = _chosen_refitted(final, noise, functools.partial(
-        laguerre_polish, t, outputs, input_v=u, step_volts=step_volts, primary=primary, pre_step=pre_step,
-        phase_s=phase_s))
+    final = _chosen_refitted(final, noise, run)
     out: list[tuple[Any, ...]] = []
     for c, pol in final:
         sys = _state_space(pol.num, pol.den)
@@ -97,6 +95,7 @@ def _chosen_refitted(final: list[tuple[_Candidate, LaguerrePolish]], noise: dict
     As the output-error method does: the candidates of the order search stop at
     :data:`SEARCH_TOLERANCE` (an order with a pole to spare creeps along a ridge for its whole
     budget at 1e-8, the cost moving by 1e-7 of itself), the chosen structure at :data:`FIT_TOLERANCE`.
+    ``run`` is the candidates' :func:`laguerre_polish` (its tolerance is overridden here).
     """
     if not final:
         return final
@@ -107,7 +106,7 @@ def _chosen_refitted(final: list[tuple[_Candidate, LaguerrePolish]], noise: dict
         again = run(A=sys.A, B=sys.B, C=sys.C, delay_s=pol.delay_s, start=pol, noise=noise, tolerance=FIT_TOLERANCE)
     except (IdentificationError, np.linalg.LinAlgError, ValueError):
         return final
-    if not (np.all(np.isfinite(again.den)) and np.all(np.real(np.roots(again.den)) < 0)):
+    if not _usable(again, pol.den.size - 1):
         return final
     polishes = [p for _, p in final]
     polishes[i] = again
@@ -173,8 +172,7 @@ def _polish_order(m: int, firsts: list[dict[str, Any]], prev: LaguerrePolish | N
             pol = run(**kw)
         except (IdentificationError, np.linalg.LinAlgError, ValueError):
             return
-        if (pol.den.size - 1 == m and np.all(np.isfinite(pol.den)) and np.all(np.isfinite(pol.num))
-                and np.all(np.real(np.roots(pol.den)) < 0)):
+        if _usable(pol, m):
             fits.append(pol)
 
     for first in firsts:
@@ -195,6 +193,12 @@ def _polish_order(m: int, firsts: list[dict[str, Any]], prev: LaguerrePolish | N
             break
         fits[:] = [f for f in fits if f.n_zeros == fits[-1].n_zeros]  # the fewer zeros stand for the order
     return sorted(_on_common_inflation(fits), key=lambda f: f.bic)
+
+
+def _usable(pol: LaguerrePolish, m: int) -> bool:
+    """Whether a polished fit is of order ``m``, finite and stable."""
+    return bool(pol.den.size - 1 == m and np.all(np.isfinite(pol.den)) and np.all(np.isfinite(pol.num))
+                and np.all(np.real(np.roots(pol.den)) < 0))
 
 
 def _one_zero_fewer(fit: LaguerrePolish) -> dict[str, Any] | None:
@@ -633,7 +637,7 @@ def laguerre_polish(
             before = lfilter(poly, [1.0], before) if before.size else before
         return np.r_[post, before]
 
-    def fit(model: _PolishModel, x0: np.ndarray, w: np.ndarray) -> tuple[Any, np.ndarray]:
+    def fit(model: _PolishModel, x0: np.ndarray, w: np.ndarray) -> tuple[Any, Callable[[np.ndarray], np.ndarray]]:
         y_all = np.column_stack([ys[ch] for ch in model.channels])
 
         def resid(xx: np.ndarray) -> np.ndarray:
@@ -654,7 +658,7 @@ def laguerre_polish(
             sol = scipy.optimize.least_squares(resid, x0, bounds=(lo, hi), x_scale="jac", method="trf",
                                                diff_step=1e-6, xtol=tolerance, ftol=tolerance,
                                                max_nfev=MAX_NFEV)
-        return sol, _full_jacobian(resid, sol)
+        return sol, resid
 
     def stats(pred: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         # RMS and lag-1 inflation (1 when whitened) of the residuals as fitted (whitened when a noise model is given)
@@ -667,14 +671,15 @@ def laguerre_polish(
     #    realisation (reweighting from a poor start locks onto whichever channel happens to fit best); with a noise
     #    model the start is already a polished fit
     resumed = start is not None and start.channels == channels and start.params.size == pm.n_params
-    # the covariance comes from the last fit of every channel: (its solution, the inflation its weights left out)
-    last: tuple[np.ndarray, np.ndarray, bool] | None = None
+    # the covariance comes from the last fit of every channel: (its solution, its residual, whether its weights
+    # left the residual's correlation out)
+    last: tuple[Any, Callable[[np.ndarray], np.ndarray], bool] | None = None
     if resumed:
         assert start is not None
         x = start.params.copy()  # every parameter where that fit left it (the other channels', the shifts too)
     elif not whiten:
-        sol, jac = fit(_PolishModel(m, (primary,), n_zeros), x, np.ones(1))
-        x, last = sol.x, (jac, sol.fun, len(channels) == 1)
+        sol, resid = fit(_PolishModel(m, (primary,), n_zeros), x, np.ones(1))
+        x, last = sol.x, (sol, resid, len(channels) == 1)
     # 2. the other channels' linear parameters by least squares with those poles
     if (pm.free_scale or pm.current) and not resumed:
         alone = _PolishModel(m, (primary,), n_zeros)
@@ -696,20 +701,20 @@ def laguerre_polish(
     sig, infl = stats(pred)
     if len(channels) > 1 or whiten:
         for _ in range(max(1, rounds)):
-            sol, jac = fit(pm, x, 1.0 / (np.maximum(sig, 1e-12 * np.max(sig)) * np.sqrt(infl)))
-            x, last = sol.x, (jac, sol.fun, False)
+            sol, resid = fit(pm, x, 1.0 / (np.maximum(sig, 1e-12 * np.max(sig)) * np.sqrt(infl)))
+            x, last = sol.x, (sol, resid, False)
             pred = predict(pm, x)
             sig, infl = stats(pred)
     elif resumed:  # one channel, no noise model: the fit resumed, unweighted as its first round was
-        sol, jac = fit(pm, x, np.ones(1))
-        x, last = sol.x, (jac, sol.fun, True)
+        sol, resid = fit(pm, x, np.ones(1))
+        x, last = sol.x, (sol, resid, True)
         pred = predict(pm, x)
         sig, infl = stats(pred)
     if last is None:  # nothing fitted (cannot happen: kept for the type checker)
         cov = start.covariance if start is not None else None
     else:
         # one channel without a noise model is fitted unweighted: its residual's correlation inflates the variance
-        cov = _covariance(last[0], last[1], float(infl[0]) if last[2] else 1.0)
+        cov = _covariance(_full_jacobian(last[1], last[0]), last[0].fun, float(infl[0]) if last[2] else 1.0)
     q = pm.unpack(x)
     raw = {ch: residual(ys[ch] - pred[:, i], ch, False) for i, ch in enumerate(channels)}
     n_fitted = pm.n_params + len(pre)  # the offsets too
