@@ -336,14 +336,12 @@ def _markov_laguerre(cond: ConditionedExperiment, s: IdentifySettings) -> MotorM
 def _polish_uncertainty(cond: ConditionedExperiment, model: MotorModel, polish: Any) -> Any:
     """The Markov polish's intervals, with the step level's and the step instant's errors the fit does not see."""
     from motorid.identification.laguerre_uncertainty import polish_uncertainty
-    from motorid.identification.stages import TIMING_SOURCES, _sampled_phase, output_level_rel_std, step_level_std
+    from motorid.identification.stages import instant_std, output_level_rel_std, step_instant, step_level_std
 
-    primary = cond.responses[polish.channels[0]]
-    timing = {role: (TIMING_SOURCES.get(r.timing, r.timing), float(r.edge.time_s) - _sampled_phase(r))
-              for role, r in cond.responses.items() if role in polish.channels}
+    timing = {role: step_instant(r) for role, r in cond.responses.items() if role in polish.channels}
     return polish_uncertainty(
         model, polish, step_rel_std=float(np.hypot(step_level_std(cond) / cond.step_volts, output_level_rel_std(cond))),
-        instant_std=primary.sample_interval_s / np.sqrt(12.0) if primary.timing == "sampled" else 0.0, timing=timing,
+        instant_std=instant_std(cond.responses[polish.channels[0]]), timing=timing,
         shift_bound_s=float(model.sample_interval_s or np.inf))
 
 

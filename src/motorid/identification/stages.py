@@ -48,6 +48,7 @@ __all__ = [
     "OrderSelection",
     "channel_sigma",
     "dead_time_shows",
+    "instant_std",
     "noise_model",
     "oe_stage",
     "oe_uncertainty",
@@ -56,6 +57,7 @@ __all__ = [
     "refine_noise",
     "select_order",
     "srivc_stage",
+    "step_instant",
     "step_level_std",
 ]
 
@@ -289,6 +291,16 @@ def _sampled_phase(r: Any) -> float:
     return 0.5 * r.sample_interval_s if r.timing == "sampled" else 0.0
 
 
+def instant_std(r: Any) -> float:
+    """Standard error of a channel's step instant: ``dt/√12`` for a scope's sampled edge, else 0."""
+    return r.sample_interval_s / np.sqrt(12.0) if r.timing == "sampled" else 0.0
+
+
+def step_instant(r: Any) -> tuple[str, float]:
+    """Where a channel's step instant comes from (in words) and the instant on the file's time axis (s)."""
+    return TIMING_SOURCES.get(r.timing, r.timing), float(r.edge.time_s) - _sampled_phase(r)
+
+
 def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, delay: bool = False,
                 tolerance: float = FIT_TOLERANCE, max_nfev: int = MAX_NFEV) -> OeSettings:
     """The output-error settings of one structure on these captures: their timing.
@@ -319,7 +331,7 @@ def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, dela
     # stays at the intervals' middle (unbiased: the switch is thrown at any instant) with its
     # uncertainty in the intervals, and only their phases relative to each other are fitted (left
     # fixed, their disagreement near the step bought a spurious pole-zero pair)
-    sampled = tuple((role, r.sample_interval_s / np.sqrt(12.0)) for role, r in cond.responses.items()
+    sampled = tuple((role, instant_std(r)) for role, r in cond.responses.items()
                     if r.timing == "sampled" and role in cond.full_outputs)
     return OeSettings(n_poles=structure[0], n_zeros=structure[1], delay=delay, tolerance=tolerance,
                       max_nfev=max_nfev, shift_bound_s=_shift_bound(cond),
@@ -603,8 +615,7 @@ def channel_timing(res: OeResult, cond: ConditionedExperiment) -> dict[str, Chan
             shift = _estimate_of(res, f"shift_{role}", res.shifts[role])
         elif r.timing == "onset" and res.delay_s is not None:
             note = "its shift is the dead time (a step instant read off the response cannot be told from it)"
-        out[role] = ChannelTiming(TIMING_SOURCES.get(r.timing, r.timing), float(r.edge.time_s) - _sampled_phase(r),
-                                  shift, note)
+        out[role] = ChannelTiming(*step_instant(r), shift, note)
     return out
 
 
