@@ -223,10 +223,8 @@ def _fine_grid_response(a, b, c, d, h, u, delay, k=200):
     return y[::k] + np.outer(ufd[::k], d)
 
 
-@pytest.mark.parametrize("delay", [0.0, 0.0137, 0.05])
-def test_delayed_response_is_exact_for_fractional_delays(delay: float) -> None:
-    from motorid.model.forced import zero_hold_delayed
-
+def _held_two_outputs():
+    """A second-order system with two output rows (one with a direct term), 10 ms samples, a shaped held input."""
     a = np.array([[0.0, 1.0], [-6.0, -5.0]])
     b = np.array([[0.0], [1.0]])
     c = np.array([[3.0, 1.0], [1.0, 0.0]])
@@ -234,6 +232,14 @@ def test_delayed_response_is_exact_for_fractional_delays(delay: float) -> None:
     h = 0.01
     t = np.arange(300) * h
     u = 2.0 + 0.3 * np.sin(7 * t) * (np.arange(300) > 50)
+    return a, b, c, d, h, u
+
+
+@pytest.mark.parametrize("delay", [0.0, 0.0137, 0.05])
+def test_delayed_response_is_exact_for_fractional_delays(delay: float) -> None:
+    from motorid.model.forced import zero_hold_delayed
+
+    a, b, c, d, h, u = _held_two_outputs()
     # 13.7 ms = 1.37 samples: the fine grid (50 µs) represents it exactly
     y = zero_hold_delayed(a, b, c, d, h, u, delay)
     assert np.max(np.abs(y - _fine_grid_response(a, b, c, d, h, u, delay))) < 1e-9
@@ -254,13 +260,7 @@ def test_a_negative_delay_advances_the_response(delay: float) -> None:
     # sample k is the response at k·h + |delay| after the input's start; it used to give the response of +|delay|
     from motorid.model.forced import zero_hold_delayed
 
-    a = np.array([[0.0, 1.0], [-6.0, -5.0]])
-    b = np.array([[0.0], [1.0]])
-    c = np.array([[3.0, 1.0], [1.0, 0.0]])
-    d = np.array([0.5, 0.0])
-    h = 0.01
-    t = np.arange(300) * h
-    u = 2.0 + 0.3 * np.sin(7 * t) * (np.arange(300) > 50)
+    a, b, c, d, h, u = _held_two_outputs()
     y = zero_hold_delayed(a, b, c, d, h, u, delay)
     assert y.shape == (300, 2)
     assert np.max(np.abs(y - _fine_grid_advanced(a, b, c, d, h, u, delay))) < 1e-9

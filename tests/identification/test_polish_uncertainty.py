@@ -208,20 +208,25 @@ def test_a_flat_recorded_step_is_the_level_read_off_every_capture():
     assert np.array_equal(_input_for_polish(t, shaped, 5.917), shaped)
 
 
-def _second_order_fits(zero: float | None, seed: int = 1):
-    import functools
-
-    from motorid.identification.laguerre_refine import _polish_order
+def _second_order_record(zero: float | None, seed: int) -> tuple[np.ndarray, np.ndarray, float]:
+    """Times, a noisy 5 V step response of 9/((s + 2)(s + 15)) (times (s/zero + 1) with a zero), the sample interval."""
+    from motorid.model.forced import zero_hold_delayed
 
     rng = np.random.default_rng(seed)
     h = 0.004
     t = np.arange(1000) * h
     num = [9.0 / zero, 9.0] if zero else [9.0]  # DC gain 9/30 either way
     sys = _state_space(np.array(num), np.polymul([1, 2], [1, 15]))
-    from motorid.model.forced import zero_hold_delayed
-
     y = zero_hold_delayed(sys.A, sys.B, sys.C, np.zeros(1), h, np.full(t.size, 5.0), 0.0)[:, 0]
-    y = y + 0.01 * rng.standard_normal(t.size)
+    return t, y + 0.01 * rng.standard_normal(t.size), h
+
+
+def _second_order_fits(zero: float | None, seed: int = 1):
+    import functools
+
+    from motorid.identification.laguerre_refine import _polish_order
+
+    t, y, h = _second_order_record(zero, seed)
     start = _state_space(np.array([0.1, 8.0]), np.polymul([1, 2.3], [1, 12.0]))
     run = functools.partial(laguerre_polish, t, {"velocity": y}, input_v=np.full(t.size, 5.0), step_volts=5.0)
     return _polish_order(2, [{"A": start.A, "B": start.B, "C": start.C, "delay_s": 0.0}], None, h, run)
@@ -261,14 +266,7 @@ def test_a_realisation_with_a_numerator_term_at_rounding_starts_with_that_zero_f
     # an ERA realisation's numerator can carry its leading term at ~1e-13 of the rest.  Fitted as a free
     # coefficient it never moved (scipy's step is relative to it: 1e-6 of 1e-13), its Jacobian column was 0 and the
     # model had no covariance (the HSLU rig's 06_dc_step_5_15_00: no intervals at all)
-    from motorid.model.forced import zero_hold_delayed
-
-    rng = np.random.default_rng(2)
-    h = 0.004
-    t = np.arange(1000) * h
-    sys = _state_space(np.array([9.0]), np.polymul([1, 2], [1, 15]))
-    y = zero_hold_delayed(sys.A, sys.B, sys.C, np.zeros(1), h, np.full(t.size, 5.0), 0.0)[:, 0]
-    y = y + 0.01 * rng.standard_normal(t.size)
+    t, y, _ = _second_order_record(None, 2)
     start = _state_space(np.array([1e-13, 8.0]), np.polymul([1, 2.3], [1, 12.0]))
     pol = laguerre_polish(t, {"velocity": y}, start.A, start.B, start.C, input_v=np.full(t.size, 5.0), step_volts=5.0)
     assert pol.n_zeros == 0 and pol.params.size == 4  # d0, d1, n0, dead time
