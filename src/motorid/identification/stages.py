@@ -292,12 +292,34 @@ def _sampled_phase(r: Any) -> float:
 
 
 def instant_std(r: Any) -> float:
-    """Standard error of a channel's step instant: ``dt/√12`` for a scope's sampled edge, else 0."""
+    """Standard error of a channel's step instant: ``dt/√12`` for a scope's sampled edge, else 0.
+
+    Parameters
+    ----------
+    r : StepResponse
+        The channel's conditioned response.
+
+    Returns
+    -------
+    float
+        Seconds.
+    """
     return r.sample_interval_s / np.sqrt(12.0) if r.timing == "sampled" else 0.0
 
 
 def step_instant(r: Any) -> tuple[str, float]:
-    """Where a channel's step instant comes from (in words) and the instant on the file's time axis (s)."""
+    """Where a channel's step instant comes from, and the instant on the file's time axis.
+
+    Parameters
+    ----------
+    r : StepResponse
+        The channel's conditioned response.
+
+    Returns
+    -------
+    tuple of (str, float)
+        The source in words (:data:`TIMING_SOURCES`) and the instant in seconds.
+    """
     return TIMING_SOURCES.get(r.timing, r.timing), float(r.edge.time_s) - _sampled_phase(r)
 
 
