@@ -88,6 +88,41 @@ def test_an_extension_interrupted_while_imported_is_an_interruption(tmp_path, mo
     assert not (tmp_path / "d").exists()
 
 
+@pytest.mark.parametrize(("sig", "code"), [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+def test_an_interrupted_command_is_not_torn_down(tmp_path, sig, code):
+    """A signal can leave a compiled extension half initialised, and its clean-up at the
+    interpreter's teardown then aborts the process (once seen after a SIGTERM on a loaded machine:
+    "Fatal Python error: PyThreadState_Get ... finalizing", exit -6). Planted here: an object whose
+    teardown calls the C API without the GIL, exactly that abort. The interrupted command still
+    exits with its code and its one line; an uninterrupted one is torn down as usual."""
+    def script(action: str, argv: list[str]) -> str:
+        return (
+            "import ctypes, os, sys\n"
+            "class Extension:\n"
+            "    clean_up = ctypes.CDLL(None).PyThreadState_Get  # the C API without the GIL (CDLL releases it)\n"
+            "    def __del__(self):\n"
+            "        self.clean_up()\n"
+            "crashes_at_teardown = Extension()\n"
+            "class Signal:\n"
+            "    def find_spec(self, name, path=None, target=None):\n"
+            "        if name == 'motorid.cli.demo':\n"
+            f"            {action}\n"
+            "sys.meta_path.insert(0, Signal())\n"
+            f"sys.argv = ['motorid', *{argv!r}]\n"
+            "from motorid.cli import entry\n"
+            "entry()\n"
+        )
+
+    res = subprocess.run([sys.executable, "-c", script(f"os.kill(os.getpid(), {int(sig)})", ["demo", "--out", "d"])],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=60, preexec_fn=_default_sigint)
+    assert res.returncode == code, (res.returncode, res.stderr)
+    assert len([ln for ln in res.stderr.splitlines() if ln.strip()]) == 1, res.stderr
+    assert not (tmp_path / "d").exists()
+    torn_down = subprocess.run([sys.executable, "-c", script("pass", ["--version"])], capture_output=True, text=True,
+                               cwd=tmp_path, timeout=60)
+    assert torn_down.returncode == -signal.SIGABRT, (torn_down.returncode, torn_down.stderr[-300:])  # the plant works
+
+
 def _run_and_signal(args: list[str], sig: int, after_s: float, cwd) -> subprocess.CompletedProcess:
     proc = subprocess.Popen([sys.executable, "-m", "motorid", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, cwd=cwd, preexec_fn=_default_sigint)

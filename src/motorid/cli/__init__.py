@@ -23,26 +23,62 @@ def entry() -> None:
 
     Ctrl-C during the imports is an interruption like Ctrl-C during the command (exit 130, one
     line). Once the command has finished and said so, SIGINT and SIGTERM are ignored until the
-    process has exited: a complete, confirmed run is a success.
+    process has exited: a complete, confirmed run is a success. An interrupted command ends
+    without the interpreter's teardown (:func:`_end_interrupted`).
     """
     import signal
 
+    code: str | int | None = 0  # the exit code, as SystemExit carries it
     try:
         from motorid.cli.app import main
 
         main()
     except KeyboardInterrupt:  # during the imports, before main's own handling was in place
         print("motorid: interrupted", file=sys.stderr)
+        code = 130
         raise SystemExit(130) from None
     except ImportError as exc:  # an extension module interrupted while it was initialised
         if not isinstance(exc.__cause__ or exc.__context__, KeyboardInterrupt):
             raise
         print("motorid: interrupted", file=sys.stderr)
+        code = 130
         raise SystemExit(130) from None
+    except SystemExit as exc:
+        code = exc.code
+        raise
     finally:
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, signal.SIG_IGN)
         _forget_handled_interrupts()
+        if isinstance(code, int) and code in _INTERRUPTED_EXITS:
+            _end_interrupted(code)
+
+
+#: The exit codes of a command ended by Ctrl-C (130) or SIGTERM (143).
+_INTERRUPTED_EXITS = frozenset({130, 143})
+
+
+def _end_interrupted(code: int) -> None:
+    """End an interrupted command now: its streams flushed and exit handlers run, no teardown.
+
+    The interruption has been handled by then (outputs discarded or put back, its line printed),
+    but a signal can land anywhere, inside a compiled extension's initialisation or its call back
+    into Python, and leave that extension's state half made. Tearing the interpreter down then
+    runs the extension's own clean-up on that state, which can abort the process ("Fatal Python
+    error: PyThreadState_Get ... finalizing", exit -6, seen once on a loaded machine after a
+    SIGTERM) instead of returning the exit code the caller waits for. The teardown frees memory
+    the system frees anyway, so it is skipped: ``atexit`` handlers still run (a library's own
+    clean-up, coverage data), then ``os._exit``.
+    """
+    import atexit
+    import contextlib
+    import os
+
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(OSError, ValueError):  # a closed pipe or stream: nothing more reaches the caller
+            stream.flush()
+    atexit._run_exitfuncs()
+    os._exit(code)
 
 
 def _forget_handled_interrupts() -> None:
