@@ -8,7 +8,8 @@ set here: the tool must set its own) and compares the model JSON with the truth:
 - DC gain: ``first_order.dc_gain`` vs the incremental gain the step shows;
 - mean residence time: ``Σ1/p − Σ1/z`` of the reported ``velocity_tf`` + the reported
   ``delay_s`` (top level, else ``extras.delay_s``) vs the truth's τ + dead time (+ encoder lag);
-- whether the headline (``first_order``) lies inside ``uncertainty``'s ci95 intervals.
+- whether the headline (``first_order``) lies inside ``uncertainty``'s ci95 intervals;
+- whether the truth's DC gain and residence time lie inside them (is the interval honest).
 
 HSLU references (PROVENANCE.md, the authors' PT2 + dead time fit, hand-refined values): gain
 245.5 rpm/V (no brake) and 150.5 rpm/V (brake 0.5); residence time 2·T1 + Td =
@@ -81,6 +82,23 @@ def inside_ci(model: dict) -> str:
     return "yes" if all(checks) else "no"
 
 
+def truth_in_ci(model: dict, dc_true: float, res_true: float) -> str:
+    """``yes`` when the truth's DC gain and residence time both lie in the model's ci95, ``no``, or ``—``.
+
+    Unlike :func:`inside_ci` (the headline against its own interval), this asks whether the
+    interval is honest: a preset's truth is known.
+    """
+    unc = model.get("uncertainty") or {}
+    checks = []
+    for key, truth in (("dc_gain", dc_true), ("residence_time_s", res_true)):
+        ci = (unc.get(key) or {}).get("ci95")
+        if ci and np.isfinite(truth):
+            checks.append(ci[0] <= truth <= ci[1])
+    if not checks:
+        return "—"
+    return "yes" if all(checks) else "no"
+
+
 def run_identify(args: list[str], out: Path, src: Path | None) -> tuple[int, dict | None, float, str]:
     """One ``python -m motorid identify`` in a fresh process; exit code, JSON, wall time, stderr."""
     env = dict(os.environ)
@@ -122,23 +140,25 @@ def main(argv: list[str] | None = None) -> int:
             out = work / f"model-{i}.json"
             code, model, wall, err = run_identify(args, out, opts.src)
             if model is None:
-                rows.append((name, seed, code, float("nan"), float("nan"), "—", wall, "—", err))
+                rows.append((name, seed, code, float("nan"), float("nan"), "—", wall, "—", err, "—"))
                 continue
             dc = float(model["first_order"]["dc_gain"])
+            truth_ci = truth_in_ci(model, dc_true, res_true) if not name.startswith("hslu:") else "—"
             rows.append((name, seed, code, pct(dc, dc_true), pct(residence_time(model), res_true),
-                         inside_ci(model), wall, str(len(model.get("warnings") or [])), ""))
+                         inside_ci(model), wall, str(len(model.get("warnings") or [])), "", truth_ci))
     src = str(opts.src) if opts.src else "this checkout"
     print(f"# motorid identify, default options, fresh process each ({src})\n")
     print("truth: presets = their linearised plant (incremental gain; τ by moments + dead time + encoder lag);")
     print("hslu = the authors' gain and 2·T1 + Td with their hand-refined T1, Td (a reference, not ground truth)\n")
-    print("| setup | seed | exit | dc gain err % | residence err % | headline in ci95 | wall s | warnings |")
-    print("|---|---|---|---|---|---|---|---|")
-    for name, seed, code, edc, eres, ci, wall, nw, err in rows:
+    print("| setup | seed | exit | dc gain err % | residence err % | headline in ci95 | truth in ci95 | wall s |"
+          " warnings |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for name, seed, code, edc, eres, ci, wall, nw, err, tci in rows:
         note = f" ({err[:70]})" if err else ""
-        print(f"| {name} | {seed} | {code}{note} | {edc:+.2f} | {eres:+.2f} | {ci} | {wall:.1f} | {nw} |")
+        print(f"| {name} | {seed} | {code}{note} | {edc:+.2f} | {eres:+.2f} | {ci} | {tci} | {wall:.1f} | {nw} |")
     print("\n| setup | runs | exit 0 | dc gain abs err % median / worst | residence abs err % median / worst |"
-          " headline in ci95 | wall s median |")
-    print("|---|---|---|---|---|---|---|")
+          " headline in ci95 | truth in ci95 (gain and residence) | wall s median |")
+    print("|---|---|---|---|---|---|---|---|")
     for name in dict.fromkeys(r[0] for r in rows):
         sub = [r for r in rows if r[0] == name]
         ok = [r for r in sub if r[2] == 0]
@@ -150,7 +170,9 @@ def main(argv: list[str] | None = None) -> int:
 
         cis = [r[5] for r in ok if r[5] != "—"]
         ci = f"{sum(c == 'yes' for c in cis)}/{len(cis)}" if cis else "—"
-        print(f"| {name} | {len(sub)} | {len(ok)} | {fmt(edc)} | {fmt(eres)} | {ci} |"
+        tcis = [r[9] for r in ok if r[9] != "—"]
+        tci = f"{sum(c == 'yes' for c in tcis)}/{len(tcis)}" if tcis else "—"
+        print(f"| {name} | {len(sub)} | {len(ok)} | {fmt(edc)} | {fmt(eres)} | {ci} | {tci} |"
               f" {statistics.median(r[6] for r in sub):.1f} |")
     return 0
 

@@ -132,6 +132,9 @@ class Capture:
         keyed by their name.
     warnings : tuple of str
         Problems noticed while reading (clipping at the rails, re-saved files, …).
+    stamp_resolution_s : float
+        The resolution a log's jittered stamps were rounded to (``millis()``: 1 ms), so that a
+        logged step instant carries it in the timing intervals; 0 for stamps taken as exact.
     """
 
     __getstate__ = frozen_getstate
@@ -148,6 +151,7 @@ class Capture:
     role_hint: str | None = None
     extra: Mapping[str, np.ndarray] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
+    stamp_resolution_s: float = 0.0
 
     def __post_init__(self) -> None:
         self._freeze(copy=True)

@@ -69,5 +69,5 @@ def test_the_uniformity_test_in_blocks_decides_as_the_whole_column(monkeypatch, 
     med = float(np.median(dt))
     whole = bool(np.all(np.abs(dt - med) <= _common.UNIFORM_REL * med + 1e-12 * max(1.0, abs(t[0]), abs(t[-1]))))
     for median in (None, med):
-        grid, _out, _, _, note = _common.uniform_grid(t, y, None, {}, file="x.csv", median=median)
+        grid, _out, _, _, note, _res = _common.uniform_grid(t, y, None, {}, file="x.csv", median=median)
         assert (note == "") == whole and (grid is t) == whole

@@ -60,6 +60,9 @@ class StepResponse:
         Position: indices of samples interpolated over wrap glitches.
     timing : str
         Where the step instant comes from, one of :data:`STEP_TIMINGS`.
+    stamp_resolution_s : float
+        For a logged step instant, the resolution its stamp was rounded to
+        (:attr:`motorid.capture.Capture.stamp_resolution_s`); 0 when exact.
     """
 
     source: str
@@ -74,6 +77,7 @@ class StepResponse:
     wrap_count: np.ndarray | None = None
     glitches: np.ndarray | None = None
     timing: str = "onset"
+    stamp_resolution_s: float = 0.0
     #: The sample interval, computed once: an identification asks for it over a hundred times
     #: (a median of the whole record's steps each time: 13 % of ``auto`` on the demo).
     _dt_cache: list[float] = field(default_factory=list, init=False, repr=False, compare=False)
@@ -196,6 +200,7 @@ def step_response(
         wrap_count=wrap_count,
         glitches=glitches,
         timing=timing,
+        stamp_resolution_s=capture.stamp_resolution_s if timing == "logged" else 0.0,
     )
 
 

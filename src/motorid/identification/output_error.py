@@ -83,8 +83,12 @@ class OeSettings:
     instant_std : tuple of (str, float)
         Channels whose step instant is fixed to within their sample interval but not fitted (a
         scope samples the input's edge: the step lies in the interval before the edge sample),
-        with that instant's standard deviation (s, ``dt/√12``).  Its effect on the parameters
-        (the fit's sensitivity to a shift of that channel's instant) is added to their covariance.
+        or to within their stamps' resolution (a log stamped by ``millis()``), with that
+        instant's standard deviation (s, ``dt/√12``).  Its effect on the parameters (the fit's
+        sensitivity to a shift of that channel's instant) is added to their covariance.
+    instant_shared : tuple of tuple of str
+        Channels of ``instant_std`` outside ``phase_group`` whose step instant is one stamp (the
+        columns of one log): their instants move together.
     phase_group : tuple of str
         Channels of ``instant_std`` (separate scope acquisitions) whose sub-sample phases are
         fitted *relative to each other* (they sum to zero): their differences are what makes the
@@ -111,6 +115,7 @@ class OeSettings:
     shift_groups: tuple[tuple[str, ...], ...] | None = None
     instant_std: tuple[tuple[str, float], ...] = ()
     phase_group: tuple[str, ...] = ()
+    instant_shared: tuple[tuple[str, ...], ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -862,7 +867,14 @@ class _OeProblem:
         # phases fitted relative to each other: only their common part is unknown, the mean of
         # n independent instants (dt/√(12·n))
         common = [(c, sd) for c, sd in present if c in phased]
-        moves: list[tuple[tuple[str, ...], float]] = [((c,), sd) for c, sd in present if c not in phased]
+        moves: list[tuple[tuple[str, ...], float]] = []
+        alone = [(c, sd) for c, sd in present if c not in phased]
+        for shared in self.settings.instant_shared:  # one stamp for the columns of one log
+            members = [(c, sd) for c, sd in alone if c in shared]
+            if members:
+                moves.append((tuple(c for c, _ in members), members[0][1]))
+        grouped = {c for chans, _ in moves for c in chans}
+        moves += [((c,), sd) for c, sd in alone if c not in grouped]
         if common:
             moves.append((tuple(c for c, _ in common),
                           float(np.sqrt(np.mean([sd**2 for _, sd in common]) / len(common)))))

@@ -292,7 +292,10 @@ def _sampled_phase(r: Any) -> float:
 
 
 def instant_std(r: Any) -> float:
-    """Standard error of a channel's step instant: ``dt/√12`` for a scope's sampled edge, else 0.
+    """Standard error of a channel's step instant (its source's resolution over √12).
+
+    ``dt/√12`` for a scope's sampled edge, ``q/√12`` for a logged change stamped by a clock of
+    resolution ``q`` (``millis()``), else 0.
 
     Parameters
     ----------
@@ -304,7 +307,11 @@ def instant_std(r: Any) -> float:
     float
         Seconds.
     """
-    return r.sample_interval_s / np.sqrt(12.0) if r.timing == "sampled" else 0.0
+    if r.timing == "sampled":
+        return r.sample_interval_s / np.sqrt(12.0)
+    if r.timing == "logged":
+        return r.stamp_resolution_s / np.sqrt(12.0)
+    return 0.0
 
 
 def step_instant(r: Any) -> tuple[str, float]:
@@ -320,7 +327,11 @@ def step_instant(r: Any) -> tuple[str, float]:
     tuple of (str, float)
         The source in words (:data:`TIMING_SOURCES`) and the instant in seconds.
     """
-    return TIMING_SOURCES.get(r.timing, r.timing), float(r.edge.time_s) - _sampled_phase(r)
+    source = TIMING_SOURCES.get(r.timing, r.timing)
+    if r.timing == "logged" and r.stamp_resolution_s > 0:
+        source = (f"the logged input's change, its stamp rounded to the clock's {1e3 * r.stamp_resolution_s:.3g} ms "
+                  "(±resolution/√12 in the intervals)")
+    return source, float(r.edge.time_s) - _sampled_phase(r)
 
 
 def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, delay: bool = False,
@@ -353,12 +364,25 @@ def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, dela
     # stays at the intervals' middle (unbiased: the switch is thrown at any instant) with its
     # uncertainty in the intervals, and only their phases relative to each other are fitted (left
     # fixed, their disagreement near the step bought a spurious pole-zero pair)
-    sampled = tuple((role, instant_std(r)) for role, r in cond.responses.items()
-                    if r.timing == "sampled" and role in cond.full_outputs)
+    uncertain = tuple((role, instant_std(r)) for role, r in cond.responses.items()
+                      if role in cond.full_outputs and instant_std(r) > 0)
+    # a log's columns share one stamp of the step: their instants move together
+    stamped = [role for role, r in cond.responses.items() if r.timing == "logged" and instant_std(r) > 0
+               and role in cond.full_outputs]
+    shared: list[list[str]] = []
+    for role in stamped:
+        for g in shared:
+            if np.array_equal(cond.responses[g[0]].time_s, cond.responses[role].time_s):
+                g.append(role)
+                break
+        else:
+            shared.append([role])
     return OeSettings(n_poles=structure[0], n_zeros=structure[1], delay=delay, tolerance=tolerance,
                       max_nfev=max_nfev, shift_bound_s=_shift_bound(cond),
-                      shift_groups=timing_groups(cond), instant_std=sampled,
-                      phase_group=tuple(role for role, _ in sampled))
+                      shift_groups=timing_groups(cond), instant_std=uncertain,
+                      phase_group=tuple(role for role, r in cond.responses.items()
+                                        if r.timing == "sampled" and role in cond.full_outputs),
+                      instant_shared=tuple(tuple(g) for g in shared))
 
 
 @dataclass(frozen=True, slots=True)

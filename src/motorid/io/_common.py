@@ -537,8 +537,8 @@ UNIFORM_REL = 0.01
 
 def uniform_grid(time_s: np.ndarray, output: np.ndarray, inp: np.ndarray | None,
                  extra: Mapping[str, np.ndarray], *, file: str, median: float | None = None,
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, dict[str, np.ndarray], str]:
-    """A log with jittered stamps on a uniform grid, and the note that says so ('' when uniform).
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, dict[str, np.ndarray], str, float]:
+    """A log with jittered stamps on a uniform grid, the note that says so ('' when uniform), their resolution.
 
     The grid keeps the number of samples, at the mean step (``millis()`` at 10/11 ms has a mean
     of 10.24 ms, its median is 10), and is placed so that the input's largest change falls on a
@@ -564,17 +564,19 @@ def uniform_grid(time_s: np.ndarray, output: np.ndarray, inp: np.ndarray | None,
     Returns
     -------
     tuple
-        ``(time_s, output, input, extra, note)``.
+        ``(time_s, output, input, extra, note, resolution_s)``: ``resolution_s`` is the clock's
+        resolution the jittered stamps are rounded to (:func:`stamp_resolution`; 0 when the stamps
+        are uniform, taken as exact).
     """
     t = np.asarray(time_s, dtype=float)
     if t.size < 3:
-        return time_s, output, inp, dict(extra), ""
+        return time_s, output, inp, dict(extra), "", 0.0
     if median is None:
         median = float(np.median(np.diff(t), overwrite_input=True))
     med = median
     tol = UNIFORM_REL * med + 1e-12 * max(1.0, abs(float(t[0])), abs(float(t[-1])))
     if _first_step(t, lambda d: ~(np.abs(d - med) <= tol)) is None:
-        return time_s, output, inp, dict(extra), ""
+        return time_s, output, inp, dict(extra), "", 0.0
     dt = np.diff(t)
     step = (t[-1] - t[0]) / (t.size - 1)
     anchor = t[0]
@@ -595,7 +597,47 @@ def uniform_grid(time_s: np.ndarray, output: np.ndarray, inp: np.ndarray | None,
             f"for 90 % of them, {1e3 * float(dt.min()):.3g}–{1e3 * float(dt.max()):.3g} ms in all): resampled to a "
             f"uniform {1e3 * step:.4g} ms grid (measured columns interpolated linearly, the input held at its last "
             "logged value, the grid placed on the input's step)")
-    return grid, out, held, ext, note
+    resolution = stamp_resolution(dt)
+    if resolution > 0:
+        note += (f"; the stamps are whole multiples of {1e3 * resolution:.3g} ms, a clock that rounds the instant each "
+                 f"sample was taken: the step instant is known to ±{1e3 * resolution / np.sqrt(12):.2g} ms (rms), "
+                 "which the timing intervals include")
+    return grid, out, held, ext, note, resolution
+
+
+#: Below this, a clock's rounding of the stamps is left out of the timing (s): a microsecond clock.
+MIN_STAMP_RESOLUTION_S = 1e-5
+
+
+def stamp_resolution(steps_s: np.ndarray) -> float:
+    """The resolution jittered stamps are rounded to: the greatest common step, or 0 if negligible.
+
+    ``millis()`` stamps a 10.24 ms loop with steps of 10 and 11 ms: the stamps are the loop's
+    instants rounded down to whole ms, each off by 0 to 1 ms. Every sample and the logged step
+    share that rounding; what is left in the step instant against the samples is one stamp's
+    error, uniform over the resolution (``resolution/√12`` rms, zero mean). The resolution is
+    the greatest common divisor of the steps on a 1 µs lattice (a step off that lattice by more
+    than rounding, or a resolution under :data:`MIN_STAMP_RESOLUTION_S`, gives 0). numpy has no
+    greatest common divisor of floats, hence the integer lattice.
+
+    Parameters
+    ----------
+    steps_s : ndarray
+        The stamps' steps (s), positive.
+
+    Returns
+    -------
+    float
+        Seconds; 0 when the stamps are finer than :data:`MIN_STAMP_RESOLUTION_S`.
+    """
+    steps = np.unique(np.asarray(steps_s, dtype=float))
+    if steps.size == 0 or not np.all(np.isfinite(steps)) or steps[0] <= 0:
+        return 0.0
+    us = np.round(steps * 1e6)
+    if np.max(np.abs(us - steps * 1e6)) > 1e-3:  # not on a 1 µs lattice: a finer clock
+        return 0.0
+    resolution = float(np.gcd.reduce(us.astype(np.int64))) * 1e-6
+    return resolution if resolution >= MIN_STAMP_RESOLUTION_S else 0.0
 
 
 def validate_rows(

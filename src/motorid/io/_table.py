@@ -429,7 +429,8 @@ def capture_from_table(
     median_step = validate_rows(time_s, {f"{where} {k!r}": v for k, v in checked.items()}, file=file, rows=rows,
                                 time_name=f"{where} {names[asg.time]!r}", jitter_ok=True)
     notes = list(warnings) + clock_notes + ([time_note] if time_note else [])
-    time_s, output, inp, extra, grid_note = uniform_grid(time_s, output, inp, extra, file=file, median=median_step)
+    time_s, output, inp, extra, grid_note, resolution = uniform_grid(time_s, output, inp, extra, file=file,
+                                                                     median=median_step)
     if grid_note:
         notes.append(grid_note)
     role_keys = set(asg.role_columns)
@@ -456,4 +457,5 @@ def capture_from_table(
         role_hint=asg.role_hint,
         extra=extra,
         warnings=tuple(notes),
+        stamp_resolution_s=resolution,
     )
