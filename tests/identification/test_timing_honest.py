@@ -81,6 +81,11 @@ def test_a_capture_without_input_reports_its_fitted_shift(tmp_path):
     # the model's step (edge + shift) is the true instant within its interval, and τ is right
     assert item["edge_s"] + lo - dt <= t_step <= item["edge_s"] + hi + dt
     assert r.model.residence_time_s() == pytest.approx(0.015, rel=0.02)
+    # the 63 % time is counted from that fitted onset: before, its line said "dead time included"
+    from motorid.report.summary import model_summary
+
+    line = next(ln for ln in model_summary(r.model) if ln.startswith("63 % time"))
+    assert "from the response's fitted onset" in line and "dead time included" not in line
 
 
 def test_the_63_percent_time_is_the_models_own_and_not_tau():
