@@ -267,13 +267,18 @@ def timing_groups(cond: ConditionedExperiment) -> tuple[tuple[str, ...], ...]:
     tuple of tuple of str
         Channel groups, in the order of ``cond.responses``.
     """
+    return _on_one_time_axis(cond, [role for role, r in cond.responses.items()
+                                    if r.timing == "onset" and role in cond.full_outputs])
+
+
+def _on_one_time_axis(cond: ConditionedExperiment, roles: list[str]) -> tuple[tuple[str, ...], ...]:
+    """``roles`` grouped by identical time axes (the channels of one acquisition or one log), in order."""
     groups: list[list[str]] = []
-    for role, r in cond.responses.items():
-        if r.timing != "onset" or role not in cond.full_outputs:
-            continue
+    for role in roles:
+        t = cond.responses[role].time_s
         for g in groups:
             other = cond.responses[g[0]].time_s
-            if other.shape == r.time_s.shape and np.array_equal(other, r.time_s):
+            if other.shape == t.shape and np.array_equal(other, t):
                 g.append(role)
                 break
         else:
@@ -364,25 +369,16 @@ def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, dela
     # stays at the intervals' middle (unbiased: the switch is thrown at any instant) with its
     # uncertainty in the intervals, and only their phases relative to each other are fitted (left
     # fixed, their disagreement near the step bought a spurious pole-zero pair)
-    uncertain = tuple((role, instant_std(r)) for role, r in cond.responses.items()
-                      if role in cond.full_outputs and instant_std(r) > 0)
+    stds = {role: instant_std(r) for role, r in cond.responses.items() if role in cond.full_outputs}
+    uncertain = tuple((role, sd) for role, sd in stds.items() if sd > 0)
     # a log's columns share one stamp of the step: their instants move together
-    stamped = [role for role, r in cond.responses.items() if r.timing == "logged" and instant_std(r) > 0
-               and role in cond.full_outputs]
-    shared: list[list[str]] = []
-    for role in stamped:
-        for g in shared:
-            if np.array_equal(cond.responses[g[0]].time_s, cond.responses[role].time_s):
-                g.append(role)
-                break
-        else:
-            shared.append([role])
+    stamped = [role for role, _ in uncertain if cond.responses[role].timing == "logged"]
     return OeSettings(n_poles=structure[0], n_zeros=structure[1], delay=delay, tolerance=tolerance,
                       max_nfev=max_nfev, shift_bound_s=_shift_bound(cond),
                       shift_groups=timing_groups(cond), instant_std=uncertain,
                       phase_group=tuple(role for role, r in cond.responses.items()
                                         if r.timing == "sampled" and role in cond.full_outputs),
-                      instant_shared=tuple(tuple(g) for g in shared))
+                      instant_shared=_on_one_time_axis(cond, stamped))
 
 
 @dataclass(frozen=True, slots=True)
