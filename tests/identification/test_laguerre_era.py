@@ -28,3 +28,20 @@ def test_realisation_equals_python_control(order, size):
     fit = [float((c @ np.linalg.matrix_power(a, k) @ b)[0, 0]) for k in range(size)]
     fit_ref = [float((ref.C @ np.linalg.matrix_power(ref.A, k) @ ref.B)[0, 0]) for k in range(size)]
     assert np.allclose(fit, fit_ref, atol=1e-10)
+
+
+@pytest.mark.parametrize("size", [3, 5, 7, 8])
+def test_the_noise_floor_is_the_quantile_of_the_largest_singular_values(size):
+    """The floor's draws take σ₁ of each noise Hankel matrix: for a square (symmetric) one as its largest
+    |eigenvalue|; compared with numpy's 2-norm of the same draws (an SVD each)."""
+    from motorid.identification.laguerre import laguerre_noise_floor
+
+    rng = np.random.default_rng(size)
+    root = rng.normal(size=(size, size))
+    cov = root @ root.T
+    w, v = np.linalg.eigh(cov)
+    draws = np.random.default_rng(0).standard_normal((400, size)) @ (v * np.sqrt(np.clip(w, 0.0, None))).T
+    rows = (size + 1) // 2
+    hankels = draws[:, np.add.outer(np.arange(rows), np.arange(size - rows + 1))]
+    expected = np.quantile(np.linalg.norm(hankels, ord=2, axis=(1, 2)), 0.95)
+    assert laguerre_noise_floor(cov, draws=400, quantile=0.95, seed=0) == pytest.approx(expected, rel=1e-12)
