@@ -75,9 +75,39 @@ def test_the_fit_equals_least_squares_on_the_full_residuals():
     assert np.allclose(ours.params, ref.x, rtol=1e-6, atol=1e-9)
     assert ours.cost == pytest.approx(ref.cost, rel=1e-9)
     assert ours.residuals["velocity"].size == t.size
-    cov_ref = np.linalg.pinv(ref.jac.T @ ref.jac) * (2 * ref.cost / (ref.fun.size - ref.x.size))
+    # the degrees of freedom count samples: the pre-step samples are two rows of the residuals
+    assert prob.n_total == t.size + pre["velocity"].size
+    cov_ref = np.linalg.pinv(ref.jac.T @ ref.jac) * (2 * ref.cost / (prob.n_total - ref.x.size))
     assert np.allclose(ours.cov, cov_ref, rtol=1e-4, atol=0.0)
     assert ours.dc_gain == pytest.approx(0.9, rel=2e-3)
+
+
+def test_the_pre_step_rows_carry_every_pre_step_sample():
+    """The two pre-step rows have the per-sample rows' sum of squares, Jacobian product and gradient.
+
+    Per sample, the pre-step residuals are ``w·(x_i − offset)``, whose Jacobian is ``−w`` in the
+    offset's column: built here by hand, they are compared with the problem's at a point away from
+    the optimum (an offset off the samples' mean).
+    """
+    t, step, channels, pre = _problem(1)
+    settings = OeSettings(n_poles=2, n_zeros=0, shifts=False)
+    prob = _OeProblem.build(t, step, channels, {"velocity": 0.004}, settings, pre=pre, block=None, whiten=None,
+                            pre_sigma={"velocity": 0.005}, wrap_count=None)
+    th = np.clip(prob.initial_parameters([0.2, 0.02], 1.0, [], 0.0), prob.lower + 1e-9, prob.upper - 1e-9)
+    off = prob.layout.idx["off_velocity"]
+    th[off] += 0.01
+    f, jac = prob.residuals(th), prob.jacobian(th)
+    n_post = t.size
+    assert f.size == n_post + 2 and jac.shape[0] == n_post + 2
+    w = 1.0 / 0.005
+    per_sample = w * (pre["velocity"] - th[off])
+    j_per_sample = np.zeros((pre["velocity"].size, th.size))
+    j_per_sample[:, off] = -w
+    f_full = np.r_[f[:n_post], per_sample]
+    j_full = np.vstack([jac[:n_post], j_per_sample])
+    assert f @ f == pytest.approx(f_full @ f_full, rel=1e-12)
+    np.testing.assert_allclose(jac.T @ jac, j_full.T @ j_full, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(jac.T @ f, j_full.T @ f_full, rtol=1e-10, atol=1e-9)
 
 
 def test_partial_fractions_are_the_residues_of_each_numerator():

@@ -23,16 +23,26 @@ if TYPE_CHECKING:
     from motorid.identification.laguerre import LaguerreSettings
     from motorid.identification.srivc import SrivcSettings
 
-__all__ = ["DEFAULT_OUTPUT_ERROR", "FIT_TOLERANCE", "MAX_NFEV", "SEARCH_TOLERANCE", "MethodOptions",
-           "OutputErrorOptions", "positive_int", "tolerance"]
+__all__ = ["DEFAULT_OUTPUT_ERROR", "FIT_TOLERANCE", "MAX_NFEV", "POLISH_SEARCH_TOLERANCE", "SEARCH_NFEV",
+           "SEARCH_TOLERANCE", "MethodOptions", "OutputErrorOptions", "positive_int", "tolerance"]
 
 #: Most model evaluations of one output-error fit.
 MAX_NFEV = 200
 #: Stopping tolerance of the chosen structure's fit (``ftol`` and ``xtol``; scipy's default 1e-8).
 FIT_TOLERANCE = 1e-8
-#: Stopping tolerance of the order search's candidate structures (their BIC then moves by about
-#: 1e-6 of the sample count, far under the differences it decides on) and of the sanity gate's refit.
-SEARCH_TOLERANCE = 1e-6
+#: Stopping tolerance of the output-error order search's candidate structures (their BIC then
+#: moves by about 1e-5 of the sample count — under 0.1 for the few thousand samples a fit is
+#: given — far under the differences of 2 and more it decides on), of the sanity gate's refit and
+#: of auto's SRIVC second opinion.  1e-6 cost 4–11 more evaluations a record and let an
+#: over-parametrised candidate creep along a valley for hundreds.
+SEARCH_TOLERANCE = 1e-5
+#: The Markov method's polish stops its candidate orders here (its own, finite-difference fits:
+#: kept where its printed results were measured).
+POLISH_SEARCH_TOLERANCE = 1e-6
+#: Evaluations of a candidate structure before the search checks how far it still is from the
+#: best (most candidates on the trainer's presets converge in 3–36; over-parametrised ones
+#: crawled on for up to 200 to gain a few BIC units).
+SEARCH_NFEV = 40
 
 
 def positive_int(name: str, value: Any) -> None:
@@ -86,14 +96,22 @@ class OutputErrorOptions:
         Relative change of the cost and of the parameters that ends the chosen structure's fit.
     search_tolerance : float
         The same for the candidate structures of the order search and the sanity gate's refit.
+    search_nfev : int
+        Evaluations a candidate structure gets before the search looks at it: one still
+        :data:`~motorid.identification.stages.FAR_BIC` or more above the best BIC so far is left
+        there and said so (such candidates crawl along a valley of near-cancelling poles and
+        zeros for hundreds of evaluations to gain a few BIC units), the others run on to
+        ``max_nfev``.
     """
 
     max_nfev: int = MAX_NFEV
     tolerance: float = FIT_TOLERANCE
     search_tolerance: float = SEARCH_TOLERANCE
+    search_nfev: int = SEARCH_NFEV
 
     def __post_init__(self) -> None:
         positive_int("output_error.max_nfev", self.max_nfev)
+        positive_int("output_error.search_nfev", self.search_nfev)
         tolerance("output_error.tolerance", self.tolerance)
         tolerance("output_error.search_tolerance", self.search_tolerance)
 

@@ -827,6 +827,7 @@ def oe_stage(
     white: bool = False,
     tolerance: float = FIT_TOLERANCE,
     max_nfev: int = MAX_NFEV,
+    warm: OeResult | None = None,
 ) -> tuple[OeResult, MotorModel]:
     """Output-error fit of one structure, initialised from ``init``.
 
@@ -851,6 +852,9 @@ def oe_stage(
         structure search's candidates).
     max_nfev : int
         Most model evaluations of the fit.
+    warm : OeResult, optional
+        An earlier fit of this structure: the fit starts from all its parameters
+        (:func:`~motorid.identification.output_error.output_error_fit`).
 
     Returns
     -------
@@ -870,7 +874,7 @@ def oe_stage(
                            taus, dc, settings, init_zeros=zeros, init_delay_s=delay0, pre=data.pre,
                            step_std=noise.step_std, level_rel_std=noise.level_rel_std, block=data.block,
                            whiten=None if white else noise.whiten, pre_sigma=noise.pre_sigma,
-                           wrap_count=data.wrap_count)
+                           wrap_count=data.wrap_count, warm=warm)
     if "position" in noise.scale_only:
         c = position_scale_fit(res, data.time_s["position"], data.outputs["position"], cond.step_volts,
                                pre=data.pre["position"], wrap_count=data.wrap_count.get("position"))
@@ -1101,7 +1105,7 @@ def _refit(cond: ConditionedExperiment, fit: Any, noise: NoiseModel,
     refined = refine_noise(noise, fit[3])
     try:
         res, model = oe_stage(cond, fit[4], fit[1], noise=refined, delay=fit[2], tolerance=options.tolerance,
-                              max_nfev=options.max_nfev)
+                              max_nfev=options.max_nfev, warm=fit[3])
     except IdentificationError:
         return fit, refined
     if np.isfinite(res.bic) and np.all(np.real(res.poles) < 0):
@@ -1193,6 +1197,49 @@ def _order_stalled(best_of: dict[int, float], order: int) -> bool:
     return len(fitted) >= 2 and best_of[fitted[-1]] >= best_of[fitted[-2]]
 
 
+#: A candidate structure whose BIC is this much above the best one's is not worth finishing
+#: (Kass & Raftery 1995: "very strong" evidence against it; its BIC weight is under 1 %).
+FAR_BIC = 10.0
+
+#: What scipy's least squares says when it stops on its evaluation budget.
+_BUDGET_SPENT = "output-error fit stopped early"
+
+
+def _converged(res: OeResult) -> bool:
+    """Whether a fit ended on its tolerance, not on its evaluation budget."""
+    return not any(w.startswith(_BUDGET_SPENT) for w in res.warnings)
+
+
+def _most_poles(fits: list[Any], orders: tuple[int, ...]) -> int:
+    """The most poles a structure with a dead time is tried with: those of the best fit without one.
+
+    A dead time stands in for the lag of fast poles, it does not need more of them: the delay
+    variants with more poles than the best no-delay fit were a third of such a search, and came
+    out far above the best or were dropped (the second-order trainer, six seeds: 25–123 BIC above it).
+    """
+    return min(fits, key=lambda f: f[0])[1][0] if fits else max(orders)
+
+
+def _candidate_fit(cond: ConditionedExperiment, start: MotorModel, structure: tuple[int, int], noise: NoiseModel,
+                   delay: bool, options: OutputErrorOptions, best_bic: float) -> tuple[OeResult, MotorModel, bool]:
+    """One candidate of the order search: ``options.search_nfev`` evaluations, then on to the end if it can matter.
+
+    A candidate still :data:`FAR_BIC` above the best BIC so far when its first evaluations are
+    spent is returned as it stands, flagged (the last value ``True``: :func:`select_order` leaves
+    it out, and says so); the others continue from where they stopped.
+    """
+    budget = min(options.search_nfev, options.max_nfev)
+    res, model = oe_stage(cond, start, structure, noise=noise, delay=delay, tolerance=options.search_tolerance,
+                          max_nfev=budget)
+    if _converged(res) or budget >= options.max_nfev or not np.isfinite(res.bic):
+        return res, model, False
+    if res.bic >= best_bic + FAR_BIC:
+        return res, model, True
+    res, model = oe_stage(cond, model, structure, noise=noise, delay=delay, tolerance=options.search_tolerance,
+                          max_nfev=options.max_nfev - res.nfev, warm=res)
+    return res, model, False
+
+
 def select_order(
     cond: ConditionedExperiment,
     init: MotorModel,
@@ -1205,7 +1252,10 @@ def select_order(
 
     BIC (``N ln(RSS_w/N) + p ln N`` on the noise-weighted residuals) penalises each extra
     parameter by ``ln N``; with thousands of samples a pole must explain a real part of the
-    response to be kept.
+    response to be kept.  What the search leaves out, its evidence says: orders past one that
+    did not lower BIC, structures with a dead time and more poles than the best fit without one,
+    and candidates still :data:`FAR_BIC` above the best when ``options.search_nfev`` evaluations
+    are spent.
 
     Parameters
     ----------
@@ -1235,6 +1285,8 @@ def select_order(
     """
     errors: list[str] = []
     skipped: list[str] = []
+    left: list[str] = []  # candidates left far from the best when their evaluations ran out
+    beyond: list[str] = []  # delay variants with more poles than the best fit without a delay
     noise = noise_model(cond, init, options)
     # every structure starts from the preliminary fit (near its optimum already: a few
     # iterations), except when that had fewer poles than the structure: three poles then
@@ -1249,7 +1301,11 @@ def select_order(
     for with_delay in variants:
         models: dict[tuple[int, int], MotorModel] = {}
         best_of: dict[int, float] = {}  # the smallest BIC of each order fitted so far
+        most = _most_poles(fits, orders) if with_delay else max(orders)
         for order in orders:
+            if order > most:
+                beyond.append(f"{order} poles with a dead time")
+                continue
             if _order_stalled(best_of, order):
                 skipped.append(f"{order} poles{' with a dead time' if with_delay else ''}")
                 continue
@@ -1260,13 +1316,17 @@ def select_order(
                     start = quick if structure[0] <= n_quick and not with_delay else init
                 label = f"{structure}{' + delay' if with_delay else ''}"
                 try:
-                    res, model = oe_stage(cond, start, structure, noise=noise, delay=with_delay,
-                                          tolerance=options.search_tolerance, max_nfev=options.max_nfev)
+                    res, model, far = _candidate_fit(cond, start, structure, noise, with_delay, options,
+                                                     min((f[0] for f in fits), default=np.inf))
                 except IdentificationError as exc:
                     errors.append(f"{label}: {exc.message}")
                     continue
                 if not np.isfinite(res.bic) or np.any(np.real(res.poles) >= 0):
                     errors.append(f"{label}: unstable or failed fit")
+                    continue
+                if far:
+                    left.append(f"{_describe(structure, with_delay)} (BIC {res.bic - min(f[0] for f in fits):.0f} "
+                                f"above the best after {res.nfev} evaluations)")
                     continue
                 # a pole or zero faster than half a recorded sample is not seen by the data: the
                 # fit parked a superfluous parameter there (and its realisation is ill-conditioned)
@@ -1329,5 +1389,11 @@ def select_order(
                      f"{1e3 * cond.dead_time_s:.3g} ms after the step)")
     if skipped:
         evidence += f"; {', '.join(dict.fromkeys(skipped))} not fitted (one pole fewer did not lower BIC)"
+    if beyond:
+        evidence += (f"; {', '.join(beyond)} not fitted (a dead time takes the place of fast poles: no more poles "
+                     "than the best fit without one)")
+    if left:
+        evidence += (f"; {', '.join(left)} not fitted further (a candidate still {FAR_BIC:g} or more above the "
+                     "best is not worth finishing)")
     return OrderSelection(best[1], best[3], model, table, None if runner is None else runner[1], evidence,
                           best[2], refined)
