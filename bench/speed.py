@@ -9,7 +9,9 @@ method=M)`` for ``auto``, ``oe``, ``markov``, ``pinv`` and ``classic``, and with
 ``curve_fit`` of a first order plus dead time on the same conditioned velocity samples (the
 peer a student would write). It prints, per method, the median CPU time of a call
 (``time.process_time``: the machine is shared, wall time is not a measure), the ratio to
-``pinv``, and the errors of the DC gain and of the residence time (τ + dead time) against the
+``pinv``, the evaluations of scipy's ``least_squares`` in one call (residuals and Jacobians the
+solver asked for, summed over every fit the method makes: a count the machine's load does not
+move), and the errors of the DC gain and of the residence time (τ + dead time) against the
 trainer's truth. The load average before and after is printed with the table; one BLAS thread,
 as the library uses.
 """
@@ -39,6 +41,31 @@ class Row:
     cpu_s: float
     dc_gain: float
     residence_s: float
+    evaluations: int | None  # None: the peer (curve_fit runs MINPACK's leastsq, not least_squares)
+
+
+class SolverCount:
+    """Counts the evaluations of ``scipy.optimize.least_squares`` (its ``nfev``) while installed.
+
+    Every fit of the library calls it through the module attribute, so wrapping the attribute
+    sees them all; the bench runs it around one call of each method.
+    """
+
+    def __init__(self) -> None:
+        self.nfev = 0
+        self._real = scipy.optimize.least_squares
+
+    def __enter__(self) -> SolverCount:
+        def counted(*args, **kwargs):
+            sol = self._real(*args, **kwargs)
+            self.nfev += int(sol.nfev)
+            return sol
+
+        scipy.optimize.least_squares = counted
+        return self
+
+    def __exit__(self, *exc) -> None:
+        scipy.optimize.least_squares = self._real
 
 
 def curve_fit_fopdt(exp: mi.Experiment) -> tuple[float, float]:
@@ -77,13 +104,18 @@ def run_preset(name: str, seed: int, repeat: int) -> tuple[list[Row], float, flo
     calls = {m: (lambda m=m: mi.identify(exp, method=m)) for m in METHODS}
     calls["scipy curve_fit (FOPDT)"] = lambda: curve_fit_fopdt(exp)
     timed = interleaved_cpu(calls, repeat)
+    evaluations = {}
+    for name, fn in calls.items():  # one more call each, counted (the count is the same every call)
+        with SolverCount() as count:
+            fn()
+        evaluations[name] = count.nfev
     rows = []
     for method in METHODS:
         t, fit = timed[method]
         fo = fit.model.first_order()
-        rows.append(Row(method, t, fo.dc_gain, fo.time_constant_s + fit.model.delay_s))
+        rows.append(Row(method, t, fo.dc_gain, fo.time_constant_s + fit.model.delay_s, evaluations[method]))
     t, (k, res) = timed["scipy curve_fit (FOPDT)"]
-    rows.append(Row("scipy curve_fit (FOPDT)", t, k, res))
+    rows.append(Row("scipy curve_fit (FOPDT)", t, k, res, None))
     return rows, dc_true, res_true
 
 
@@ -101,9 +133,11 @@ def main() -> None:
         pinv = next(r.cpu_s for r in rows if r.method == "pinv")
         print(f"\npreset {name}, seed {args.seed}: median CPU of {args.repeat} warm calls, methods in turn; truth: "
               f"DC gain {dc_true:.4f}, residence time {res_true:.4f} s")
-        print(f"{'method':<26}{'CPU (ms)':>10}{'× pinv':>9}{'DC gain err %':>15}{'residence err %':>17}")
+        print(f"{'method':<26}{'CPU (ms)':>10}{'× pinv':>9}{'solver evals':>14}{'DC gain err %':>15}"
+              f"{'residence err %':>17}")
         for r in rows:
-            print(f"{r.method:<26}{1000 * r.cpu_s:>10.1f}{r.cpu_s / pinv:>9.1f}"
+            evals = "–" if r.evaluations is None else str(r.evaluations)
+            print(f"{r.method:<26}{1000 * r.cpu_s:>10.1f}{r.cpu_s / pinv:>9.1f}{evals:>14}"
                   f"{100 * (r.dc_gain / dc_true - 1):>15.3f}{100 * (r.residence_s / res_true - 1):>17.3f}")
     print(f"\nload average after: {os.getloadavg()[0]:.2f}")
 

@@ -13,7 +13,7 @@ import pytest
 
 import motorid as mi
 from motorid.identification import laguerre_refine
-from motorid.identification.method_options import FIT_TOLERANCE, MAX_NFEV, POLISH_SEARCH_TOLERANCE
+from motorid.identification.method_options import FIT_TOLERANCE, MAX_NFEV, SEARCH_TOLERANCE
 
 
 def test_every_polish_fit_stops_within_the_output_error_budget(monkeypatch):
@@ -37,8 +37,8 @@ def test_every_polish_fit_stops_within_the_output_error_budget(monkeypatch):
         rec = run_experiment("first-order", seed=1, validation=False)
         res = mi.identify(mi.Experiment(captures=dict(rec.captures)), method="markov")
     assert polish, "no polish fit ran"
-    # as the output-error method: the candidates at a search tolerance, the chosen one at the final fit's
-    assert all(ftol == xtol == POLISH_SEARCH_TOLERANCE for _, ftol, xtol in polish[:-1])
+    # as the output-error method: the candidates at the order search's tolerance, the chosen one at the final fit's
+    assert all(ftol == xtol == SEARCH_TOLERANCE for _, ftol, xtol in polish[:-1])
     assert polish[-1][1] == polish[-1][2] == FIT_TOLERANCE
     assert max(n for n, _, _ in polish) <= MAX_NFEV, polish
     # the order and the gain the polish chose are unchanged by the budget (the first-order truth)

@@ -1,10 +1,11 @@
 """What the output-error order search spends its evaluations on, and that spending less changes no choice.
 
-Three rules keep ``auto`` near a few times the paper's least squares: a candidate structure still far
-above the best BIC when its first evaluations are spent is left there; with a dead time, no more poles
-are tried than the best fit without one needed; a refit starts from the fit it refines.  Each test
-runs the search with and without the rule (a budget as large as the whole fit, every delay variant,
-no earlier fit) and compares what the user gets.
+Two rules keep ``auto`` near a few times the paper's least squares: a candidate structure still far
+above the best BIC when its first evaluations are spent is given up there (the solver checks after
+each iteration: a candidate within reach runs as before); with a dead time, no more poles are tried
+than the best fit without one needed.  Each
+test runs the search with and without the rule (a budget as large as the whole fit, every delay
+variant) and compares what the user gets.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from motorid.conditioning.pipeline import ConditioningSettings, condition_experi
 from motorid.identification import stages
 from motorid.identification.method_options import MAX_NFEV, MethodOptions, OutputErrorOptions
 from motorid.identification.pipeline import IdentifySettings, identify_conditioned
+from motorid.identification.output_error import _SOLVER_CALLBACK, GAVE_UP
 from motorid.identification.stages import FAR_BIC, noise_model, oe_stage
 from motorid.trainer import run_experiment
 
@@ -41,7 +43,7 @@ def _rows(fit) -> dict[tuple[int, int, bool], float]:
 
 def test_a_candidate_far_from_the_best_is_left_when_its_evaluations_run_out():
     """The lab report's trainer (second order), seed 2: three poles and a zero crawl along a valley of a
-    near-cancelling pair (115 evaluations when let run, to end 4 above the best and be dropped for a zero beyond
+    near-cancelling pair (119 evaluations when let run, to end 4 above the best and be dropped for a pole beyond
     the sampling rate); after 40 they are 14 above the best and left, and the model is the same.
     """
     quick = _identify("lab-report", 2)
@@ -107,17 +109,17 @@ def paper():
     return cond, init, noise_model(cond, init)
 
 
-def test_a_refit_starts_from_the_fit_it_refines(paper):
-    """Started from an earlier fit of the same structure, every parameter (offsets and shifts too) starts where
-    that fit ended: it stops at once at the same optimum.  A fit of another structure is no start: ignored."""
+def test_a_fit_given_up_only_when_far_and_otherwise_untouched(paper):
+    """Not given up (its BIC never above the limit), a fit takes exactly the iterates of a fit without the rule;
+    given up (a limit every BIC is above), it stops at the first iteration past its evaluations and says so."""
     cond, init, noise = paper
-    first, model = oe_stage(cond, init, (3, 1), noise=noise)
-    again, _ = oe_stage(cond, model, (3, 1), noise=noise, warm=first)
-    cold, _ = oe_stage(cond, model, (3, 1), noise=noise)
-    assert again.nfev <= 3 < cold.nfev
-    # at the same optimum: within a tenth of each parameter's standard error
-    np.testing.assert_array_less(np.abs(again.params - first.params), 0.1 * np.sqrt(np.diag(first.cov)))
-    other, _ = oe_stage(cond, init, (2, 0), noise=noise)
-    ignored, _ = oe_stage(cond, model, (3, 1), noise=noise, warm=other)
-    assert ignored.nfev == cold.nfev
-    np.testing.assert_allclose(ignored.params, cold.params, rtol=0, atol=0)
+    plain, _ = oe_stage(cond, init, (3, 1), noise=noise, tolerance=1e-6)
+    kept, _ = oe_stage(cond, init, (3, 1), noise=noise, tolerance=1e-6, give_up=(5, np.inf))
+    assert kept.nfev == plain.nfev
+    np.testing.assert_array_equal(kept.params, plain.params)
+    assert not any(w.startswith(GAVE_UP) for w in kept.warnings)
+    if not _SOLVER_CALLBACK:
+        pytest.skip("scipy < 1.16: no solver callback, the rule is not applied")
+    given, _ = oe_stage(cond, init, (3, 1), noise=noise, tolerance=1e-6, give_up=(5, -np.inf))
+    assert 5 <= given.nfev < plain.nfev
+    assert any(w.startswith(GAVE_UP) for w in given.warnings)

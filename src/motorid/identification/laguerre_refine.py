@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from motorid.identification.method_options import FIT_TOLERANCE, MAX_NFEV, POLISH_SEARCH_TOLERANCE
+from motorid.identification.method_options import FIT_TOLERANCE, MAX_NFEV, SEARCH_TOLERANCE
 from motorid.identification.metrics import bic
 from motorid.identification.result import IdentificationError
 from motorid.model import lti
@@ -69,9 +69,9 @@ def _polish_orders(candidates: list[_Candidate], t: np.ndarray, outputs: dict[st
         if c.stable and (c.order not in best or c.score < best[c.order].score):
             best[c.order] = c
     chosen: list[tuple[_Candidate, list[LaguerrePolish]]] = []
-    # the candidates stop at a search tolerance, the chosen one at the final fit's (below)
+    # the candidates stop at the output-error order search's tolerance, the chosen one at the final fit's (below)
     run = functools.partial(laguerre_polish, t, outputs, input_v=u, step_volts=step_volts, primary=primary,
-                            pre_step=pre_step, phase_s=phase_s, tolerance=POLISH_SEARCH_TOLERANCE)
+                            pre_step=pre_step, phase_s=phase_s, tolerance=SEARCH_TOLERANCE)
     for m, c in sorted(best.items()):
         fits = _polish_order(m, [{"A": c.A, "B": c.B, "C": c.C, "delay_s": c.coefficients.delay_s}],
                              chosen[-1][1][0] if chosen else None, float(t[1] - t[0]), run)
@@ -93,9 +93,8 @@ def _chosen_refitted(final: list[tuple[_Candidate, LaguerrePolish]], noise: dict
     """The least-BIC order refitted at the final fit's tolerance, resumed where its candidate fit stopped.
 
     As the output-error method does: the candidates of the order search stop at
-    :data:`~motorid.identification.method_options.POLISH_SEARCH_TOLERANCE` (an order with a pole to
-    spare creeps along a ridge for its whole budget at 1e-8, the cost moving by 1e-7 of itself),
-    the chosen structure at :data:`FIT_TOLERANCE`.
+    :data:`SEARCH_TOLERANCE` (an order with a pole to spare creeps along a ridge for its whole
+    budget at 1e-8, the cost moving by 1e-7 of itself), the chosen structure at :data:`FIT_TOLERANCE`.
     ``run`` is the candidates' :func:`laguerre_polish` (its tolerance is overridden here).
     """
     if not final:
@@ -139,7 +138,7 @@ def _with_shared_noise_model(orders: list[tuple[_Candidate, list[LaguerrePolish]
     if all(poly.size == 1 for poly in noise.values()):
         return scored, None
     run = functools.partial(laguerre_polish, t, outputs, input_v=u, step_volts=step_volts, primary=primary,
-                            pre_step=pre_step, noise=noise, phase_s=phase_s, tolerance=POLISH_SEARCH_TOLERANCE)
+                            pre_step=pre_step, noise=noise, phase_s=phase_s, tolerance=SEARCH_TOLERANCE)
     out: list[tuple[_Candidate, LaguerrePolish]] = []
     # the two best orders compete again (a third one behind both under the lag-1 inflation has not come back in
     # the bench's runs, and each GLS refit costs a full fit)

@@ -23,22 +23,19 @@ if TYPE_CHECKING:
     from motorid.identification.laguerre import LaguerreSettings
     from motorid.identification.srivc import SrivcSettings
 
-__all__ = ["DEFAULT_OUTPUT_ERROR", "FIT_TOLERANCE", "MAX_NFEV", "POLISH_SEARCH_TOLERANCE", "SEARCH_NFEV",
+__all__ = ["DEFAULT_OUTPUT_ERROR", "FIT_TOLERANCE", "MAX_NFEV", "SEARCH_NFEV",
            "SEARCH_TOLERANCE", "MethodOptions", "OutputErrorOptions", "positive_int", "tolerance"]
 
 #: Most model evaluations of one output-error fit.
 MAX_NFEV = 200
 #: Stopping tolerance of the chosen structure's fit (``ftol`` and ``xtol``; scipy's default 1e-8).
 FIT_TOLERANCE = 1e-8
-#: Stopping tolerance of the output-error order search's candidate structures (their BIC then
-#: moves by about 1e-5 of the sample count — under 0.1 for the few thousand samples a fit is
-#: given — far under the differences of 2 and more it decides on), of the sanity gate's refit and
-#: of auto's SRIVC second opinion.  1e-6 cost 4–11 more evaluations a record and let an
-#: over-parametrised candidate creep along a valley for hundreds.
-SEARCH_TOLERANCE = 1e-5
-#: The Markov method's polish stops its candidate orders here (its own, finite-difference fits:
-#: kept where its printed results were measured).
-POLISH_SEARCH_TOLERANCE = 1e-6
+#: Stopping tolerance of the order search's candidate structures (their BIC then moves by about
+#: 1e-6 of the sample count, far under the differences it decides on), of the sanity gate's refit
+#: and of auto's SRIVC second opinion.  Not looser: whether a candidate's extra pole is resolved
+#: is read off its covariance where the fit stopped, and at 1e-5 three of twenty third-order
+#: records lost their third pole that way (BIC 0.05 from the optimum, the pole's interval wider).
+SEARCH_TOLERANCE = 1e-6
 #: Evaluations of a candidate structure before the search checks how far it still is from the
 #: best (most candidates on the trainer's presets converge in 3–36; over-parametrised ones
 #: crawled on for up to 200 to gain a few BIC units).

@@ -16,6 +16,7 @@ this module.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+import inspect
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -38,6 +39,7 @@ from motorid.identification.result import IdentificationError
 
 __all__ = [
     "FRACTION_63",
+    "GAVE_UP",
     "OeResult",
     "OeSettings",
     "PlannedUncertainty",
@@ -448,7 +450,7 @@ def output_error_fit(
     whiten: Mapping[str, np.ndarray] | None = None,
     pre_sigma: Mapping[str, float] | None = None,
     wrap_count: Mapping[str, np.ndarray] | None = None,
-    warm: OeResult | None = None,
+    give_up: tuple[int, float] | None = None,
 ) -> OeResult:
     """Fit the velocity TF (and the position scale, the current numerator) to step responses.
 
@@ -496,12 +498,12 @@ def output_error_fit(
         ``position``: turns the unwrapping added to each sample after the step.  An encoder
         span estimated a little off leaves a step of ``wraps × error`` in the position; the
         error is fitted as a nuisance parameter ``span_position``.
-    warm : OeResult, optional
-        An earlier fit of the same structure to the same channels (under another noise model):
-        it starts from that fit's parameters, offsets, shifts and nuisances included, where the
-        ``init_*`` values leave them to be found again (a refit from those started thousands of
-        BIC units above its optimum, from the earlier fit under 1).  Ignored when its parameters
-        differ.
+    give_up : (int, float), optional
+        ``(evaluations, bic)``: once the fit has made that many evaluations, it stops at the first
+        iteration whose BIC is still at least ``bic`` (an order search's candidate that cannot
+        come near the best; the warnings then start with :data:`GAVE_UP`).  Up to that point, and
+        for a fit that gets there, the iterates are those of a fit without it.  Needs scipy ≥
+        1.16 (the solver's ``callback``); ignored with an older scipy.
 
     Returns
     -------
@@ -517,21 +519,50 @@ def output_error_fit(
         raise IdentificationError(f"output-error structure needs 1 ≤ zeros + 1 ≤ poles, got {n} poles and {m} zeros")
     prob = _OeProblem.build(time_s, step_volts, channels, sigma, settings, pre=pre, block=block, whiten=whiten,
                             pre_sigma=pre_sigma, wrap_count=wrap_count)
-    if warm is not None and tuple(warm.param_names) == tuple(prob.layout.names):
-        th0 = np.asarray(warm.params, dtype=float)
-    else:
-        th0 = prob.initial_parameters(init_taus, init_dc_gain, init_zeros, init_delay_s)
-    th0 = np.clip(th0, prob.lower + 1e-9, prob.upper - 1e-9)
+    th0 = np.clip(prob.initial_parameters(init_taus, init_dc_gain, init_zeros, init_delay_s),
+                  prob.lower + 1e-9, prob.upper - 1e-9)
     warnings: list[str] = []
     small = _Compressed(prob)
+    extra = {}
+    if give_up is not None and _SOLVER_CALLBACK:
+        extra["callback"] = _GiveUp(give_up[0], give_up[1], prob.n_total, len(prob.layout.names))
     with np.errstate(over="ignore", invalid="ignore"):
         sol = scipy.optimize.least_squares(small.residuals, th0, jac=small.jacobian, bounds=(prob.lower, prob.upper),
                                            x_scale="jac", max_nfev=settings.max_nfev, method="trf",
-                                           ftol=settings.tolerance, xtol=settings.tolerance)
+                                           ftol=settings.tolerance, xtol=settings.tolerance, **extra)
     sol.fun, sol.jac = small.full(sol.x)
-    if not sol.success:
+    if sol.status == -2 and give_up is not None:
+        warnings.append(f"{GAVE_UP} after {sol.nfev} evaluations, its BIC still {give_up[1]:.4g} or more")
+    elif not sol.success:
         warnings.append(f"output-error fit stopped early: {sol.message}")
     return prob.result(sol, step_std, warnings, level_rel_std=level_rel_std)
+
+
+#: The start of a fit's warning when it stopped on its ``give_up`` rule (:func:`output_error_fit`).
+GAVE_UP = "output-error fit given up"
+
+#: Whether scipy's least squares takes a ``callback`` (scipy 1.16).
+_SOLVER_CALLBACK = "callback" in inspect.signature(scipy.optimize.least_squares).parameters
+
+
+class _GiveUp:
+    """The solver's callback of :func:`output_error_fit`'s ``give_up``: stop a fit still far above a BIC.
+
+    scipy calls it after each iteration with the iterate's cost (half the sum of squares of the
+    whitened residuals); raising ``StopIteration`` ends the fit there (status −2).
+    """
+
+    __slots__ = ("bic", "n_params", "n_samples", "nfev")
+
+    def __init__(self, nfev: int, bic_limit: float, n_samples: int, n_params: int) -> None:
+        self.nfev, self.bic, self.n_samples, self.n_params = nfev, bic_limit, n_samples, n_params
+
+    def __call__(self, intermediate_result: Any) -> None:
+        if int(intermediate_result.nfev) < self.nfev:
+            return
+        rss = 2.0 * float(intermediate_result.cost)
+        if rss > 0 and bic({"r": self.n_samples}, {"r": rss / self.n_samples}, self.n_params) >= self.bic:
+            raise StopIteration
 
 
 class _Compressed:

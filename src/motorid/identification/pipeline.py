@@ -495,7 +495,7 @@ def _unwhitened(cond: ConditionedExperiment, sel: Any, oe: OutputErrorOptions) -
     try:
         # compared with the headline within their standard errors: the search's tolerance is plenty
         res, m = oe_stage(cond, sel.model, sel.structure, delay=sel.delay, noise=sel.noise, white=True,
-                          tolerance=oe.search_tolerance, max_nfev=oe.max_nfev, warm=sel.result)
+                          tolerance=oe.search_tolerance, max_nfev=oe.max_nfev)
     except (IdentificationError, OptionError):
         return None
     fo = m.first_order()

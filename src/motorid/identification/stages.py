@@ -21,6 +21,7 @@ from motorid.conditioning.edge import noise_level, quantisation_step
 from motorid.conditioning.pipeline import ConditionedExperiment
 from motorid.conditioning.response import split_at
 from motorid.identification.output_error import (  # _block_mean: the fit's own block averaging
+    GAVE_UP,
     OeResult,
     _block_mean,
     OeSettings,
@@ -827,7 +828,7 @@ def oe_stage(
     white: bool = False,
     tolerance: float = FIT_TOLERANCE,
     max_nfev: int = MAX_NFEV,
-    warm: OeResult | None = None,
+    give_up: tuple[int, float] | None = None,
 ) -> tuple[OeResult, MotorModel]:
     """Output-error fit of one structure, initialised from ``init``.
 
@@ -852,9 +853,9 @@ def oe_stage(
         structure search's candidates).
     max_nfev : int
         Most model evaluations of the fit.
-    warm : OeResult, optional
-        An earlier fit of this structure: the fit starts from all its parameters
-        (:func:`~motorid.identification.output_error.output_error_fit`).
+    give_up : (int, float), optional
+        ``(evaluations, bic)``: stop once past that many evaluations while the BIC is still at
+        least ``bic`` (:func:`~motorid.identification.output_error.output_error_fit`).
 
     Returns
     -------
@@ -874,7 +875,7 @@ def oe_stage(
                            taus, dc, settings, init_zeros=zeros, init_delay_s=delay0, pre=data.pre,
                            step_std=noise.step_std, level_rel_std=noise.level_rel_std, block=data.block,
                            whiten=None if white else noise.whiten, pre_sigma=noise.pre_sigma,
-                           wrap_count=data.wrap_count, warm=warm)
+                           wrap_count=data.wrap_count, give_up=give_up)
     if "position" in noise.scale_only:
         c = position_scale_fit(res, data.time_s["position"], data.outputs["position"], cond.step_volts,
                                pre=data.pre["position"], wrap_count=data.wrap_count.get("position"))
@@ -1105,7 +1106,7 @@ def _refit(cond: ConditionedExperiment, fit: Any, noise: NoiseModel,
     refined = refine_noise(noise, fit[3])
     try:
         res, model = oe_stage(cond, fit[4], fit[1], noise=refined, delay=fit[2], tolerance=options.tolerance,
-                              max_nfev=options.max_nfev, warm=fit[3])
+                              max_nfev=options.max_nfev)
     except IdentificationError:
         return fit, refined
     if np.isfinite(res.bic) and np.all(np.real(res.poles) < 0):
@@ -1201,15 +1202,6 @@ def _order_stalled(best_of: dict[int, float], order: int) -> bool:
 #: (Kass & Raftery 1995: "very strong" evidence against it; its BIC weight is under 1 %).
 FAR_BIC = 10.0
 
-#: What scipy's least squares says when it stops on its evaluation budget.
-_BUDGET_SPENT = "output-error fit stopped early"
-
-
-def _converged(res: OeResult) -> bool:
-    """Whether a fit ended on its tolerance, not on its evaluation budget."""
-    return not any(w.startswith(_BUDGET_SPENT) for w in res.warnings)
-
-
 def _most_poles(fits: list[Any], orders: tuple[int, ...]) -> int:
     """The most poles a structure with a dead time is tried with: those of the best fit without one.
 
@@ -1222,22 +1214,17 @@ def _most_poles(fits: list[Any], orders: tuple[int, ...]) -> int:
 
 def _candidate_fit(cond: ConditionedExperiment, start: MotorModel, structure: tuple[int, int], noise: NoiseModel,
                    delay: bool, options: OutputErrorOptions, best_bic: float) -> tuple[OeResult, MotorModel, bool]:
-    """One candidate of the order search: ``options.search_nfev`` evaluations, then on to the end if it can matter.
+    """One candidate of the order search, given up once past ``options.search_nfev`` evaluations if still far.
 
-    A candidate still :data:`FAR_BIC` above the best BIC so far when its first evaluations are
-    spent is returned as it stands, flagged (the last value ``True``: :func:`select_order` leaves
-    it out, and says so); the others continue from where they stopped.
+    A candidate whose BIC is still :data:`FAR_BIC` or more above the best BIC so far once it has
+    made ``options.search_nfev`` evaluations stops there, flagged (the last value ``True``:
+    :func:`select_order` leaves it out, and says so).  The solver checks after each iteration,
+    so a candidate that is not given up takes the same iterates as with no such rule.
     """
-    budget = min(options.search_nfev, options.max_nfev)
+    give_up = (options.search_nfev, best_bic + FAR_BIC) if np.isfinite(best_bic) else None
     res, model = oe_stage(cond, start, structure, noise=noise, delay=delay, tolerance=options.search_tolerance,
-                          max_nfev=budget)
-    if _converged(res) or budget >= options.max_nfev or not np.isfinite(res.bic):
-        return res, model, False
-    if res.bic >= best_bic + FAR_BIC:
-        return res, model, True
-    res, model = oe_stage(cond, model, structure, noise=noise, delay=delay, tolerance=options.search_tolerance,
-                          max_nfev=options.max_nfev - res.nfev, warm=res)
-    return res, model, False
+                          max_nfev=options.max_nfev, give_up=give_up)
+    return res, model, any(w.startswith(GAVE_UP) for w in res.warnings)
 
 
 def select_order(
