@@ -76,6 +76,7 @@ def test_a_capture_without_input_reports_its_fitted_shift(tmp_path):
     r = identify_experiment({"velocity": cap}, step_volts=12.0)
     item = r.model.uncertainty["timing"]["velocity"]
     assert item["step_instant"].startswith("read off the response")
+    assert item["kind"] == "onset"  # the same, as a word a program can test
     lo, hi = item["ci95"]
     assert lo < item["shift_s"] < hi and hi - lo < 5 * dt
     # the model's step (edge + shift) is the true instant within its interval, and τ is right

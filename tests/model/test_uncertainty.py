@@ -154,3 +154,27 @@ def test_a_model_file_with_a_broken_uncertainty_is_one_line_and_exit_2(demo_run,
     assert r.code == 2
     assert message in r.err and str(bad) in r.err
     assert "Traceback" not in r.err and len(r.err.strip().splitlines()) == 1
+
+
+def test_a_channels_timing_carries_its_kind_and_older_documents_get_it_from_their_words():
+    """``kind`` (logged, sampled, onset, given) is written beside the words and read back; an entry written
+    before it existed gets it from its words, including a log's stamp-resolution wording of "logged"."""
+    from motorid.conditioning.response import STEP_TIMINGS
+    from motorid.identification.stages import step_instant
+    from motorid.model.uncertainty import TIMING_KINDS, TIMING_SOURCES, ChannelTiming
+
+    assert TIMING_KINDS == STEP_TIMINGS and set(TIMING_SOURCES) == set(TIMING_KINDS)
+    for kind, words in TIMING_SOURCES.items():
+        t = ChannelTiming(words, 0.25, None, None, kind)
+        assert t.to_dict()["kind"] == kind
+        assert ChannelTiming.from_dict(t.to_dict()) == t
+        old = {k: v for k, v in t.to_dict().items() if k != "kind"}
+        assert ChannelTiming.from_dict(old).kind == kind
+    # a log stamped by a 1 ms clock: its own wording, still "logged"
+    from types import SimpleNamespace
+
+    r = SimpleNamespace(timing="logged", stamp_resolution_s=1e-3, edge=SimpleNamespace(time_s=0.5), sample_interval_s=0.01)
+    words, _ = step_instant(r)
+    assert words != TIMING_SOURCES["logged"]
+    assert ChannelTiming.from_dict({"step_instant": words, "edge_s": 0.5}).kind == "logged"
+    assert ChannelTiming.from_dict({"step_instant": "something else", "edge_s": 0.5}).kind is None

@@ -91,6 +91,7 @@ def polish_uncertainty(
     instant_std: float = 0.0,
     timing: Mapping[str, tuple[str, float]] | None = None,
     shift_bound_s: float = float("inf"),
+    kinds: Mapping[str, str] | None = None,
 ) -> Uncertainty | None:
     """The typed uncertainty of a model the Markov method's polish fitted.
 
@@ -114,6 +115,9 @@ def polish_uncertainty(
         The polish's bound on a shift (``±`` one grid step): an interval that reaches past it on
         either side is reported as the bound, with no standard error (the data do not resolve the
         shift within it).
+    kinds : Mapping, optional
+        Per channel: the kind of its step instant (``logged``, ``sampled``, ``onset``, ``given``:
+        :attr:`~motorid.model.uncertainty.ChannelTiming.kind`).
 
     Returns
     -------
@@ -164,7 +168,7 @@ def polish_uncertainty(
         delay=_at_least_zero(estimate(float(base["delay"]), std_of("delay", timing_extra))),
         method=METHOD,
         joint=_joint(polish, cov, moving),
-        timing=_shift_timing(polish, cov, timing or {}, shift_bound_s),
+        timing=_shift_timing(polish, cov, timing or {}, shift_bound_s, kinds or {}),
     )
 
 
@@ -202,7 +206,7 @@ def _gradient_columns(grads: dict[str, np.ndarray], base: Mapping[str, Any], up:
 
 
 def _shift_timing(polish: LaguerrePolish, cov: np.ndarray, timing: Mapping[str, tuple[str, float]],
-                  bound: float) -> dict[str, ChannelTiming]:
+                  bound: float, kinds: Mapping[str, str]) -> dict[str, ChannelTiming]:
     """Each channel's step instant; the other captures' fitted shifts against the primary's, with intervals."""
     out: dict[str, ChannelTiming] = {}
     n_shifts = len(polish.channels) - 1
@@ -221,5 +225,5 @@ def _shift_timing(polish: LaguerrePolish, cov: np.ndarray, timing: Mapping[str, 
                 # its own numerator takes up a shift this small: the data leave it anywhere in the bound
                 shift = ParameterEstimate(value, float("nan"), (-bound, bound))
                 note = UNRESOLVED_SHIFT
-        out[role] = ChannelTiming(words, float(edge), shift, note)
+        out[role] = ChannelTiming(words, float(edge), shift, note, kind=kinds.get(role))
     return out

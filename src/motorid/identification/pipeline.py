@@ -342,6 +342,7 @@ def _polish_uncertainty(cond: ConditionedExperiment, model: MotorModel, polish: 
     return polish_uncertainty(
         model, polish, step_rel_std=float(np.hypot(step_level_std(cond) / cond.step_volts, output_level_rel_std(cond))),
         instant_std=instant_std(cond.responses[polish.channels[0]]), timing=timing,
+        kinds={role: r.timing for role, r in cond.responses.items() if role in polish.channels},
         shift_bound_s=float(model.sample_interval_s or np.inf))
 
 

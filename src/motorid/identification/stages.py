@@ -41,7 +41,14 @@ from motorid.identification.sanity import pole_unresolved, zero_undemanded
 from motorid.identification.srivc import SrivcSettings, srivc_fit
 from motorid.model import MotorModel
 from motorid.model.motor import realise_tfs
-from motorid.model.uncertainty import ChannelTiming, JointCovariance, ParameterEstimate, PolePair, Uncertainty
+from motorid.model.uncertainty import (
+    TIMING_SOURCES,
+    ChannelTiming,
+    JointCovariance,
+    ParameterEstimate,
+    PolePair,
+    Uncertainty,
+)
 
 __all__ = [
     "STRUCTURES",
@@ -331,7 +338,7 @@ def step_instant(r: Any) -> tuple[str, float]:
     Returns
     -------
     tuple of (str, float)
-        The source in words (:data:`TIMING_SOURCES`) and the instant in seconds.
+        The source in words (:data:`~motorid.model.uncertainty.TIMING_SOURCES`) and the instant in seconds.
     """
     source = TIMING_SOURCES.get(r.timing, r.timing)
     if r.timing == "logged" and r.stamp_resolution_s > 0:
@@ -621,17 +628,6 @@ def unresolved_pairs(res: OeResult) -> list[int]:
     return out
 
 
-#: How each kind of step instant is described in the model JSON's ``uncertainty.timing``.
-TIMING_SOURCES = {
-    "logged": "the logged input's change (exact)",
-    "sampled": "the scope's input edge, in the sample interval before the first sample at the new level: the "
-               "captures' phases relative to each other are fitted (shift_s), their common instant is the "
-               "interval's middle (±dt/√(12·n) in the intervals)",
-    "onset": "read off the response (no input channel): its shift is fitted",
-    "given": "--t0 (t0_s)",
-}
-
-
 def channel_timing(res: OeResult, cond: ConditionedExperiment) -> dict[str, ChannelTiming]:
     """Per channel of the fit: where its step instant comes from, and its fitted shift with interval.
 
@@ -658,7 +654,7 @@ def channel_timing(res: OeResult, cond: ConditionedExperiment) -> dict[str, Chan
             shift = _estimate_of(res, f"shift_{role}", res.shifts[role])
         elif r.timing == "onset" and res.delay_s is not None:
             note = "its shift is the dead time (a step instant read off the response cannot be told from it)"
-        out[role] = ChannelTiming(*step_instant(r), shift, note)
+        out[role] = ChannelTiming(*step_instant(r), shift, note, kind=r.timing)
     return out
 
 

@@ -18,10 +18,12 @@ from typing import Any
 
 import numpy as np
 
+from motorid.conditioning.response import STEP_TIMINGS
 from motorid.model.jsonview import JsonView
 from motorid.frozen import frozen_getstate, frozen_setstate
 
-__all__ = ["ChannelTiming", "JointCovariance", "ParameterEstimate", "PolePair", "Uncertainty"]
+__all__ = ["TIMING_KINDS", "TIMING_SOURCES", "ChannelTiming", "JointCovariance", "ParameterEstimate", "PolePair",
+           "Uncertainty"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -201,6 +203,20 @@ class JointCovariance:
                 "covariance": [[float(x) for x in row] for row in self.covariance]}
 
 
+#: How each kind of step instant is described in the model JSON's ``uncertainty.timing``
+#: (``step_instant``; its ``kind`` is the key).
+TIMING_SOURCES: Mapping[str, str] = MappingProxyType({
+    "logged": "the logged input's change (exact)",
+    "sampled": "the scope's input edge, in the sample interval before the first sample at the new level: the "
+               "captures' phases relative to each other are fitted (shift_s), their common instant is the "
+               "interval's middle (±dt/√(12·n) in the intervals)",
+    "onset": "read off the response (no input channel): its shift is fitted",
+    "given": "--t0 (t0_s)",
+})
+#: The kinds of step instant (:attr:`ChannelTiming.kind`): the conditioning's own.
+TIMING_KINDS = STEP_TIMINGS
+
+
 @dataclass(frozen=True, slots=True)
 class ChannelTiming:
     """Where one channel's step instant comes from, and its fitted shift (``timing`` in the JSON).
@@ -216,12 +232,17 @@ class ChannelTiming:
         ``None`` when the channel's instant is fixed.
     note : str or None
         What else the reader needs to know (a shift that is the dead time).
+    kind : str or None
+        The same source as a word a program can test (:data:`TIMING_KINDS`): ``logged``,
+        ``sampled``, ``onset`` (read off the response: no input channel) or ``given`` (``--t0``);
+        ``None`` when not known.
     """
 
     step_instant: str
     edge_s: float
     shift: ParameterEstimate | None = None
     note: str | None = None
+    kind: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The model JSON's ``timing`` entry of this channel.
@@ -236,18 +257,23 @@ class ChannelTiming:
             out.update(shift_s=item["value"], std=item["std"], ci95=item["ci95"])
         if self.note is not None:
             out["note"] = self.note
+        if self.kind is not None:
+            out["kind"] = self.kind
         return out
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> ChannelTiming:
-        """Read a ``timing`` entry."""
+        """Read a ``timing`` entry (one written before ``kind`` existed gets it from its words)."""
         shift = None
         if isinstance(data.get("shift_s"), (int, float)):
             shift = ParameterEstimate.from_dict({"value": data["shift_s"], "std": data.get("std"),
                                                  "ci95": data.get("ci95")})
         note = data.get("note")
-        return cls(str(data.get("step_instant", "")), _number(data.get("edge_s")), shift,
-                   None if note is None else str(note))
+        words = str(data.get("step_instant", ""))
+        kind = data.get("kind")
+        if kind not in TIMING_KINDS:
+            kind = next((k for k, text in TIMING_SOURCES.items() if words.startswith(text[:24])), None)
+        return cls(words, _number(data.get("edge_s")), shift, None if note is None else str(note), kind)
 
 
 #: The typed top-level keys of ``uncertainty``, in the order the JSON has them.

@@ -82,11 +82,9 @@ def _uncertainty(u: Uncertainty | None, gain_unit: str = "V/V") -> list[SummaryL
     lines: list[SummaryLine] = []
     if u is None:
         return lines
-    from motorid.identification.stages import TIMING_SOURCES
-
     # with no input channel the step instant is the response's fitted onset: whatever lag the
     # sampling cannot resolve, and any dead time, went into that onset, not into the times
-    onset = any(t.step_instant == TIMING_SOURCES["onset"] for t in u.timing.values())
+    onset = any(t.kind == "onset" for t in u.timing.values())
     t63_label = ("63 % time (s; from the response's fitted onset: with no input channel a dead time or a lag under "
                  "a sample is in the onset, not here)" if onset else
                  "63 % time (s; what a scope read-off measures, dead time included)")
