@@ -32,8 +32,8 @@ def test_realisation_equals_python_control(order, size):
 
 @pytest.mark.parametrize("size", [3, 5, 7, 8])
 def test_the_noise_floor_is_the_quantile_of_the_largest_singular_values(size):
-    """The floor's draws take σ₁ of each noise Hankel matrix: for a square (symmetric) one as its largest
-    |eigenvalue|; compared with numpy's 2-norm of the same draws (an SVD each)."""
+    """The floor is the quantile of σ₁ of noise Hankel matrices drawn with the coefficients' covariance:
+    recomputed here from the same draws (seed 0) with numpy's 2-norm."""
     from motorid.identification.laguerre import laguerre_noise_floor
 
     rng = np.random.default_rng(size)

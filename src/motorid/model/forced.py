@@ -47,11 +47,8 @@ def held_states(f: np.ndarray, x0: np.ndarray, g: np.ndarray, w: np.ndarray | No
     """``X[0] = x0``, ``X[k+1] = F X[k] + G·w[k]`` (``w ≡ 1`` when None) for ``k < n``.
 
     In blocks of :data:`RECURSION_BLOCK` samples: within a block ``X[j] = F^j X[0] + Σ_{i<j}
-    F^{j−1−i} G w[i]`` from the block's powers of ``F`` (array products), every block's forced part
-    in one matrix product, and one step per block carries the state on: the sample-by-sample
-    recursion to round-off.  (Powers by doubling, in log₂ of the block's length products, cost
-    half as much but differ from these in the 14th digit, and the Markov method's polish on the
-    demo ended in another local optimum from that: they are not used.)
+    F^{j−1−i} G w[i]`` from the block's powers of ``F`` (array products), and one step per block
+    carries the state on: the same products as the sample-by-sample loop.
 
     Parameters
     ----------
@@ -76,14 +73,11 @@ def held_states(f: np.ndarray, x0: np.ndarray, g: np.ndarray, w: np.ndarray | No
     powers[0] = np.eye(ns)
     for j in range(size):
         powers[j + 1] = f @ powers[j]
+    fg = powers[:size] @ g  # F^j G
+    lag = np.arange(size)[:, None] - 1 - np.arange(size)[None, :]  # j − 1 − i
+    causal = lag >= 0
+    kernel = np.where(causal[:, :, None, None], fg[np.clip(lag, 0, None)], 0.0)  # (j, i, states, columns)
     ni = x0.shape[1]
-    fg = (powers[:size] @ g).reshape(size, ns * ni)  # F^j G
-    # the kernel F^(j−1−i) G (zero for i ≥ j) as a (rows j·states·columns, i) matrix: windows of
-    # [0…0, F^0 G, F^1 G, …] read backwards (a view, copied once by the reshape)
-    padded_fg = np.concatenate([np.zeros((size, ns * ni)), fg])
-    windows = np.lib.stride_tricks.sliding_window_view(padded_fg, size, axis=0)[:size, :, ::-1]
-    flat = windows.reshape(size * ns * ni, size)
-    stacked = powers[:size].reshape(size * ns, ns)  # F^j, stacked: one matrix product per block
     out = np.empty((n, ns, ni))
     x = x0
     # every block's forced response in one matrix product: the kernel as a (rows, i) matrix
@@ -95,12 +89,13 @@ def held_states(f: np.ndarray, x0: np.ndarray, g: np.ndarray, w: np.ndarray | No
         padded = np.zeros(n_blocks * size)
         padded[:n] = w[:n]
         inputs = padded.reshape(n_blocks, size).T
+    flat = kernel.transpose(0, 2, 3, 1).reshape(size * ns * ni, size)
     forced_all = (flat @ inputs).reshape(size, ns, ni, -1)
     for b, s0 in enumerate(range(0, n, size)):
         m = min(size, n - s0)
         wb = inputs[:, 0 if w is None else b]
         forced = forced_all[..., 0 if w is None else b]
-        block = (stacked @ x).reshape(size, ns, ni) + forced
+        block = powers[:size] @ x + forced
         out[s0 : s0 + m] = block[:m]
         # the state one step after the block's last sample
         x = f @ block[size - 1] + g * wb[size - 1]
