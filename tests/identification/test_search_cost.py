@@ -123,3 +123,11 @@ def test_a_fit_given_up_only_when_far_and_otherwise_untouched(paper):
     given, _ = oe_stage(cond, init, (3, 1), noise=noise, tolerance=1e-6, give_up=(5, -np.inf))
     assert 5 <= given.nfev < plain.nfev
     assert any(w.startswith(GAVE_UP) for w in given.warnings)
+
+
+@pytest.mark.parametrize("bad", [0, -3, 2.5, True, "40"])
+def test_a_bad_search_budget_is_refused_naming_the_option(bad):
+    from motorid.errors import OptionError
+
+    with pytest.raises(OptionError, match=r"method_options\.output_error\.search_nfev"):
+        OutputErrorOptions(search_nfev=bad)

@@ -677,7 +677,6 @@ class _OeProblem:
     ratio: dict[str, int]
     fast: dict[str, tuple[int, float]]
     wraps: np.ndarray | None
-    pre_data: dict[str, np.ndarray]
     #: Each channel's pre-step samples as their count, mean and spread ``√Σ(x − x̄)²``: their
     #: residuals against a fitted offset enter the fit as two rows with the same sum of squares,
     #: the same Jacobian product and the same gradient (``Σ(x − o)² = Σ(x − x̄)² + n(x̄ − o)²``)
@@ -747,8 +746,11 @@ class _OeProblem:
             gaps = np.diff(tc[c])
             if ratio[c] > 1 and gaps.size and np.ptp(gaps) <= 1e-6 * float(np.mean(gaps)):
                 fast[c] = (ratio[c], float(tc[c][-1] - tc[c][0]) / (tc[c].size - 1))
-        pre_stats = {c: (v.size, float(np.mean(v)), float(np.linalg.norm(v - np.mean(v)))) for c, v in pre_data.items()}
-        return cls(settings, layout, names, step_volts, tc, raw, data, ratio, fast, wraps, pre_data, pre_stats, sigma,
+        pre_stats = {}
+        for c, v in pre_data.items():
+            mean = float(np.mean(v))
+            pre_stats[c] = (v.size, mean, float(np.linalg.norm(v - mean)))
+        return cls(settings, layout, names, step_volts, tc, raw, data, ratio, fast, wraps, pre_stats, sigma,
                    w, w_pre, filt, n_total, lower, upper)
 
     def initial_parameters(self, init_taus: Sequence[float], init_dc_gain: float, init_zeros: Sequence[float],
@@ -776,7 +778,7 @@ class _OeProblem:
             a = np.column_stack(cols)
             coef, *_ = np.linalg.lstsq(a, raw["current"][: a.shape[0]], rcond=None)
             th0_list += list(coef)
-        th0_list += [float(np.mean(self.pre_data[c])) if c in self.pre_data else 0.0 for c in names]
+        th0_list += [self.pre_stats[c][1] if c in self.pre_stats else 0.0 for c in names]
         th0_list += [0.0] * (len(self.layout.shifted) + max(len(self.layout.phased) - 1, 0))
         if self.wraps is not None:
             th0_list.append(0.0)

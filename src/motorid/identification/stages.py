@@ -1198,6 +1198,7 @@ def _order_stalled(best_of: dict[int, float], order: int) -> bool:
 #: (Kass & Raftery 1995: "very strong" evidence against it; its BIC weight is under 1 %).
 FAR_BIC = 10.0
 
+
 def _most_poles(fits: list[Any], orders: tuple[int, ...]) -> int:
     """The most poles a structure with a dead time is tried with: those of the best fit without one.
 
@@ -1298,9 +1299,9 @@ def select_order(
                 if start is None:
                     start = quick if structure[0] <= n_quick and not with_delay else init
                 label = f"{structure}{' + delay' if with_delay else ''}"
+                best_bic = min((f[0] for f in fits), default=np.inf)
                 try:
-                    res, model, far = _candidate_fit(cond, start, structure, noise, with_delay, options,
-                                                     min((f[0] for f in fits), default=np.inf))
+                    res, model, far = _candidate_fit(cond, start, structure, noise, with_delay, options, best_bic)
                 except IdentificationError as exc:
                     errors.append(f"{label}: {exc.message}")
                     continue
@@ -1308,7 +1309,7 @@ def select_order(
                     errors.append(f"{label}: unstable or failed fit")
                     continue
                 if far:
-                    left.append(f"{_describe(structure, with_delay)} (BIC {res.bic - min(f[0] for f in fits):.0f} "
+                    left.append(f"{_describe(structure, with_delay)} (BIC {res.bic - best_bic:.0f} "
                                 f"above the best after {res.nfev} evaluations)")
                     continue
                 # a pole or zero faster than half a recorded sample is not seen by the data: the
