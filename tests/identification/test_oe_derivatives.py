@@ -83,3 +83,23 @@ def test_nearly_equal_time_constants_differentiate_exactly():
     exact = -k * a * (np.exp(-t / a) * (1 + t / a) / (a - b) - g / (a - b) ** 2)
     ours = ResponseBasis(t, residues([1.0], [a, b])[0]).shape("step", np.array([k]), np.array([a, b]))[:, 0]
     assert np.max(np.abs(ours - exact)) <= 1e-7
+
+
+@pytest.mark.parametrize("block", [None, (7, 0.004)])
+def test_a_basis_on_times_out_of_order_gives_the_same_values(block):
+    """Every response of a basis zeroes the samples (blocks) before the step; on increasing times that
+    is a leading run zeroed in place, on any other order an elementwise mask: both give the same values."""
+    from motorid.identification.closed_form import ResponseBasis, residues
+
+    t = np.arange(-5, 300) * 0.004 + 0.0013
+    order = np.random.default_rng(1).permutation(t.size)
+    p, r, n0 = residues([0.3, 0.9], np.array([0.4, 0.03]))
+    rs = np.column_stack([r, 2 * r])
+    sorted_basis, shuffled = ResponseBasis(t, p, block), ResponseBasis(t[order], p, block)
+    for name, args in (("step", (r, n0)), ("step", (rs, np.array([n0, 2 * n0]))), ("slope", (r,)),
+                       ("position", (r, n0)), ("shape", ("step", [0.3, 0.9], np.array([0.4, 0.03])))):
+        ours = getattr(shuffled, name)(*args)
+        ref = getattr(sorted_basis, name)(*args)[order]
+        assert np.array_equal(ours, ref), name
+        span = 0.0 if block is None else (block[0] - 1) * block[1]  # a block holding the step is averaged
+        assert np.all(ours[t[order] + span < 0] == 0.0), name

@@ -176,6 +176,12 @@ def residue_derivatives(num: ArrayLike, taus: ArrayLike | PartialFractions) -> t
     return _fractions(taus).derivatives(num)
 
 
+def _false_prefix(mask: np.ndarray) -> int | None:
+    """The length of ``mask``'s leading ``False`` run when every later value is ``True``, else None."""
+    first = int(np.argmax(mask)) if mask.size and mask.any() else mask.size
+    return first if bool(np.all(mask[first:])) else None
+
+
 def _exp_basis(t: np.ndarray, p: np.ndarray, block: tuple[int, float] | None,
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The exponentials of a closed form, the time of its linear term, the mask after the step.
@@ -216,7 +222,7 @@ class ResponseBasis:
     holds the step instant is averaged sample by sample.
     """
 
-    __slots__ = ("_de", "after", "block", "e", "lin", "p", "strict", "sub", "t")
+    __slots__ = ("_de", "_zeroed", "after", "block", "e", "lin", "p", "strict", "sub", "t")
 
     def __init__(self, time_s: np.ndarray, poles: np.ndarray, block: tuple[int, float] | None = None) -> None:
         t = np.asarray(time_s, dtype=float)
@@ -230,9 +236,18 @@ class ResponseBasis:
             self.sub = [(int(i), ResponseBasis(t[i] + dt * np.arange(m), self.p))
                         for i in np.flatnonzero((t <= 0) & (t + (m - 1) * dt >= 0))]
         self._de: np.ndarray | None = None
+        # the times increase, so each mask is "false, then true": the rows it zeroes are a prefix,
+        # zeroed in place in the fresh array each method builds (np.where made a second array of
+        # it; every Jacobian of a fit builds a dozen); a mask of another pattern keeps np.where
+        self._zeroed = {id(m): _false_prefix(m) for m in (self.after, self.strict)}
 
     def _masked(self, y: np.ndarray, mask: np.ndarray) -> np.ndarray:
-        return np.where(mask if y.ndim == 1 else mask[:, None], y, 0.0)
+        """``y`` where ``mask`` holds, 0 elsewhere (``y`` is a fresh array: it may be written)."""
+        first = self._zeroed.get(id(mask))
+        if first is None:
+            return np.where(mask if y.ndim == 1 else mask[:, None], y, 0.0)
+        y[:first] = 0.0
+        return y
 
     def step(self, r: np.ndarray, n0: float | np.ndarray) -> np.ndarray:
         """``N(0) + Σ R_i e^{p_i t}``: the step response (per volt).
