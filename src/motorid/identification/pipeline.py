@@ -29,6 +29,7 @@ from motorid.identification.result import IdentificationError
 from motorid.identification.sanity import SanityReport, sanity_checks
 from motorid.identification.metrics import bic, step_fit
 from motorid.model import MotorModel, step_nrmse
+from motorid.numfmt import complex_text
 
 __all__ = ["METHODS", "REFINERS", "Identification", "IdentifySettings", "Refiner", "identify_conditioned",
            "identify_experiment"]
@@ -530,6 +531,7 @@ def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: Motor
         stages.append({"stage": "order cross-check", "markov_order": markov["order"],
                        "oe_order": sel.structure[0],
                        "agree": markov["order"] == sel.structure[0]})
+    sr: MotorModel | None = None
     if settings.method == "auto":
         try:
             # a second opinion beside the chosen model, shown to four digits: stopped at the order
@@ -542,9 +544,41 @@ def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: Motor
             stages.append({"stage": "srivc (second opinion)", "failed": exc.message})
     reason = (f"output-error fit initialised from {init_name}; {sel.evidence}")
     worse = _worse_than_a_stage(model, stages, sel)
-    if worse:
-        model = model.replace(warnings=(*model.warnings, worse))
+    edge = _at_the_edge(sel, model, sr)
+    extra = tuple(w for w in (worse, *edge) if w)
+    if extra:
+        model = model.replace(warnings=(*model.warnings, *extra))
     return model, reason, unwhitened
+
+
+def _at_the_edge(sel: Any, model: MotorModel, srivc: MotorModel | None) -> list[str]:
+    """One sentence per pair of the chosen fit's poles held at their double pole (damping 1).
+
+    The output-error fit's poles are real: a pair the data would make complex is held at the
+    double pole, the nearest it can reach, and its damping of 1 there is not a measurement (two
+    close real poles land there too, so the sentence does not say which).  SRIVC's second
+    opinion fits complex poles; what it found is quoted.
+    """
+    from motorid.identification.stages import pairs_at_the_edge
+
+    pairs = pairs_at_the_edge(sel.result)
+    if not pairs:
+        return []
+    opinion = ""
+    if srivc is not None:
+        complex_poles = [p for p in srivc.poles() if np.imag(p) > 0]
+        if complex_poles:
+            p = complex_poles[0]
+            opinion = (f"; the srivc second opinion, whose poles may be complex, has {complex_text(p, pair=True)} "
+                       f"(damping {-np.real(p) / abs(p):.3g}) and τ {srivc.first_order().time_constant_s:.4g} s "
+                       f"against {model.first_order().time_constant_s:.4g} s here: compare with --method srivc")
+        else:
+            opinion = "; the srivc second opinion, whose poles may be complex, found real ones too"
+    poles = sel.result.poles
+    return [f"poles {i + 1} and {i + 2} ({complex_text(poles[i])}, {complex_text(poles[i + 1])}) sit at their double "
+            "pole, the edge of the output-error fit: its poles are real (damping at least 1), so if the data want a "
+            "complex pair (damping below 1) it cannot follow them, and the damping of 1 here is that edge, not a "
+            "measurement" + opinion for i in pairs]
 
 
 def _no_dead_time_warning(cond: ConditionedExperiment, settings: IdentifySettings, model: MotorModel) -> list[str]:

@@ -61,6 +61,7 @@ __all__ = [
     "oe_stage",
     "oe_uncertainty",
     "output_level_rel_std",
+    "pairs_at_the_edge",
     "quantisation_bias_std",
     "refine_noise",
     "select_order",
@@ -626,6 +627,34 @@ def unresolved_pairs(res: OeResult) -> list[int]:
         if overlap and 1.96 * res.std[f"pair_{i}_wn"] < abs(wn):
             out.append(i)
     return out
+
+
+#: A pair of the fit's real poles whose damping is within this of 1 sits at their double pole
+#: (poles about 3 % apart or closer): the edge of what real poles can represent.
+EDGE_DAMPING = 1e-4
+
+
+def pairs_at_the_edge(res: OeResult) -> list[int]:
+    """Neighbouring poles ``i, i+1`` (slowest first) held at a double pole, the edge of the fit's real poles.
+
+    The output-error fit parameterises its poles by real time constants, so a pair's damping is
+    at least 1.  When the data want a lightly damped complex pair (damping below 1), the best the
+    fit can do is the double pole, damping 1 (on the HSLU lab's rig log: −14.25 and −14.24 with a
+    damping of 1 + 6e-8, where SRIVC, whose polynomial allows complex poles, finds −15.8 ± 4.4j,
+    damping 0.96).  Such a pair is at a boundary of the model, not at a point the data chose.
+
+    Parameters
+    ----------
+    res : OeResult
+        An output-error result.
+
+    Returns
+    -------
+    list of int
+        The index of each such pair's first pole.
+    """
+    return [i for i in range(res.poles.size - 1)
+            if f"pair_{i}_zeta" in res.ci95 and res_value(res, f"pair_{i}_zeta") - 1.0 < EDGE_DAMPING]
 
 
 def channel_timing(res: OeResult, cond: ConditionedExperiment) -> dict[str, ChannelTiming]:
