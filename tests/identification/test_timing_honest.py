@@ -276,13 +276,17 @@ def test_a_pair_that_coincides_has_no_damping_interval_rather_than_plus_minus_ze
     on_each_other = SimpleNamespace(poles=np.array([-14.24, -14.24 * (1 + 2e-6), -5.15]))
     assert _pair_damping(on_each_other, 0, collapsed).ci95 is None
     assert np.isnan(_pair_damping(on_each_other, 0, collapsed).stderr)
-    apart = SimpleNamespace(poles=np.array([-14.24, -14.25, -5.15]))  # the HSLU log's pair: ±0.089 stands
+    # the HSLU log's pair, 7e-4 apart (damping 1 + 6e-8): its ±0.089 straddled 1, half of it where real poles
+    # cannot go; it has no interval now.  Two poles 30 % apart (damping 1.0104) keep theirs
+    edge = SimpleNamespace(poles=np.array([-14.24, -14.25, -5.15]))
+    assert _pair_damping(edge, 0, ParameterEstimate(1.0, 0.045, (0.911, 1.089))).ci95 is None
+    apart = SimpleNamespace(poles=np.array([-12.0, -16.0, -5.15]))
     assert _pair_damping(apart, 0, collapsed) is collapsed
     model = model_from_velocity_tf([1.0], [1.0, 33.6, 349.5, 1044.0], step_volts=10.0)
     pair = PolePair((0, 1), ParameterEstimate(14.24, 0.3, (13.6, 14.8)), _pair_damping(on_each_other, 0, collapsed))
     u = Uncertainty(poles=tuple(ParameterEstimate(complex(p)) for p in model.poles()), pole_pairs=(pair,))
     text = " ".join(" ".join(model_summary(model.replace(uncertainty=u))).split())
-    assert "its interval unknown: the two poles coincide" in text and "± 3.7e-06" not in text
+    assert "at their double pole, the edge of the fit's real poles: no interval" in text and "± 3.7e-06" not in text
     # and the JSON carries no interval (null), read back as none
     back = Uncertainty.from_dict(json.loads(json.dumps(u.to_dict())))
     assert back.pole_pairs[0].damping.ci95 is None

@@ -537,24 +537,26 @@ def oe_uncertainty(res: OeResult, cond: ConditionedExperiment | None = None) -> 
     )
 
 
-#: Two poles closer than this (relative) sit on each other: the fit's own nudge of equal time
-#: constants (``closed_form.separate``) leaves them 2e-6 apart.
-COINCIDENT_REL = 1e-5
-
-
 def _pair_damping(res: OeResult, i: int, estimate: ParameterEstimate) -> ParameterEstimate:
-    """A pair's damping, without an interval where the two poles coincide.
+    """A pair's damping, without an interval where the fit holds the two poles at their double pole.
 
-    The damping of two real poles is 1 where they are equal and grows with the square of their
-    difference: its first derivative is zero there, so the delta method gives it an interval of
-    ±0 (±3.7e-6 on a real log whose fit landed on a double pole), however poorly the data tell the
-    poles apart.  There the damping is reported as 1 with no interval (JSON ``null``), and the
-    printout says why; apart, the delta method's interval stands.
+    The damping of two real poles is at least 1: 1 where they are equal, growing with the square
+    of their difference.  Near there the delta method's interval is the linearisation of a function
+    at its minimum: exactly on each other it collapses to ±0 (±3.7e-6 on a real log whose fit
+    landed on a double pole), just apart it straddles 1 (±0.09 on the HSLU log's pair −14.24,
+    −14.25), half of it where real poles cannot go.  At that edge (:func:`pairs_at_the_edge`) the
+    damping is reported with no interval (JSON ``null``), and the printout says why; apart, the
+    delta method's interval stands.
     """
-    pa, pb = float(np.real(res.poles[i])), float(np.real(res.poles[i + 1]))
-    if abs(pa - pb) <= COINCIDENT_REL * max(abs(pa), abs(pb)):
+    if _damping(res, i) - 1.0 < EDGE_DAMPING:
         return ParameterEstimate(float(np.real(estimate.value)), float("nan"), None)
     return estimate
+
+
+def _damping(res: OeResult, i: int) -> float:
+    """The damping of the fit's neighbouring real poles ``i`` and ``i + 1``: ``−(p₁ + p₂)/(2√(p₁p₂))``."""
+    pa, pb = float(np.real(res.poles[i])), float(np.real(res.poles[i + 1]))
+    return -(pa + pb) / (2.0 * np.sqrt(pa * pb)) if pa * pb > 0 else float("inf")
 
 
 def _estimate_of(res: OeResult, key: str, value: float | complex) -> ParameterEstimate:
@@ -653,8 +655,7 @@ def pairs_at_the_edge(res: OeResult) -> list[int]:
     list of int
         The index of each such pair's first pole.
     """
-    return [i for i in range(res.poles.size - 1)
-            if f"pair_{i}_zeta" in res.ci95 and res_value(res, f"pair_{i}_zeta") - 1.0 < EDGE_DAMPING]
+    return [i for i in range(res.poles.size - 1) if _damping(res, i) - 1.0 < EDGE_DAMPING]
 
 
 def channel_timing(res: OeResult, cond: ConditionedExperiment) -> dict[str, ChannelTiming]:

@@ -118,8 +118,9 @@ def _uncertainty(u: Uncertainty | None, gain_unit: str = "V/V") -> list[SummaryL
                             f"other): natural frequency {sig(wn.value.real)} ± {sig(1.96 * wn.stderr, 2)} rad/s, "
                             + (f"damping {sig(zeta.value.real)} ± {sig(1.96 * zeta.stderr, 2)} (95 %)"
                                if np.isfinite(zeta.stderr) else
-                               f"damping {sig(zeta.value.real)}, its interval unknown: the two poles coincide, where "
-                               "the damping's first derivative is zero and the delta method's interval would be ±0")))
+                               f"damping {sig(zeta.value.real)} at their double pole, the edge of the fit's real "
+                               "poles: no interval (there the delta method's would be ±0 or straddle 1, below which "
+                               "real poles cannot go)")))
     paired = u.paired_poles()
     for name, items in (("pole", u.poles), ("zero", u.zeros)):
         for i, item in enumerate(items):
