@@ -571,14 +571,15 @@ def _at_the_edge(sel: Any, model: MotorModel, srivc: MotorModel | None) -> list[
             p = complex_poles[0]
             opinion = (f"; the srivc second opinion, whose poles may be complex, has {complex_text(p, pair=True)} "
                        f"(damping {-np.real(p) / abs(p):.3g}) and τ {srivc.first_order().time_constant_s:.4g} s "
-                       f"against {model.first_order().time_constant_s:.4g} s here: compare with --method srivc")
+                       f"against {model.first_order().time_constant_s:.4g} s here")
         else:
             opinion = "; the srivc second opinion, whose poles may be complex, found real ones too"
     poles = sel.result.poles
     return [f"poles {i + 1} and {i + 2} ({complex_text(poles[i])}, {complex_text(poles[i + 1])}) sit at their double "
             "pole, the edge of the output-error fit: its poles are real (damping at least 1), so if the data want a "
             "complex pair (damping below 1) it cannot follow them, and the damping of 1 here is that edge, not a "
-            "measurement" + opinion for i in pairs]
+            "measurement" + opinion + "; compare with --method markov, whose output-error polish fits complex poles "
+            "with intervals" for i in pairs]
 
 
 def _no_dead_time_warning(cond: ConditionedExperiment, settings: IdentifySettings, model: MotorModel) -> list[str]:
