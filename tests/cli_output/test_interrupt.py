@@ -45,6 +45,33 @@ def test_ctrl_c_during_the_start_up_is_an_interruption_too(tmp_path):
     assert [ln for ln in res.stderr.splitlines() if ln.strip()] == ["motorid: interrupted"], res.stderr
 
 
+def test_a_ctrl_c_that_lands_in_a_callback_is_not_lost(tmp_path):
+    """A Ctrl-C raised where Python cannot propagate it (here a weak reference's callback, on a
+    loaded machine the import lock's clean-up) was printed as "Exception ignored in: …" and
+    dropped: ``motorid demo`` then ran on and exited 0.  It is now raised again in the main thread
+    and ends the command as an interruption."""
+    code = (
+        "import sys, weakref\n"
+        "class Interrupt:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name == 'motorid.cli.app':\n"
+        "            class Thing: pass\n"
+        "            thing = Thing()\n"
+        "            def callback(_):\n"
+        "                raise KeyboardInterrupt\n"
+        "            ref = weakref.ref(thing, callback)\n"
+        "            del thing\n"
+        "        return None\n"
+        "sys.meta_path.insert(0, Interrupt())\n"
+        "sys.argv = ['motorid', '--help']\n"
+        "from motorid.cli import entry\n"
+        "entry()\n"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=60)
+    assert res.returncode == 130, (res.returncode, res.stderr)
+    assert [ln for ln in res.stderr.splitlines() if ln.strip()] == ["motorid: interrupted"], res.stderr
+
+
 def test_a_handled_ctrl_c_inside_generated_code_does_not_kill_the_process(tmp_path):
     """Under ``python -m``, a Ctrl-C that ended an ``exec`` of a string (dataclasses and
     namedtuples build their methods so) made CPython kill itself by SIGINT at exit, after the

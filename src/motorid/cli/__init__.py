@@ -28,6 +28,7 @@ def entry() -> None:
     """
     import signal
 
+    _raise_swallowed_interrupts()
     code: str | int | None = 0  # the exit code, as SystemExit carries it
     try:
         from motorid.cli.app import main
@@ -52,6 +53,41 @@ def entry() -> None:
         _forget_handled_interrupts()
         if isinstance(code, int) and code in _INTERRUPTED_EXITS:
             _end_interrupted(code)
+
+
+def _raise_swallowed_interrupts() -> None:
+    """Raise again, in the main thread, a Ctrl-C that landed where Python cannot raise it.
+
+    Python raises Ctrl-C's KeyboardInterrupt at the next instruction of the main thread. When that
+    instruction is inside a callback the interpreter calls on its own, it cannot propagate. Such
+    callbacks include the import system's lock clean-up, a weak reference's callback and a
+    finaliser. The interrupt is then printed as "Exception ignored in: …" and dropped, and the
+    command ran on to exit 0. This was seen on a loaded machine, in a Ctrl-C 1.5 s into
+    ``motorid demo``.
+
+    The hook hands such an interrupt back to the main thread as a fresh SIGINT
+    (``_thread.interrupt_main``), which then ends the command like any other Ctrl-C. The SIGINT
+    is sent from a timer thread 20 ms later: sent at once it would be raised inside the hook (or
+    inside the thread's start, which waits) and dropped again. If it lands in another such
+    callback, the hook sends it again. Other unraisable exceptions go to the default hook. Once SIGINT is ignored, which
+    happens after the command has finished, the re-sent signal does nothing. The standard library
+    offers nothing narrower than ``sys.unraisablehook`` for this.
+    """
+    import _thread
+    import threading
+
+    default = sys.unraisablehook
+
+    def hook(unraisable: Any) -> None:
+        if isinstance(unraisable.exc_value, KeyboardInterrupt):
+            # a moment later: the hook (and the thread's own start, which waits for it) must have returned
+            resend = threading.Timer(0.02, _thread.interrupt_main)
+            resend.daemon = True
+            resend.start()
+            return
+        default(unraisable)
+
+    sys.unraisablehook = hook
 
 
 #: The exit codes of a command ended by Ctrl-C (130) or SIGTERM (143).
