@@ -510,7 +510,7 @@ def _unwhitened(cond: ConditionedExperiment, sel: Any, oe: OutputErrorOptions) -
 
 
 def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: MotorModel, init_name: str,
-            stages: list[dict[str, Any]]) -> tuple[MotorModel, str, dict[str, float] | None]:
+            stages: list[dict[str, Any]]) -> tuple[MotorModel, str, dict[str, float] | None, bool]:
     """Output-error refinement with order selection (``oe`` and ``auto``), SRIVC as a second opinion."""
     from motorid.identification.srivc import SrivcSettings
     from motorid.identification.stages import select_order, srivc_stage
@@ -548,7 +548,7 @@ def _refine(cond: ConditionedExperiment, settings: IdentifySettings, init: Motor
     extra = tuple(w for w in (worse, *edge) if w)
     if extra:
         model = model.replace(warnings=(*model.warnings, *extra))
-    return model, reason, unwhitened
+    return model, reason, unwhitened, bool(edge)
 
 
 def _at_the_edge(sel: Any, model: MotorModel, srivc: MotorModel | None) -> list[str]:
@@ -774,9 +774,57 @@ def _srivc_refined(cond: ConditionedExperiment, settings: IdentifySettings, star
 
 
 def _oe_refined(cond: ConditionedExperiment, settings: IdentifySettings, start: _Start) -> _Refined:
-    """The output-error fit, its order selection and noise model, from the paper's best model."""
-    model, reason, unwhitened = _refine(cond, settings, start.model, start.best, start.stages)
+    """The output-error fit, its order selection and noise model, from the paper's best model.
+
+    With ``auto``, a fit that holds a pair of poles at their double pole (the edge of its real
+    poles) is set beside the Markov method's polished model, whose poles may be complex: when
+    that one fits the velocity clearly better, it is the answer (:func:`_complex_pair_instead`).
+    """
+    model, reason, unwhitened, at_edge = _refine(cond, settings, start.model, start.best, start.stages)
+    if settings.method == "auto" and at_edge:
+        alt = _complex_pair_instead(cond, settings, model, start.stages)
+        if alt is not None:
+            start.candidates["oe"] = model
+            polished, why = alt
+            return _Refined("markov", polished, f"{reason}; {why}", None)
     return _Refined("oe", model, reason, unwhitened)
+
+
+#: The Markov method's polished model replaces an output-error fit held at the edge of its real
+#: poles when its velocity NRMSE is below this fraction of the fit's.
+COMPLEX_PAIR_NRMSE_RATIO = 0.8
+
+
+def _complex_pair_instead(cond: ConditionedExperiment, settings: IdentifySettings, model: MotorModel,
+                          stages: list[dict[str, Any]]) -> tuple[MotorModel, str] | None:
+    """The Markov method's polished model and why, when it should replace an output-error fit at its edge.
+
+    Called for a fit that holds a pair of poles at their double pole
+    (:func:`~motorid.identification.stages.pairs_at_the_edge`).  The output-error fit's poles are
+    real, so there its structure may be wrong, and its own criterion cannot say so: it has no
+    complex pair to try.  The Markov method polishes its
+    realisation by output error on polynomial coefficients, whose poles may be complex.  Its
+    model replaces the fit when it has a complex pair and its velocity NRMSE is below
+    :data:`COMPLEX_PAIR_NRMSE_RATIO` of the fit's: the same samples, the same measure.  Two real
+    poles that merely sit close, on a record that cannot tell them from a pair, fit no better as a
+    pair and do not pass that margin.  On a trainer motor with a complex pair (damping 0.81) the
+    fit's NRMSE was 3.8 % against 0.9 %, and its τ 17 % off.
+    """
+    try:
+        polished = _with_fit(_markov_laguerre(cond, replace(settings, method="markov", order="auto")), cond)
+    except (IdentificationError, OptionError):
+        return None
+    own, alt = model.fit.get("velocity_nrmse"), polished.fit.get("velocity_nrmse")
+    pair = [p for p in polished.poles() if np.imag(p) > 0]
+    stages.append({"stage": "markov, polished (complex poles allowed)", **_summary("markov", polished)})
+    if not pair or own is None or alt is None or not (np.isfinite(alt) and alt < COMPLEX_PAIR_NRMSE_RATIO * own):
+        return None
+    p = pair[0]
+    why = (f"the output-error fit held a pair of poles at their double pole, the edge of its real poles, and the "
+           f"Markov method's polished model, whose poles may be complex, fits the velocity with NRMSE "
+           f"{100 * alt:.3g} % against its {100 * own:.3g} % with {complex_text(p, pair=True)} (damping "
+           f"{-np.real(p) / abs(p):.3g}): that model is the answer")
+    return polished.replace(warnings=(*polished.warnings, f"auto: {why}")), why
 
 
 #: The refinement of each method that is not one of the paper's own (``paper-auto`` has none).
