@@ -803,7 +803,8 @@ def _complex_pair_instead(cond: ConditionedExperiment, settings: IdentifySetting
     (:func:`~motorid.identification.stages.pairs_at_the_edge`).  The output-error fit's poles are
     real, so there its structure may be wrong, and its own criterion cannot say so: it has no
     complex pair to try.  The Markov method polishes its
-    realisation by output error on polynomial coefficients, whose poles may be complex.  Its
+    realisation by output error on polynomial coefficients, whose poles may be complex (with the
+    options given, the order among them).  Its
     model replaces the fit when it has a complex pair and its velocity NRMSE is below
     :data:`COMPLEX_PAIR_NRMSE_RATIO` of the fit's: the same samples, the same measure.  Two real
     poles that merely sit close, on a record that cannot tell them from a pair, fit no better as a
@@ -811,7 +812,7 @@ def _complex_pair_instead(cond: ConditionedExperiment, settings: IdentifySetting
     fit's NRMSE was 3.8 % against 0.9 %, and its τ 17 % off.
     """
     try:
-        polished = _with_fit(_markov_laguerre(cond, replace(settings, method="markov", order="auto")), cond)
+        polished = _with_fit(_markov_laguerre(cond, replace(settings, method="markov")), cond)
     except (IdentificationError, OptionError):
         return None
     own, alt = model.fit.get("velocity_nrmse"), polished.fit.get("velocity_nrmse")
