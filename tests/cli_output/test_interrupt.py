@@ -27,19 +27,24 @@ def test_sigint_exits_130_with_one_line(tmp_path):
     assert lines == ["motorid: interrupted"], err
 
 
+def _start_up_script(inside: str) -> str:
+    """``motorid --help`` started from Python, running ``inside`` when ``motorid.cli.app`` is imported."""
+    body = "".join(f"            {line}\n" for line in inside.splitlines())
+    return ("import sys\n"
+            "class Interrupt:\n"
+            "    def find_spec(self, name, path=None, target=None):\n"
+            "        if name == 'motorid.cli.app':\n"
+            f"{body}"
+            "        return None\n"
+            "sys.meta_path.insert(0, Interrupt())\n"
+            "sys.argv = ['motorid', '--help']\n"
+            "from motorid.cli import entry\n"
+            "entry()\n")
+
+
 def test_ctrl_c_during_the_start_up_is_an_interruption_too(tmp_path):
     """A Ctrl-C while the commands are still being imported (a loaded machine's first second)."""
-    code = (
-        "import sys\n"
-        "class Interrupt:\n"
-        "    def find_spec(self, name, path=None, target=None):\n"
-        "        if name == 'motorid.cli.app':\n"
-        "            raise KeyboardInterrupt\n"
-        "sys.meta_path.insert(0, Interrupt())\n"
-        "sys.argv = ['motorid', '--help']\n"
-        "from motorid.cli import entry\n"
-        "entry()\n"
-    )
+    code = _start_up_script("raise KeyboardInterrupt")
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=60)
     assert res.returncode == 130, (res.returncode, res.stderr)
     assert [ln for ln in res.stderr.splitlines() if ln.strip()] == ["motorid: interrupted"], res.stderr
@@ -50,23 +55,13 @@ def test_a_ctrl_c_that_lands_in_a_callback_is_not_lost(tmp_path):
     loaded machine the import lock's clean-up) was printed as "Exception ignored in: …" and
     dropped: ``motorid demo`` then ran on and exited 0.  It is now raised again in the main thread
     and ends the command as an interruption."""
-    code = (
-        "import sys, weakref\n"
-        "class Interrupt:\n"
-        "    def find_spec(self, name, path=None, target=None):\n"
-        "        if name == 'motorid.cli.app':\n"
-        "            class Thing: pass\n"
-        "            thing = Thing()\n"
-        "            def callback(_):\n"
-        "                raise KeyboardInterrupt\n"
-        "            ref = weakref.ref(thing, callback)\n"
-        "            del thing\n"
-        "        return None\n"
-        "sys.meta_path.insert(0, Interrupt())\n"
-        "sys.argv = ['motorid', '--help']\n"
-        "from motorid.cli import entry\n"
-        "entry()\n"
-    )
+    code = _start_up_script("import weakref\n"
+                            "class Thing: pass\n"
+                            "thing = Thing()\n"
+                            "def callback(_):\n"
+                            "    raise KeyboardInterrupt\n"
+                            "ref = weakref.ref(thing, callback)\n"
+                            "del thing")
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=60)
     assert res.returncode == 130, (res.returncode, res.stderr)
     assert [ln for ln in res.stderr.splitlines() if ln.strip()] == ["motorid: interrupted"], res.stderr
@@ -76,17 +71,7 @@ def test_a_handled_ctrl_c_inside_generated_code_does_not_kill_the_process(tmp_pa
     """Under ``python -m``, a Ctrl-C that ended an ``exec`` of a string (dataclasses and
     namedtuples build their methods so) made CPython kill itself by SIGINT at exit, after the
     command had printed its line and chosen 130: a caller saw "killed by a signal"."""
-    (tmp_path / "interrupted_start.py").write_text(
-        "import sys\n"
-        "class Interrupt:\n"
-        "    def find_spec(self, name, path=None, target=None):\n"
-        "        if name == 'motorid.cli.app':\n"
-        "            exec('raise KeyboardInterrupt')\n"
-        "sys.meta_path.insert(0, Interrupt())\n"
-        "sys.argv = ['motorid', '--help']\n"
-        "from motorid.cli import entry\n"
-        "entry()\n"
-    )
+    (tmp_path / "interrupted_start.py").write_text(_start_up_script("exec('raise KeyboardInterrupt')"))
     res = subprocess.run([sys.executable, "-m", "interrupted_start"], capture_output=True, text=True, cwd=tmp_path,
                          timeout=60)
     assert res.returncode == 130, (res.returncode, res.stderr)

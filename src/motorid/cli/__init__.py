@@ -69,9 +69,9 @@ def _raise_swallowed_interrupts() -> None:
     (``_thread.interrupt_main``), which then ends the command like any other Ctrl-C. The SIGINT
     is sent from a timer thread 20 ms later: sent at once it would be raised inside the hook (or
     inside the thread's start, which waits) and dropped again. If it lands in another such
-    callback, the hook sends it again. Other unraisable exceptions go to the default hook. Once SIGINT is ignored, which
-    happens after the command has finished, the re-sent signal does nothing. The standard library
-    offers nothing narrower than ``sys.unraisablehook`` for this.
+    callback, the hook sends it again. Other unraisable exceptions go to the default hook. Once
+    SIGINT is ignored, which happens after the command has finished, the re-sent signal does
+    nothing. The standard library offers nothing narrower than ``sys.unraisablehook`` for this.
     """
     import _thread
     import threading

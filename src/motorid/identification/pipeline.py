@@ -566,14 +566,11 @@ def _at_the_edge(sel: Any, model: MotorModel, srivc: MotorModel | None) -> list[
         return []
     opinion = ""
     if srivc is not None:
-        complex_poles = [p for p in srivc.poles() if np.imag(p) > 0]
-        if complex_poles:
-            p = complex_poles[0]
-            opinion = (f"; the srivc second opinion, whose poles may be complex, has {complex_text(p, pair=True)} "
-                       f"(damping {-np.real(p) / abs(p):.3g}) and τ {srivc.first_order().time_constant_s:.4g} s "
-                       f"against {model.first_order().time_constant_s:.4g} s here")
-        else:
-            opinion = "; the srivc second opinion, whose poles may be complex, found real ones too"
+        pair = _complex_pair(srivc)
+        opinion = ("; the srivc second opinion, whose poles may be complex, found real ones too" if pair is None else
+                   f"; the srivc second opinion, whose poles may be complex, has {pair} and τ "
+                   f"{srivc.first_order().time_constant_s:.4g} s against {model.first_order().time_constant_s:.4g} s "
+                   "here")
     poles = sel.result.poles
     return [f"poles {i + 1} and {i + 2} ({complex_text(poles[i])}, {complex_text(poles[i + 1])}) sit at their double "
             "pole, the edge of the output-error fit: its poles are real (damping at least 1), so if the data want a "
@@ -802,10 +799,9 @@ def _complex_pair_instead(cond: ConditionedExperiment, settings: IdentifySetting
     Called for a fit that holds a pair of poles at their double pole
     (:func:`~motorid.identification.stages.pairs_at_the_edge`).  The output-error fit's poles are
     real, so there its structure may be wrong, and its own criterion cannot say so: it has no
-    complex pair to try.  The Markov method polishes its
-    realisation by output error on polynomial coefficients, whose poles may be complex (with the
-    options given, the order among them).  Its
-    model replaces the fit when it has a complex pair and its velocity NRMSE is below
+    complex pair to try.  The Markov method polishes its realisation by output error on
+    polynomial coefficients, whose poles may be complex (with the options given, the order among
+    them).  Its model replaces the fit when it has a complex pair and its velocity NRMSE is below
     :data:`COMPLEX_PAIR_NRMSE_RATIO` of the fit's: the same samples, the same measure.  Two real
     poles that merely sit close, on a record that cannot tell them from a pair, fit no better as a
     pair and do not pass that margin.  On a trainer motor with a complex pair (damping 0.81) the
@@ -816,16 +812,20 @@ def _complex_pair_instead(cond: ConditionedExperiment, settings: IdentifySetting
     except (IdentificationError, OptionError):
         return None
     own, alt = model.fit.get("velocity_nrmse"), polished.fit.get("velocity_nrmse")
-    pair = [p for p in polished.poles() if np.imag(p) > 0]
+    pair = _complex_pair(polished)
     stages.append({"stage": "markov, polished (complex poles allowed)", **_summary("markov", polished)})
-    if not pair or own is None or alt is None or not (np.isfinite(alt) and alt < COMPLEX_PAIR_NRMSE_RATIO * own):
+    if pair is None or own is None or alt is None or not (np.isfinite(alt) and alt < COMPLEX_PAIR_NRMSE_RATIO * own):
         return None
-    p = pair[0]
     why = (f"the output-error fit held a pair of poles at their double pole, the edge of its real poles, and the "
            f"Markov method's polished model, whose poles may be complex, fits the velocity with NRMSE "
-           f"{100 * alt:.3g} % against its {100 * own:.3g} % with {complex_text(p, pair=True)} (damping "
-           f"{-np.real(p) / abs(p):.3g}): that model is the answer")
+           f"{100 * alt:.3g} % against its {100 * own:.3g} % with {pair}: that model is the answer")
     return polished.replace(warnings=(*polished.warnings, f"auto: {why}")), why
+
+
+def _complex_pair(model: MotorModel) -> str | None:
+    """A model's first complex pair as text, ``-2.233 ± 1.598j (damping 0.81)``; None when its poles are real."""
+    p = next((p for p in model.poles() if np.imag(p) > 0), None)
+    return None if p is None else f"{complex_text(p, pair=True)} (damping {-np.real(p) / abs(p):.3g})"
 
 
 #: The refinement of each method that is not one of the paper's own (``paper-auto`` has none).
