@@ -114,3 +114,17 @@ def test_close_real_poles_at_the_edge_keep_the_output_error_fit():
     assert any(EDGE_WORDS in w for w in fit.model.warnings)
     names = [st.name if hasattr(st, "name") else st.get("stage") for st in fit.model.stages]
     assert "markov, polished (complex poles allowed)" in names, names
+
+
+def test_the_model_auto_takes_goes_on_to_design_simulate_and_the_report(tmp_path):
+    """The polished Markov model that ``auto`` answers with on the underdamped motor (not a hand-made
+    one): a critically damped design, its closed loop simulated, and the report written."""
+    rec = run_experiment(config=_underdamped(), seed=0, validation=False)
+    fit = mi.identify(mi.Experiment(captures=dict(rec.captures)))
+    assert fit.model.method == "markov"
+    design = mi.design(fit.model, overshoot=5, settling_time=3.0)
+    sim = mi.simulate(fit.model, design)
+    assert np.all(np.isfinite(np.asarray(sim.time_s)))
+    mi.write_report(tmp_path / "report.html", fit, design=design)
+    html = (tmp_path / "report.html").read_text(encoding="utf-8")
+    assert "that model is the answer" in html
