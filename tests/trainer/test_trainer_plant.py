@@ -113,3 +113,57 @@ def test_bad_arguments_raise_option_error(kwargs):
         simulate_plant(preset("paper"), T[::-1], _step(1.0))
     with pytest.raises(OptionError):
         replace(preset("paper"), static_nm=0.0, coulomb_nm=1.0)
+
+
+def _residence_by_ode(cfg, volts):
+    """The step's residence time from the friction ODE, solved by scipy (independent of the
+    simulator's sub-step loop): stuck until the drive torque reaches static friction, in closed
+    form, then sliding against Coulomb friction."""
+    from scipy.integrate import solve_ivp
+
+    v = cfg.amp_gain * (volts - cfg.amp_dead_zone_v)
+    tau_e = cfg.la_h / cfg.ra_ohm
+    i_break = (cfg.static_nm + cfg.brake_nm) / cfg.k_motor
+    t_break = -tau_e * np.log(1.0 - cfg.ra_ohm * i_break / v)
+    load = cfg.coulomb_nm + cfg.brake_nm
+    w_final = (cfg.k_motor * v / cfg.ra_ohm - load) / (cfg.b_nms + cfg.k_motor**2 / cfg.ra_ohm)
+
+    def rhs(_, x):
+        i, w, _ = x
+        return [(v - cfg.ra_ohm * i - cfg.k_motor * w) / cfg.la_h,
+                (cfg.k_motor * i - cfg.b_nms * w - load) / cfg.j_kgm2,
+                1.0 - w / w_final]
+
+    span = 40 * truth_of(cfg).time_constant_s
+    sol = solve_ivp(rhs, (t_break, span), [i_break, 0.0, 0.0], rtol=1e-10, atol=1e-12)
+    return t_break + sol.y[2, -1]
+
+
+def test_step_residence_time_of_the_linear_plant_is_its_moments_time_constant():
+    from motorid.trainer import step_residence_time
+
+    for name in ("paper", "third-order"):
+        cfg = preset(name).ideal()
+        # the trapezoidal rule on the 0.1 ms grid: within 1e-5 s of Σ1/p − Σ1/z
+        assert step_residence_time(cfg, 5.92) == pytest.approx(truth_of(cfg).time_constant_s, abs=1e-5)
+
+
+def test_step_residence_time_with_friction_against_the_ode():
+    """A slow armature (La/Ra = 0.3 s) and friction: the response lengthens by 2.6 ms, which an
+    independent solution of the friction ODE reproduces to 1e-5 s."""
+    from motorid.trainer import step_residence_time
+
+    base = preset("paper")
+    cfg = replace(base, la_h=base.ra_ohm * 0.3, amp_lead_s=0.0, amp_lag_s=0.0)
+    got = step_residence_time(cfg, 5.92)
+    linear = truth_of(cfg).time_constant_s
+    assert got - linear == pytest.approx(0.00257, abs=2e-4)
+    assert got == pytest.approx(_residence_by_ode(cfg, 5.92), abs=1e-5)
+
+
+def test_step_residence_time_refuses_a_step_that_does_not_turn_the_motor():
+    from motorid.trainer import step_residence_time
+
+    cfg = preset("paper")
+    with pytest.raises(OptionError, match="does not turn"):
+        step_residence_time(cfg, cfg.amp_dead_zone_v / 2)

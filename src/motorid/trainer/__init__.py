@@ -11,7 +11,7 @@ from motorid.trainer.plant import PlantResponse, simulate_plant
 from motorid.trainer.presets import PRESET_NAMES, TrainerConfig, preset
 from motorid.trainer.scope import ScopeSettings, acquire
 from motorid.trainer.signals import TEST_SIGNALS, step_signal, test_signal
-from motorid.trainer.truth import FirstOrder, Truth, truth_of
+from motorid.trainer.truth import FirstOrder, Truth, step_residence_time, truth_of
 
 __all__ = [
     "PRESET_NAMES",
@@ -27,6 +27,7 @@ __all__ = [
     "preset",
     "run_experiment",
     "simulate_plant",
+    "step_residence_time",
     "step_signal",
     "test_signal",
     "truth_of",

@@ -9,9 +9,17 @@ from typing import Any
 import control
 import numpy as np
 
+from motorid.errors import OptionError
+from motorid.trainer.plant import simulate_plant
 from motorid.trainer.presets import TrainerConfig
 
-__all__ = ["FirstOrder", "Truth", "truth_of"]
+__all__ = ["FirstOrder", "Truth", "step_residence_time", "truth_of"]
+
+#: Integration step of :func:`step_residence_time` (s): the linear part is exact at any step,
+#: this resolves the friction's stick and break-away.
+RESIDENCE_STEP_S = 1e-4
+#: :func:`step_residence_time` integrates over this many linear mean residence times.
+RESIDENCE_SPAN = 40.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -115,3 +123,43 @@ def truth_of(config: TrainerConfig) -> Truth:
     # torque costs Ra·T/k armature volts, i.e. Ra·T/(k·gain) input volts, on top of the dead-zone
     offset = c.amp_dead_zone_v + c.ra_ohm * (c.coulomb_nm + c.brake_nm) / (c.k_motor * c.amp_gain)
     return Truth(velocity, position, current, float(np.real(control.dcgain(velocity))), tau, float(offset))
+
+
+def step_residence_time(config: TrainerConfig, step_volts: float) -> float:
+    """Mean residence time of the velocity's noise-free step response from rest, nonlinear plant.
+
+    ``∫(1 − ω(t)/ω∞) dt`` of the motor speed after a step at ``t = 0``, simulated with the
+    dead-zone, the friction (stuck until the drive torque breaks away, then sliding), the rails
+    and the amplifier lead/lag.  For the linear plant it is the moments time constant
+    ``Σ1/p − Σ1/z`` of :func:`truth_of`; sliding friction is a load torque, whose transfer to
+    the speed has the armature's zero ``−Ra/La``, so it lengthens the response by about
+    ``La/Ra`` times the fraction of the step it costs.  This is the residence time a linear
+    model of the recorded step can show (what an estimator is compared with), as the DC gain
+    is the linear one times ``1 − offset/step``.
+
+    Parameters
+    ----------
+    config : TrainerConfig
+        The trainer (its noise, ripple and glitches play no part).
+    step_volts : float
+        Step level at the amplifier's input, V.
+
+    Returns
+    -------
+    float
+        The residence time, s.
+
+    Raises
+    ------
+    OptionError
+        When the step does not turn the motor (within the dead-zone and friction).
+    """
+    lin = truth_of(config).time_constant_s
+    t = np.arange(0.0, RESIDENCE_SPAN * lin, RESIDENCE_STEP_S)
+    speed = simulate_plant(config.quiet(), t, np.full(t.size, float(step_volts)), substeps=1).motor_speed_rad_s
+    final = float(speed[-1])
+    if not abs(final) > 0:
+        raise OptionError(f"a step of {step_volts:g} V does not turn the trainer's motor (dead-zone and friction)")
+    gap = 1.0 - speed / final
+    # the trapezoidal rule, written out (numpy renamed trapz to trapezoid in 2.0)
+    return float(RESIDENCE_STEP_S * (gap.sum() - 0.5 * (gap[0] + gap[-1])))
