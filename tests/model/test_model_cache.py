@@ -42,3 +42,30 @@ def test_pickled_and_copied_models_keep_their_numbers():
     for twin in (pickle.loads(pickle.dumps(m)), copy.deepcopy(m)):
         assert abs(twin.first_order().time_constant_s - 0.3) < 1e-12
         assert abs(twin.dc_gain() - 2.0) < 1e-12
+
+
+def _two_poles_and_a_slow_pair(record_s: float) -> MotorModel:
+    """Velocity (s + 0.01)/((s + 0.0101)(s + 2)(s + 5)) from a record of ``record_s``: the slow
+    pole–zero pair is an artefact of a short record only (the first order drops it then)."""
+    num = np.polymul([1.0], [1.0, 0.01])
+    den = np.polymul(np.polymul([1.0, 0.0101], [1.0, 2.0]), [1.0, 5.0])
+    a, b, c, d = scipy.signal.tf2ss(num, den)
+    return MotorModel(A=a, B=b, C=c, D=d, states=("x1", "x2", "x3"), outputs=("velocity",),
+                      settings={"record_length_s": record_s})
+
+
+def test_a_copy_with_other_fields_keeps_what_was_computed_and_it_is_its_own():
+    m = _two_poles_and_a_slow_pair(2.0)
+    fo = m.first_order()
+    copy_ = m.replace(warnings=("a note",), method="oe")
+    assert copy_.first_order() is fo  # carried over: the same object, not recomputed
+    fresh = MotorModel(**{f: getattr(copy_, f) for f in ("A", "B", "C", "D", "states", "outputs", "settings")})
+    assert copy_.first_order() == fresh.first_order()
+    # the settings decide which pairs are artefacts: a copy with a long record recomputes
+    long = m.replace(settings={"record_length_s": 2000.0})
+    ref = _two_poles_and_a_slow_pair(2000.0).first_order()
+    assert long.first_order() == ref
+    assert long.first_order().time_constant_s != fo.time_constant_s
+    # the matrices decide the transfer function: a copy with another A recomputes both
+    other = m.replace(A=m.A * 2.0)
+    assert other.tf_coefficients("velocity")[1][-1] != m.tf_coefficients("velocity")[1][-1]

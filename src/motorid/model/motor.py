@@ -290,6 +290,11 @@ def model_from_velocity_tf(
                       outputs=("position", "velocity"), **meta)
 
 
+#: The fields a model's transfer functions are computed from (:meth:`MotorModel.replace` keeps
+#: what was computed when none of them changes).
+_DYNAMICS_FIELDS = frozenset({"A", "B", "C", "D", "outputs"})
+
+
 @dataclass(frozen=True, slots=True, eq=False)
 class MotorModel:
     """An identified DC servo-motor: ``ẋ = A x + B u``, ``y = C x + D u``.
@@ -451,9 +456,16 @@ class MotorModel:
         Returns
         -------
         MotorModel
-            The copy (checked like a new model).
+            The copy (checked like a new model); the transfer functions and first order taken
+            of this model so far are the copy's too when the fields they come from are unchanged.
         """
-        return dataclasses.replace(self, **changes)
+        new = dataclasses.replace(self, **changes)
+        if not changes.keys() & _DYNAMICS_FIELDS:
+            # a channel's TF depends on the matrices and outputs; the first order also on the
+            # settings (the record length that decides which pole-zero pairs are artefacts)
+            keep = {k: v for k, v in self._tf_cache.items() if isinstance(k, str) or "settings" not in changes}
+            new._tf_cache.update(keep)
+        return new
 
     @property
     def state_space(self) -> control.StateSpace:
