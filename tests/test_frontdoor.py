@@ -146,6 +146,7 @@ def test_simulation_plot_is_a_figure_of_the_run(fit):
     np.testing.assert_array_equal(line.get_ydata(), sim.output_v)
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: the full suite runs it
 def test_write_report_writes_html(fit, tmp_path):
     des = mi.design(fit.model, damping=0.7, wn=5.0)
     path = mi.write_report(tmp_path / "r.html", fit, design=des, validation=[])

@@ -38,6 +38,7 @@ def fopdt_file(tmp_path):
     return path
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: the full suite runs it
 def test_pid_on_a_fopdt_model(fopdt_file, tmp_path):
     out = tmp_path / "pi.json"
     res = _motorid("design", fopdt_file, "--pid", "--json", out)

@@ -116,6 +116,7 @@ def test_close_real_poles_at_the_edge_keep_the_output_error_fit():
     assert "markov, polished (complex poles allowed)" in names, names
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: the full suite runs it
 def test_the_model_auto_takes_goes_on_to_design_simulate_and_the_report(tmp_path):
     """The polished Markov model that ``auto`` answers with on the underdamped motor (not a hand-made
     one): a critically damped design, its closed loop simulated, and the report written."""

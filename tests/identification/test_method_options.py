@@ -34,6 +34,7 @@ def test_the_defaults_are_the_methods_own(exp, default_auto):
     assert again.params["time_constant"].value == default_auto.params["time_constant"].value
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: the full suite runs it
 def test_a_fixed_laguerre_pole_reaches_the_markov_method(exp):
     """The Laguerre basis pole given is the one the Markov method used (its choice text says so)."""
     fit = mi.identify(exp, method="markov", method_options=mi.MethodOptions(laguerre=mi.LaguerreSettings(pole=37.0)))

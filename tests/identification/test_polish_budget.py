@@ -47,6 +47,7 @@ def test_every_polish_fit_stops_within_the_output_error_budget(monkeypatch):
     assert laguerre_refine.MAX_NFEV == MAX_NFEV
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: the full suite runs it
 def test_the_polish_reuses_its_sampled_systems_and_gets_the_same_model(monkeypatch):
     """A finite-difference column of a numerator moves neither ``A`` nor the delay: the polish keeps the sampled
     system (the exponentials and the eigenvalue problem) and passes it back; kept or made anew, the model JSON is

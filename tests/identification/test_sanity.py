@@ -101,6 +101,7 @@ def test_first_order_baseline_recovers_a_first_order_plus_dead_time() -> None:
     assert par["delay"] == pytest.approx(0.05, abs=2e-3)
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: the full suite runs it
 def test_closed_loop_records_are_flagged_not_silently_modelled(real_dir) -> None:
     """The HSLU closed-loop files record the controller's output as the "input": not a step.
     Identified as if it were one, the model is that of a step that did not happen."""

@@ -59,6 +59,7 @@ def test_a_candidate_far_from_the_best_is_left_when_its_evaluations_run_out():
         assert getattr(quick.model.first_order(), name) == getattr(full.model.first_order(), name)
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: the full suite runs it
 def test_a_candidate_near_the_best_runs_on_to_convergence():
     """Seed 3 of the same trainer: three poles and a zero need 81 evaluations and are chosen; after its first
     40 the candidate is within reach of the best, so it runs on, and the model is the one of an unlimited search.

@@ -3,10 +3,13 @@ loop's Bode/Nyquist plot and its closed-loop step response on the identified mod
 
 from __future__ import annotations
 
+import pytest
+
 from motorid.control.pid import PidSettings, design_pid
 from motorid.report.assemble import make_report
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: the full suite runs it
 def test_the_report_shows_a_pid_design(demo_run):
     ident = demo_run.result.identification
     pid = design_pid(ident.model, PidSettings(loop="position", integral=True))

@@ -5,11 +5,14 @@ from __future__ import annotations
 
 import re
 
+import pytest
+
 from motorid.report import figures
 
 LOG = "hslu-rtl-dcmotor/csv/06_dc_step_5_15_00.csv"
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: the full suite runs it
 def test_report_of_a_log_in_rpm_says_rpm(real_dir, run_cli, tmp_path, monkeypatch):
     kept = []
     real_png = figures.png
