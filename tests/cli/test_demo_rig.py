@@ -50,3 +50,22 @@ def test_the_rig_arguments_are_read_options():
     assert read_options_of(["--velocity", "a.csv", "--step-volts", "6", "--segment", "2",
                             "--columns", "time=Time,input=Channel A"]) == {
         "velocity": "a.csv", "step_volts": 6.0, "segment": 2, "columns": {"time": "Time", "input": "Channel A"}}
+
+
+def test_a_position_log_in_degrees_says_what_did_not_run_and_no_volts(tmp_path, run_cli):
+    """The EV3 log (position in degrees, no speed column): the SRIVC second opinion did not run and
+    says why (it printed its name and nothing else), and the derivative's note names no volts."""
+    import numpy as np
+
+    from motorid.trainer.realsetups import write_real_setup
+
+    rec = write_real_setup("host-loop", tmp_path / "ev3", seed=1)
+    res = run_cli("identify", *rec.cli_args, "--json", str(tmp_path / "m.json"))
+    assert res.code == 0, res.err
+    text = " ".join(res.out.split())  # the printout wraps its long lines
+    assert "stage srivc (second opinion): did not run: SRIVC needs a velocity capture" in text
+    assert "velocity is the derivative of the position (the position's unit per second)" in text
+    assert "volts per second" not in text
+    model = json.loads((tmp_path / "m.json").read_text())
+    assert model["units"]["position"] == "deg" and model["dc_gain_unit"] == "(deg/s)/V"
+    assert np.isfinite(model["first_order"]["dc_gain"])

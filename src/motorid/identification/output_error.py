@@ -35,7 +35,7 @@ from motorid.identification.closed_form import (
 )
 from motorid.identification.method_options import FIT_TOLERANCE, MAX_NFEV
 from motorid.identification.metrics import bic
-from motorid.identification.result import IdentificationError
+from motorid.identification.result import STOPPED_EARLY, IdentificationError
 
 __all__ = [
     "FRACTION_63",
@@ -534,7 +534,7 @@ def output_error_fit(
     if sol.status == -2 and give_up is not None:
         warnings.append(f"{GAVE_UP} after {sol.nfev} evaluations, its BIC still {give_up[1]:.4g} or more")
     elif not sol.success:
-        warnings.append(f"output-error fit stopped early: {sol.message}")
+        warnings.append(f"{STOPPED_EARLY}: {sol.message}")
     return prob.result(sol, step_std, warnings, level_rel_std=level_rel_std)
 
 

@@ -25,7 +25,7 @@ from motorid.identification.classic import classic_first_order
 from motorid.identification.markov import MarkovSettings, markov_identify
 from motorid.identification.method_options import MethodOptions, OutputErrorOptions
 from motorid.identification.pinv import PinvSettings, pinv_identify
-from motorid.identification.result import IdentificationError
+from motorid.identification.result import STOPPED_EARLY, IdentificationError
 from motorid.identification.sanity import SanityReport, sanity_checks
 from motorid.identification.metrics import bic, step_fit
 from motorid.model import MotorModel, step_nrmse
@@ -166,7 +166,7 @@ def _velocity(cond: ConditionedExperiment, full: bool) -> tuple[np.ndarray, np.n
     # over the reduced interval (position-only experiments failed the sanity gate)
     window = max(7, 2 * (cond.ratio // 2) + 1) if full else 7
     v = savgol_derivative(outs["position"], dt, window=window, polyorder=2)
-    return t, v, ["no velocity capture: velocity is the derivative of the position (position volts per second)"]
+    return t, v, ["no velocity capture: velocity is the derivative of the position (the position's unit per second)"]
 
 
 def _settled_warning(t: np.ndarray, v: np.ndarray) -> list[str]:
@@ -326,7 +326,7 @@ def _markov_laguerre(cond: ConditionedExperiment, s: IdentifySettings) -> MotorM
                             phase_s=_sampled_phase(cond.responses[output]))
     notes = [] if output == "velocity" else [
         "no velocity capture: the Laguerre expansion is of the position channel's derivative "
-        "(position volts per second), fitted to the position itself"]
+        "(the position's unit per second), fitted to the position itself"]
     model = res.to_model()
     model = model.replace(warnings=tuple(model.warnings) + tuple(notes), sample_interval_s=float(t[1] - t[0]),
                           # first_order() cancels only pairs slower than the record: the intervals' models the same
@@ -849,6 +849,9 @@ def _gated(cond: ConditionedExperiment, settings: IdentifySettings, model: Motor
     sanity = sanity_checks(model, t_gate, v_gate, cond.step_volts,
                            sample_interval_s=float(t[1] - t[0]), unwhitened=unwhitened, input_v=recorded)
     gate = tuple(f"SANITY CHECK FAILED — {f}" for f in sanity.failures)
+    if any(c.name == "the fit converged" and not c.passed for c in sanity.checks):
+        # the gate's line says it, with what it means
+        model = model.replace(warnings=tuple(w for w in model.warnings if not w.startswith(STOPPED_EARLY)))
     extra_warn = extra_warn + _no_dead_time_warning(cond, settings, model)
     if np.isfinite(model.dc_gain()) and model.dc_gain() < 0:
         # legitimate (a tacho wired the other way round), but a student should know it

@@ -7,7 +7,11 @@ import numpy as np
 from motorid.errors import IdentificationError
 from motorid.model.uncertainty import ParameterEstimate  # typed with the model: its JSON is the model's
 
-__all__ = ["IdentificationError", "ParameterEstimate", "equilibrated_condition"]
+__all__ = ["STOPPED_EARLY", "IdentificationError", "ParameterEstimate", "equilibrated_condition"]
+
+#: The start of a fit's warning when its solver stopped before converging (its evaluation limit);
+#: the sanity gate turns it into a failed check.
+STOPPED_EARLY = "output-error fit stopped early"
 
 
 # IdentificationError lives in motorid.errors with every other user-facing error

@@ -31,6 +31,7 @@ import scipy.optimize
 
 from motorid.blockwise import sum_of_squares_about
 from motorid.identification.classic import first_crossing
+from motorid.identification.result import STOPPED_EARLY
 from motorid.model.uncertainty import Uncertainty
 from motorid.numfmt import sig
 
@@ -236,6 +237,35 @@ def _lag_reading(re_: float) -> str:
             f"z/2 = {sig(re_ / 2)} rad/s; check the sensor and its filter")
 
 
+def _converged(model) -> list[SanityCheck]:  # MotorModel
+    """A failed check when the model's own fit stopped before converging (none otherwise).
+
+    Its headline and intervals are then those of where the solver stopped, not of an optimum;
+    the usual cause is a pole and a zero that nearly cancel, a valley the solver crawls along.
+    """
+    stopped = next((w for w in model.warnings if w.startswith(STOPPED_EARLY)), None)
+    if stopped is None:
+        return []
+    poles, zeros = np.asarray(model.poles()), np.asarray(model.zeros())
+    pair = ""
+    if poles.size and zeros.size:
+        gaps = np.abs(poles[:, None] - zeros[None, :]) / np.maximum(np.abs(poles[:, None]), 1e-300)
+        i, j = np.unravel_index(int(np.argmin(gaps)), gaps.shape)
+        if gaps[i, j] < 0.25:
+            pair = (f"; its pole {sig(complex(poles[i]).real)} and zero {sig(complex(zeros[j]).real)} nearly "
+                    "cancel, a pair the data hardly tell from none")
+    why = _lower_first(stopped.split(": ", 1)[-1].rstrip("."))
+    return [SanityCheck(
+        "the fit converged", False,
+        f"the fit of this structure stopped before converging ({why}): its "
+        f"numbers are where the solver stopped, not an optimum{pair}; a structure with fewer poles or zeros "
+        "(--order) may be what the data support")]
+
+
+def _lower_first(text: str) -> str:
+    return text[:1].lower() + text[1:]
+
+
 def _resolved_roots(u: Uncertainty | None) -> list[SanityCheck]:
     """Every pole the data resolve (alone or as a pair); no right-half-plane zero they do not demand.
 
@@ -386,6 +416,7 @@ def sanity_checks(
                "record's")))
     fo = model.first_order()
     u = model.uncertainty
+    checks += _converged(model)
     checks += _resolved_roots(u)
     for key, label, value, unit in (("dc_gain", "DC gain", fo.dc_gain, gain_unit),
                                     ("time_constant", "τ", fo.time_constant_s, "s"),

@@ -147,6 +147,8 @@ def _noise_and_stages(model: Any) -> list[SummaryLine]:
         desc = ", ".join(_stage_item(k, v, model.dc_gain_unit) for k, v in st.items()
                          if k in ("method", "order", "dc_gain", "time_constant", "markov_order", "oe_order", "agree"))
         extra = f" — {st['evidence']}" if "evidence" in st else ""
+        if "failed" in st:  # a stage that did not run says why (it printed nothing after its name)
+            desc = f"did not run: {st['failed']}"
         lines.append(_plain(f"stage {st['stage']}: {desc}{extra}"))
     return lines
 
