@@ -129,3 +129,44 @@ def test_the_model_auto_takes_goes_on_to_design_simulate_and_the_report(tmp_path
     mi.write_report(tmp_path / "report.html", fit, design=design)
     html = (tmp_path / "report.html").read_text(encoding="utf-8")
     assert "that model is the answer" in html
+
+
+def test_a_pair_its_own_zeros_cancel_is_not_taken_for_the_motors():
+    """A resonance its anti-resonance undoes is not a complex pair the data want: on a Raspberry Pi
+    rpm log (clock-stamps rig preset, seed 0) the Markov polish put a pair at −14.75 ± 86.92j beside
+    zeros at −9.217 ± 89.05j in a first-order gearmotor, fitted the counted rpm's ripple 26 % better
+    and became auto's answer."""
+    import scipy.signal
+
+    from motorid.identification.pipeline import _complex_pair
+    from motorid.model.motor import MotorModel
+
+    def model(zeros):
+        num = np.real(np.poly(zeros)) if zeros else np.array([1.0])
+        den = np.real(np.poly([-14.75 + 86.92j, -14.75 - 86.92j, -8.39]))
+        a, b, c, d = scipy.signal.tf2ss(num * den[-1] / num[-1], den)
+        return MotorModel(A=a, B=b, C=c, D=d, states=("x1", "x2", "x3"), outputs=("velocity",))
+
+    cancelled = model([-9.217 + 89.05j, -9.217 - 89.05j])
+    alone = model([])
+    assert _complex_pair(cancelled) is not None  # it is a complex pair ...
+    assert _complex_pair(cancelled, uncancelled=True) is None  # ... that its zeros undo
+    assert _complex_pair(alone, uncancelled=True) == _complex_pair(alone)
+
+
+def test_auto_on_the_pi_rpm_log_keeps_no_cancelled_pair(tmp_path):
+    """Whatever auto answers on that log, its model has no complex pair that a zero cancels."""
+    import warnings
+
+    from motorid.identification.pipeline import PAIR_CANCEL_REL
+    from motorid.trainer.realsetups import write_real_setup
+
+    rec = write_real_setup("clock-stamps", tmp_path / "pi", seed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fit = mi.identify(mi.read_experiment(velocity=str(rec.files["log"])))  # its --velocity
+    zeros = np.asarray(fit.model.zeros())
+    for p in fit.model.poles():
+        if np.imag(p) > 0 and zeros.size:
+            assert np.min(np.abs(zeros - p)) >= PAIR_CANCEL_REL * abs(p)
+    assert fit.model.first_order().dc_gain == pytest.approx(rec.truth.dc_gain, rel=0.01)

@@ -812,7 +812,7 @@ def _complex_pair_instead(cond: ConditionedExperiment, settings: IdentifySetting
     except (IdentificationError, OptionError):
         return None
     own, alt = model.fit.get("velocity_nrmse"), polished.fit.get("velocity_nrmse")
-    pair = _complex_pair(polished)
+    pair = _complex_pair(polished, uncancelled=True)
     stages.append({"stage": "markov, polished (complex poles allowed)", **_summary("markov", polished)})
     if pair is None or own is None or alt is None or not (np.isfinite(alt) and alt < COMPLEX_PAIR_NRMSE_RATIO * own):
         return None
@@ -822,10 +822,27 @@ def _complex_pair_instead(cond: ConditionedExperiment, settings: IdentifySetting
     return polished.replace(warnings=(*polished.warnings, f"auto: {why}")), why
 
 
-def _complex_pair(model: MotorModel) -> str | None:
-    """A model's first complex pair as text, ``-2.233 ± 1.598j (damping 0.81)``; None when its poles are real."""
-    p = next((p for p in model.poles() if np.imag(p) > 0), None)
-    return None if p is None else f"{complex_text(p, pair=True)} (damping {-np.real(p) / abs(p):.3g})"
+#: A complex pole and a zero closer than this fraction of the pole's magnitude cancel: the pair is
+#: a resonance its own anti-resonance undoes, not the motor's dynamics.
+PAIR_CANCEL_REL = 0.2
+
+
+def _complex_pair(model: MotorModel, *, uncancelled: bool = False) -> str | None:
+    """A model's first complex pair as text, ``-2.233 ± 1.598j (damping 0.81)``; None when its poles are real.
+
+    ``uncancelled``: only a pair no zero of the model nearly cancels (:data:`PAIR_CANCEL_REL`).  On
+    a Raspberry Pi log of rpm (the clock-stamps rig preset, seed 0) the Markov method's polish put a
+    pair at −14.75 ± 86.92j beside zeros at −9.217 ± 89.05j, a lightly damped resonance and its
+    anti-resonance in a first-order gearmotor: it fitted the counted rpm's ripple, not the motor.
+    """
+    zeros = np.asarray(model.zeros())
+    for p in model.poles():
+        if np.imag(p) <= 0:
+            continue
+        if uncancelled and zeros.size and np.min(np.abs(zeros - p)) < PAIR_CANCEL_REL * abs(p):
+            continue
+        return f"{complex_text(p, pair=True)} (damping {-np.real(p) / abs(p):.3g})"
+    return None
 
 
 #: The refinement of each method that is not one of the paper's own (``paper-auto`` has none).
