@@ -69,3 +69,24 @@ def test_a_position_log_in_degrees_says_what_did_not_run_and_no_volts(tmp_path, 
     model = json.loads((tmp_path / "m.json").read_text())
     assert model["units"]["position"] == "deg" and model["dc_gain_unit"] == "(deg/s)/V"
     assert np.isfinite(model["first_order"]["dc_gain"])
+
+
+def test_a_column_whose_unit_nothing_gives_is_said_to_be_labelled_volts_by_default(tmp_path, run_cli):
+    """The ms-time log's ``speed`` column (rad/s, but its name and the file say nothing): the printout
+    labels it V, the default, and now says so and how to give the unit; with ``--units`` the note
+    goes and the gain reads (rad/s)/V."""
+    from motorid.trainer.realsetups import write_real_setup
+
+    rec = write_real_setup("ms-time", tmp_path / "ms", seed=0)
+    res = run_cli("identify", *rec.cli_args)
+    assert res.code == 0, res.err
+    text = " ".join(res.out.split())
+    assert "automatic choice: no unit given for 'speed' (velocity)" in text
+    assert "labelled V, the default" in text and "--units velocity=" in text
+    res = run_cli("identify", *rec.cli_args, "--units", "velocity=rad/s")
+    text = " ".join(res.out.split())
+    assert res.code == 0 and "no unit given" not in text
+    assert "dc gain ((rad/s)/V)" in text
+    # a scope's CSV says its volts: no such note on the demo's captures
+    scope = write_real_setup("fast-tbs1000", tmp_path / "tbs", seed=0)
+    assert "no unit given" not in " ".join(run_cli("identify", *scope.cli_args).out.split())

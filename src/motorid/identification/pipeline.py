@@ -930,7 +930,27 @@ def identify_experiment(
 
     # the data's units (a plain-CSV log in rpm: the gain reads rpm/V), the declared ones over them
     data_units = with_velocity_of_position({**units_of(captures), **(units or {})}, captures)
+    unnamed = _units_not_given(captures, units or {})
+    if unnamed:
+        cond = replace(cond, notes=(*cond.notes, unnamed))
     return identify_conditioned(cond, settings, progress, units=data_units)
+
+
+def _units_not_given(captures: Mapping[str, Capture], declared: Mapping[str, str]) -> str | None:
+    """A note naming the measured columns whose unit neither their file nor ``--units`` gives.
+
+    A scope's CSV says its volts; a log's column named ``speed`` says nothing, and its values are
+    then labelled with the default, volts: the note says so, and how to give the unit.
+    """
+    roles = [role for role, cap in captures.items()
+             if role in ("position", "velocity", "current") and role not in declared
+             and not (getattr(cap.output_info, "units", "") or "")]
+    if not roles:
+        return None
+    cols = ", ".join(f"{captures[r].output_info.name!r} ({r})" for r in roles)
+    example = " ".join(f"--units {r}=…" for r in roles)
+    return (f"no unit given for {cols} (neither the column's name nor --units): labelled V, the default; "
+            f"if the values are not volts, give their unit ({example}, e.g. rad/s, rpm, deg, counts)")
 
 
 def with_conditioning(settings: IdentifySettings, **changes: Any) -> IdentifySettings:
