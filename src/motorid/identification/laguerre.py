@@ -839,7 +839,11 @@ def _realised_orders(grid: _Grid, best: LaguerreCoefficients, settings: Laguerre
             stable = True
         if not stable and grid.fixed_order is None:
             continue
-        b_c, rss = _refit_input_gains(a_c, c_c, grid.t, grid.y, grid.u, grid.step_volts, delay, grid.integrate)
+        try:
+            b_c, rss = _refit_input_gains(a_c, c_c, grid.t, grid.y, grid.u, grid.step_volts, delay, grid.integrate)
+        except IdentificationError as exc:
+            errors.append(f"order {m}: {exc.message}")
+            continue
         score = bic({"y": n}, {"y": rss / n}, 2 * m + (delay > 0))
         out.append(_Candidate(score, best, sv, floor, above, m, a_c, b_c, c_c, stable))
     return out
@@ -929,6 +933,10 @@ def _refit_input_gains(a_c: np.ndarray, c_c: np.ndarray, t: np.ndarray, y: np.nd
         c_s = c_c
     resp = _simulate(a_s, b_s, t, u, step_volts, delay)  # (n, states, inputs)
     phi = np.einsum("s,nsi->ni", c_s[0], resp)
+    if not np.all(np.isfinite(phi)):
+        # an unstable realisation kept for a fixed order: its response overflows over a long record
+        # (numpy's least squares then failed with "SVD did not converge", LAPACK writing to stderr)
+        raise IdentificationError("its realised poles are unstable: their response overflows over the record")
     coef, *_ = np.linalg.lstsq(phi, y, rcond=None)
     resid = y - phi @ coef
     return coef.reshape(-1, 1), float(resid @ resid)
