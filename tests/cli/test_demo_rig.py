@@ -90,3 +90,15 @@ def test_a_column_whose_unit_nothing_gives_is_said_to_be_labelled_volts_by_defau
     # a scope's CSV says its volts: no such note on the demo's captures
     scope = write_real_setup("fast-tbs1000", tmp_path / "tbs", seed=0)
     assert "no unit given" not in " ".join(run_cli("identify", *scope.cli_args).out.split())
+
+
+def test_srivc_on_a_position_log_says_why_it_found_no_model(tmp_path, run_cli):
+    """``--method srivc`` on an encoder log (no velocity column) said "SRIVC found no stable model"
+    and hid each structure's refusal: it needs a velocity capture."""
+    from motorid.trainer.realsetups import write_real_setup
+
+    rec = write_real_setup("encoder-counts", tmp_path / "mouse", seed=0)
+    res = run_cli("identify", *rec.cli_args, "--method", "srivc")
+    assert res.code != 0
+    assert "SRIVC found no stable model at the requested order(s): SRIVC needs a velocity capture" in res.err
+    assert len(res.err.strip().splitlines()) == 1

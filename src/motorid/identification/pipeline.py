@@ -748,12 +748,14 @@ def _srivc_refined(cond: ConditionedExperiment, settings: IdentifySettings, star
 
     orders = (1, 2, 3) if settings.order == "auto" else (int(settings.order),)
     tried: list[tuple[float, MotorModel, tuple[int, int]]] = []
+    why: list[str] = []  # each structure's refusal, said when none was fitted
     n = cond.full_time_s.size
     for order in orders:
         for structure in STRUCTURES[order]:
             try:
                 m = _with_fit(srivc_stage(cond, start.model, structure, settings=settings.method_options.srivc), cond)
-            except (IdentificationError, OptionError):
+            except (IdentificationError, OptionError) as exc:
+                why.append(exc.message)
                 continue
             if np.any(np.real(m.poles()) >= 0) or not np.isfinite(m.fit["velocity_nrmse"]):
                 continue
@@ -761,7 +763,9 @@ def _srivc_refined(cond: ConditionedExperiment, settings: IdentifySettings, star
             score = bic({"velocity": n}, {"velocity": m.fit["velocity_nrmse"] ** 2}, sum(structure) + 1)
             tried.append((score, m, structure))
     if not tried:
-        raise IdentificationError("SRIVC found no stable model at the requested order(s)")
+        reasons = "; ".join(dict.fromkeys(why))
+        raise IdentificationError("SRIVC found no stable model at the requested order(s)" + (f": {reasons}" if reasons
+                                                                                             else ""))
     tried.sort(key=lambda x: x[0])
     model = tried[0][1]
     start.stages.append({"stage": "srivc", **_summary("srivc", model)})
