@@ -15,7 +15,7 @@ import numpy as np
 
 from motorid._threads import single_blas_thread
 from motorid.blockwise import line_slope
-from motorid.capture import Capture
+from motorid.capture import ROLES, Capture
 from motorid.conditioning.denoise import fft_denoise
 from motorid.conditioning.derivative import derivative, savgol_derivative
 from motorid.conditioning.pipeline import ConditionedExperiment, ConditioningSettings, condition_experiment
@@ -29,6 +29,7 @@ from motorid.identification.result import STOPPED_EARLY, IdentificationError
 from motorid.identification.sanity import SanityReport, sanity_checks
 from motorid.identification.metrics import bic, step_fit
 from motorid.model import MotorModel, step_nrmse
+from motorid.model.simplify import nearest_zeros
 from motorid.numfmt import complex_text
 
 __all__ = ["METHODS", "REFINERS", "Identification", "IdentifySettings", "Refiner", "identify_conditioned",
@@ -839,13 +840,11 @@ def _complex_pair(model: MotorModel, *, uncancelled: bool = False) -> str | None
     pair at −14.75 ± 86.92j beside zeros at −9.217 ± 89.05j, a lightly damped resonance and its
     anti-resonance in a first-order gearmotor: it fitted the counted rpm's ripple, not the motor.
     """
-    zeros = np.asarray(model.zeros())
-    for p in model.poles():
-        if np.imag(p) <= 0:
-            continue
-        if uncancelled and zeros.size and np.min(np.abs(zeros - p)) < PAIR_CANCEL_REL * abs(p):
-            continue
-        return f"{complex_text(p, pair=True)} (damping {-np.real(p) / abs(p):.3g})"
+    poles = np.asarray(model.poles())
+    gaps, _ = nearest_zeros(poles, np.asarray(model.zeros()))
+    for p, gap in zip(poles, gaps, strict=True):
+        if np.imag(p) > 0 and not (uncancelled and gap < PAIR_CANCEL_REL):
+            return f"{complex_text(p, pair=True)} (damping {-np.real(p) / abs(p):.3g})"
     return None
 
 
@@ -870,9 +869,8 @@ def _gated(cond: ConditionedExperiment, settings: IdentifySettings, model: Motor
     sanity = sanity_checks(model, t_gate, v_gate, cond.step_volts,
                            sample_interval_s=float(t[1] - t[0]), unwhitened=unwhitened, input_v=recorded)
     gate = tuple(f"SANITY CHECK FAILED — {f}" for f in sanity.failures)
-    if any(c.name == "the fit converged" and not c.passed for c in sanity.checks):
-        # the gate's line says it, with what it means
-        model = model.replace(warnings=tuple(w for w in model.warnings if not w.startswith(STOPPED_EARLY)))
+    # a fit that stopped early is a failed check of the gate, whose line says it with what it means
+    model = model.replace(warnings=tuple(w for w in model.warnings if not w.startswith(STOPPED_EARLY)))
     extra_warn = extra_warn + _no_dead_time_warning(cond, settings, model)
     if np.isfinite(model.dc_gain()) and model.dc_gain() < 0:
         # legitimate (a tacho wired the other way round), but a student should know it
@@ -947,8 +945,7 @@ def _units_not_given(captures: Mapping[str, Capture], declared: Mapping[str, str
     then labelled with the default, volts: the note says so, and how to give the unit.
     """
     roles = [role for role, cap in captures.items()
-             if role in ("position", "velocity", "current") and role not in declared
-             and not (getattr(cap.output_info, "units", "") or "")]
+             if role in ROLES and role not in declared and not cap.output_info.units]
     if not roles:
         return None
     cols = ", ".join(f"{captures[r].output_info.name!r} ({r})" for r in roles)

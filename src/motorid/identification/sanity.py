@@ -32,6 +32,7 @@ import scipy.optimize
 from motorid.blockwise import sum_of_squares_about
 from motorid.identification.classic import first_crossing
 from motorid.identification.result import STOPPED_EARLY
+from motorid.model.simplify import nearest_zeros
 from motorid.model.uncertainty import Uncertainty
 from motorid.numfmt import sig
 
@@ -248,12 +249,11 @@ def _converged(model) -> list[SanityCheck]:  # MotorModel
         return []
     poles, zeros = np.asarray(model.poles()), np.asarray(model.zeros())
     pair = ""
-    if poles.size and zeros.size:
-        gaps = np.abs(poles[:, None] - zeros[None, :]) / np.maximum(np.abs(poles[:, None]), 1e-300)
-        i, j = np.unravel_index(int(np.argmin(gaps)), gaps.shape)
-        if gaps[i, j] < 0.25:
-            pair = (f"; its pole {sig(complex(poles[i]).real)} and zero {sig(complex(zeros[j]).real)} nearly "
-                    "cancel, a pair the data hardly tell from none")
+    gaps, nearest = nearest_zeros(poles, zeros)
+    if gaps.size and gaps.min() < 0.25:
+        i = int(np.argmin(gaps))
+        pair = (f"; its pole {sig(complex(poles[i]).real)} and zero {sig(complex(zeros[nearest[i]]).real)} nearly "
+                "cancel, a pair the data hardly tell from none")
     why = _lower_first(stopped.split(": ", 1)[-1].rstrip("."))
     return [SanityCheck(
         "the fit converged", False,

@@ -91,6 +91,32 @@ def _roots(poly: np.ndarray) -> np.ndarray:
     return np.roots(poly).astype(complex)
 
 
+def nearest_zeros(poles: np.ndarray, zeros: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For each pole, the nearest zero: its distance relative to the pole's magnitude, and its index.
+
+    Unlike :func:`_cancel_pairs` (tolerance relative to the fastest pole), each pole is measured
+    against its own magnitude: a slow pole and a slow zero 4 % apart are close however fast the
+    other poles are.
+
+    Parameters
+    ----------
+    poles, zeros : ndarray
+        Roots (complex allowed).
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        ``min_j |p_i − z_j| / |p_i|`` (``inf`` with no zeros) and that ``j`` (0 with no zeros),
+        one per pole.
+    """
+    p = np.asarray(poles, dtype=complex).ravel()
+    z = np.asarray(zeros, dtype=complex).ravel()
+    if z.size == 0:
+        return np.full(p.size, np.inf), np.zeros(p.size, dtype=int)
+    gaps = np.abs(p[:, None] - z[None, :]) / np.maximum(np.abs(p[:, None]), 1e-300)
+    return gaps.min(axis=1), gaps.argmin(axis=1)
+
+
 def _cancel_pairs(
     num: np.ndarray, den: np.ndarray, tol_rel: float, keep: str, record_s: float | None = None
 ) -> tuple[np.ndarray, np.ndarray, int]:

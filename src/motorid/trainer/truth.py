@@ -160,6 +160,6 @@ def step_residence_time(config: TrainerConfig, step_volts: float) -> float:
     final = float(speed[-1])
     if not abs(final) > 0:
         raise OptionError(f"a step of {step_volts:g} V does not turn the trainer's motor (dead-zone and friction)")
-    gap = 1.0 - speed / final
-    # the trapezoidal rule, written out (numpy renamed trapz to trapezoid in 2.0)
-    return float(RESIDENCE_STEP_S * (gap.sum() - 0.5 * (gap[0] + gap[-1])))
+    from scipy.integrate import trapezoid
+
+    return float(trapezoid(1.0 - speed / final, dx=RESIDENCE_STEP_S))
