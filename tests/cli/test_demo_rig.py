@@ -99,6 +99,6 @@ def test_srivc_on_a_position_log_says_why_it_found_no_model(tmp_path, run_cli):
 
     rec = write_real_setup("encoder-counts", tmp_path / "mouse", seed=0)
     res = run_cli("identify", *rec.cli_args, "--method", "srivc")
-    assert res.code != 0
+    assert res.code == 2
     assert "SRIVC found no stable model at the requested order(s): SRIVC needs a velocity capture" in res.err
     assert len(res.err.strip().splitlines()) == 1

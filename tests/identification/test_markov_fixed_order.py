@@ -38,3 +38,19 @@ def test_markov_at_order_2_on_the_closed_loop_log_as_a_user_runs_it(real_dir, tm
     assert proc.returncode == 0, proc.stderr
     assert "internal error" not in proc.stderr and "DLASCL" not in proc.stderr + proc.stdout
     assert out.is_file() and "2 poles of the velocity TF" in proc.stdout
+
+
+def test_the_order_2_model_of_the_closed_loop_log_goes_on_to_design_simulate_and_the_report(real_dir, tmp_path):
+    import warnings
+
+    import motorid as mi
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fit = mi.identify(mi.read_experiment(velocity=str(real_dir / LOG)), method="markov", order=2)
+    assert len(fit.model.poles()) == 2
+    design = mi.design(fit.model, overshoot=5, settling_time=1.0)
+    sim = mi.simulate(fit.model, design)
+    assert np.all(np.isfinite(np.asarray(sim.time_s)))
+    mi.write_report(tmp_path / "report.html", fit, design=design)
+    assert (tmp_path / "report.html").stat().st_size > 0

@@ -58,3 +58,18 @@ def test_identify_with_too_few_evaluations_says_so_in_the_gate_once():
     assert any(w.startswith("SANITY CHECK FAILED — the fit of this structure stopped before converging")
                for w in fit.warnings)
     assert not any(w.startswith(STOPPED_EARLY) for w in fit.warnings)  # the gate's line, not twice
+
+
+def test_a_model_that_failed_the_converged_check_goes_on_to_design_simulate_and_the_report(tmp_path):
+    """The model of a fit stopped early (not a hand-made one) is still a model: a design, its closed
+    loop and the report, which carries the gate's line."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rec = run_experiment("first-order", seed=0, validation=False)
+        fit = mi.identify(mi.Experiment(captures=dict(rec.captures)), method="oe",
+                          method_options=MethodOptions(output_error=OutputErrorOptions(max_nfev=2)))
+    design = mi.design(fit.model, overshoot=5, settling_time=2.0)
+    sim = mi.simulate(fit.model, design)
+    assert np.all(np.isfinite(np.asarray(sim.time_s)))
+    mi.write_report(tmp_path / "report.html", fit, design=design)
+    assert "stopped before converging" in (tmp_path / "report.html").read_text(encoding="utf-8")
