@@ -5,8 +5,9 @@ Run: ``python3 bench/accuracy.py [--runs 200] [--presets first-order,second-orde
 ``motorid batch``'s engine (:func:`motorid.batch.parallel_map`: joblib ``loky`` processes with one
 BLAS thread each, or the workers of a Dask scheduler).
 
-Presets: the trainer's ``first-order``, ``second-order``, ``third-order``; ``electrical-7ms``
-(a 7 ms electrical pole near the 4 ms sampling); ``underdamped`` (a complex pair, damping 0.81); and the real set-ups of
+Presets: the trainer's ``first-order``, ``second-order``, ``third-order``, ``electrical-7ms``
+(a 7 ms electrical pole near the 4 ms sampling), ``underdamped`` (a complex pair, damping 0.81);
+and the real set-ups of
 :mod:`motorid.trainer.realsetups` (``fast-tbs1000``, ``pwm-encoder``, ``daq-deadtime``), each
 written to disk and read back as a user's files, identified with default options and the
 user's ``--step-volts``; their truth is the incremental gain and the mean residence time
@@ -62,28 +63,6 @@ REAL_SETUP_PRESETS = ("fast-tbs1000", "pwm-encoder", "daq-deadtime")
 REAL_SETUP_METHODS = ("pinv", "markov-laguerre", "classic", "oe", "srivc", "auto", "peer:curve_fit")
 
 
-def electrical_7ms():
-    """The paper's trainer with a 7 ms electrical pole and no amplifier lead/lag (J rescaled
-    so that the velocity's mean residence time stays 0.43 s)."""
-    from motorid.trainer.presets import TAU_M_PAPER_S
-
-    p = preset("paper")
-    tau_e = 0.007
-    return replace(p, la_h=p.ra_ohm * tau_e, amp_lead_s=0.0, amp_lag_s=0.0,
-                   j_kgm2=p.j_kgm2 * (0.43 - tau_e / 2) / TAU_M_PAPER_S)
-
-
-def underdamped():
-    """The paper's trainer with a 0.3 s electrical time constant and no amplifier lead/lag: its
-    mechanical and electrical poles are a complex pair (−2.23 ± 1.60j, damping 0.81), which the
-    output-error fit's real poles cannot represent."""
-    p = preset("paper")
-    return replace(p, la_h=p.ra_ohm * 0.3, amp_lead_s=0.0, amp_lag_s=0.0)
-
-
-def config_of(name: str):
-    return {"electrical-7ms": electrical_7ms, "underdamped": underdamped}.get(name, lambda: preset(name))()
-
 METHODS = ("pinv", "markov", "markov-laguerre", "classic", "oe", "srivc", "auto", "auto:velocity", "peer:era",
            "peer:curve_fit", "peer:n4sid")
 #: ``METHOD:velocity`` runs METHOD on the velocity capture alone (the others left out): the
@@ -121,9 +100,9 @@ def visible_tau(tf, dt: float) -> float:
 
 def experiment(name: str, case: str, seed: int, sigma: float):
     if case == "white":
-        cfg = replace(config_of(name).ideal(), noise_v=sigma)
+        cfg = replace(preset(name).ideal(), noise_v=sigma)
         return run_experiment(config=cfg, seed=seed, quantised=False, validation=False, step_volts=STEP_VOLTS)
-    return run_experiment(config=config_of(name), seed=seed, validation=False, step_volts=STEP_VOLTS)
+    return run_experiment(config=preset(name), seed=seed, validation=False, step_volts=STEP_VOLTS)
 
 
 def peer_era(cond, order):
@@ -290,7 +269,7 @@ def crlb(name: str, cond, sigma: float) -> tuple[float, float]:
     from motorid.identification.output_error import OeSettings, _Layout, _predict
     from motorid.trainer import truth_of
 
-    tr = truth_of(replace(config_of(name).ideal(), noise_v=sigma))
+    tr = truth_of(replace(preset(name).ideal(), noise_v=sigma))
     dt = min(r.sample_interval_s for r in cond.responses.values())
 
     def poly(tf):
@@ -394,7 +373,7 @@ def main() -> None:
                 # what the step can show, as the DC gain: the residence time of the noise-free step
                 # with friction and dead-zone (sliding friction lengthens it by about La/Ra × the
                 # part of the step it costs: 2.6 ms on the underdamped motor, ≤ 0.35 ms elsewhere)
-                tau_true = step_residence_time(config_of(p), STEP_VOLTS)
+                tau_true = step_residence_time(preset(p), STEP_VOLTS)
             # RMSE is compared with the root mean CRLB variance over the runs
             bound = (tuple(float(np.sqrt(np.mean([r[6][i] ** 2 for r in rows]))) for i in (0, 1))
                      if c == "white" else None)

@@ -74,7 +74,8 @@ class OptionSpec:
 
 #: The virtual trainer's presets (``motorid demo --preset``, ``simulate --plant trainer --preset``):
 #: declared here, where the command line reads them without importing the trainer.
-TRAINER_PRESETS: tuple[str, ...] = ("paper", "lab-report", "first-order", "second-order", "third-order")
+TRAINER_PRESETS: tuple[str, ...] = ("paper", "lab-report", "first-order", "second-order", "third-order",
+                                    "electrical-7ms", "underdamped")
 
 #: The virtual trainer's real-rig presets (``motorid demo --rig``): each records its log the way that rig
 #: writes it (:mod:`motorid.trainer.realsetups`, :mod:`motorid.trainer.hobbyrigs`).

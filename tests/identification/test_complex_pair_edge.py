@@ -16,20 +16,14 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-from dataclasses import replace
 
 import numpy as np
 import pytest
 
 import motorid as mi
-from motorid.trainer import preset, run_experiment
+from motorid.trainer import run_experiment
 
 EDGE_WORDS = "sit at their double pole"
-
-
-def _underdamped():
-    p = preset("paper")
-    return replace(p, la_h=p.ra_ohm * 0.3, amp_lead_s=0.0, amp_lag_s=0.0)
 
 
 def test_auto_takes_the_complex_pair_when_its_fit_is_held_at_the_edge_as_a_user_runs_it(tmp_path):
@@ -41,7 +35,7 @@ def test_auto_takes_the_complex_pair_when_its_fit_is_held_at_the_edge_as_a_user_
 
     from motorid.io import write_tds_capture
 
-    rec = run_experiment(config=_underdamped(), seed=0, validation=False)
+    rec = run_experiment("underdamped", seed=0, validation=False)
     truth = np.roots(np.squeeze(rec.truth.velocity.den[0][0]))
     assert np.all(np.abs(np.imag(truth)) > 1.0)  # the plant's pair is complex
     files = {role: write_tds_capture(tmp_path / role, cap, index=i)
@@ -69,7 +63,7 @@ def test_the_method_the_warning_points_to_finds_the_complex_pair_with_an_honest_
     """``--method markov`` (its polish fits complex poles): the pair within 2 % of the truth's, τ
     within 1 %, no warning of a pair at the edge, every sanity check passed (where the output-error
     fit is 17 % off)."""
-    rec = run_experiment(config=_underdamped(), seed=0, validation=False)
+    rec = run_experiment("underdamped", seed=0, validation=False)
     fit = mi.identify(mi.Experiment(captures=dict(rec.captures)), method="markov")
     truth = np.roots(np.squeeze(rec.truth.velocity.den[0][0]))
     pair = [p for p in fit.model.poles() if np.imag(p) > 0]
@@ -120,7 +114,7 @@ def test_close_real_poles_at_the_edge_keep_the_output_error_fit():
 def test_the_model_auto_takes_goes_on_to_design_simulate_and_the_report(tmp_path):
     """The polished Markov model that ``auto`` answers with on the underdamped motor (not a hand-made
     one): a critically damped design, its closed loop simulated, and the report written."""
-    rec = run_experiment(config=_underdamped(), seed=0, validation=False)
+    rec = run_experiment("underdamped", seed=0, validation=False)
     fit = mi.identify(mi.Experiment(captures=dict(rec.captures)))
     assert fit.model.method == "markov"
     design = mi.design(fit.model, overshoot=5, settling_time=3.0)

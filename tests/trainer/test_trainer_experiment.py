@@ -121,3 +121,17 @@ def test_every_preset_runs():
     for name in PRESET_NAMES:
         e = run_experiment(name, seed=0, validation=False, roles=("velocity",))
         assert e.captures["velocity"].n_samples == 2500
+
+
+def test_the_electrical_and_underdamped_presets_are_the_motors_they_are_named_after():
+    """Both were written out by hand in the accuracy bench and two test files; now the trainer has
+    them. The truth's poles against python-control's, from the configuration's physics."""
+    e7 = truth_of(preset("electrical-7ms"))
+    p = np.sort(np.real(control.poles(e7.velocity)))
+    assert p[0] == pytest.approx(-1 / 0.007, rel=0.02) and e7.time_constant_s == pytest.approx(0.43, abs=1e-9)
+    under = truth_of(preset("underdamped"))
+    pair = control.poles(under.velocity)
+    wn = float(np.abs(pair[0]))
+    assert np.all(np.abs(np.imag(pair)) > 1.0) and -float(np.real(pair[0])) / wn == pytest.approx(0.81, abs=0.005)
+    cfg = preset("underdamped")
+    assert cfg.la_h == pytest.approx(0.3 * cfg.ra_ohm) and cfg.amp_lead_s == cfg.amp_lag_s == 0.0

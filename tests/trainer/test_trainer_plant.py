@@ -153,8 +153,7 @@ def test_step_residence_time_with_friction_against_the_ode():
     independent solution of the friction ODE reproduces to 1e-5 s."""
     from motorid.trainer import step_residence_time
 
-    base = preset("paper")
-    cfg = replace(base, la_h=base.ra_ohm * 0.3, amp_lead_s=0.0, amp_lag_s=0.0)
+    cfg = preset("underdamped")
     got = step_residence_time(cfg, 5.92)
     linear = truth_of(cfg).time_constant_s
     assert got - linear == pytest.approx(0.00257, abs=2e-4)

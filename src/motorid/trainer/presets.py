@@ -199,19 +199,20 @@ def _lab_report() -> TrainerConfig:
     return replace(cfg, coulomb_nm=0.01 * cfg.k_motor, static_nm=0.015 * cfg.k_motor)
 
 
-def _order(n: int) -> TrainerConfig:
-    # same motor and sensors as ``paper``; J (∝ τm) is rescaled so that the velocity's mean
-    # residence time τm + τe/2 + lag − lead stays at the paper's 0.43 s
+def _electrical(tau_e: float) -> TrainerConfig:
+    # same motor and sensors as ``paper`` with another electrical time constant and no amplifier
+    # lead/lag; J (∝ τm) is rescaled so that the velocity's mean residence time τm + τe/2 stays
+    # at the paper's 0.43 s
     p = _paper()
-    if n == 1:
-        tau_e = 0.0005
-        return replace(p, la_h=p.ra_ohm * tau_e, amp_lead_s=0.0, amp_lag_s=0.0,
-                       j_kgm2=p.j_kgm2 * (0.43 - tau_e / 2) / TAU_M_PAPER_S)
-    if n == 2:
-        tau_e = 0.04
-        return replace(p, la_h=p.ra_ohm * tau_e, amp_lead_s=0.0, amp_lag_s=0.0,
-                       j_kgm2=p.j_kgm2 * (0.43 - tau_e / 2) / TAU_M_PAPER_S)
-    return p
+    return replace(p, la_h=p.ra_ohm * tau_e, amp_lead_s=0.0, amp_lag_s=0.0,
+                   j_kgm2=p.j_kgm2 * (0.43 - tau_e / 2) / TAU_M_PAPER_S)
+
+
+def _underdamped() -> TrainerConfig:
+    # the paper's motor with La = 0.3·Ra and no amplifier lead/lag (J kept): its mechanical and
+    # electrical poles meet as a complex pair, −2.23 ± 1.60j (damping 0.81)
+    p = _paper()
+    return replace(p, la_h=p.ra_ohm * 0.3, amp_lead_s=0.0, amp_lag_s=0.0)
 
 
 #: Names accepted by :func:`preset` (declared with the options, which the command line's help reads).
@@ -226,8 +227,10 @@ def preset(name: str) -> TrainerConfig:
     name : str
         ``paper`` (Masoud 2019's trainer at 5.92 V), ``lab-report`` (Tsiolakis 2022),
         ``first-order`` (electrical pole negligible, no amplifier zero), ``second-order``
-        (visible electrical pole, no amplifier zero), ``third-order`` (= ``paper``:
-        electrical pole and amplifier lead/lag).
+        (visible electrical pole, 40 ms, no amplifier zero), ``third-order`` (= ``paper``:
+        electrical pole and amplifier lead/lag), ``electrical-7ms`` (an electrical pole of
+        7 ms, under two samples of the paper's record, no amplifier zero), ``underdamped``
+        (a slow armature, La = 0.3·Ra: the two poles are a complex pair, damping 0.81).
 
     Returns
     -------
@@ -242,9 +245,11 @@ def preset(name: str) -> TrainerConfig:
     table = {
         "paper": _paper,
         "lab-report": _lab_report,
-        "first-order": lambda: _order(1),
-        "second-order": lambda: _order(2),
-        "third-order": lambda: _order(3),
+        "first-order": lambda: _electrical(0.0005),
+        "second-order": lambda: _electrical(0.04),
+        "third-order": _paper,
+        "electrical-7ms": lambda: _electrical(0.007),
+        "underdamped": _underdamped,
     }
     if name not in table:
         raise OptionError(f"unknown trainer preset {name!r}; use one of {', '.join(PRESET_NAMES)}")
