@@ -761,7 +761,22 @@ def design_controller(model: MotorModel, settings: DesignSettings) -> Design:
             design = replace(design, robust=robust_check(model, design, samples=s.robust_samples, spec=spec))
         except RobustCheckUnavailable as exc:
             design = replace(design, warnings=(*design.warnings, f"robustness not checked: {exc}"))
+        else:
+            design = replace(design, warnings=(*design.warnings, *_spec_missed(cast(RobustCheck, design.robust))))
     return design
+
+
+def _spec_missed(check: RobustCheck) -> list[str]:
+    """Why the model's own loop misses the ``--settling-time``/``--overshoot`` it was designed for, and what to do."""
+    missed = check.nominal_misses()
+    if not missed:
+        return []
+    return [f"the designed loop misses the spec on the model itself: {missed}. --settling-time and --overshoot "
+            "place the dominant pair by the textbook rules: ζ from the overshoot (exact for a lone pair) and "
+            "ωn = 4/(ζ·Ts) (when the pair's 2 % envelope has settled; the step itself may leave the band later), "
+            "and the loop's other poles, zeros and observer move the step further. Ask for a shorter settling time "
+            "or a smaller overshoot, or let --robust F tune the design until a fraction F of the plausible motors "
+            "meets the spec"]
 
 
 def _sensors(s: DesignSettings, model: MotorModel, states: tuple[str, ...]) -> tuple[str, ...] | None:

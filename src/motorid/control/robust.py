@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
@@ -118,6 +118,11 @@ class RobustCheck:
     band : tuple of four tuples of float
         The unit reference step over the stable motors: time (s), then the 2.5 %, 50 % and
         97.5 % points of the measured output at each instant (:data:`BAND_POINTS` instants).
+    nominal_overshoot_pct, nominal_settling_time_s : float
+        The same step on the model itself (its dead time included), by the same computation
+        (NaN when unknown).  A design asked for by ``--settling-time`` and ``--overshoot`` places
+        its dominant pair by the textbook rules, exact for a lone pair only: the loop's other
+        poles, zeros and observer move its step, and this says where to before the ranges do.
     """
 
     samples: int
@@ -133,6 +138,26 @@ class RobustCheck:
     seed: int
     note: str
     band: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...], tuple[float, ...]] = ((), (), (), ())
+    nominal_overshoot_pct: float = math.nan
+    nominal_settling_time_s: float = math.nan
+
+    def nominal_misses(self) -> str:
+        """What of the spec the nominal model's own loop misses, in words ('' when it meets it or is unknown).
+
+        Returns
+        -------
+        str
+            ``settling 1.083 s (asked ≤ 1 s)``; parts joined by ``and``.
+        """
+        from motorid.numfmt import sig
+
+        parts = []
+        for value, bound, name, unit in ((self.nominal_overshoot_pct, self.spec.overshoot_pct, "overshoot", " %"),
+                                         (self.nominal_settling_time_s, self.spec.settling_time_s, "settling",
+                                          " s")):
+            if bound is not None and math.isfinite(value) and value > bound:
+                parts.append(f"{name} {sig(value)}{unit} (asked ≤ {sig(bound)}{unit})")
+        return " and ".join(parts)
 
     def text(self) -> str:
         """One sentence for a terminal.
@@ -159,6 +184,9 @@ class RobustCheck:
         head = f"stable for {pct(self.stable_fraction)} % of {self.samples} plausible motors"
         if self.spec_fraction is not None:
             head += f", {pct(self.spec_fraction)} % meet {self.spec.text()}"
+            missed = self.nominal_misses()
+            if missed:
+                head += f" (the model itself: {missed})"
         spans = [(name, span(r, unit)) for name, r, unit in (
             ("overshoot", self.overshoot_pct, " %"), ("settling", self.settling_time_s, " s"),
             ("phase margin", self.phase_margin_deg, "°"), ("gain margin", self.gain_margin_db, " dB"),
@@ -176,8 +204,11 @@ class RobustCheck:
             ``[p2.5, median, p97.5]`` (``null`` for an infinite or missing value), ``parameters``,
             ``seed``, ``method``.
         """
+        def finite_or_none(x: float) -> float | None:
+            return float(x) if math.isfinite(x) else None
+
         def triple(r: tuple[float, float, float]) -> list[float | None]:
-            return [float(x) if math.isfinite(x) else None for x in r]
+            return [finite_or_none(x) for x in r]
 
         return {"samples": self.samples, "stable_fraction": self.stable_fraction,
                 "spec_fraction": self.spec_fraction,
@@ -187,7 +218,9 @@ class RobustCheck:
                 "ms": triple(self.ms), "parameters": list(self.parameters), "seed": self.seed,
                 "method": self.note} | ({"band": {"time_s": list(self.band[0]), "p2_5": list(self.band[1]),
                                                   "median": list(self.band[2]), "p97_5": list(self.band[3])}}
-                                        if self.band[0] else {})
+                                        if self.band[0] else {}) | {
+            "nominal": {"overshoot_pct": finite_or_none(self.nominal_overshoot_pct),
+                        "settling_time_s": finite_or_none(self.nominal_settling_time_s)}}
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> RobustCheck:
@@ -240,12 +273,24 @@ class RobustCheck:
         if not isinstance(spec, Mapping):
             raise ValueError("robust.spec must be an object")
         stable = fraction("stable_fraction")
+        nominal = data.get("nominal") or {}
+        if not isinstance(nominal, Mapping):
+            raise ValueError("robust.nominal must be an object")
+
+        def number(key: str) -> float:
+            value = nominal.get(key)
+            if value is None:
+                return math.nan
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ValueError(f"robust.nominal.{key} must be a number or null")
+            return float(value)
+
         return cls(samples, cast(float, stable), fraction("spec_fraction", True),
                    RobustSpec(spec.get("overshoot_pct"), spec.get("settling_time_s")),
                    triple("overshoot_pct", math.nan), triple("settling_time_s", math.nan),
                    triple("phase_margin_deg", math.inf), triple("gain_margin_db", math.inf), triple("ms", math.nan),
                    tuple(str(p) for p in data.get("parameters") or ()), int(data.get("seed") or 0),
-                   str(data.get("method") or ""), band)
+                   str(data.get("method") or ""), band, number("overshoot_pct"), number("settling_time_s"))
 
 
 @dataclass(frozen=True, slots=True)
@@ -594,7 +639,13 @@ def robust_check(model: MotorModel, design: Design, *, samples: int = DEFAULT_SA
         raise RobustCheckUnavailable("the model's covariance is not its own (the model was changed after the fit) "
                                      "or the design's states are not its sensors")
     plants, nominal = built
-    return _summary(_per_motor(plants, nominal, design), spec, joint.names, seed)
+    check = _summary(_per_motor(plants, nominal, design), spec, joint.names, seed)
+    own = _plants(model, design, joint, joint.values[None])
+    if own is None or own[0].a.shape[0] != 1:
+        return check
+    itself = _per_motor(own[0], own[1], design)
+    return replace(check, nominal_overshoot_pct=float(itself["overshoot_pct"][0]),
+                   nominal_settling_time_s=float(itself["settling_time_s"][0]))
 
 
 def _plants(model: MotorModel, design: Design, joint: _Joint, theta: np.ndarray
