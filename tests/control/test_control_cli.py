@@ -112,3 +112,19 @@ def test_simulate_and_modes(model_file, tmp_path):
     assert mpng.read_bytes()[:4] == b"\x89PNG"
     res = runner.invoke(APP, ["modes", str(model_file), "--kp", "0:1", "--kv", "0:40:20"])
     assert isinstance(res.exception, MotorIdError)
+
+
+def test_simulate_says_its_controller_is_sampled_and_how_often(model_file, tmp_path):
+    """The design's numbers are the continuous loop's; simulate runs a digital controller (the
+    command held for --dt). On the encoder rig's model, designed for 5 % overshoot, simulate
+    printed 5.156 % at the default 1 ms with nothing saying why it was not 5 %."""
+    d = tmp_path / "d.json"
+    assert runner.invoke(APP, ["design", str(model_file), "--settling-time", "1", "--overshoot", "5", "--json",
+                               str(d)]).exit_code == 0
+    over = {}
+    for dt in ("0.01", "0.0001"):
+        res = runner.invoke(APP, ["simulate", str(model_file), str(d), "--dt", dt, "--json", str(tmp_path / f"{dt}.json")])
+        assert res.exit_code == 0, res.output
+        assert f"the controller runs every {dt} s (--dt), its command held between samples" in res.output
+        over[dt] = json.loads((tmp_path / f"{dt}.json").read_text())["metrics"]["overshoot_pct"]
+    assert over["0.01"] > over["0.0001"]  # the slower the sampling, the less damped the loop
