@@ -182,7 +182,7 @@ def identify_levels(
     velocity: Sequence[CapturePath | Capture],
     *,
     step_volts: Sequence[float] | None = None,
-    columns: Mapping[str, str] | None = None,
+    columns: Mapping[str, str] | str | None = None,
 ) -> MultiLevelResult:
     """Identify dead-zone, gain, rails and shared dynamics from steps at several levels.
 
@@ -196,7 +196,7 @@ def identify_levels(
         a :class:`Capture` is taken as it is (e.g. one step of a staircase log).
     step_volts : sequence of float, optional
         The level of each capture without an input channel: one per capture, or one for all.
-    columns : Mapping, optional
+    columns : Mapping or str, optional
         Plain-CSV column map.
 
     Returns
@@ -228,7 +228,7 @@ def identify_levels(
             caps.append(spec)
             continue
         paths = [str(p) for p in _paths(spec)]
-        caps.append(read_capture(paths[0] if len(paths) == 1 else paths, columns=dict(columns) if columns else None,
+        caps.append(read_capture(paths[0] if len(paths) == 1 else paths, columns=columns,
                                  role="velocity"))
     return _identify_levels(caps, step_volts=levels)
 
@@ -241,7 +241,7 @@ def read_experiment(
     current: CapturePath | None = None,
     step_volts: float | None = None,
     t0: float | None = None,
-    columns: Mapping[str, str] | None = None,
+    columns: Mapping[str, str] | str | None = None,
     force_role: bool = False,
     time_unit: Literal["s", "ms", "us"] | None = None,
     units: Mapping[str, str] | None = None,
@@ -260,8 +260,10 @@ def read_experiment(
         Step level [V] for captures without an input channel.
     t0 : float, optional
         Step instant [s] on the files' time axis.
-    columns : Mapping[str, str], optional
-        Column map of plain tables, e.g. ``{"time": "t", "input": "u", "velocity": "rpm"}``.
+    columns : Mapping[str, str] or str, optional
+        Column map of plain tables, e.g. ``{"time": "t", "input": "u", "velocity": "rpm"}`` or the
+        command line's ``"time=t,input=u,velocity=rpm"``; a table with no header row names its
+        columns by position (``"time=1,input=2,velocity=3"``).
     force_role : bool
         Keep a role even when the capture confidently looks like another one.
     time_unit : {"s", "ms", "us"}, optional
@@ -291,6 +293,7 @@ def read_experiment(
     """
     from motorid.conditioning.role import role_conflict
     from motorid.io import read_capture
+    from motorid.io._table import parse_column_map
 
     from motorid.model.units import channel_unit, parse_scales, parse_units, units_of
 
@@ -308,6 +311,7 @@ def read_experiment(
     given_scales = dict(scale or {})
     scales = {k: v for k, v in given_scales.items() if not isinstance(v, str)}
     scales.update(parse_scales(f"{k}={v}" for k, v in given_scales.items() if isinstance(v, str)))
+    columns = parse_column_map(columns)
     if time_unit is not None:
         columns = {**(columns or {}), "time_unit": time_unit}
     captures: dict[str, Capture] = {}
@@ -1162,7 +1166,7 @@ def validate(
     step_volts: float | None = None,
     t0: float | None = None,
     warmup_s: float = 0.0,
-    columns: Mapping[str, str] | None = None,
+    columns: Mapping[str, str] | str | None = None,
 ) -> tuple[ValidationResult, ...]:
     """Drive the model with recorded inputs and score it on each capture (``motorid validate``).
 
@@ -1184,7 +1188,7 @@ def validate(
         The step instant on the files' time axis [s] (default: CH1's edge, or the response's onset).
     warmup_s : float
         Seconds at the start simulated but not scored (default 0: the initial state is estimated).
-    columns : Mapping, optional
+    columns : Mapping or str, optional
         Plain-CSV column map.
 
     Returns
@@ -1208,7 +1212,7 @@ def validate(
     with _blamed_on(model):  # the model file, not the first capture, is at fault
         check_channel(motor, channel)
     items = [captures] if isinstance(captures, (str, PathLike, Capture)) else list(captures)
-    colmap = dict(columns) if columns else None
+    colmap = columns
     results = []
     for item in items:
         if isinstance(item, Capture):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import io
+from pathlib import Path
 
 from motorid.batch.page import summary_html
 from motorid.batch.summary import SummaryRow, summary_csv
@@ -69,20 +70,30 @@ def test_out_inside_a_symlink_loop_is_one_line(tmp_path, demo_run, run_cli):
     assert "internal error" not in res.err and len(res.err.strip().splitlines()) == 1
 
 
-def test_a_file_beyond_every_reader_is_refused_without_being_hashed(tmp_path, demo_run, run_cli):
-    import time
+def test_a_file_beyond_every_reader_is_refused_without_being_hashed(tmp_path, demo_run, run_cli, monkeypatch):
+    import builtins
 
     from motorid.batch.discover import discover_experiments
     from motorid.io._common import MAX_TEXT_BYTES
 
     root = _class(tmp_path, demo_run, names=("alice",))
     (root / "bob").mkdir()
-    with open(root / "bob" / "huge.csv", "wb") as fh:  # sparse: no disk is used
+    huge = root / "bob" / "huge.csv"
+    with open(huge, "wb") as fh:  # sparse: no disk is used
         fh.truncate(MAX_TEXT_BYTES + 1)
     spec = next(s for s in discover_experiments([root]) if s.name == "bob")
-    t0 = time.process_time()
-    spec.content_hash({})
-    assert time.process_time() - t0 < 0.5  # 512 MiB read and hashed would take seconds
+    real_open = builtins.open
+
+    def no_reading_of_huge(file, *args, **kwargs):  # 512 MiB read and hashed would take seconds
+        assert Path(file) != huge, "the file beyond every reader was opened to be hashed"
+        return real_open(file, *args, **kwargs)
+
+    with monkeypatch.context() as m:
+        m.setattr(builtins, "open", no_reading_of_huge)
+        first = spec.content_hash({})
+    with open(huge, "r+b") as fh:  # its size and time stand in for its content: a change shows
+        fh.truncate(MAX_TEXT_BYTES + 2)
+    assert spec.content_hash({}) != first
     res = run_cli("batch", root, "--out", tmp_path / "out", "--jobs", "1")
     rows = {r["experiment"]: r for r in csv.DictReader((tmp_path / "out" / "summary.csv").open())}
     assert rows["alice"]["status"] == "ok" and rows["bob"]["status"] == "failed", res.err

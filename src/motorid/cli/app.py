@@ -71,15 +71,9 @@ def _bar(description: str, total: float | None = None):
 
 
 def _parse_columns(spec: str | None) -> dict[str, str] | None:
-    if not spec:
-        return None
-    mapping: dict[str, str] = {}
-    for part in spec.split(","):
-        key, sep, value = part.partition("=")
-        if not sep or not key.strip() or not value.strip():
-            raise OptionError(f"--columns: {part!r} is not ROLE=COLUMN (e.g. time=t,input=u,velocity=rpm)")
-        mapping[key.strip()] = value.strip()
-    return mapping
+    from motorid.io._table import parse_column_map  # the one parser of a column map (front door, web, batch)
+
+    return parse_column_map(spec)
 
 
 def _with_time_unit(columns: str | None, time_unit: str | None) -> str | None:

@@ -234,7 +234,9 @@ def read_options_of(args: Sequence[str]) -> dict[str, Any]:
         elif name == "segment":
             out[name] = int(value)
         elif name == "columns":
-            out[name] = dict(part.split("=", 1) for part in value.split(","))
+            from motorid.io._table import parse_column_map
+
+            out[name] = parse_column_map(value)
         else:
             out[name] = value
     return out

@@ -17,10 +17,52 @@ from motorid.capture import ROLES, Capture, ChannelInfo
 from motorid.errors import CaptureFormatError, OptionError
 from motorid.io._common import column_to_floats, parse_number, uniform_grid, validate_rows
 
-__all__ = ["COLUMN_KEYS", "TIME_UNITS", "capture_from_table", "check_role", "classify_name", "role_from_name"]
+__all__ = ["COLUMN_KEYS", "TIME_UNITS", "capture_from_table", "check_role", "classify_name", "parse_column_map",
+           "role_from_name"]
 
 #: The keys a column mapping may use.
 COLUMN_KEYS: tuple[str, ...] = ("time", "input", "position", "velocity", "current", "output")
+
+
+def parse_column_map(spec: str | Mapping[str, str] | None) -> dict[str, str] | None:
+    """A column map from ``--columns``' text (``time=t,input=u,velocity=rpm``) or a mapping.
+
+    The command line, the Python front door and the web form read the map with this one
+    function, so a Python caller may pass the command line's text too.
+
+    Parameters
+    ----------
+    spec : str, Mapping[str, str] or None
+        ``ROLE=COLUMN`` pairs separated by commas, or the mapping itself.
+
+    Returns
+    -------
+    dict or None
+        Role → column name; None for nothing given.
+
+    Raises
+    ------
+    OptionError
+        A pair that is not ``ROLE=COLUMN``, or a mapping whose keys or values are not text.
+
+    Examples
+    --------
+    >>> parse_column_map("time=1, input=2,velocity=3")
+    {'time': '1', 'input': '2', 'velocity': '3'}
+    """
+    if spec is None or (isinstance(spec, str) and not spec.strip()):
+        return None
+    if isinstance(spec, str):
+        mapping: dict[str, str] = {}
+        for part in spec.split(","):
+            key, sep, value = part.partition("=")
+            if not sep or not key.strip() or not value.strip():
+                raise OptionError(f"--columns: {part!r} is not ROLE=COLUMN (e.g. time=t,input=u,velocity=rpm)")
+            mapping[key.strip()] = value.strip()
+        return mapping
+    if not isinstance(spec, Mapping) or not all(isinstance(k, str) and isinstance(v, str) for k, v in spec.items()):
+        raise OptionError(f"--columns: give ROLE=COLUMN text or a mapping of text to text, not {spec!r}")
+    return dict(spec) or None
 
 # Keywords per category.  "Long" keywords match anywhere in the lower-cased name (German
 # compounds such as "Motorspannung", "Sollgeschwindigkeit"); "short" ones must be a whole

@@ -16,7 +16,7 @@ from pathlib import Path
 from motorid.capture import Capture
 from motorid.errors import CaptureFormatError, OptionError
 from motorid.io._common import TEXT_SNIFF_BYTES, PathLike, binary_kind, decode_text, read_head, split_lines
-from motorid.io._table import check_role
+from motorid.io._table import check_role, parse_column_map
 from motorid.io.plaincsv import PLAIN_FORMAT, read_plain_csv, sniff_table
 from motorid.io.spreadsheet import XLSX_FORMAT, read_xlsx_capture
 from motorid.io.tektronix import TDS_FORMAT, save_all_files, looks_like_tds, read_tds_capture
@@ -108,7 +108,7 @@ def _whole_lines(head: bytes) -> bytes:
 def read_capture(
     path_or_paths: PathLike | Sequence[PathLike],
     *,
-    columns: Mapping[str, str] | None = None,
+    columns: Mapping[str, str] | str | None = None,
     role: str | None = None,
 ) -> Capture:
     """Read any supported capture, choosing the reader from the content.
@@ -118,8 +118,9 @@ def read_capture(
     path_or_paths : path or sequence of paths
         A folder (the scope's ``ALLnnnn``), two to four Tektronix channel files (CH1 = input,
         CH2 = output), an ``.xlsx`` workbook, or a Tektronix/plain CSV file.
-    columns : Mapping[str, str], optional
-        Column map for plain tables (see :func:`~motorid.io.read_plain_csv`).
+    columns : Mapping[str, str] or str, optional
+        Column map for plain tables (see :func:`~motorid.io.read_plain_csv`), or its text
+        (``"time=t,input=u,velocity=rpm"``, :func:`~motorid.io._table.parse_column_map`).
     role : str, optional
         Declares the output's role (``position``, ``velocity``, ``current``); it becomes
         the capture's ``role_hint``.
@@ -137,6 +138,7 @@ def read_capture(
         Tektronix CSVs.
     """
     check_role(role)
+    columns = parse_column_map(columns)
     if isinstance(path_or_paths, (str, os.PathLike)):
         paths = [path_or_paths]
     else:

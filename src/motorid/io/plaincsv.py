@@ -118,6 +118,62 @@ def _content_lines(lines: Sequence[str]) -> list[int]:
     return [i for i, ln in enumerate(lines) if ln.strip() and not ln.lstrip().startswith("#")]
 
 
+#: Lines of a headerless table that must all be rows of numbers of one width (or the file's all).
+HEADERLESS_LINES = 20
+
+
+def _headerless(lines: Sequence[str], idx: Sequence[int]) -> tuple[str | None, int, bool] | None:
+    """``(delimiter, width, decimal_comma)`` of a table with no header row, or None.
+
+    An Arduino sketch that prints ``millis(),volts,rpm`` with no header line writes one: its
+    first :data:`HEADERLESS_LINES` content lines are each two or more numbers, all as many.
+    """
+    first = idx[:HEADERLESS_LINES]
+    if len(first) < 2:
+        return None
+    # a header names the delimiter; numbers alone may hold more decimal commas than semicolons
+    for delim in (";", "\t", ",", None):
+        split = [_split(lines[i], delim) for i in first]
+        width = len(split[0])
+        if width < 2 or any(len(r) != width for r in split):
+            continue
+        decimal_comma = delim != "," and any(_DECIMAL_COMMA_CELL.match(c) for r in split for c in r)
+        if all(parse_number(c, decimal_comma=decimal_comma) is not None for r in split for c in r):
+            return delim, width, decimal_comma
+    return None
+
+
+def headerless_names(width: int) -> list[str]:
+    """The names of a headerless table's columns: their positions, ``"1"`` … (what ``--columns`` maps)."""
+    return [str(j + 1) for j in range(width)]
+
+
+def _headerless_refusal(lines: Sequence[str], idx: Sequence[int], delim: str | None, decimal_comma: bool,
+                        file: str) -> CaptureFormatError:
+    """No header and no ``--columns``: say so, with the mapping the first rows suggest."""
+    rows = [_split(lines[i], delim) for i in idx[:2000]]
+    values = np.array([[parse_number(c, decimal_comma=decimal_comma) or 0.0 for c in r] for r in rows
+                       if len(r) == len(rows[0])])
+    width = values.shape[1]
+    steps = np.diff(values, axis=0)
+    time = next((j for j in range(width) if np.all(steps[:, j] > 0)), None)
+    levels = [j for j in range(width) if j != time and 1 < np.unique(values[:, j]).size <= 4]
+    inp = levels[0] if levels else None
+    out = next((j for j in range(width) if j not in (time, inp)), None)
+    parts = [f"{role}={j + 1}" for role, j in (("time", time), ("input", inp), ("velocity", out)) if j is not None]
+    seen = []
+    if time is not None:
+        seen.append(f"column {time + 1} increases on every line, like a time")
+    if inp is not None:
+        seen.append(f"column {inp + 1} holds {np.unique(values[:, inp]).size} levels, like a step input")
+    hint = (f" — e.g. --columns {','.join(parts)} ({'; '.join(seen)}; name what the other column measures: "
+            "velocity, position or current)") if time is not None and out is not None else ""
+    return CaptureFormatError(
+        f"no header row: the first line is already numbers ({width} columns). Name the columns by their "
+        f"position, 1 to {width}, with --columns{hint}",
+        file=file, row=idx[0] + 1)
+
+
 def sniff_table(lines: Sequence[str]) -> tuple[str | None, bool] | None:
     """Whether text lines are a headed numeric table; its delimiter and decimal-comma flag.
 
@@ -142,6 +198,9 @@ def sniff_table(lines: Sequence[str]) -> tuple[str | None, bool] | None:
     delim = _delimiter(header)
     names = _split(header, delim)
     cells = _split(first, delim)
+    bare = _headerless(lines, idx)
+    if bare is not None:
+        return bare[0], bare[2]
     if len(idx) > 2 and _with_units_row(names, cells) is not None:
         idx = [idx[0], *idx[2:]]
         cells = _split(lines[idx[1]], delim)
@@ -205,8 +264,13 @@ def read_plain_csv(
         lambda: _first_bad_line(path, file), "save it as a comma-separated CSV with a '.' decimal point")
 
 
-def _fast_layout(path: PathLike, file: str) -> tuple[int, str | None, list[str], list[str]]:
-    """From the file's first 64 KiB: header line index, delimiter, names, first data cells."""
+def _fast_layout(path: PathLike, file: str, headerless: bool = False) -> tuple[int, str | None, list[str], list[str]]:
+    """From the file's first 64 KiB: header line index, delimiter, names, first data cells.
+
+    ``headerless``: a table with no header row is read with its columns named by position
+    (the caller was given ``columns``); otherwise it goes to the careful reading, which says how
+    to name them.
+    """
     head = read_head(path)
     if head.startswith((b"\xff\xfe", b"\xfe\xff")) or binary_kind(head[:8192]) is not None:
         raise NoFastPathError("it is UTF-16 or binary")
@@ -224,6 +288,14 @@ def _fast_layout(path: PathLike, file: str) -> tuple[int, str | None, list[str],
     delim = _delimiter(lines[h])
     names = _split(lines[h], delim)
     first = _split(lines[idx[1]], delim)
+    bare = _headerless(lines, idx)
+    if bare is not None and not headerless:
+        raise _headerless_refusal(lines, idx, bare[0], bare[2], file)
+    if bare is not None and bare[2]:
+        raise NoFastPathError("it uses a decimal comma")
+    if bare is not None:
+        # the data start on the first content line: the "header" is the line before it
+        return h - 1, bare[0], headerless_names(bare[1]), _split(lines[h], bare[0])
     if len(names) < 2 or all(parse_number(n) is not None for n in names if n.strip()):
         raise NoFastPathError("it has no header row")
     merged = _with_units_row(names, first)
@@ -249,7 +321,7 @@ def _comment_between(lines: Sequence[str], h: int, first: int) -> bool:
 def _read_fast(path: PathLike, file: str, columns: Mapping[str, str] | None, role: str | None,
                size: int = 0) -> Capture:
     """The common case with a C parser (numpy's, or pandas' on a large file): header, then numbers."""
-    h, delim, names, first = _fast_layout(path, file)
+    h, delim, names, first = _fast_layout(path, file, headerless=bool(columns))
     width = len(names)
     if not names[-1].strip() and len(first) == width and not first[-1].strip():
         names, width = names[:-1], width - 1  # a trailing delimiter on every line
@@ -275,7 +347,7 @@ def _read_fast(path: PathLike, file: str, columns: Mapping[str, str] | None, rol
 
 def _first_bad_line(path: PathLike, file: str) -> MotorIdError:
     """The careful check of a large file, streamed: the first line that is not a row of numbers."""
-    h, delim, names, first = _fast_layout(path, file)
+    h, delim, names, first = _fast_layout(path, file, headerless=True)
     width = len(names)
     trailing = not names[-1].strip() and len(first) == width and not first[-1].strip()
     numeric = [j for j in range(width) if parse_number(first[j]) is not None]
@@ -315,13 +387,20 @@ def _read_careful(path: PathLike, file: str, columns: Mapping[str, str] | None, 
             "not a capture: one column only; a plain CSV needs a header naming time and channel columns",
             file=file, row=h + 1,
         )
-    if all(parse_number(n) is not None for n in names if n.strip()):
+    bare = _headerless(lines, idx)
+    if bare is not None and not columns:
+        raise _headerless_refusal(lines, idx, bare[0], bare[2], file)
+    if bare is not None:
+        delim = bare[0]
+    if bare is None and all(parse_number(n) is not None for n in names if n.strip()):
         raise CaptureFormatError(
             "no header row: the first line must name the columns (e.g. time,input,velocity)",
             file=file, row=h + 1,
         )
     data_idx = idx[1:]
-    merged = _with_units_row(names, _split(lines[idx[1]], delim))
+    if bare is not None:
+        names, data_idx = headerless_names(bare[1]), list(idx)
+    merged = None if bare is not None else _with_units_row(names, _split(lines[idx[1]], delim))
     if merged is not None:
         names, data_idx = merged, idx[2:]
         if not data_idx:

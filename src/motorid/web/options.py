@@ -105,13 +105,7 @@ def identify_options(fields: Mapping[str, tuple[str, ...]], *, ignore: tuple[str
     if "force_role" in one:
         read["force_role"] = bool(_flag("force_role", one["force_role"]))
     if one.get("columns", "").strip():
-        mapping = {}
-        for part in one["columns"].split(","):
-            key, sep, value = part.partition("=")
-            if not sep or not key.strip() or not value.strip():
-                raise OptionError(f"columns: {part!r} is not ROLE=COLUMN (e.g. time=t,input=u,velocity=rpm)")
-            mapping[key.strip()] = value.strip()
-        read["columns"] = mapping
+        read["columns"] = one["columns"]  # read_experiment parses it (one parser for every front end)
     for name in ("units", "scale"):
         if one.get(name, "").strip():
             read[name] = _pairs(name, one[name])
