@@ -23,7 +23,7 @@ from motorid.trainer.realsetups import write_real_setup
 #: The rigs whose files the trainer writes as those rigs do, the demo's scope folders (the paper
 #: preset) and every other trainer preset's captures written as the scope saves them.
 CASES = ("demo", "l298n-rpm", "arduino-millis", "host-loop", "encoder-counts", "pwm-encoder", "daq-deadtime",
-         "ms-time", "fast-tbs1000", "staircase", "serial-plotter", "picoscope", "clock-stamps",
+         "ms-time", "fast-tbs1000", "staircase", "serial-plotter", "picoscope", "clock-stamps", "no-header",
          *(f"trainer:{p}" for p in PRESET_NAMES if p != "paper"))
 
 

@@ -233,6 +233,15 @@ def identify_levels(
     return _identify_levels(caps, step_volts=levels)
 
 
+def _mapping(value: Any, flag: str) -> list[tuple[Any, Any]]:
+    """The items of an option given as a mapping (None: none); anything else is refused, naming ``flag``."""
+    if value is None:
+        return []
+    if not isinstance(value, Mapping):
+        raise OptionError(f"{flag}: give CHANNEL=VALUE text or a mapping, not {value!r}")
+    return list(value.items())
+
+
 @speaks_as_called("read_experiment")
 def read_experiment(
     *,
@@ -244,8 +253,8 @@ def read_experiment(
     columns: Mapping[str, str] | str | None = None,
     force_role: bool = False,
     time_unit: Literal["s", "ms", "us"] | None = None,
-    units: Mapping[str, str] | None = None,
-    scale: Mapping[str, str | ChannelScale] | None = None,
+    units: Mapping[str, str] | str | None = None,
+    scale: Mapping[str, str | ChannelScale] | str | None = None,
     segment: int | None = None,
 ) -> Experiment:
     """Read the captures of one step experiment, one per role.
@@ -268,10 +277,12 @@ def read_experiment(
         Keep a role even when the capture confidently looks like another one.
     time_unit : {"s", "ms", "us"}, optional
         Unit of a plain table's time column (default: from its name, or whole milliseconds).
-    units : Mapping[str, str], optional
-        Each channel's unit, e.g. ``{"velocity": "rpm"}`` (default: from the files).
-    scale : Mapping[str, str or ChannelScale], optional
-        Sensor constants, e.g. ``{"velocity": "0.1504V/(rad/s)", "current": "0.47ohm"}``.
+    units : Mapping[str, str] or str, optional
+        Each channel's unit, e.g. ``{"velocity": "rpm"}`` or the command line's
+        ``"velocity=rpm,current=A"`` (default: from the files).
+    scale : Mapping[str, str or ChannelScale] or str, optional
+        Sensor constants, e.g. ``{"velocity": "0.1504V/(rad/s)", "current": "0.47ohm"}`` or the
+        command line's ``"velocity=0.1504V/(rad/s);current=0.47ohm"``.
     segment : int, optional
         A velocity log with several input steps (a staircase, a pulse): cut it to step N
         (1-based) for :func:`identify`.  Without it such a log stays whole, its steps listed in
@@ -307,10 +318,14 @@ def read_experiment(
                           "(a negative value is a step down)")
     if t0 is not None and not (isinstance(t0, (int, float)) and math.isfinite(t0)):
         raise OptionError(f"--t0 {t0!r}: give a finite time in seconds")
-    declared = parse_units(f"{k}={v}" for k, v in (units or {}).items())
-    given_scales = dict(scale or {})
-    scales = {k: v for k, v in given_scales.items() if not isinstance(v, str)}
-    scales.update(parse_scales(f"{k}={v}" for k, v in given_scales.items() if isinstance(v, str)))
+    # the command line's text is taken as well as a mapping (one parser for every front end)
+    declared = parse_units([units] if isinstance(units, str) else (f"{k}={v}" for k, v in _mapping(units, "--units")))
+    if isinstance(scale, str):
+        scales: dict[str, ChannelScale] = parse_scales([scale])
+    else:
+        given_scales = _mapping(scale, "--scale")
+        scales = {k: v for k, v in given_scales if not isinstance(v, str)}
+        scales.update(parse_scales(f"{k}={v}" for k, v in given_scales if isinstance(v, str)))
     columns = parse_column_map(columns)
     if time_unit is not None:
         columns = {**(columns or {}), "time_unit": time_unit}

@@ -81,7 +81,7 @@ TRAINER_PRESETS: tuple[str, ...] = ("paper", "lab-report", "first-order", "secon
 #: writes it (:mod:`motorid.trainer.realsetups`, :mod:`motorid.trainer.hobbyrigs`).
 TRAINER_RIGS: tuple[str, ...] = ("fast-tbs1000", "pwm-encoder", "daq-deadtime", "l298n-rpm", "arduino-millis",
                                  "host-loop", "encoder-counts", "staircase", "ms-time", "serial-plotter", "picoscope",
-                                 "clock-stamps")
+                                 "clock-stamps", "no-header")
 
 #: :func:`motorid.read_experiment`'s captures, one per role (the web page's file fields).
 ROLES: tuple[OptionSpec, ...] = (

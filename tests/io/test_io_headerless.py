@@ -92,3 +92,23 @@ def test_python_takes_the_command_lines_column_text_too(rig):
         mi.read_experiment(velocity=bare, columns="time")
     with pytest.raises(OptionError, match="a mapping of text to text"):
         mi.read_experiment(velocity=bare, columns=5)
+
+
+def test_the_no_header_rig_runs_as_a_user_runs_it(tmp_path, run_cli):
+    """The trainer's ``no-header`` preset (an Arduino sketch's ``millis(),volts,rpm``): the rig demo
+    reads it with the arguments a user types (its ``--units velocity=rpm`` was an internal
+    AttributeError: the front door took units as a mapping only), and the model is right."""
+    out = tmp_path / "d"
+    res = run_cli("demo", "--rig", "no-header", "--out", str(out), "--seed", "2")
+    assert res.code == 0, res.err
+    truth = json.loads((out / "truth.json").read_text())
+    model = json.loads((out / "model.json").read_text())
+    assert truth["identify_args"][2:] == ["--columns", COLUMNS, "--units", "velocity=rpm"]
+    assert model["dc_gain_unit"] == "rpm/V"
+    assert model["first_order"]["dc_gain"] == pytest.approx(truth["dc_gain"], rel=0.01)
+    assert model["first_order"]["residence_time_s"] == pytest.approx(truth["residence_time_s"], rel=0.05)
+    text = " ".join(res.out.split())
+    assert "column '1' holds whole numbers stepping by 10, no unit in its name: read as milliseconds" in text
+    # the same in Python, with the command line's texts
+    exp = mi.read_experiment(velocity=out / "sketch_log.csv", columns=COLUMNS, units="velocity=rpm")
+    assert exp.units == {"velocity": "rpm"}

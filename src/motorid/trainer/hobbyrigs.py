@@ -32,6 +32,10 @@ writes the file the rig writes:
 ``clock-stamps``
     A Raspberry Pi loop stamping each row with the wall clock (``2026-03-02 14:03:11.123456``),
     about 20 ms apart with scheduler jitter, the commanded volts and an rpm.
+``no-header``
+    An Arduino sketch printing ``millis(),volts,rpm`` and nothing else: no header row, the
+    ``millis()`` stamps of a 10.24 ms loop; the user names the columns by position with
+    ``--columns time=1,input=2,velocity=3`` and their unit with ``--units velocity=rpm``.
 
 The truth of each is that of :func:`motorid.trainer.realsetups.write_real_setup`: the
 incremental gain the identified step shows, the mean residence time (τ + dead time + sensor lag).
@@ -56,7 +60,7 @@ __all__ = ["HOBBY_RIGS", "hobby_rig_config", "write_hobby_rig"]
 
 #: The presets of this module.
 HOBBY_RIGS: tuple[str, ...] = ("l298n-rpm", "arduino-millis", "host-loop", "encoder-counts", "staircase", "ms-time",
-                               "serial-plotter", "picoscope", "clock-stamps")
+                               "serial-plotter", "picoscope", "clock-stamps", "no-header")
 #: The fine grid the plant runs on before the rig samples it (s).
 FINE_S = 1e-4
 #: L298N rig: supply step, the bridge's drop, the firmware's dead time, encoder counts per output turn.
@@ -95,7 +99,7 @@ def hobby_rig_config(name: str) -> TrainerConfig:
     """
     if name == "l298n-rpm":
         return _gearmotor(L298N_DROP_V, tau_m=0.08, dc=25.0)
-    if name in ("arduino-millis", "ms-time", "serial-plotter"):
+    if name in ("arduino-millis", "ms-time", "serial-plotter", "no-header"):
         return _gearmotor(0.3, tau_m=0.06, dc=20.0)
     if name == "picoscope":
         return replace(_gearmotor(0.2, tau_m=0.05, dc=30.0, noise=0.004), tacho_v_per_rad_s=0.01)
@@ -237,6 +241,24 @@ def _write_serial_plotter(folder: Path, cfg: TrainerConfig, rng: np.random.Gener
     return {"log": path}, ("--velocity", str(path)), _scaled(truth, RPM_PER_RAD_S), ARDUINO_LOOP_S
 
 
+def _write_no_header(folder: Path, cfg: TrainerConfig, rng: np.random.Generator, force: bool) -> Writer:
+    n = 300
+    true_t = float(rng.uniform(1.0, 5.0)) + np.arange(n) * ARDUINO_LOOP_S
+    stamps = np.floor(true_t * 1e3).astype(int)  # millis()
+    k = int(rng.integers(60, 91))
+    s = _run(cfg, true_t, _step(true_t[k], 0.0, 6.0))
+    counts = np.floor(s["motor_angle_rad"] / (2 * math.pi) * 1200 + rng.uniform())
+    rpm = np.r_[0.0, np.diff(counts)] / 1200 / ARDUINO_LOOP_S * 60.0
+    u = np.where(np.arange(n) >= k, 6.0, 0.0)
+    path = folder / "sketch_log.csv"
+    check_writable([path], force=force)
+    _write_text(path, "\n".join(f"{a},{b:.1f},{c:.1f}" for a, b, c in zip(stamps, u, rpm, strict=True)) + "\n")
+    truth = _truth(cfg, from_v=0.0, to_v=6.0, dead_time_s=0.0, sensor_lag_s=ARDUINO_LOOP_S / 2,
+                   step_time_s=float(true_t[k]), units="rpm")
+    args = ("--velocity", str(path), "--columns", "time=1,input=2,velocity=3", "--units", "velocity=rpm")
+    return {"log": path}, args, _scaled(truth, RPM_PER_RAD_S), ARDUINO_LOOP_S
+
+
 #: PicoScope rig: sample interval, samples, pre-trigger samples, the two ranges (±V) of 8-bit codes.
 PICO_DT_S, PICO_N, PICO_PRE, PICO_RANGES_V = 0.001, 1000, 100, (5.0, 2.0)
 
@@ -318,5 +340,5 @@ def write_hobby_rig(name: str, folder: Path, rng: np.random.Generator, force: bo
     if name == "encoder-counts":
         return _write_encoder_counts(folder, cfg, rng, force)
     writers = {"serial-plotter": _write_serial_plotter, "picoscope": _write_picoscope,
-               "clock-stamps": _write_clock_stamps}
+               "clock-stamps": _write_clock_stamps, "no-header": _write_no_header}
     return writers.get(name, _write_staircase)(folder, cfg, rng, force)
