@@ -26,7 +26,7 @@ from importlib.metadata import PackageNotFoundError, version
 from os import PathLike
 from pathlib import Path
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, cast
 
 from motorid.frozen import frozen_getstate, frozen_setstate
 from motorid.capture import Capture
@@ -156,10 +156,14 @@ class Experiment:
         return len(self.steps) >= 2 and self.segment is None
 
 
-def _paths(spec: CapturePath) -> list[Path]:
+def _paths(spec: CapturePath, role: str = "capture") -> list[Path]:
+    """A capture argument's files: one path, or a sequence of paths (a CH1/CH2 pair); else refused."""
     if isinstance(spec, (str, PathLike)):
         return [Path(spec)]
-    return [Path(p) for p in spec]
+    if isinstance(spec, Sequence) and spec and all(isinstance(p, (str, PathLike)) for p in spec):
+        return [Path(p) for p in spec]
+    raise OptionError(f"--{role}: give a capture file, an ALLnnnn folder or a [CH1, CH2] pair of files, "
+                      f"not {spec!r}")
 
 
 def _file_digests(paths: Sequence[Path]) -> dict[str, str]:
@@ -214,6 +218,9 @@ def identify_levels(
     from motorid.io import read_capture
 
     levels: list[float | None] | None = None
+    from motorid.options import real_numbers
+
+    step_volts = real_numbers(step_volts, "--step-volts")
     if step_volts is not None:
         if len(step_volts) == 1:
             levels = [float(step_volts[0])] * len(velocity)
@@ -227,7 +234,7 @@ def identify_levels(
         if isinstance(spec, Capture):
             caps.append(spec)
             continue
-        paths = [str(p) for p in _paths(spec)]
+        paths = [str(p) for p in _paths(spec, "velocity")]
         caps.append(read_capture(paths[0] if len(paths) == 1 else paths, columns=columns,
                                  role="velocity"))
     return _identify_levels(caps, step_volts=levels)
@@ -333,7 +340,7 @@ def read_experiment(
     sources: dict[str, tuple[str, ...]] = {}
     digests: dict[str, str] = {}
     for role, spec in given.items():
-        paths = _paths(spec)
+        paths = _paths(spec, role)
         arg = str(paths[0]) if len(paths) == 1 else [str(p) for p in paths]
         cap = read_capture(arg, columns=columns, role=role)
         if not force_role:
@@ -1144,6 +1151,16 @@ def _simulation_settings(
     """:func:`simulate`'s keyword options as the simulator's settings (the report takes the same)."""
     from motorid.simulation.closed_loop import ReferenceSignal, SimulationSettings
 
+    from motorid.options import real_number, real_numbers
+
+    duration_s = cast(float, real_number(duration_s, "--duration"))
+    level_v = cast(float, real_number(level_v, "--level"))
+    saturation = real_number(saturation, "--saturation", optional=True)
+    disturbance = real_number(disturbance, "--disturbance", optional=True)
+    disturbance_start_s = cast(float, real_number(disturbance_start_s, "--disturbance-start"))
+    dt_s = real_number(dt_s, "--dt", optional=True)
+    z0 = cast(float, real_number(z0, "--z0"))
+    x0, xhat0 = real_numbers(x0, "--x0"), real_numbers(xhat0, "--xhat0")
     if plant == "trainer":
         from motorid.trainer import preset
 
@@ -1220,6 +1237,14 @@ def validate(
     from motorid.analysis.validation import check_channel, check_options, validate_capture
     from motorid.io import read_capture
 
+    from motorid.options import real_number
+
+    warmup_s = cast(float, real_number(warmup_s, "--warmup"))
+    step_volts = real_number(step_volts, "--step-volts", optional=True)
+    if not isinstance(captures, (str, PathLike, Capture, Sequence)) or (isinstance(captures, Sequence)
+                                                                          and not captures):
+        raise OptionError(f"give the validation capture(s): a file, an ALLnnnn folder, a Capture or a sequence of "
+                          f"them, not {captures!r}")
     check_options(channel, warmup_s)  # before any file is read
     if step_volts is not None and not (step_volts != 0 and abs(step_volts) < float("inf")):
         raise OptionError(f"--step-volts must be a non-zero number of volts, got {step_volts:g}")
@@ -1280,6 +1305,13 @@ def _with_channel_hint(res: ValidationResult, motor: MotorModel, cap: Capture, c
 
 
 # -------------------------------------------------------------------------------------- report
+
+
+def _kinds(types: type | tuple[type, ...]) -> str:
+    """``Design, PidDesign or Mapping`` for a refusal."""
+    names = [t.__name__ for t in (types if isinstance(types, tuple) else (types,))]
+    names = ["str" if n == "Sequence" else n for n in names]  # a path or a sequence of them
+    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " or " + names[-1]
 
 
 def _validation_captures(validation: Sequence[Any] | Mapping[str, Any]) -> dict[str, Capture]:
@@ -1351,6 +1383,12 @@ def write_report(
         raise OptionError(f"write_report needs the result of mi.identify(...), got {type(fit).__name__}")
     out = Path(path)
     check_writable({"path": out}, force=overwrite, create_parents=False)
+    kinds: tuple[tuple[str, Any, type | tuple[type, ...]], ...] = (
+        ("design", design, (Design, PidDesign, Mapping)), ("simulation", simulation, Mapping),
+        ("truth", truth, Mapping), ("validation", validation, (Sequence, Mapping, PathLike, Capture)))
+    for name, given, ok in kinds:
+        if (given is not None and not isinstance(given, ok)) or (name == "validation" and given is None):
+            raise OptionError(f"write_report: {name}={given!r} is not a {_kinds(ok)}")
     doc = design.to_json() if isinstance(design, (Design, PidDesign)) else (None if design is None else dict(design))
     run = None
     if simulation is not None:

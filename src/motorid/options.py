@@ -356,3 +356,70 @@ def command_line_words() -> Iterator[None]:
         yield
     finally:
         _COMMAND_LINE.reset(token)
+
+
+def real_number(value: Any, flag: str, *, optional: bool = False) -> float | None:
+    """``value`` as a float when it is a real number (not a bool, text or container); else refused.
+
+    The front door's numeric keyword options pass through it before anything uses them, so a
+    Python caller's ``duration_s="5"`` is a message naming the option, not a ``TypeError``
+    from deep inside (the command line's parser never lets such a value through).
+
+    Parameters
+    ----------
+    value : Any
+        What the caller gave.
+    flag : str
+        The option's command-line flag (turned into the caller's words by :func:`in_callers_words`).
+    optional : bool
+        Whether ``None`` is allowed (returned as None).
+
+    Returns
+    -------
+    float or None
+
+    Raises
+    ------
+    OptionError
+        Anything but a real number (NaN and infinities pass: the option's own check judges them).
+    """
+    from numbers import Real
+
+    from motorid.errors import OptionError
+
+    if value is None and optional:
+        return None
+    if isinstance(value, bool) or not isinstance(value, Real):
+        raise OptionError(f"{flag} must be a number, got {value!r}")
+    return float(value)
+
+
+def real_numbers(values: Any, flag: str) -> tuple[float, ...] | None:
+    """A sequence of real numbers (``x0=[2, 0]``) as floats; None stays None; anything else refused.
+
+    Parameters
+    ----------
+    values : Any
+        What the caller gave.
+    flag : str
+        The option's command-line flag.
+
+    Returns
+    -------
+    tuple of float or None
+
+    Raises
+    ------
+    OptionError
+        Not a sequence (text included), or an element that is not a real number.
+    """
+    from collections.abc import Sequence
+
+    from motorid.errors import OptionError
+
+    if values is None:
+        return None
+    if isinstance(values, (str, bytes)) or not isinstance(values, Sequence):
+        raise OptionError(f"{flag} must be a sequence of numbers, got {values!r}")
+    return tuple(float(real_number(v, flag) or 0.0) for v in values)  # (not optional: never None)
+

@@ -119,8 +119,13 @@ class DesignSettings:
             v = getattr(self, name)
             if v is not None and (len(v) == 0 or not np.all(np.isfinite(np.asarray(v, dtype=complex)))):
                 raise OptionError(f"{option} must be finite numbers, got {list(v)}")
-        if self.integral_pole is not None and not np.isfinite(complex(self.integral_pole)):
-            raise OptionError(f"--integral-pole must be a finite number, got {self.integral_pole!r}")
+        if self.integral_pole is not None:
+            try:
+                finite = bool(np.isfinite(complex(self.integral_pole)))
+            except (TypeError, ValueError):
+                finite = False
+            if not finite or isinstance(self.integral_pole, bool):
+                raise OptionError(f"--integral-pole must be a finite number, got {self.integral_pole!r}")
         ways = [self.poles is not None, self.damping is not None,
                 self.settling_time_s is not None or self.overshoot_pct is not None]
         if sum(ways) != 1:
