@@ -6,6 +6,8 @@ import csv
 import io
 from pathlib import Path
 
+import pytest
+
 from motorid.batch.page import summary_html
 from motorid.batch.summary import SummaryRow, summary_csv
 
@@ -70,6 +72,7 @@ def test_out_inside_a_symlink_loop_is_one_line(tmp_path, demo_run, run_cli):
     assert "internal error" not in res.err and len(res.err.strip().splitlines()) == 1
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: the full suite runs it
 def test_a_file_beyond_every_reader_is_refused_without_being_hashed(tmp_path, demo_run, run_cli, monkeypatch):
     import builtins
 

@@ -26,6 +26,7 @@ from motorid.trainer import run_experiment
 EDGE_WORDS = "sit at their double pole"
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: the full suite runs it
 def test_auto_takes_the_complex_pair_when_its_fit_is_held_at_the_edge_as_a_user_runs_it(tmp_path):
     """Through the command line in a fresh process: the output-error fit holds the pair at its double
     pole (before, that was the answer, τ 17 % off); the Markov method's polished model, whose poles

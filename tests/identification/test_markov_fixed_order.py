@@ -40,6 +40,7 @@ def test_markov_at_order_2_on_the_closed_loop_log_as_a_user_runs_it(real_dir, tm
     assert out.is_file() and "2 poles of the velocity TF" in proc.stdout
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: the full suite runs it
 def test_the_order_2_model_of_the_closed_loop_log_goes_on_to_design_simulate_and_the_report(real_dir, tmp_path):
     import warnings
 

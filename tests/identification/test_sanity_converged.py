@@ -10,6 +10,7 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+import pytest
 import scipy.signal
 
 import motorid as mi
@@ -60,6 +61,7 @@ def test_identify_with_too_few_evaluations_says_so_in_the_gate_once():
     assert not any(w.startswith(STOPPED_EARLY) for w in fit.warnings)  # the gate's line, not twice
 
 
+@pytest.mark.slow  # an end-to-end run of several seconds: the full suite runs it
 def test_a_model_that_failed_the_converged_check_goes_on_to_design_simulate_and_the_report(tmp_path):
     """The model of a fit stopped early (not a hand-made one) is still a model: a design, its closed
     loop and the report, which carries the gate's line."""
