@@ -32,9 +32,11 @@ def rig(tmp_path_factory):
     return headed, bare
 
 
-def test_without_columns_it_is_refused_with_the_mapping_to_give(rig, run_cli):
+@pytest.mark.parametrize("extra", [(), ("--time-unit", "s")])
+def test_without_columns_it_is_refused_with_the_mapping_to_give(rig, run_cli, extra):
+    """``--time-unit`` travels in the column map but names no column: still refused, the same way."""
     _, bare = rig
-    res = run_cli("identify", "--velocity", str(bare))
+    res = run_cli("identify", "--velocity", str(bare), *extra)
     assert res.code == 2 and len(res.err.strip().splitlines()) == 1
     assert f"{bare}:1: no header row: the first line is already numbers (3 columns)" in res.err
     assert f"e.g. --columns {COLUMNS}" in res.err

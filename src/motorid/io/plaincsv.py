@@ -143,6 +143,11 @@ def _headerless(lines: Sequence[str], idx: Sequence[int]) -> tuple[str | None, i
     return None
 
 
+def _names_columns(columns: Mapping[str, str] | None) -> bool:
+    """Whether a column map names a column (``time_unit`` alone, from ``--time-unit``, names none)."""
+    return any(key != "time_unit" for key in (columns or {}))
+
+
 def headerless_names(width: int) -> list[str]:
     """The names of a headerless table's columns: their positions, ``"1"`` … (what ``--columns`` maps)."""
     return [str(j + 1) for j in range(width)]
@@ -321,7 +326,7 @@ def _comment_between(lines: Sequence[str], h: int, first: int) -> bool:
 def _read_fast(path: PathLike, file: str, columns: Mapping[str, str] | None, role: str | None,
                size: int = 0) -> Capture:
     """The common case with a C parser (numpy's, or pandas' on a large file): header, then numbers."""
-    h, delim, names, first = _fast_layout(path, file, headerless=bool(columns))
+    h, delim, names, first = _fast_layout(path, file, headerless=_names_columns(columns))
     width = len(names)
     if not names[-1].strip() and len(first) == width and not first[-1].strip():
         names, width = names[:-1], width - 1  # a trailing delimiter on every line
@@ -388,7 +393,7 @@ def _read_careful(path: PathLike, file: str, columns: Mapping[str, str] | None, 
             file=file, row=h + 1,
         )
     bare = _headerless(lines, idx)
-    if bare is not None and not columns:
+    if bare is not None and not _names_columns(columns):
         raise _headerless_refusal(lines, idx, bare[0], bare[2], file)
     if bare is not None:
         delim = bare[0]
