@@ -23,6 +23,7 @@ from motorid.errors import MotorIdError
 
 __all__ = [
     "ADVISE",
+    "COLUMNS",
     "COMMANDS",
     "DESIGN",
     "DESIGN_PID",
@@ -71,6 +72,16 @@ class OptionSpec:
     unit: str = ""
     help: str = ""
 
+    @property
+    def sentence(self) -> str:
+        """The help line as a command's ``--help`` shows it: capitalised, with a full stop.
+
+        Returns
+        -------
+        str
+        """
+        return self.help[:1].upper() + self.help[1:] + ("" if self.help.endswith(".") else ".")
+
 
 #: The virtual trainer's presets (``motorid demo --preset``, ``simulate --plant trainer --preset``):
 #: declared here, where the command line reads them without importing the trainer.
@@ -90,11 +101,16 @@ ROLES: tuple[OptionSpec, ...] = (
     OptionSpec("current", "--current", None, "", "the armature-current capture"),
 )
 
+#: ``--columns``, which every command and function that reads captures takes.
+COLUMNS = OptionSpec("columns", "--columns", None, "",
+                     "plain-CSV column map, e.g. time=t,input=u,velocity=rpm; a CSV without a header row names its "
+                     "columns by position, e.g. time=1,input=2,velocity=3")
+
 #: :func:`motorid.read_experiment`'s options.
 READ: tuple[OptionSpec, ...] = (
     OptionSpec("step_volts", "--step-volts", None, "V", "step level for captures without an input channel"),
     OptionSpec("t0", "--t0", None, "s", "the step instant on the captures' time axis"),
-    OptionSpec("columns", "--columns", None, "", "plain-CSV column map, e.g. time=t,input=u,velocity=rpm"),
+    COLUMNS,
     OptionSpec("force_role", "--force-role", False, "", "keep the given roles even when a capture looks like another"),
     OptionSpec("time_unit", "--time-unit", None, "", "a plain CSV's time column unit: s, ms or us"),
     OptionSpec("units", "--units", None, "", "each channel's unit, e.g. velocity=rpm"),
@@ -182,7 +198,7 @@ ADVISE: tuple[OptionSpec, ...] = (
 #: :func:`motorid.identify_levels`'s options (``motorid identify`` with several ``--velocity``).
 IDENTIFY_LEVELS: tuple[OptionSpec, ...] = (
     OptionSpec("step_volts", "--step-volts", None, "V", "each capture's step level: one for all, or one per capture"),
-    OptionSpec("columns", "--columns", None, "", "plain-CSV column map, e.g. time=t,input=u,velocity=rpm"),
+    COLUMNS,
 )
 
 #: :func:`motorid.validate`'s options.
@@ -191,7 +207,7 @@ VALIDATE: tuple[OptionSpec, ...] = (
     OptionSpec("step_volts", "--step-volts", None, "V", "step level for captures without an input channel"),
     OptionSpec("t0", "--t0", None, "s", "the step instant on the files' time axis"),
     OptionSpec("warmup_s", "--warmup", 0.0, "s", "seconds at the start simulated but not scored"),
-    OptionSpec("columns", "--columns", None, "", "plain-CSV column map, e.g. time=t,input=u,velocity=rpm"),
+    COLUMNS,
 )
 
 #: Each front-door function's options, by the command's name.

@@ -20,7 +20,7 @@ from rich.table import Table
 
 from motorid.errors import MotorIdError, OptionError
 from motorid.numfmt import sig
-from motorid.options import READ, TRAINER_PRESETS, TRAINER_RIGS
+from motorid.options import COLUMNS, READ, TRAINER_PRESETS, TRAINER_RIGS
 
 #: ``--segment``'s help, from its declaration.
 SEGMENT_HELP = (lambda h: h[:1].upper() + h[1:])(next(o.help for o in READ if o.name == "segment"))
@@ -82,6 +82,9 @@ def _with_time_unit(columns: str | None, time_unit: str | None) -> str | None:
         return columns
     return f"{columns},time_unit={time_unit}" if columns else f"time_unit={time_unit}"
 
+
+#: ``--columns``: declared once (:data:`motorid.options.COLUMNS`), used by every command that reads captures.
+COLUMNS_HELP = COLUMNS.sentence
 
 #: ``--time-unit``: declared once, used by every command that reads captures.
 TIME_UNIT_HELP = ("Unit of a plain CSV's time column: s, ms or us (default: from its name — t_ms, time (ms), "
@@ -211,7 +214,7 @@ def inspect(
     captures: Annotated[list[str], typer.Argument(
         help="Capture files or ALLnnnn folders; a CH1/CH2 pair as CH1.CSV+CH2.CSV.")],
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list (docs/formats.md).")] = False,
-    columns: Annotated[str | None, typer.Option(help="Plain CSV column map, e.g. time=t,input=u,velocity=rpm.")] = None,
+    columns: Annotated[str | None, typer.Option(help=COLUMNS_HELP)] = None,
     time_unit: Annotated[str | None, typer.Option("--time-unit", help=TIME_UNIT_HELP)] = None,
     step_volts: Annotated[float | None, typer.Option(
         "--step-volts",
@@ -442,7 +445,7 @@ def identify(
         help="Step level for captures without an input channel; with several levels, one per capture "
              "(V1,V2,...).")] = None,
     t0: Annotated[float | None, typer.Option("--t0", help="Step instant on the files' time axis.")] = None,
-    columns: Annotated[str | None, typer.Option(help="Plain CSV column map, e.g. time=t,input=u,velocity=rpm.")] = None,
+    columns: Annotated[str | None, typer.Option(help=COLUMNS_HELP)] = None,
     time_unit: Annotated[str | None, typer.Option("--time-unit", help=TIME_UNIT_HELP)] = None,
     units: Annotated[list[str] | None, typer.Option(
         "--units",
@@ -648,7 +651,7 @@ def validate(
     warmup: Annotated[float, typer.Option(
         "--warmup",
         help="Seconds at the start simulated but not scored (default 0: the initial state is estimated).")] = 0.0,
-    columns: Annotated[str | None, typer.Option(help="Plain CSV column map.")] = None,
+    columns: Annotated[str | None, typer.Option(help=COLUMNS_HELP)] = None,
     time_unit: Annotated[str | None, typer.Option("--time-unit", help=TIME_UNIT_HELP)] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
@@ -712,7 +715,7 @@ def report(
     step_volts: Annotated[float | None, typer.Option(
         "--step-volts",
         help="Step level for captures without an input channel.")] = None,
-    columns: Annotated[str | None, typer.Option(help="Plain CSV column map.")] = None,
+    columns: Annotated[str | None, typer.Option(help=COLUMNS_HELP)] = None,
     time_unit: Annotated[str | None, typer.Option("--time-unit", help=TIME_UNIT_HELP)] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing report.")] = False,
     strict: Annotated[bool, typer.Option(
@@ -773,7 +776,7 @@ def sweep(
     step_volts: Annotated[float | None, typer.Option(
         "--step-volts",
         help="Step level for captures without an input channel.")] = None,
-    columns: Annotated[str | None, typer.Option(help="Plain CSV column map.")] = None,
+    columns: Annotated[str | None, typer.Option(help=COLUMNS_HELP)] = None,
     time_unit: Annotated[str | None, typer.Option("--time-unit", help=TIME_UNIT_HELP)] = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the table as JSON here.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing JSON file.")] = False,

@@ -13,6 +13,8 @@ from typing import Annotated
 
 import typer
 
+from motorid.options import COLUMNS
+
 __all__ = ["register"]
 
 
@@ -41,7 +43,7 @@ def batch(
     step_volts: Annotated[float | None, typer.Option(
         "--step-volts", help="Step level for captures without an input channel (experiment.toml wins).")] = None,
     t0: Annotated[float | None, typer.Option("--t0", help="Step instant on the files' time axis.")] = None,
-    columns: Annotated[str | None, typer.Option(help="Plain CSV column map, e.g. time=t,input=u,velocity=rpm.")] = None,
+    columns: Annotated[str | None, typer.Option(help=COLUMNS.sentence)] = None,
     force_role: Annotated[bool, typer.Option(
         "--force-role", help="Keep the roles a roles file names even when a capture looks like another.")] = False,
     report: Annotated[bool, typer.Option("--report/--no-report", help="Write each experiment's HTML report.")] = True,
