@@ -222,41 +222,44 @@ def _write_staircase(folder: Path, cfg: TrainerConfig, rng: np.random.Generator,
     return {"log": path}, ("--velocity", str(path), "--segment", "2"), truth, dt
 
 
-def _write_serial_plotter(folder: Path, cfg: TrainerConfig, rng: np.random.Generator, force: bool) -> Writer:
+def _sketch_rpm(cfg: TrainerConfig, rng: np.random.Generator
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, RealSetupTruth]:
+    """A 10.24 ms Arduino loop stepping 0 → 6 V and counting 1200 edges a turn (the sketches that print rpm).
+
+    Returns the ``millis()`` stamps (whole ms), the commanded volts, the rpm counted over each
+    loop and the truth (in rpm).
+    """
     n = 300
     true_t = float(rng.uniform(1.0, 5.0)) + np.arange(n) * ARDUINO_LOOP_S
-    stamps = np.floor(true_t * 1e3) / 1e3  # millis() / 1000.0
+    stamps = np.floor(true_t * 1e3)  # millis()
     k = int(rng.integers(60, 91))
     s = _run(cfg, true_t, _step(true_t[k], 0.0, 6.0))
     counts = np.floor(s["motor_angle_rad"] / (2 * math.pi) * 1200 + rng.uniform())
     rpm = np.r_[0.0, np.diff(counts)] / 1200 / ARDUINO_LOOP_S * 60.0
     u = np.where(np.arange(n) >= k, 6.0, 0.0)
+    truth = _truth(cfg, from_v=0.0, to_v=6.0, dead_time_s=0.0, sensor_lag_s=ARDUINO_LOOP_S / 2,
+                   step_time_s=float(true_t[k]), units="rpm")
+    return stamps, u, rpm, _scaled(truth, RPM_PER_RAD_S)
+
+
+def _write_serial_plotter(folder: Path, cfg: TrainerConfig, rng: np.random.Generator, force: bool) -> Writer:
+    millis, u, rpm, truth = _sketch_rpm(cfg, rng)
+    stamps = millis / 1e3  # millis() / 1000.0
     lines = [f"t:{a:.3f},pwm_V:{b:.1f},rpm:{c:.1f}" for a, b, c in zip(stamps, u, rpm, strict=True)]
     last = f"t:{stamps[-1] + 0.010:.3f},pwm_V:6.0,rp"  # the serial monitor stopped mid-line
     path = folder / "serial_plotter.txt"
     check_writable([path], force=force)
     _write_text(path, "\n".join([*lines, last]) + "\n")
-    truth = _truth(cfg, from_v=0.0, to_v=6.0, dead_time_s=0.0, sensor_lag_s=ARDUINO_LOOP_S / 2,
-                   step_time_s=float(true_t[k]), units="rpm")
-    return {"log": path}, ("--velocity", str(path)), _scaled(truth, RPM_PER_RAD_S), ARDUINO_LOOP_S
+    return {"log": path}, ("--velocity", str(path)), truth, ARDUINO_LOOP_S
 
 
 def _write_no_header(folder: Path, cfg: TrainerConfig, rng: np.random.Generator, force: bool) -> Writer:
-    n = 300
-    true_t = float(rng.uniform(1.0, 5.0)) + np.arange(n) * ARDUINO_LOOP_S
-    stamps = np.floor(true_t * 1e3).astype(int)  # millis()
-    k = int(rng.integers(60, 91))
-    s = _run(cfg, true_t, _step(true_t[k], 0.0, 6.0))
-    counts = np.floor(s["motor_angle_rad"] / (2 * math.pi) * 1200 + rng.uniform())
-    rpm = np.r_[0.0, np.diff(counts)] / 1200 / ARDUINO_LOOP_S * 60.0
-    u = np.where(np.arange(n) >= k, 6.0, 0.0)
+    millis, u, rpm, truth = _sketch_rpm(cfg, rng)
     path = folder / "sketch_log.csv"
     check_writable([path], force=force)
-    _write_text(path, "\n".join(f"{a},{b:.1f},{c:.1f}" for a, b, c in zip(stamps, u, rpm, strict=True)) + "\n")
-    truth = _truth(cfg, from_v=0.0, to_v=6.0, dead_time_s=0.0, sensor_lag_s=ARDUINO_LOOP_S / 2,
-                   step_time_s=float(true_t[k]), units="rpm")
+    _write_text(path, "\n".join(f"{a:.0f},{b:.1f},{c:.1f}" for a, b, c in zip(millis, u, rpm, strict=True)) + "\n")
     args = ("--velocity", str(path), "--columns", "time=1,input=2,velocity=3", "--units", "velocity=rpm")
-    return {"log": path}, args, _scaled(truth, RPM_PER_RAD_S), ARDUINO_LOOP_S
+    return {"log": path}, args, truth, ARDUINO_LOOP_S
 
 
 #: PicoScope rig: sample interval, samples, pre-trigger samples, the two ranges (±V) of 8-bit codes.
