@@ -216,10 +216,9 @@ def identify_levels(
     """
     from motorid.identification.hammerstein import identify_levels as _identify_levels
     from motorid.io import read_capture
-
-    levels: list[float | None] | None = None
     from motorid.options import real_numbers
 
+    levels: list[float | None] | None = None
     step_volts = real_numbers(step_volts, "--step-volts")
     if step_volts is not None:
         if len(step_volts) == 1:
@@ -1252,14 +1251,13 @@ def validate(
     with _blamed_on(model):  # the model file, not the first capture, is at fault
         check_channel(motor, channel)
     items = [captures] if isinstance(captures, (str, PathLike, Capture)) else list(captures)
-    colmap = columns
     results = []
     for item in items:
         if isinstance(item, Capture):
             cap = item
         else:
             paths = [str(p) for p in _paths(item)]
-            cap = read_capture(paths[0] if len(paths) == 1 else paths, columns=colmap)
+            cap = read_capture(paths[0] if len(paths) == 1 else paths, columns=columns)
         try:
             res = validate_capture(motor, cap, channel=channel, step_volts=step_volts, t0_s=t0, warmup_s=warmup_s)
         except MotorIdError as exc:
@@ -1305,13 +1303,6 @@ def _with_channel_hint(res: ValidationResult, motor: MotorModel, cap: Capture, c
 
 
 # -------------------------------------------------------------------------------------- report
-
-
-def _kinds(types: type | tuple[type, ...]) -> str:
-    """``Design, PidDesign or Mapping`` for a refusal."""
-    names = [t.__name__ for t in (types if isinstance(types, tuple) else (types,))]
-    names = ["str" if n == "Sequence" else n for n in names]  # a path or a sequence of them
-    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " or " + names[-1]
 
 
 def _validation_captures(validation: Sequence[Any] | Mapping[str, Any]) -> dict[str, Capture]:
@@ -1383,12 +1374,14 @@ def write_report(
         raise OptionError(f"write_report needs the result of mi.identify(...), got {type(fit).__name__}")
     out = Path(path)
     check_writable({"path": out}, force=overwrite, create_parents=False)
-    kinds: tuple[tuple[str, Any, type | tuple[type, ...]], ...] = (
-        ("design", design, (Design, PidDesign, Mapping)), ("simulation", simulation, Mapping),
-        ("truth", truth, Mapping), ("validation", validation, (Sequence, Mapping, PathLike, Capture)))
-    for name, given, ok in kinds:
+    kinds: tuple[tuple[str, Any, type | tuple[type, ...], str], ...] = (
+        ("design", design, (Design, PidDesign, Mapping), "Design, PidDesign or Mapping"),
+        ("simulation", simulation, Mapping, "Mapping"), ("truth", truth, Mapping, "Mapping"),
+        ("validation", validation, (Sequence, Mapping, PathLike, Capture),
+         "path, a sequence of paths or Captures, or a Mapping of them"))
+    for name, given, ok, what in kinds:
         if (given is not None and not isinstance(given, ok)) or (name == "validation" and given is None):
-            raise OptionError(f"write_report: {name}={given!r} is not a {_kinds(ok)}")
+            raise OptionError(f"write_report: {name}={given!r} is not a {what}")
     doc = design.to_json() if isinstance(design, (Design, PidDesign)) else (None if design is None else dict(design))
     run = None
     if simulation is not None:

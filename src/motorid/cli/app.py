@@ -83,9 +83,6 @@ def _with_time_unit(columns: str | None, time_unit: str | None) -> str | None:
     return f"{columns},time_unit={time_unit}" if columns else f"time_unit={time_unit}"
 
 
-#: ``--columns``: declared once (:data:`motorid.options.COLUMNS`), used by every command that reads captures.
-COLUMNS_HELP = COLUMNS.sentence
-
 #: ``--time-unit``: declared once, used by every command that reads captures.
 TIME_UNIT_HELP = ("Unit of a plain CSV's time column: s, ms or us (default: from its name — t_ms, time (ms), "
                   "micros — else seconds; whole numbers stepping by 1–100 are read as ms, with a note).")
@@ -214,7 +211,7 @@ def inspect(
     captures: Annotated[list[str], typer.Argument(
         help="Capture files or ALLnnnn folders; a CH1/CH2 pair as CH1.CSV+CH2.CSV.")],
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list (docs/formats.md).")] = False,
-    columns: Annotated[str | None, typer.Option(help=COLUMNS_HELP)] = None,
+    columns: Annotated[str | None, typer.Option(help=COLUMNS.sentence)] = None,
     time_unit: Annotated[str | None, typer.Option("--time-unit", help=TIME_UNIT_HELP)] = None,
     step_volts: Annotated[float | None, typer.Option(
         "--step-volts",
@@ -445,7 +442,7 @@ def identify(
         help="Step level for captures without an input channel; with several levels, one per capture "
              "(V1,V2,...).")] = None,
     t0: Annotated[float | None, typer.Option("--t0", help="Step instant on the files' time axis.")] = None,
-    columns: Annotated[str | None, typer.Option(help=COLUMNS_HELP)] = None,
+    columns: Annotated[str | None, typer.Option(help=COLUMNS.sentence)] = None,
     time_unit: Annotated[str | None, typer.Option("--time-unit", help=TIME_UNIT_HELP)] = None,
     units: Annotated[list[str] | None, typer.Option(
         "--units",
@@ -651,7 +648,7 @@ def validate(
     warmup: Annotated[float, typer.Option(
         "--warmup",
         help="Seconds at the start simulated but not scored (default 0: the initial state is estimated).")] = 0.0,
-    columns: Annotated[str | None, typer.Option(help=COLUMNS_HELP)] = None,
+    columns: Annotated[str | None, typer.Option(help=COLUMNS.sentence)] = None,
     time_unit: Annotated[str | None, typer.Option("--time-unit", help=TIME_UNIT_HELP)] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
@@ -715,7 +712,7 @@ def report(
     step_volts: Annotated[float | None, typer.Option(
         "--step-volts",
         help="Step level for captures without an input channel.")] = None,
-    columns: Annotated[str | None, typer.Option(help=COLUMNS_HELP)] = None,
+    columns: Annotated[str | None, typer.Option(help=COLUMNS.sentence)] = None,
     time_unit: Annotated[str | None, typer.Option("--time-unit", help=TIME_UNIT_HELP)] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing report.")] = False,
     strict: Annotated[bool, typer.Option(
@@ -776,7 +773,7 @@ def sweep(
     step_volts: Annotated[float | None, typer.Option(
         "--step-volts",
         help="Step level for captures without an input channel.")] = None,
-    columns: Annotated[str | None, typer.Option(help=COLUMNS_HELP)] = None,
+    columns: Annotated[str | None, typer.Option(help=COLUMNS.sentence)] = None,
     time_unit: Annotated[str | None, typer.Option("--time-unit", help=TIME_UNIT_HELP)] = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the table as JSON here.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing JSON file.")] = False,
