@@ -15,7 +15,7 @@ from motorid.trainer.realsetups import write_real_setup
 
 pytestmark = pytest.mark.slow
 
-RIGS = ("l298n-rpm", "arduino-millis", "host-loop", "encoder-counts", "ms-time", "fast-tbs1000")
+RIGS = ("l298n-rpm", "arduino-millis", "host-loop", "encoder-counts", "ms-time", "fast-tbs1000", "no-header")
 
 
 def _poles(model) -> list[float]:
