@@ -18,7 +18,12 @@ ground truth.
 
 Usage::
 
-    python bench/real_setups.py [--seeds 5] [--src DIR] [--setups a,b] [--no-real]
+    python bench/real_setups.py [--seeds 5] [--src DIR] [--setups a,b] [--no-real] [--counted]
+
+``--counted`` also runs each rig whose speed column counts encoder edges over each interval
+(:data:`~motorid.trainer.hobbyrigs.COUNTED_SPEED_RIGS`) with ``--counted-velocity``, the rows
+named ``RIG +counted``: that model is the motor's, so its residence time is compared with the
+truth's less the counting's lag (``sensor_lag_s``, half the interval).
 
 ``--src DIR`` runs another checkout's source (``PYTHONPATH=DIR/src``), e.g. the code before
 the real-set-up work: ``git worktree add /tmp/motorid-before 595a727`` then ``--src /tmp/motorid-before``.
@@ -42,6 +47,7 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(ROOT / "src"))
 
+from motorid.trainer.hobbyrigs import COUNTED_SPEED_RIGS  # noqa: E402
 from motorid.trainer.realsetups import REAL_SETUPS, write_real_setup  # noqa: E402
 
 REAL = ROOT.parent / "shared" / "real" / "hslu-rtl-dcmotor" / "csv"
@@ -122,6 +128,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--src", type=Path, default=None, help="checkout whose src/ to run (PYTHONPATH)")
     ap.add_argument("--setups", default=",".join(REAL_SETUPS))
     ap.add_argument("--no-real", action="store_true", help="skip ../shared/real")
+    ap.add_argument("--counted", action="store_true",
+                    help="also run the counted-speed rigs with --counted-velocity (against the motor's own timing)")
     opts = ap.parse_args(argv)
     setups = [s for s in opts.setups.split(",") if s]
     rows = []
@@ -132,6 +140,9 @@ def main(argv: list[str] | None = None) -> int:
             for seed in range(opts.seeds):
                 rec = write_real_setup(name, work / f"{name}-{seed}", seed=seed)
                 cases.append((name, str(seed), list(rec.cli_args), rec.truth.dc_gain, rec.truth.residence_time_s))
+                if opts.counted and name in COUNTED_SPEED_RIGS:
+                    cases.append((f"{name} +counted", str(seed), [*rec.cli_args, "--counted-velocity"],
+                                  rec.truth.dc_gain, rec.truth.residence_time_s - rec.truth.sensor_lag_s))
         if not opts.no_real and REAL.is_dir():
             for f in sorted(REAL.glob("06_*.csv")):
                 dc, res = HSLU_REFERENCE.get(f.name, (float("nan"), float("nan")))
@@ -149,7 +160,11 @@ def main(argv: list[str] | None = None) -> int:
     src = str(opts.src) if opts.src else "this checkout"
     print(f"# motorid identify, default options, fresh process each ({src})\n")
     print("truth: presets = their linearised plant (incremental gain; τ by moments + dead time + encoder lag);")
-    print("hslu = the authors' gain and 2·T1 + Td with their hand-refined T1, Td (a reference, not ground truth)\n")
+    print("hslu = the authors' gain and 2·T1 + Td with their hand-refined T1, Td (a reference, not ground truth)")
+    if opts.counted:
+        print("RIG +counted = the same log with --counted-velocity, against the motor's own timing (the truth's "
+              "residence time less the counting's lag, half the interval)")
+    print()
     print("| setup | seed | exit | dc gain err % | residence err % | headline in ci95 | truth in ci95 | wall s |"
           " warnings |")
     print("|---|---|---|---|---|---|---|---|---|")

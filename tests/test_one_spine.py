@@ -22,7 +22,7 @@ from motorid.trainer.realsetups import write_real_setup
 
 #: The rigs whose files the trainer writes as those rigs do, the demo's scope folders (the paper
 #: preset) and every other trainer preset's captures written as the scope saves them.
-CASES = ("demo", "l298n-rpm", "arduino-millis", "host-loop", "encoder-counts", "pwm-encoder", "daq-deadtime",
+CASES = ("demo", "l298n-rpm", "l298n-rpm:counted", "arduino-millis", "host-loop", "encoder-counts", "pwm-encoder", "daq-deadtime",
          "ms-time", "fast-tbs1000", "staircase", "serial-plotter", "picoscope", "clock-stamps", "no-header",
          *(f"trainer:{p}" for p in PRESET_NAMES if p != "paper"))
 
@@ -46,11 +46,14 @@ def _captures(case: str, demo_run, tmp_path: Path) -> tuple[dict[str, list[Path]
         exp = run_experiment(case.split(":", 1)[1], seed=0)
         return {role: sorted(write_tds_capture(tmp_path / case.replace(":", "-"), cap, index=i).glob("*.CSV"))
                 for i, (role, cap) in enumerate(exp.captures.items())}, {}
-    rec = write_real_setup(case, tmp_path / case, seed=0)
+    rig, _, counted = case.partition(":")
+    rec = write_real_setup(rig, tmp_path / rig, seed=0)
     args = list(rec.cli_args)
     roles = {args[i][2:]: [Path(args[i + 1])] for i in range(0, len(args), 2)
              if args[i] in ("--position", "--velocity", "--current")}
-    opts: dict[str, float | int] = {}
+    opts: dict[str, float | int | bool] = {}
+    if counted:  # the rig's speed column counts encoder edges over each line
+        opts["counted_velocity"] = True
     if "--step-volts" in args:
         opts["step_volts"] = float(args[args.index("--step-volts") + 1])
     if "--segment" in args:  # one step of a staircase log, picked the same way by every front end
@@ -73,7 +76,7 @@ def _toml(key: str, value: object) -> str:
     if key == "columns":
         pairs = dict(p.split("=", 1) for p in str(value).split(","))
         return "columns = {" + ", ".join(f'{k} = "{v}"' for k, v in pairs.items()) + "}"
-    return f"{key} = {value!r}"
+    return f"{key} = {json.dumps(value)}" if isinstance(value, bool) else f"{key} = {value!r}"
 
 
 @pytest.mark.slow
@@ -87,7 +90,8 @@ def test_cli_python_web_and_batch_give_the_same_model(case, demo_run, tmp_path):
 
     # the command line
     flags = [x for role, fs in roles.items() for x in (f"--{role}", spec(fs))]
-    flags += [x for k, v in opts.items() for x in (f"--{k.replace('_', '-')}", str(v))]
+    flags += [x for k, v in opts.items() for x in ((f"--{k.replace('_', '-')}",) if v is True
+                                                   else (f"--{k.replace('_', '-')}", str(v)))]
     motorid_ok("identify", *flags, "--json", tmp_path / "cli.json")
     by_cli = _without_provenance(json.loads((tmp_path / "cli.json").read_text()), files)
 

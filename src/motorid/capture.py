@@ -8,6 +8,7 @@ virtual trainer produces them too; conditioning consumes them.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -135,6 +136,10 @@ class Capture:
     stamp_resolution_s : float
         The resolution a log's jittered stamps were rounded to (``millis()``: 1 ms), so that a
         logged step instant carries it in the timing intervals; 0 for stamps taken as exact.
+    sample_window_s : float
+        The interval (s) each output sample is the mean over, ending at its time: a speed counted
+        from the encoder edges since the last sample (``counted_velocity`` of
+        :func:`motorid.read_experiment`); 0 for samples taken at their instant.
     """
 
     __getstate__ = frozen_getstate
@@ -152,6 +157,7 @@ class Capture:
     extra: Mapping[str, np.ndarray] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
     stamp_resolution_s: float = 0.0
+    sample_window_s: float = 0.0
 
     def __post_init__(self) -> None:
         self._freeze(copy=True)
@@ -209,6 +215,10 @@ class Capture:
                 raise CaptureDataError(f"channel {k!r} has a different length", file=self.source)
         if self.role_hint is not None and self.role_hint not in ROLES:
             raise ValueError(f"role_hint must be one of {ROLES}, got {self.role_hint!r}")
+        window = self.sample_window_s
+        if isinstance(window, bool) or not isinstance(window, (int, float)) or not (math.isfinite(window)
+                                                                                  and window >= 0):
+            raise ValueError(f"sample_window_s must be a finite number ≥ 0, got {window!r}")
         object.__setattr__(self, "time_s", t)
         object.__setattr__(self, "output_v", y)
         object.__setattr__(self, "input_v", u)

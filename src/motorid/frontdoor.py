@@ -262,6 +262,7 @@ def read_experiment(
     units: Mapping[str, str] | str | None = None,
     scale: Mapping[str, str | ChannelScale] | str | None = None,
     segment: int | None = None,
+    counted_velocity: bool = False,
 ) -> Experiment:
     """Read the captures of one step experiment, one per role.
 
@@ -294,6 +295,10 @@ def read_experiment(
         (1-based) for :func:`identify`.  Without it such a log stays whole, its steps listed in
         :attr:`Experiment.steps`, for :func:`identify_levels` (``exp.step_captures()``); a pulse
         (one level that moves the motor) is cut to its first step.
+    counted_velocity : bool
+        The velocity is counted over each sample interval (encoder edges since the last sample,
+        as Arduino sketches print rpm): each value is the mean speed over the interval before
+        it, and the output-error fit models it so (:attr:`Capture.sample_window_s`).
 
     Returns
     -------
@@ -318,6 +323,11 @@ def read_experiment(
     given = {role: spec for role, spec in named.items() if spec is not None}
     if "velocity" not in given and "position" not in given:
         raise OptionError("give at least --velocity or --position (a capture file or ALLnnnn folder)")
+    if not isinstance(counted_velocity, bool):
+        # (the command line's switch is always a bool: only a Python or web caller gets here)
+        raise OptionError(f"counted_velocity must be True or False, got {counted_velocity!r}")
+    if counted_velocity and "velocity" not in given:
+        raise OptionError("--counted-velocity describes a velocity capture: give it with --velocity")
     if step_volts is not None and not (isinstance(step_volts, (int, float)) and math.isfinite(step_volts)
                                        and step_volts != 0):
         raise OptionError(f"--step-volts {step_volts!r}: give a finite, non-zero number of volts "
@@ -348,6 +358,8 @@ def read_experiment(
                 raise OptionError(f"given as --{role} but looks like a {looks.role} capture ({looks.reason}); "
                                   f"give it as --{looks.role}, or --force-role to keep --{role}",
                                   file=str(paths[0]))
+        if role == "velocity" and counted_velocity:
+            cap = replace(cap, sample_window_s=cap.sample_interval_s)
         captures[role] = cap
         sources[role] = tuple(str(p) for p in paths)
         digests.update(_file_digests(paths))

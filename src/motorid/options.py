@@ -116,6 +116,9 @@ READ: tuple[OptionSpec, ...] = (
     OptionSpec("units", "--units", None, "", "each channel's unit, e.g. velocity=rpm"),
     OptionSpec("scale", "--scale", None, "", "sensor constants, e.g. velocity=0.1504V/(rad/s)"),
     OptionSpec("segment", "--segment", None, "", "a log with several input steps: identify its step N alone (1-based)"),
+    OptionSpec("counted_velocity", "--counted-velocity", False, "",
+               "the velocity counts encoder edges over each sample interval (a mean speed, as Arduino sketches "
+               "print rpm): fitted as such means, so the model's timing is the motor's"),
 )
 
 #: :func:`motorid.identify`'s options.

@@ -69,6 +69,13 @@ def test_experiment_toml_names_roles_and_options(tmp_path, class_root):
                                                     'columns = {time = "t"}\nsegment = 2\n', encoding="utf-8")
     (spec,) = discover_experiments([tmp_path])
     assert spec.segment == 2 and spec.content_hash({}) != plain_hash  # a rerun with another segment is not skipped
+    assert not spec.counted_velocity
+    segment_hash = spec.content_hash({})
+    (tmp_path / "e" / "experiment.toml").write_text('velocity = "ALL0001"\nposition = "ALL0000"\nstep_volts = 5.92\n'
+                                                    'columns = {time = "t"}\nsegment = 2\ncounted_velocity = true\n',
+                                                    encoding="utf-8")
+    (spec,) = discover_experiments([tmp_path])
+    assert spec.counted_velocity and spec.content_hash({}) != segment_hash
 
 
 @pytest.mark.parametrize(("text", "words"), [
@@ -78,6 +85,8 @@ def test_experiment_toml_names_roles_and_options(tmp_path, class_root):
     ("velocity = \n", "not valid TOML"),
     ('velocity = "ALL0001"\nsegment = 0\n', "segment = 0: give a whole number"),
     ('velocity = "ALL0001"\nsegment = "2"\n', "segment = '2': give a whole number"),
+    ('velocity = "ALL0001"\ncounted_velocity = "yes"\n', "counted_velocity = 'yes': give true or false"),
+    ('position = "ALL0000"\ncounted_velocity = true\n', "counted_velocity = true describes a velocity capture"),
 ])
 def test_bad_experiment_toml_is_one_line_naming_the_file(tmp_path, class_root, text, words):
     import shutil

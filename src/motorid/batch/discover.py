@@ -51,7 +51,7 @@ TEXT_LOG_SUFFIXES = (".txt", ".log", ".dat")
 #: Roles a manifest can give; ``validate`` marks validation captures (sine, triangle ...).
 MANIFEST_ROLES = ("position", "velocity", "current", "validate")
 #: Keys an ``experiment.toml`` may hold besides the roles.
-TOML_OPTIONS = ("step_volts", "t0", "columns", "segment")
+TOML_OPTIONS = ("step_volts", "t0", "columns", "segment", "counted_velocity")
 
 _ALL_FOLDER = re.compile(r"^ALL\d{4}$", re.IGNORECASE)
 _TDS_CHANNEL = re.compile(r"^(F\d{4})CH\d\.CSV$", re.IGNORECASE)
@@ -94,6 +94,9 @@ class ExperimentSpec:
         Plain-CSV column map from ``experiment.toml``.
     segment : int or None
         The step of a several-steps velocity log to identify (``experiment.toml``'s ``segment``).
+    counted_velocity : bool
+        The velocity counts encoder edges over each sample interval (``experiment.toml``'s
+        ``counted_velocity``; :func:`motorid.read_experiment`).
     files : tuple of str
         Every input file (relative to ``folder``) whose content the resume hash covers.
     """
@@ -108,6 +111,7 @@ class ExperimentSpec:
     columns: Mapping[str, str] | None = None
     files: tuple[str, ...] = ()
     segment: int | None = None
+    counted_velocity: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "roles", MappingProxyType(dict(self.roles)))
@@ -135,7 +139,8 @@ class ExperimentSpec:
         h.update(json.dumps(settings, sort_keys=True, default=str).encode())
         h.update(json.dumps({"roles": dict(self.roles), "validate": self.validate, "step_volts": self.step_volts,
                              "t0": self.t0, "columns": None if self.columns is None else dict(self.columns),
-                             **({"segment": self.segment} if self.segment is not None else {})},
+                             **({"segment": self.segment} if self.segment is not None else {}),
+                             **({"counted_velocity": True} if self.counted_velocity else {})},
                             sort_keys=True).encode())
         from motorid.io._common import MAX_TEXT_BYTES
 
@@ -236,6 +241,7 @@ def read_roles_file(folder: Path) -> dict[str, Any] | None:
         t0 = 0.0                                   # optional: the step instant [s]
         columns = {time = "t", velocity = "rpm"}   # optional: plain-CSV column map
         segment = 2                                # optional: one step of a several-steps log
+        counted_velocity = true                    # optional: the velocity counts edges per interval
 
     ``manifest.csv``: a header ``role,path`` and one row per capture (``role`` one of
     ``position``, ``velocity``, ``current``, ``validate``).
@@ -249,7 +255,7 @@ def read_roles_file(folder: Path) -> dict[str, Any] | None:
     -------
     dict or None
         ``roles`` (role → paths), ``validate`` (list of paths), ``step_volts``, ``t0``,
-        ``columns``, ``segment``; ``None`` without a roles file.
+        ``columns``, ``segment``, ``counted_velocity``; ``None`` without a roles file.
 
     Raises
     ------
@@ -288,6 +294,13 @@ def read_roles_file(folder: Path) -> dict[str, Any] | None:
             raise OptionError(f"segment = {seg!r}: give a whole number ≥ 1 (the step of a several-steps log)",
                               file=where)
         out["segment"] = seg
+        counted = doc.get("counted_velocity", False)
+        if not isinstance(counted, bool):
+            raise OptionError(f"counted_velocity = {counted!r}: give true or false", file=where)
+        if counted and "velocity" not in roles:
+            raise OptionError("counted_velocity = true describes a velocity capture: name it with velocity = ...",
+                              file=where)
+        out["counted_velocity"] = counted
     elif csv_path.is_file():
         where = str(csv_path)
         with open(csv_path, newline="", encoding="utf-8-sig") as fh:
@@ -308,7 +321,7 @@ def read_roles_file(folder: Path) -> dict[str, Any] | None:
             else:
                 roles[role] = spec
         out = {"roles": roles, "validate": validate, "step_volts": None, "t0": None, "columns": None,
-               "segment": None, "file": MANIFEST_CSV}
+               "segment": None, "counted_velocity": False, "file": MANIFEST_CSV}
     else:
         return None
     if not (set(out["roles"]) & {"position", "velocity"}):
@@ -330,6 +343,7 @@ def _spec_for(root: Path, folder: Path, name: str, captures: list[tuple[str, ...
         name, str(folder), tuple(dict.fromkeys(named)), roles=roles_file["roles"],
         validate=tuple(roles_file["validate"]), step_volts=roles_file["step_volts"], t0=roles_file["t0"],
         columns=roles_file["columns"], files=tuple(files), segment=roles_file["segment"],
+        counted_velocity=roles_file["counted_velocity"],
     )
 
 

@@ -305,6 +305,7 @@ def _identify_one(spec: ExperimentSpec, settings: BatchSettings) -> ExperimentOu
         columns=colmap,
         force_role=settings.force_role or not spec.roles,  # guessed roles agree with the guess
         segment=spec.segment,
+        counted_velocity=spec.counted_velocity,
     )
     fit = mi.identify(exp, **settings.identify)
     warnings = [_relative(w, spec.folder) for w in fit.warnings]

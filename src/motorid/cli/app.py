@@ -24,6 +24,7 @@ from motorid.options import COLUMNS, READ, TRAINER_PRESETS, TRAINER_RIGS
 
 #: ``--segment``'s help, from its declaration.
 SEGMENT_HELP = (lambda h: h[:1].upper() + h[1:])(next(o.help for o in READ if o.name == "segment"))
+COUNTED_HELP = next(o for o in READ if o.name == "counted_velocity").sentence
 
 # Everything else loads inside the command that needs it: ``motorid --help`` imports
 # typer and rich only, not numpy, scipy, python-control or matplotlib.
@@ -478,6 +479,7 @@ def identify(
         help="Keep a capture's role flag even when it looks like another role.")] = False,
     segment: Annotated[int | None, typer.Option(
         "--segment", help=f"{SEGMENT_HELP}; without it every step goes through the several-levels path.")] = None,
+    counted_velocity: Annotated[bool, typer.Option("--counted-velocity", help=COUNTED_HELP)] = False,
 ) -> None:
     """Identify the motor model from step captures (paper sections III-VI).
 
@@ -515,7 +517,8 @@ def identify(
 
     declared, scales = parse_units(units), parse_scales(scale)  # refused before any file is read
     exp = _read_experiment(position, velocity, current, columns, step_volts=step_volts_v, t0=t0,
-                           force_role=force_role, units=declared, scale=scales, segment=segment)
+                           force_role=force_role, units=declared, scale=scales, segment=segment,
+                           counted_velocity=counted_velocity)
     _print_steps(exp)
     if exp.several_steps():
         # every step of the log, as the several-levels path's experiments
@@ -722,6 +725,7 @@ def report(
         "--force-role",
         help="Keep a capture's role flag even when it looks like another role.")] = False,
     segment: Annotated[int | None, typer.Option("--segment", help=SEGMENT_HELP)] = None,
+    counted_velocity: Annotated[bool, typer.Option("--counted-velocity", help=COUNTED_HELP)] = False,
 ) -> None:
     """Identify and write one self-contained HTML report of the experiment."""
     columns = _with_time_unit(columns, time_unit)
@@ -732,7 +736,7 @@ def report(
     _check_options(method=method, sample_interval=sample_interval, step_volts=step_volts)
     check_writable({"--out": out}, force=force, create_parents=False)
     exp = _read_experiment(position, velocity, current, columns, step_volts=step_volts, force_role=force_role,
-                           segment=segment)
+                           segment=segment, counted_velocity=counted_velocity)
     _print_steps(exp)
     checks = _validation_captures(validate, columns)
     doc = read_design(design) if design is not None else None

@@ -305,7 +305,10 @@ def run_rig_demo(
            "identify_args": [str(Path(a).relative_to(out)) if a.startswith(str(out)) else a for a in rec.cli_args],
            "dc_gain": t.dc_gain, "output_units": t.output_units, "time_constant_s": t.time_constant_s,
            "delay_s": t.delay_s, "residence_time_s": t.residence_time_s, "step_volts": t.step_volts,
-           "from_volts": t.from_volts, "step_time_s": t.step_time_s}
+           "from_volts": t.from_volts, "step_time_s": t.step_time_s,
+           # the lag the velocity sensor adds (a count over each interval: half of it), inside delay_s
+           # and residence_time_s: --counted-velocity models it, and the motor's own is the difference
+           "sensor_lag_s": t.sensor_lag_s}
     truth_path.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
     step(len(RIG_DEMO_STEPS))
     return RigDemoResult(out, MappingProxyType(dict(rec.files)), rec.cli_args, t, truth_path, model_path, fit)

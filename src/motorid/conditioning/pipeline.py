@@ -140,6 +140,12 @@ class ConditionedExperiment:
         """Sample interval after reduction."""
         return float(self.time_s[1] - self.time_s[0]) if self.time_s.size > 1 else float("nan")
 
+    @property
+    def velocity_window_s(self) -> float:
+        """The window each sample of a counted velocity capture is the mean over (0: sampled, or none)."""
+        r = self.responses.get("velocity")
+        return r.sample_window_s if r is not None else 0.0
+
 
 def condition_experiment(
     captures: Mapping[str, Capture],
@@ -187,6 +193,12 @@ def condition_experiment(
         if unused:
             notes.append(f"{cap.source} also holds a {' and a '.join(unused)} column, not used: give the file as "
                          + " and ".join(f"--{r}" for r in unused) + " too to fit it")
+        if cap.sample_window_s > 0:
+            notes.append(f"{cap.source}: each sample is the mean speed over the {1e3 * cap.sample_window_s:.4g} ms "
+                         "before it (counted over each interval, --counted-velocity): the output-error fit (methods "
+                         "auto, oe) models it so, and its dead time and time constants are the motor's, without the "
+                         f"counting's lag of about {0.5e3 * cap.sample_window_s:.3g} ms, which the other methods "
+                         "take for dead time")
     warnings: list[str] = []
     for r in responses.values():
         warnings.extend(f"{r.source}: {w}" for w in r.warnings)

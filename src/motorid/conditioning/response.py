@@ -63,6 +63,9 @@ class StepResponse:
     stamp_resolution_s : float
         For a logged step instant, the resolution its stamp was rounded to
         (:attr:`motorid.capture.Capture.stamp_resolution_s`); 0 when exact.
+    sample_window_s : float
+        The interval each output sample is the mean over (a counted speed,
+        :attr:`motorid.capture.Capture.sample_window_s`); 0 for samples.
     """
 
     source: str
@@ -78,6 +81,7 @@ class StepResponse:
     glitches: np.ndarray | None = None
     timing: str = "onset"
     stamp_resolution_s: float = 0.0
+    sample_window_s: float = 0.0
     #: The sample interval, computed once: an identification asks for it over a hundred times
     #: (a median of the whole record's steps each time: 13 % of ``auto`` on the demo).
     _dt_cache: list[float] = field(default_factory=list, init=False, repr=False, compare=False)
@@ -201,6 +205,7 @@ def step_response(
         glitches=glitches,
         timing=timing,
         stamp_resolution_s=capture.stamp_resolution_s if timing == "logged" else 0.0,
+        sample_window_s=capture.sample_window_s,
     )
 
 

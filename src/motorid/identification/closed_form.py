@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike
 __all__ = [
     "PartialFractions",
     "ResponseBasis",
+    "WindowBasis",
     "position_closed_form",
     "residue_derivatives",
     "residues",
@@ -269,13 +270,16 @@ class ResponseBasis:
             out[i] = sub.step(r, n0).mean(axis=0)
         return out
 
-    def slope(self, r: np.ndarray) -> np.ndarray:
+    def slope(self, r: np.ndarray, n0: float | np.ndarray = 0.0) -> np.ndarray:
         """``Σ R_i p_i e^{p_i t}``: the step response's time derivative (a jump at 0 excluded).
 
         Parameters
         ----------
         r : ndarray
             Residues, ``(n,)`` or ``(n, k)``.
+        n0 : float or ndarray
+            ``N(0)``: not needed here (a sample's slope has no jump), taken for
+            :meth:`WindowBasis.slope`'s sake.
 
         Returns
         -------
@@ -367,6 +371,111 @@ class ResponseBasis:
         for i, sub in self.sub:
             out[i] = sub.shape(kind, num, pf, dnums).mean(axis=0)
         return out
+
+
+class WindowBasis:
+    """The means of a closed form over the ``window`` before each time: a counted speed.
+
+    A speed computed from the encoder edges counted since the last sample (what Arduino
+    sketches print as rpm) is the mean speed over that interval, not a sample of it: the
+    difference of the position over the interval, divided by it.  So each mean is
+    ``(P(t) − P(t − T))/T`` with ``P`` the step response's integral (zero before the step,
+    exact across it), and so are its derivatives: two :class:`ResponseBasis`, at ``t`` and at
+    ``t − T``, with their block means when ``block`` is given (a block mean of window means is
+    the difference of the two block means of the integral).  Without it, a fit puts the
+    interval's lag (half of it, with the boxcar's shape) into the motor's dead time and time
+    constants.
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Times from the step (s), each the end of its window (or of its block's first window).
+    poles : ndarray
+        ``p_i = −1/τ_i``.
+    window : float
+        The window ``T`` (s), > 0.
+    block : (int, float), optional
+        ``(m, dt)``: every value is the mean over ``m`` such means ``dt`` apart.
+
+    Notes
+    -----
+    It answers :meth:`step`, :meth:`slope` and :meth:`shape` with ``kind="step"``, what the
+    output-error fit asks of a velocity channel's basis.
+    """
+
+    __slots__ = ("hi", "lo", "p", "window")
+
+    def __init__(self, time_s: np.ndarray, poles: np.ndarray, window: float,
+                 block: tuple[int, float] | None = None) -> None:
+        t = np.asarray(time_s, dtype=float)
+        self.window = float(window)
+        self.hi = ResponseBasis(t, poles, block)
+        self.lo = ResponseBasis(t - self.window, poles, block)
+        self.p = self.hi.p
+
+    def step(self, r: np.ndarray, n0: float | np.ndarray) -> np.ndarray:
+        """The step response's mean over each window (per volt).
+
+        Parameters
+        ----------
+        r : ndarray
+            Residues, ``(n,)`` or ``(n, k)`` (as :meth:`ResponseBasis.step`).
+        n0 : float or ndarray
+            ``N(0)`` (per column with ``k`` columns).
+
+        Returns
+        -------
+        ndarray
+            ``(P(t) − P(t − T))/T`` at each time, zero up to the step.
+        """
+        return (self.hi.position(r, n0) - self.lo.position(r, n0)) / self.window
+
+    def slope(self, r: np.ndarray, n0: float | np.ndarray = 0.0) -> np.ndarray:
+        """The means' time derivative, ``(y(t) − y(t − T))/T``.
+
+        Parameters
+        ----------
+        r : ndarray
+            Residues, ``(n,)`` or ``(n, k)``.
+        n0 : float or ndarray
+            ``N(0)``: the step's jump enters every window that holds it.
+
+        Returns
+        -------
+        ndarray
+            The slope at each time.
+        """
+        return (self.hi.step(r, n0) - self.lo.step(r, n0)) / self.window
+
+    def shape(self, kind: str, num: np.ndarray, taus: np.ndarray | PartialFractions,
+              dnums: Sequence[np.ndarray] = ()) -> np.ndarray:
+        """The means' derivatives in each ``ln τ_j``, then each ``dnums``.
+
+        Parameters
+        ----------
+        kind : str
+            ``"step"`` (a window mean of a position is not modelled).
+        num : ndarray
+            Numerator ``N(s)`` (highest power first).
+        taus : ndarray or PartialFractions
+            The time constants whose poles this basis holds (or their partial fractions).
+        dnums : sequence of ndarray
+            Numerator directions ``∂N/∂θ``.
+
+        Returns
+        -------
+        ndarray
+            ``(len(time_s), len(taus) + len(dnums))``, per volt of step.
+
+        Raises
+        ------
+        ValueError
+            For another ``kind``.
+        """
+        if kind != "step":
+            raise ValueError(f"a window mean is modelled for a step response only, not {kind!r}")
+        hi = self.hi.shape("position", num, taus, dnums)
+        return (hi - self.lo.shape("position", num, taus, dnums)) / self.window
 
 
 def step_response_closed_form(

@@ -15,10 +15,11 @@ this module.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
 import inspect
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -28,6 +29,7 @@ import scipy.optimize
 from motorid.identification.closed_form import (
     PartialFractions,
     ResponseBasis,
+    WindowBasis,
     position_closed_form,
     separate,
     slope_closed_form,
@@ -104,6 +106,10 @@ class OeSettings:
         (``I/U = (Js + b)/(R(Js + b) + K²)``).  ``None``: only for a one-pole model (with more
         poles the electrical one is in the model and the current is strictly proper; a jump
         would also make the fit discontinuous in the capture's time shift).
+    windows : tuple of (str, float)
+        Channels whose every sample is the mean over the window (s) before its time — a speed
+        counted over each sample interval — fitted as such means
+        (:class:`~motorid.identification.closed_form.WindowBasis`) instead of samples.
     """
 
     n_poles: int = 2
@@ -118,6 +124,7 @@ class OeSettings:
     instant_std: tuple[tuple[str, float], ...] = ()
     phase_group: tuple[str, ...] = ()
     instant_shared: tuple[tuple[str, ...], ...] = ()
+    windows: tuple[tuple[str, float], ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -334,15 +341,25 @@ class _Layout:
 
 
 def _channel_bases(q: Mapping[str, Any], t: np.ndarray | Mapping[str, np.ndarray], channels: Sequence[str],
-                   block: Mapping[str, tuple[int, float]] | None, poles: np.ndarray) -> dict[str, ResponseBasis]:
-    """Each channel's exponentials on its grid, from the step as the dead time and its shift place it."""
-    return {ch: ResponseBasis((t[ch] if isinstance(t, Mapping) else t) - q["delay"] - q["shift"].get(ch, 0.0),
-                              poles, (block or {}).get(ch)) for ch in channels}
+                   block: Mapping[str, tuple[int, float]] | None, poles: np.ndarray,
+                   windows: Mapping[str, float] | None = None) -> dict[str, ResponseBasis | WindowBasis]:
+    """Each channel's exponentials on its grid, from the step as the dead time and its shift place it.
+
+    A channel of ``windows`` (a counted speed) gets the means over its window instead of samples.
+    """
+    out: dict[str, ResponseBasis | WindowBasis] = {}
+    for ch in channels:
+        times = (t[ch] if isinstance(t, Mapping) else t) - q["delay"] - q["shift"].get(ch, 0.0)
+        window = (windows or {}).get(ch, 0.0)
+        out[ch] = (WindowBasis(times, poles, window, (block or {}).get(ch)) if window > 0
+                   else ResponseBasis(times, poles, (block or {}).get(ch)))
+    return out
 
 
 def _predict(
     layout: _Layout, th: np.ndarray, t: np.ndarray | Mapping[str, np.ndarray], step: float, channels: Sequence[str],
-    block: Mapping[str, tuple[int, float]] | None = None, bases: Mapping[str, ResponseBasis] | None = None,
+    block: Mapping[str, tuple[int, float]] | None = None,
+    bases: Mapping[str, ResponseBasis | WindowBasis] | None = None, windows: Mapping[str, float] | None = None,
 ) -> dict[str, np.ndarray]:
     """Every channel's response, on ``bases`` (the grids' exponentials for these parameters) when given."""
     q = layout.unpack(th)
@@ -350,12 +367,13 @@ def _predict(
     out = {}
     pf = PartialFractions(q["taus"])
     if bases is None:
-        bases = _channel_bases(q, t, channels, block, pf.p)
+        bases = _channel_bases(q, t, channels, block, pf.p, windows)
     _, r, n0 = pf.residues(num)
     if "velocity" in channels:
         out["velocity"] = step * bases["velocity"].step(r, n0)
     if "position" in channels:
-        out["position"] = q["c"] * (step * bases["position"].position(r, n0))
+        # only a velocity is windowed (OeSettings.windows), so a position's basis samples
+        out["position"] = q["c"] * (step * cast(ResponseBasis, bases["position"]).position(r, n0))
     if "current" in channels:
         _, rc, nc0 = pf.residues(q["cur"])
         out["current"] = step * bases["current"].step(rc, nc0)
@@ -691,7 +709,7 @@ class _OeProblem:
     upper: np.ndarray
     #: The last parameters' grid exponentials (the residuals and the Jacobian at one point share them).
     basis_key: bytes = b""
-    basis: dict[str, ResponseBasis] = field(default_factory=dict)
+    basis: dict[str, ResponseBasis | WindowBasis] = field(default_factory=dict)
 
     @classmethod
     def build(cls, time_s: np.ndarray | Mapping[str, np.ndarray], step_volts: float,
@@ -703,6 +721,9 @@ class _OeProblem:
         names = [c for c in ("velocity", "position", "current") if c in channels]
         if "velocity" not in names and "position" not in names:
             raise IdentificationError("the output-error fit needs a velocity or a position capture")
+        for c, window in settings.windows:
+            if c != "velocity" or not (math.isfinite(window) and window > 0):
+                raise IdentificationError(f"only a velocity is fitted as means over a window > 0, got {c} {window!r}")
         tc = {c: np.asarray(time_s[c] if isinstance(time_s, Mapping) else time_s, dtype=float) for c in names}
         raw = {c: np.asarray(channels[c], dtype=float) for c in names}
         for c in names:
@@ -812,7 +833,7 @@ class _OeProblem:
         On the sample times ``tc`` (default: the channels' own).
         """
         pred = _predict(self.layout, th, self._grid(tc), self.step_volts, self.names, self.fast,
-                        bases=self.bases(th) if tc is None else None)
+                        bases=self.bases(th) if tc is None else None, windows=dict(self.settings.windows))
         pred = {c: v if c in self.fast else _block_mean(v, self.ratio[c]) for c, v in pred.items()}
         if self.wraps is not None:
             pred["position"] = pred["position"] + th[self.layout.idx["span_position"]] * self.wraps
@@ -827,12 +848,13 @@ class _OeProblem:
                   for c, (k, mean, spread) in self.pre_stats.items()]
         return np.concatenate(parts)
 
-    def bases(self, th: np.ndarray) -> dict[str, ResponseBasis]:
+    def bases(self, th: np.ndarray) -> dict[str, ResponseBasis | WindowBasis]:
         """Each channel's :class:`ResponseBasis` on its own grid for the parameters ``th`` (the last one kept)."""
         key = np.asarray(th, dtype=float).tobytes()
         if key != self.basis_key:
             q = self.layout.unpack(th)
-            self.basis = _channel_bases(q, self._grid(), self.names, self.fast, PartialFractions(q["taus"]).p)
+            self.basis = _channel_bases(q, self._grid(), self.names, self.fast, PartialFractions(q["taus"]).p,
+                                        dict(self.settings.windows))
             self.basis_key = key
         return self.basis
 
@@ -861,10 +883,10 @@ class _OeProblem:
         if "velocity" in names:
             bv = basis["velocity"]
             d["velocity"][:, 0] = u * bv.step(r1, n01)
-            slope["velocity"] = q["K"] * u * bv.slope(r1)
+            slope["velocity"] = q["K"] * u * bv.slope(r1, n01)
             d["velocity"][:, shape] = u * bv.shape("step", num, pf, dnums)
         if "position" in names:
-            bp = basis["position"]
+            bp = cast(ResponseBasis, basis["position"])  # only a velocity is windowed
             p1 = u * bp.position(r1, n01)
             d["position"][:, 0] = q["c"] * p1
             if "c" in layout.idx:

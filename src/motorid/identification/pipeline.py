@@ -29,6 +29,7 @@ from motorid.identification.result import STOPPED_EARLY, IdentificationError
 from motorid.identification.sanity import SanityReport, sanity_checks
 from motorid.identification.metrics import bic, step_fit
 from motorid.model import MotorModel, step_nrmse
+from motorid.model.response import recorded_step_response
 from motorid.model.simplify import nearest_zeros
 from motorid.numfmt import complex_text
 
@@ -451,7 +452,7 @@ def _with_fit(model: MotorModel, cond: ConditionedExperiment) -> MotorModel:
 
     def simulate(block: slice) -> dict[str, np.ndarray]:
         with np.errstate(over="ignore", invalid="ignore"):
-            return model.step_response(t[block], cond.step_volts)
+            return recorded_step_response(model, t[block], cond.step_volts, velocity_window_s=cond.velocity_window_s)
 
     # the residuals a block at a time (step_fit): a 10 M-sample record's fit holds no array of its length
     errors, fits = step_fit(measured, simulate, channels)
@@ -867,7 +868,8 @@ def _gated(cond: ConditionedExperiment, settings: IdentifySettings, model: Motor
     # its first-order baseline is a nonlinear fit: 9 s on a 10-million-sample log
     t_gate, v_gate = _dynamic_part(cond, SANITY_SAMPLES, t, v)
     sanity = sanity_checks(model, t_gate, v_gate, cond.step_volts,
-                           sample_interval_s=float(t[1] - t[0]), unwhitened=unwhitened, input_v=recorded)
+                           sample_interval_s=float(t[1] - t[0]), unwhitened=unwhitened, input_v=recorded,
+                           velocity_window_s=cond.velocity_window_s)
     gate = tuple(f"SANITY CHECK FAILED — {f}" for f in sanity.failures)
     # a fit that stopped early is a failed check of the gate, whose line says it with what it means
     model = model.replace(warnings=tuple(w for w in model.warnings if not w.startswith(STOPPED_EARLY)))

@@ -32,6 +32,7 @@ import scipy.optimize
 from motorid.blockwise import sum_of_squares_about
 from motorid.identification.classic import first_crossing
 from motorid.identification.result import STOPPED_EARLY
+from motorid.model.response import recorded_step_response
 from motorid.model.simplify import nearest_zeros
 from motorid.model.uncertainty import Uncertainty
 from motorid.numfmt import sig
@@ -328,6 +329,7 @@ def sanity_checks(
     measured_t63_s: float | None = None,
     unwhitened: Mapping[str, float] | None = None,
     input_v: Mapping[str, np.ndarray] | None = None,
+    velocity_window_s: float = 0.0,
 ) -> SanityReport:
     """Run the sanity gate on one model.
 
@@ -350,6 +352,9 @@ def sanity_checks(
     input_v : Mapping[str, ndarray], optional
         Each capture's recorded input increment after its step (captures with an input
         channel only), keyed by file.
+    velocity_window_s : float
+        The window a counted velocity's samples are means over: the model's response is compared
+        averaged the same way (:func:`~motorid.model.response.recorded_step_response`); 0 when sampled.
 
     Returns
     -------
@@ -373,7 +378,8 @@ def sanity_checks(
         checks.append(SanityCheck("stable", True, "every pole in the left half-plane"))
     final = float(np.mean(v[-max(2, v.size // 10):]))
     with np.errstate(over="ignore", invalid="ignore"):
-        yhat = np.asarray(model.step_response(t, step_volts)["velocity"], dtype=float)
+        yhat = np.asarray(recorded_step_response(model, t, step_volts, velocity_window_s=velocity_window_s)["velocity"],
+                          dtype=float)
     finite = bool(np.all(np.isfinite(yhat)))
     err = float(np.sqrt(np.mean((v - yhat) ** 2)) / abs(final)) if finite and final else float("inf")
     base, bpar = first_order_baseline(t, v, step_volts)

@@ -371,7 +371,7 @@ def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, dela
         Shift groups from :func:`timing_groups`; the channels whose input a scope sampled have
         their common instant at the middle of the interval before their edge samples (each
         one's ``dt/√12`` as ``instant_std``) and their phases relative to each other fitted
-        (``phase_group``).
+        (``phase_group``); a counted speed is fitted as its means over its window (``windows``).
     """
     # a sub-sample phase cannot be told from the lags of the dynamics (an electrical pole, a
     # dead time): fitted, it took them up and τ came out short; so the captures' common instant
@@ -387,7 +387,9 @@ def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, dela
                       shift_groups=timing_groups(cond), instant_std=uncertain,
                       phase_group=tuple(role for role, r in cond.responses.items()
                                         if r.timing == "sampled" and role in cond.full_outputs),
-                      instant_shared=_on_one_time_axis(cond, stamped))
+                      instant_shared=_on_one_time_axis(cond, stamped),
+                      windows=tuple((role, r.sample_window_s) for role, r in cond.responses.items()
+                                    if r.sample_window_s > 0 and role in cond.full_outputs))
 
 
 @dataclass(frozen=True, slots=True)
@@ -684,7 +686,7 @@ def channel_timing(res: OeResult, cond: ConditionedExperiment) -> dict[str, Chan
             shift = _estimate_of(res, f"shift_{role}", res.shifts[role])
         elif r.timing == "onset" and res.delay_s is not None:
             note = "its shift is the dead time (a step instant read off the response cannot be told from it)"
-        out[role] = ChannelTiming(*step_instant(r), shift, note, kind=r.timing)
+        out[role] = ChannelTiming(*step_instant(r), shift, note, kind=r.timing, window_s=r.sample_window_s)
     return out
 
 

@@ -152,6 +152,46 @@ def _affine_orbit(phi: np.ndarray, gam: np.ndarray, x0: np.ndarray, count: int,
     return out
 
 
+def recorded_step_response(model: MotorModel, time_s: Any, step_volts: float | None = None, *,
+                           velocity_window_s: float = 0.0) -> dict[str, np.ndarray]:
+    """:func:`step_response` as the sensors record it: a counted velocity is a mean over a window.
+
+    A speed counted from encoder edges over each sample interval is the mean over the window
+    ``T`` before each time (:attr:`motorid.capture.Capture.sample_window_s`); the model's is
+    averaged the same way before it is compared with such a record: ``(P(t) − P(t − T))/T``, with
+    ``P`` the velocity's integral (the velocity transfer function with an integrator, the same dead
+    time and static nonlinearity), exact across a dead time's kink and the step.
+
+    Parameters
+    ----------
+    model : MotorModel
+        The model.
+    time_s : array_like
+        Times in seconds (any grid).
+    step_volts : float, optional
+        Step level; defaults to the model's ``step_volts``.
+    velocity_window_s : float
+        The velocity's window ``T`` (s); 0 for a sampled velocity (then :func:`step_response`).
+
+    Returns
+    -------
+    dict of str to ndarray
+        One array per output channel, the velocity as recorded.
+    """
+    out = step_response(model, time_s, step_volts)
+    if velocity_window_s <= 0 or "velocity" not in out:
+        return out
+    from motorid.model.motor import model_from_velocity_tf
+
+    t = np.asarray(time_s, dtype=float).ravel()
+    integral = model_from_velocity_tf(*model._row_tf("velocity"), with_position=True).replace(
+        delay_s=model.delay_s, static_nonlinearity=model.static_nonlinearity)
+    step = model.step_volts if step_volts is None else step_volts
+    late = step_response(integral, t, step)["position"]
+    early = step_response(integral, t - velocity_window_s, step)["position"]
+    return {**out, "velocity": (late - early) / velocity_window_s}
+
+
 def step_nrmse(
     model: MotorModel,
     time_s: Any,

@@ -236,6 +236,9 @@ class ChannelTiming:
         The same source as a word a program can test (:data:`TIMING_KINDS`): ``logged``,
         ``sampled``, ``onset`` (read off the response: no input channel) or ``given`` (``--t0``);
         ``None`` when not known.
+    window_s : float
+        The window each of the channel's samples is the mean over, ending at its time (a speed
+        counted over each sample interval, fitted as such means); 0 for samples.
     """
 
     step_instant: str
@@ -243,6 +246,7 @@ class ChannelTiming:
     shift: ParameterEstimate | None = None
     note: str | None = None
     kind: str | None = None
+    window_s: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         """The model JSON's ``timing`` entry of this channel.
@@ -259,6 +263,8 @@ class ChannelTiming:
             out["note"] = self.note
         if self.kind is not None:
             out["kind"] = self.kind
+        if self.window_s > 0:
+            out["window_s"] = float(self.window_s)
         return out
 
     @classmethod
@@ -273,7 +279,9 @@ class ChannelTiming:
         kind = data.get("kind")
         if kind not in TIMING_KINDS:
             kind = next((k for k, text in TIMING_SOURCES.items() if words.startswith(text[:24])), None)
-        return cls(words, _number(data.get("edge_s")), shift, None if note is None else str(note), kind)
+        window = data.get("window_s")
+        return cls(words, _number(data.get("edge_s")), shift, None if note is None else str(note), kind,
+                   float(window) if isinstance(window, (int, float)) and not isinstance(window, bool) else 0.0)
 
 
 #: The typed top-level keys of ``uncertainty``, in the order the JSON has them.

@@ -29,6 +29,7 @@ from motorid.conditioning.denoise import fft_denoise
 from motorid.conditioning.derivative import derivative
 from motorid.conditioning.pipeline import ConditionedExperiment
 from motorid.model import MotorModel
+from motorid.model.response import recorded_step_response
 from motorid.model.units import channel_unit
 
 __all__ = [
@@ -384,7 +385,8 @@ def step_fit_figure(model: MotorModel, cond: ConditionedExperiment) -> Figure:
     roles = [r for r in ("velocity", "position", "current") if r in cond.full_outputs and r in model.outputs]
     if not roles and "velocity" in cond.full_outputs:
         roles = ["velocity"]
-    sim = model.step_response(t, cond.step_volts)
+    # a counted velocity is compared with the model's means over the same window
+    sim = recorded_step_response(model, t, cond.step_volts, velocity_window_s=cond.velocity_window_s)
     fig, axes = _subplots(2 * len(roles), 1, figsize=(FULL_WIDTH_IN, 2.9 * len(roles)), squeeze=False,
                           gridspec_kw={"height_ratios": [3, 1.3] * len(roles)})
     for j, role in enumerate(roles):
@@ -394,7 +396,9 @@ def step_fit_figure(model: MotorModel, cond: ConditionedExperiment) -> Figure:
         yh = sim.get(role)
         top.plot(t, y, lw=0.8, label="measured")
         if yh is not None:
-            top.plot(t, yh, lw=1.5, label=f"model ({model.method})")
+            counted = role == "velocity" and cond.velocity_window_s > 0
+            top.plot(t, yh, lw=1.5, label=f"model ({model.method})"
+                     + (f", its means over each {1e3 * cond.velocity_window_s:.3g} ms as counted" if counted else ""))
             bottom.plot(t, y - yh, lw=0.7, color="C3")
         top.set_title(role, loc="left")
         unit = channel_unit(model.units, role)

@@ -56,11 +56,16 @@ from motorid.trainer.plant import simulate_plant
 from motorid.trainer.presets import TrainerConfig, _motor_from_targets
 from motorid.trainer.realsetups import RPM_PER_RAD_S, RealSetupTruth, _truth, _write_csv
 
-__all__ = ["HOBBY_RIGS", "hobby_rig_config", "write_hobby_rig"]
+__all__ = ["COUNTED_SPEED_RIGS", "HOBBY_RIGS", "hobby_rig_config", "write_hobby_rig"]
 
 #: The presets of this module.
 HOBBY_RIGS: tuple[str, ...] = ("l298n-rpm", "arduino-millis", "host-loop", "encoder-counts", "staircase", "ms-time",
                                "serial-plotter", "picoscope", "clock-stamps", "no-header")
+#: The presets whose speed column counts encoder edges over each logged interval (the mean speed
+#: since the last line; ``--counted-velocity`` describes it): their truth's ``sensor_lag_s`` is
+#: half that interval.
+COUNTED_SPEED_RIGS: tuple[str, ...] = ("l298n-rpm", "arduino-millis", "ms-time", "serial-plotter", "clock-stamps",
+                                       "no-header")
 #: The fine grid the plant runs on before the rig samples it (s).
 FINE_S = 1e-4
 #: L298N rig: supply step, the bridge's drop, the firmware's dead time, encoder counts per output turn.

@@ -102,8 +102,9 @@ def identify_options(fields: Mapping[str, tuple[str, ...]], *, ignore: tuple[str
     for name in ("step_volts", "t0"):
         if name in one and (v := _text_number(name, one[name])) is not None:
             read[name] = v
-    if "force_role" in one:
-        read["force_role"] = bool(_flag("force_role", one["force_role"]))
+    for name in ("force_role", "counted_velocity"):
+        if name in one:
+            read[name] = bool(_flag(name, one[name]))
     if one.get("columns", "").strip():
         read["columns"] = one["columns"]  # read_experiment parses it (one parser for every front end)
     for name in ("units", "scale"):
