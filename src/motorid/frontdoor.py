@@ -1210,6 +1210,7 @@ def validate(
     t0: float | None = None,
     warmup_s: float = 0.0,
     columns: Mapping[str, str] | str | None = None,
+    counted_velocity: bool = False,
 ) -> tuple[ValidationResult, ...]:
     """Drive the model with recorded inputs and score it on each capture (``motorid validate``).
 
@@ -1233,6 +1234,10 @@ def validate(
         Seconds at the start simulated but not scored (default 0: the initial state is estimated).
     columns : Mapping or str, optional
         Plain-CSV column map.
+    counted_velocity : bool
+        The captures' velocity counts encoder edges over each sample interval: the model's means
+        over each interval are scored (:attr:`Capture.sample_window_s`; a capture that carries
+        its window already keeps it).
 
     Returns
     -------
@@ -1257,6 +1262,10 @@ def validate(
         raise OptionError(f"give the validation capture(s): a file, an ALLnnnn folder, a Capture or a sequence of "
                           f"them, not {captures!r}")
     check_options(channel, warmup_s)  # before any file is read
+    if not isinstance(counted_velocity, bool):
+        raise OptionError(f"counted_velocity must be True or False, got {counted_velocity!r}")
+    if counted_velocity and channel != "velocity":
+        raise OptionError(f"--counted-velocity describes a counted velocity: it does not go with --channel {channel}")
     if step_volts is not None and not (step_volts != 0 and abs(step_volts) < float("inf")):
         raise OptionError(f"--step-volts must be a non-zero number of volts, got {step_volts:g}")
     motor = _model_of(model)
@@ -1270,6 +1279,8 @@ def validate(
         else:
             paths = [str(p) for p in _paths(item)]
             cap = read_capture(paths[0] if len(paths) == 1 else paths, columns=columns)
+        if counted_velocity and not cap.sample_window_s:
+            cap = replace(cap, sample_window_s=cap.sample_interval_s)
         try:
             res = validate_capture(motor, cap, channel=channel, step_volts=step_volts, t0_s=t0, warmup_s=warmup_s)
         except MotorIdError as exc:

@@ -25,6 +25,7 @@ __all__ = [
     "ADVISE",
     "COLUMNS",
     "COMMANDS",
+    "COUNTED_VELOCITY",
     "DESIGN",
     "DESIGN_PID",
     "IDENTIFY",
@@ -106,6 +107,12 @@ COLUMNS = OptionSpec("columns", "--columns", None, "",
                      "plain-CSV column map, e.g. time=t,input=u,velocity=rpm; a CSV without a header row names its "
                      "columns by position, e.g. time=1,input=2,velocity=3")
 
+#: A velocity that counts encoder edges over each sample interval: read, identify and validate take it.
+COUNTED_VELOCITY = OptionSpec("counted_velocity", "--counted-velocity", False, "",
+                              "the velocity counts encoder edges over each sample interval (a mean speed, as Arduino "
+                              "sketches print rpm): the model's means over each interval are fitted and scored, so "
+                              "its timing is the motor's")
+
 #: :func:`motorid.read_experiment`'s options.
 READ: tuple[OptionSpec, ...] = (
     OptionSpec("step_volts", "--step-volts", None, "V", "step level for captures without an input channel"),
@@ -116,9 +123,7 @@ READ: tuple[OptionSpec, ...] = (
     OptionSpec("units", "--units", None, "", "each channel's unit, e.g. velocity=rpm"),
     OptionSpec("scale", "--scale", None, "", "sensor constants, e.g. velocity=0.1504V/(rad/s)"),
     OptionSpec("segment", "--segment", None, "", "a log with several input steps: identify its step N alone (1-based)"),
-    OptionSpec("counted_velocity", "--counted-velocity", False, "",
-               "the velocity counts encoder edges over each sample interval (a mean speed, as Arduino sketches "
-               "print rpm): fitted as such means, so the model's timing is the motor's"),
+    COUNTED_VELOCITY,
 )
 
 #: :func:`motorid.identify`'s options.
@@ -211,6 +216,7 @@ VALIDATE: tuple[OptionSpec, ...] = (
     OptionSpec("t0", "--t0", None, "s", "the step instant on the files' time axis"),
     OptionSpec("warmup_s", "--warmup", 0.0, "s", "seconds at the start simulated but not scored"),
     COLUMNS,
+    COUNTED_VELOCITY,
 )
 
 #: Each front-door function's options, by the command's name.

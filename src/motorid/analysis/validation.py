@@ -26,13 +26,13 @@ import numpy as np
 from motorid._threads import single_blas_thread
 from motorid.capture import Capture
 from motorid.conditioning.edge import step_edge
-from motorid.conditioning.response import step_response
+from motorid.conditioning.response import LOGGED_FORMATS, step_response
 from motorid.conditioning.unwrap import unwrap_position
 from motorid.errors import CaptureDataError, OptionError, StepNotFoundError
 from motorid.identification.metrics import fit_percent, nrmse
 from motorid.identification.sanity import TOLERANCES
 from motorid.model import CHANNELS, MotorModel
-from motorid.model.forced import linear_hold_response
+from motorid.model.forced import linear_hold_response, zero_hold_delayed
 from motorid.model.units import channel_unit
 
 __all__ = ["ValidationResult", "check_channel", "check_options", "model_delay_s", "validate_capture"]
@@ -331,6 +331,45 @@ def _recorded_drive(capture: Capture, channel: str, step_volts: float | None, t0
     return _Drive(u, y, wraps, "span", "recorded", None)
 
 
+def _responses(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, h: float, u: np.ndarray,
+               delay: float, n_free: int, *, held: bool, window: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The model's forced response to ``u`` on a grid ``h`` apart and its free responses to unit states.
+
+    ``held``: each input sample holds from its stamp to the next (a logged command: the step at
+    the stamp that logged it, as the identification places it), the dead time ``delay`` exact
+    (:func:`~motorid.model.forced.zero_hold_delayed`); else the input is linear between samples
+    (a sampled voltage: a sampled step's edge in the interval before its first sample), ``u``
+    delayed already and ``delay`` unused.  ``window``: the output's means over each interval ``(t_{k−1}, t_k]`` (a
+    speed counted over each interval), from the realisation with an integrator of the output
+    appended, ``İ = C x + D u``: ``(I[k] − I[k−1])/h``; the free responses likewise (the
+    integrator's own start cancels).  The first sample, which has no interval before it, is the
+    model's sample.
+    """
+    n = a.shape[0]
+    rows = [(a, b, c, d)]
+    if window:
+        aa = np.zeros((n + 1, n + 1))
+        aa[:n, :n], aa[n, :n] = a, np.ravel(c)
+        cc = np.zeros((1, n + 1))
+        cc[0, n] = 1.0
+        rows.append((aa, np.vstack([np.reshape(b, (n, 1)), np.reshape(d, (1, 1))]), cc, np.zeros((1, 1))))
+    out = []
+    for a_, b_, c_, d_ in rows:
+        m = a_.shape[0]
+        initial = np.eye(m)[:, :n_free] if n_free else None
+        if held:
+            forced = zero_hold_delayed(a_, b_, np.reshape(c_, (1, m)), np.ravel(d_), h, u, delay)[:, 0]
+            _, free = linear_hold_response(a_, b_, c_, d_, h, np.zeros(u.size), initial)
+        else:
+            forced, free = linear_hold_response(a_, b_, c_, d_, h, u, initial)
+        out.append((forced, free))
+    if not window:
+        return out[0]
+    (sampled, free_sampled), (integral, free_integral) = out
+    means = np.r_[sampled[:1], np.diff(integral) / h]
+    return means, (np.vstack([free_sampled[:1], np.diff(free_integral, axis=0) / h]) if n_free else free_sampled)
+
+
 @single_blas_thread
 def validate_capture(
     model: MotorModel,
@@ -404,12 +443,6 @@ def validate_capture(
     if wraps:
         notes.append(f"position unwrapped: {wraps} encoder wrap(s) removed")
     t = t_file - t_file[0]
-    if delay > 0:
-        # the model's dead time: the plant sees the input delay_s late
-        u_model = np.interp(t - delay, t, u, left=u[0])
-        notes.append(f"input delayed by the model's dead time {delay:.4g} s")
-    else:
-        u_model = u
     (a, b, c, d), names = _channel_system(model, channel)
     # the input is linear between samples on an evenly spaced grid: a logger's jittered time
     # stamps are simulated on the even grid of the same span and read back at the samples
@@ -421,14 +454,31 @@ def validate_capture(
         values = np.asarray(values, float).ravel()
         return values if even else np.interp(t, grid, values)
 
-    u_grid = u_model if even else np.interp(grid, t, u_model)
     if not even:
         notes.append("uneven time stamps: simulated on an even grid and interpolated")
+    # a logged command holds from its stamp (where the identification puts a logged step)
+    held = capture.format in LOGGED_FORMATS and capture.input_v is not None and even
+    # otherwise the model's dead time delays the input, linear between samples
+    u_model = np.interp(t - delay, t, u, left=u[0]) if delay > 0 and not held else u
+    u_grid = u_model if even else np.interp(grid, t, u_model)
     n = a.shape[0]
-    # python-control's forced_response and initial_response (the same first-order hold), in one
-    # state recursion run in blocks instead of a Python loop over the samples
-    forced_grid, free = linear_hold_response(a, b, c, d, float(grid[1] - grid[0]), u_grid,
-                                             np.eye(n) if estimate_initial_state else None)
+    h = float(grid[1] - grid[0])
+    window = capture.sample_window_s if channel == "velocity" else 0.0
+    counted = window > 0 and even and abs(window - h) <= 1e-6 * h
+    forced_grid, free = _responses(a, b, c, d, h, u_grid, delay, n if estimate_initial_state else 0, held=held,
+                                   window=counted)
+    if delay > 0:
+        notes.append(f"input delayed by the model's dead time {delay:.4g} s")
+    if held:
+        notes.append("the logged input holds each value from its stamp to the next (the step at the stamp that "
+                     "logged it)")
+    if counted:
+        notes.append(f"the velocity is counted over each {1e3 * window:.4g} ms interval: the model's mean over "
+                     "each interval is scored")
+    elif window > 0:
+        warnings.append(f"the velocity is counted over {1e3 * window:.4g} ms, not over this record's "
+                        f"{1e3 * h:.4g} ms grid: the model's samples are scored, which lead such means by "
+                        f"about {0.5e3 * window:.3g} ms")
     forced = on_samples(forced_grid)
     scored = t >= warmup_s - 1e-12 * max(1.0, t[-1])
     if int(scored.sum()) < MIN_SCORED:

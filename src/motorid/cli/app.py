@@ -20,11 +20,11 @@ from rich.table import Table
 
 from motorid.errors import MotorIdError, OptionError
 from motorid.numfmt import sig
-from motorid.options import COLUMNS, READ, TRAINER_PRESETS, TRAINER_RIGS
+from motorid.options import COLUMNS, COUNTED_VELOCITY, READ, TRAINER_PRESETS, TRAINER_RIGS
 
 #: ``--segment``'s help, from its declaration.
 SEGMENT_HELP = (lambda h: h[:1].upper() + h[1:])(next(o.help for o in READ if o.name == "segment"))
-COUNTED_HELP = next(o for o in READ if o.name == "counted_velocity").sentence
+COUNTED_HELP = COUNTED_VELOCITY.sentence
 
 # Everything else loads inside the command that needs it: ``motorid --help`` imports
 # typer and rich only, not numpy, scipy, python-control or matplotlib.
@@ -528,7 +528,7 @@ def identify(
                          captures=list(exp.step_captures()))
         return
     caps = dict(exp.captures)
-    checks = _validation_captures(validate, columns) if report_out is not None else {}
+    checks = _validation_captures(validate, columns, counted_velocity) if report_out is not None else {}
     if report_out is not None:
         from motorid.control.design_io import read_design_json as read_design
 
@@ -620,15 +620,19 @@ def _capture_names(specs: list[str] | None) -> list[str]:
     return [p for spec in (specs or []) for p in spec.split(",") if p]
 
 
-def _validation_captures(specs: list[str] | None, columns: str | None) -> dict:
+def _validation_captures(specs: list[str] | None, columns: str | None, counted: bool = False) -> dict:
+    """The report's validation captures by name (a counted velocity's window on each with ``counted``)."""
+    from dataclasses import replace
+
     from motorid.io import read_capture
 
     colmap = _parse_columns(columns)
     names = _capture_names(specs)
     # keyed by file name; two captures of the same name in different folders keep their paths
     short = [Path(n).name for n in names]
-    return {(k if short.count(k) == 1 else n): read_capture(_capture_paths(n), columns=colmap)
+    caps = {(k if short.count(k) == 1 else n): read_capture(_capture_paths(n), columns=colmap)
             for k, n in zip(short, names, strict=False)}
+    return {k: replace(c, sample_window_s=c.sample_interval_s) for k, c in caps.items()} if counted else caps
 
 
 @app.command()
@@ -654,6 +658,7 @@ def validate(
     columns: Annotated[str | None, typer.Option(help=COLUMNS.sentence)] = None,
     time_unit: Annotated[str | None, typer.Option("--time-unit", help=TIME_UNIT_HELP)] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+    counted_velocity: Annotated[bool, typer.Option("--counted-velocity", help=COUNTED_HELP)] = False,
 ) -> None:
     """Drive a model with recorded inputs and report NRMSE / fit % per capture (paper §VI-B).
 
@@ -668,7 +673,8 @@ def validate(
     if max_nrmse is not None and not max_nrmse >= 0:
         raise OptionError(f"--max-nrmse must be a non-negative fraction (e.g. 0.05), got {max_nrmse:g}")
     results = frontdoor.validate(model_json, [_capture_paths(n) for n in _capture_names(captures)], channel=channel,
-                                 step_volts=step_volts, t0=t0, warmup_s=warmup, columns=_parse_columns(columns))
+                                 step_volts=step_volts, t0=t0, warmup_s=warmup, columns=_parse_columns(columns),
+                                 counted_velocity=counted_velocity)
     model = load_model(model_json)  # for the table's title and units
     failed = [r for r in results if max_nrmse is not None and not r.nrmse <= max_nrmse]
     if as_json:
@@ -738,7 +744,7 @@ def report(
     exp = _read_experiment(position, velocity, current, columns, step_volts=step_volts, force_role=force_role,
                            segment=segment, counted_velocity=counted_velocity)
     _print_steps(exp)
-    checks = _validation_captures(validate, columns)
+    checks = _validation_captures(validate, columns, counted_velocity)
     doc = read_design(design) if design is not None else None
     with _bar("report", total=2) as progress:
         progress(0, label="identifying")
