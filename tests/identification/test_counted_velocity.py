@@ -173,6 +173,8 @@ def test_the_counted_rig_log_gives_the_motors_timing_inside_its_interval(seed, s
     assert counted_model["timing"]["velocity"]["window_s"] == pytest.approx(0.01)
     assert "window_s" not in models[False][0]["timing"]["velocity"]
     assert "mean speed over the 10 ms before it" in " ".join(printed.split())
+    assert "a read-off on the counted speed is about 5 ms later" in " ".join(printed.split())
+    assert "what a scope read-off measures" in models[False][1]
     assert "sanity checks: all" in printed
 
 
