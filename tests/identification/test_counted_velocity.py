@@ -10,6 +10,7 @@ the identification against the l298n-rpm rig's truth through the command line as
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import subprocess
@@ -189,3 +190,28 @@ def test_counted_velocity_needs_a_velocity_capture(tmp_path, run_cli):
         mi.read_experiment(position=rec.files["log"], counted_velocity=True)
     with pytest.raises(OptionError, match=r"^counted_velocity must be True or False, got .yes.$"):
         mi.read_experiment(position=rec.files["log"], velocity=rec.files["log"], counted_velocity="yes")
+
+
+def _counted_level(volts: float, *, window: float) -> Capture:
+    """A logged step to ``volts`` of 30·(1 − 0.5/V) per volt through 1/(0.08 s + 1): the speed counted over 10 ms."""
+    t = np.arange(300) * 0.01
+    p, r, n0 = residues(np.array([1.0]), [0.08])
+    basis = WindowBasis(t - t[50], p, 0.01) if window else ResponseBasis(t - t[50], p)
+    speed = 30.0 * (volts - 0.5) * basis.step(r, n0)
+    u = np.where(np.arange(300) >= 50, volts, 0.0)
+    return Capture(f"level{volts:g}.csv", "plain-csv", t, speed, ChannelInfo("speed"), input_v=u,
+                   input_info=ChannelInfo("voltage"), sample_window_s=window)
+
+
+def test_the_several_levels_fit_takes_counted_speeds_as_means():
+    """Three counted levels, noise-free: with their windows the shared time constant is the motor's;
+    the same records taken as samples put the counting's half interval into it."""
+    import motorid as mi
+
+    counted = mi.identify_levels([_counted_level(v, window=0.01) for v in (2.0, 4.0, 6.0)])
+    tau = counted.model.first_order().time_constant_s
+    assert tau == pytest.approx(0.08, rel=1e-4)
+    assert "counted over each 10 ms interval" in counted.dynamics_note
+    as_samples = mi.identify_levels([dataclasses.replace(_counted_level(v, window=0.01), sample_window_s=0.0)
+                                     for v in (2.0, 4.0, 6.0)])
+    assert as_samples.model.first_order().time_constant_s > 0.08 + 0.002  # about +T/2

@@ -222,14 +222,45 @@ def _unit_step(den: np.ndarray, t: np.ndarray) -> np.ndarray:
     return np.real(s)
 
 
+def _unit_step_integral(den: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """``∫₀ᵗ`` of :func:`_unit_step`, 0 before the step.
+
+    ``t + (e^{−at} − 1)/a``, and for two poles ``t + (p₂(e^{p₁t} − 1)/p₁ − p₁(e^{p₂t} − 1)/p₂)/(p₁ − p₂)``.
+    """
+    t = np.clip(t, 0.0, None)
+    if den.size == 2:
+        return t + np.expm1(-den[1] * t) / den[1]
+    p1, p2 = np.roots(den).astype(complex)
+    if abs(p1 - p2) < 1e-6 * abs(p1):
+        p2 = p1 * (1 + 1e-6)
+    with np.errstate(over="ignore", invalid="ignore"):
+        s = t + (p2 * np.expm1(p1 * t) / p1 - p1 * np.expm1(p2 * t) / p2) / (p1 - p2)
+    return np.real(s)
+
+
+def _recorded_unit_step(den: np.ndarray, t: np.ndarray, window: float) -> np.ndarray:
+    """:func:`_unit_step` as a speed counted over ``window`` records it.
+
+    Its mean over the window before each time (:attr:`~motorid.capture.Capture.sample_window_s`);
+    the samples themselves when the window is 0.
+    """
+    if window <= 0:
+        return _unit_step(den, t)
+    return (_unit_step_integral(den, t) - _unit_step_integral(den, t - window)) / window
+
+
 def _joint_fit(responses: list[tuple[StepResponse, float]], order: int, t63: float) -> tuple[np.ndarray, float, int]:
-    """Shared unit-DC dynamics of ``order`` with per-capture amplitudes: den, RSS, samples."""
+    """Shared unit-DC dynamics of ``order`` with per-capture amplitudes: den, RSS, samples.
+
+    A counted speed (a response with a ``sample_window_s``) is fitted as the model's means over
+    its windows.
+    """
     data = []
     for resp, noise in responses:
         t, y = resp.time_s, resp.output_v
         keep = np.flatnonzero((t >= 0) & (t <= JOINT_TIME_CONSTANTS * t63))
         keep = keep[np.unique(np.linspace(0, keep.size - 1, min(JOINT_SAMPLES, keep.size)).astype(int))]
-        data.append((t[keep], y[keep], 1.0 / max(noise, 1e-12)))
+        data.append((t[keep], y[keep], 1.0 / max(noise, 1e-12), resp.sample_window_s))
 
     def den_of(theta: np.ndarray) -> np.ndarray:
         if order == 1:
@@ -241,8 +272,8 @@ def _joint_fit(responses: list[tuple[StepResponse, float]], order: int, t63: flo
     def residuals(theta: np.ndarray) -> np.ndarray:
         den = den_of(theta)
         out = []
-        for t, y, w in data:
-            s = _unit_step(den, t)
+        for t, y, w, window in data:
+            s = _recorded_unit_step(den, t, window)
             a = float(s @ y / (s @ s)) if s @ s > 0 else 0.0  # the capture's amplitude, closed form
             out.append(w * (y - a * s))
         return np.concatenate(out)
@@ -308,6 +339,11 @@ def identify_levels(
     dynamics, shared, note = _compare_dynamics(per_capture)
     if not shared:
         warnings.append(note)
+    windows = sorted({resp.sample_window_s for _, resp, _ in usable if resp.sample_window_s > 0})
+    if windows:
+        note += (f"; the speeds are counted over each {', '.join(f'{1e3 * w:.4g}' for w in windows)} ms interval "
+                 "(--counted-velocity): the shared dynamics are fitted to their means over each interval, so they "
+                 "are the motor's, without the counting's lag")
     t63 = float(np.median([m[2] for m in usable]))
     joint_in = [(resp, point.noise) for point, resp, _ in usable]
     fits = {order: _joint_fit(joint_in, order, t63) for order in (1, 2)}
