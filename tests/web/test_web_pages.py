@@ -387,3 +387,21 @@ def test_the_closed_loop_table_gives_the_data_units_and_says_when_a_time_was_not
     assert row is not None and row.group(1).endswith(" rpm"), table
     row = re.search(r"peak \|u\|</td><td>([^<]*)</td>", table)
     assert row is not None and row.group(1).endswith(" V"), table
+
+
+def test_the_page_fits_a_counted_speed_when_its_box_is_ticked(client, tmp_path):
+    """The captures form's "speed counted per line" box: the page's model is the front door's
+    ``read_experiment(..., counted_velocity=True)`` one (its dead time half an interval shorter)."""
+    import motorid as mi
+    from motorid.trainer.realsetups import write_real_setup
+
+    rec = write_real_setup("l298n-rpm", tmp_path / "rig", seed=0)
+    tab = open_tab(client)
+    res = client.post(f"/tab/{tab}/upload", files=multipart("files", [rec.files["log"]]))
+    assert 'name="counted_velocity"' in res.text
+    res = client.post(f"/tab/{tab}/identify", data={"role_c0": "velocity", "counted_velocity": "true"})
+    assert res.status_code == 200, res.text
+    model = client.get(f"/tab/{tab}/download/model.json").json()
+    want = mi.identify(mi.read_experiment(velocity=rec.files["log"], counted_velocity=True)).model
+    assert model["timing"]["velocity"]["window_s"] == pytest.approx(0.01)
+    assert model["delay_s"] == pytest.approx(want.delay_s, rel=1e-9)

@@ -24,7 +24,7 @@ __all__ = ["router"]
 router = APIRouter()
 
 #: Form fields of the identify form besides the ``role_<cid>`` selects.
-_IDENTIFY_FIELDS = ("method", "order", "step_volts", "t0", "delay", "segment")
+_IDENTIFY_FIELDS = ("method", "order", "step_volts", "t0", "delay", "segment", "counted_velocity")
 #: Files the download buttons serve: name → (media type, what it is).
 DOWNLOADS: dict[str, str] = {
     "model.json": "application/json",
