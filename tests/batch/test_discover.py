@@ -232,3 +232,32 @@ def test_folders_with_files_but_no_capture_are_named(tmp_path):
     (root / "instructions.pdf").write_bytes(b"%PDF")  # the root's own files are not a folder of it
     assert folders_without_captures([root]) == [("finn", ("notes.txt", "scope.jpg"))]
     assert [s.name for s in discover_experiments([root])] == ["erin"]
+
+
+def test_a_class_of_counted_speed_logs_with_one_flag(tmp_path, run_cli):
+    """``motorid batch --counted-velocity``: every experiment with a velocity log is fitted as counted (the
+    model JSON's ``timing.velocity.window_s``), an experiment with only a position is identified as it is,
+    and a rerun without the flag is not served from the counted results."""
+    import json
+
+    from motorid.trainer.realsetups import write_real_setup
+
+    root = tmp_path / "class"
+    for name, rig in (("ann", "l298n-rpm"), ("bob", "l298n-rpm"), ("cem", "host-loop")):
+        rec = write_real_setup(rig, tmp_path / "rigs" / name, seed=len(name) + ord(name[0]) % 3)
+        (root / name).mkdir(parents=True)
+        log = rec.files["log"]
+        (root / name / log.name).write_bytes(log.read_bytes())
+        role = "velocity" if rig == "l298n-rpm" else "position"
+        (root / name / "experiment.toml").write_text(f'{role} = "{log.name}"\n', encoding="utf-8")
+    out = tmp_path / "out"
+    res = run_cli("batch", root, "--out", out, "--jobs", "1", "--no-report", "--counted-velocity")
+    assert res.code == 0, res.err
+    windows = {name: json.loads((out / name / "model.json").read_text())["timing"]
+               .get("velocity", {}).get("window_s") for name in ("ann", "bob", "cem")}
+    assert windows["ann"] == pytest.approx(0.01) and windows["bob"] == pytest.approx(0.01)
+    assert windows["cem"] is None
+    res = run_cli("batch", root, "--out", out, "--jobs", "1", "--no-report")
+    assert res.code == 0, res.err
+    model = json.loads((out / "ann" / "model.json").read_text())
+    assert "window_s" not in model["timing"]["velocity"]  # recomputed, not served from the counted run

@@ -61,6 +61,10 @@ class BatchSettings:
         design a controller on every model (``design.json``, shown in the report).
     force_role : bool
         Keep roles named by a roles file even when a capture looks like another role.
+    counted_velocity : bool
+        Every experiment's velocity counts encoder edges over each sample interval (an
+        ``experiment.toml``'s ``counted_velocity = true`` says so for one experiment); an
+        experiment without a velocity capture is identified as it is.
 
     Raises
     ------
@@ -80,6 +84,7 @@ class BatchSettings:
     validate: bool = False
     design: Mapping[str, Any] | None = None
     force_role: bool = False
+    counted_velocity: bool = False
 
     def __post_init__(self) -> None:
         unknown = sorted(set(self.identify) - set(IDENTIFY_OPTIONS))
@@ -124,6 +129,8 @@ class BatchSettings:
             "report": self.report, "validate": self.validate,
             "design": None if self.design is None else dict(self.design),
             "force_role": self.force_role,
+            # only when set: the resume hashes of batches without it stay as they were
+            **({"counted_velocity": True} if self.counted_velocity else {}),
         }
 
 
@@ -305,7 +312,7 @@ def _identify_one(spec: ExperimentSpec, settings: BatchSettings) -> ExperimentOu
         columns=colmap,
         force_role=settings.force_role or not spec.roles,  # guessed roles agree with the guess
         segment=spec.segment,
-        counted_velocity=spec.counted_velocity,
+        counted_velocity=(spec.counted_velocity or settings.counted_velocity) and "velocity" in paths,
     )
     fit = mi.identify(exp, **settings.identify)
     warnings = [_relative(w, spec.folder) for w in fit.warnings]

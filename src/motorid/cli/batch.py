@@ -13,7 +13,7 @@ from typing import Annotated
 
 import typer
 
-from motorid.options import COLUMNS
+from motorid.options import COLUMNS, COUNTED_VELOCITY
 
 __all__ = ["register"]
 
@@ -46,6 +46,9 @@ def batch(
     columns: Annotated[str | None, typer.Option(help=COLUMNS.sentence)] = None,
     force_role: Annotated[bool, typer.Option(
         "--force-role", help="Keep the roles a roles file names even when a capture looks like another.")] = False,
+    counted_velocity: Annotated[bool, typer.Option(
+        "--counted-velocity", help=COUNTED_VELOCITY.sentence[:-1] + " (every experiment with a velocity capture; "
+                                   "experiment.toml's counted_velocity = true for one).")] = False,
     report: Annotated[bool, typer.Option("--report/--no-report", help="Write each experiment's HTML report.")] = True,
     reports: Annotated[str | None, typer.Option(
         "--reports", help="full (each experiment's report, about 2 s each), lazy (a small page per experiment with "
@@ -93,6 +96,7 @@ def batch(
         identify=identify, step_volts=step_volts, t0=t0, columns=_parse_columns(columns), report=report,
         lazy_reports=reports == "lazy",
         validate=validate, design=None if damping is None else {"damping": damping, "wn": wn}, force_role=force_role,
+        counted_velocity=counted_velocity,
     )
     show = progress or sys.stderr.isatty()
     columns_ = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
