@@ -277,6 +277,8 @@ class _Drive:
     reference: Literal["final", "span"]
     kind: str
     step_time: float | None
+    #: The input holds each value from its stamp (a logged command), not linear between samples.
+    held: bool = False
 
 
 def _step_drive(capture: Capture, channel: str, step_volts: float | None, t0_s: float | None,
@@ -309,7 +311,8 @@ def _step_drive(capture: Capture, channel: str, step_volts: float | None, t0_s: 
                  f"{'as recorded' if capture.input_v is not None else 'built from --step-volts'}; scored on the "
                  "increments from the pre-step baseline")
     # a current returns towards 0 after the step: its change is its span, not its end
-    return _Drive(u, y, sr.wraps, "span" if channel == "current" else "final", kind, step_time)
+    return _Drive(u, y, sr.wraps, "span" if channel == "current" else "final", kind, step_time,
+                  held=sr.timing == "logged" and capture.input_v is not None)
 
 
 def _recorded_drive(capture: Capture, channel: str, step_volts: float | None, t0_s: float | None,
@@ -328,7 +331,8 @@ def _recorded_drive(capture: Capture, channel: str, step_volts: float | None, t0
         y, wraps = un.position_v, un.wraps
         warnings.extend(un.warnings)
     notes.append("input: CH1 as recorded")
-    return _Drive(u, y, wraps, "span", "recorded", None)
+    return _Drive(u, y, wraps, "span", "recorded", None,
+                  held=capture.format in LOGGED_FORMATS and capture.scope.record_length is None)
 
 
 def _responses(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, h: float, u: np.ndarray,
@@ -457,7 +461,7 @@ def validate_capture(
     if not even:
         notes.append("uneven time stamps: simulated on an even grid and interpolated")
     # a logged command holds from its stamp (where the identification puts a logged step)
-    held = capture.format in LOGGED_FORMATS and capture.input_v is not None and even
+    held = drive.held and even
     # otherwise the model's dead time delays the input, linear between samples
     u_model = np.interp(t - delay, t, u, left=u[0]) if delay > 0 and not held else u
     u_grid = u_model if even else np.interp(grid, t, u_model)

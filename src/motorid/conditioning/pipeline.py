@@ -16,7 +16,7 @@ from motorid.capture import ROLES, Capture
 from motorid.conditioning.checks import check_step_responses
 from motorid.conditioning.denoise import fft_denoise
 from motorid.conditioning.resample import ratio_for_interval, sample_reduction
-from motorid.conditioning.response import StepResponse, step_response
+from motorid.conditioning.response import LOGGED_FORMATS, StepResponse, step_response
 from motorid.conditioning.sync import synchronise
 from motorid.conditioning.timescale import ResponseTimes, auto_reduction_ratio, response_times
 from motorid.errors import ConditioningError, OptionError
@@ -187,7 +187,13 @@ def condition_experiment(
     if t0_s is None:
         responses, shared = _shared_onsets(captures, responses, step_volts)
         notes.extend(shared)
-    for cap in captures.values():
+    for role, cap in captures.items():
+        if (cap.format in LOGGED_FORMATS and cap.scope.record_length is None
+                and responses[role].timing == "sampled"):
+            notes.append(f"{cap.source}: its input column scatters around its levels, a measured voltage rather "
+                         "than a logged command: its step lies in the sample interval before the first sample at "
+                         "the new level (taken at the interval's middle, ±dt/√12 in the intervals), as on a scope; "
+                         "--t0 gives the instant if it is known")
         # a log with more measured columns than the role it was given: say what is left out
         unused = [r for r in ROLES if r in cap.extra and r not in captures]
         if unused:

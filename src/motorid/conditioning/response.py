@@ -28,6 +28,44 @@ LOGGED_FORMATS: tuple[str, ...] = ("plain-csv", "xlsx")
 #: Largest relative difference between a given ``step_volts`` and the step recorded on CH1.
 STEP_VOLTS_TOLERANCE = 0.05
 
+#: A log's input column that scatters around both of its levels by less than this fraction of the
+#: step (and by more than nothing) is a measured voltage, not a command (:func:`measured_input`).
+MEASURED_INPUT_SPREAD = 0.02
+
+
+def measured_input(input_v: np.ndarray | None, edge: StepEdge) -> bool:
+    """Whether a log's input column measured the drive's voltage rather than logged a command.
+
+    A command a loop writes (a PWM duty times the supply, a DAC code) holds the same value from
+    one line to the next, so its step lies at the stamp of the first line with the new value.  A
+    voltage an ADC, a DAQ or a scope channel measured (a PicoScope's CSV export) scatters around
+    each level by its noise and quantisation, and its step lies somewhere in the interval before
+    its first sample at the new level, as on a scope.  The test: more than one value on each side
+    of the edge (an 8-bit channel on a level between two codes alternates between them), with a
+    spread under :data:`MEASURED_INPUT_SPREAD` of the step (a closed loop's varying command, or a
+    staircase's next level, is no such level).
+
+    Parameters
+    ----------
+    input_v : ndarray or None
+        The input column.
+    edge : StepEdge
+        Its step edge.
+
+    Returns
+    -------
+    bool
+    """
+    if input_v is None or not edge.amplitude_v:
+        return False
+    before, after = input_v[: edge.index], input_v[edge.index :]
+
+    def scatters(x: np.ndarray) -> bool:
+        return x.size >= 3 and np.unique(x).size >= 2 and 0 < float(np.std(x)) < MEASURED_INPUT_SPREAD * abs(
+            edge.amplitude_v)
+
+    return scatters(before) and scatters(after)
+
 
 @dataclass(frozen=True, slots=True)
 class StepResponse:
@@ -180,8 +218,9 @@ def step_response(
     if edge.method == "onset" or edge.method == "given":
         timing = edge.method
     else:
-        # a scope re-saved as xlsx keeps its header: a sampled channel
-        logged = capture.format in LOGGED_FORMATS and capture.scope.record_length is None
+        # a scope re-saved as xlsx keeps its header: a sampled channel; so is a log's measured voltage
+        logged = (capture.format in LOGGED_FORMATS and capture.scope.record_length is None
+                  and not measured_input(capture.input_v, edge))
         timing = "logged" if logged else "sampled"
     k = max(1, edge.index)
     if k < 5:
