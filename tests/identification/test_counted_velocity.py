@@ -176,6 +176,9 @@ def test_the_counted_rig_log_gives_the_motors_timing_inside_its_interval(seed, s
     assert "mean speed over the 10 ms before it" in " ".join(printed.split())
     assert "a read-off on the counted speed is about 5 ms later" in " ".join(printed.split())
     assert "what a scope read-off measures" in models[False][1]
+    # the default says what it assumed, and what the option would change
+    hint = "if the log counts encoder edges over each line"
+    assert hint in " ".join(models[False][1].split()) and hint not in " ".join(printed.split())
     assert "sanity checks: all" in printed
 
 

@@ -147,6 +147,11 @@ class ConditionedExperiment:
         return r.sample_window_s if r is not None else 0.0
 
 
+#: Units of a logged speed column that may be a count of encoder edges over each line (a volts
+#: column is a tacho's, sampled).
+COUNTED_SPEED_UNITS: tuple[str, ...] = ("rpm", "rad/s", "rev/s", "deg/s", "counts/s")
+
+
 def condition_experiment(
     captures: Mapping[str, Capture],
     settings: ConditioningSettings = ConditioningSettings(),
@@ -199,6 +204,14 @@ def condition_experiment(
         if unused:
             notes.append(f"{cap.source} also holds a {' and a '.join(unused)} column, not used: give the file as "
                          + " and ".join(f"--{r}" for r in unused) + " too to fit it")
+        if (role == "velocity" and cap.sample_window_s == 0 and responses[role].timing == "logged"
+                and cap.output_info.units in COUNTED_SPEED_UNITS):
+            # the default takes the column for samples; a count's half interval is then in the model's timing
+            window = 1e3 * cap.sample_interval_s
+            notes.append(f"{cap.source}: the speed ({cap.output_info.units}) is fitted as sampled at each stamp; if "
+                         "the log counts encoder edges over each line (as Arduino sketches print it), each value is "
+                         f"the mean over the {window:.4g} ms before it, the motor is about {0.5 * window:.3g} ms "
+                         "quicker than this model, and --counted-velocity fits it so")
         if cap.sample_window_s > 0:
             notes.append(f"{cap.source}: each sample is the mean speed over the {1e3 * cap.sample_window_s:.4g} ms "
                          "before it (counted over each interval, --counted-velocity): the output-error fit (methods "
