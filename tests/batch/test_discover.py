@@ -234,6 +234,7 @@ def test_folders_with_files_but_no_capture_are_named(tmp_path):
     assert [s.name for s in discover_experiments([root])] == ["erin"]
 
 
+@pytest.mark.slow
 def test_a_class_of_counted_speed_logs_with_one_flag(tmp_path, run_cli):
     """``motorid batch --counted-velocity``: every experiment with a velocity log is fitted as counted (the
     model JSON's ``timing.velocity.window_s``), an experiment with only a position is identified as it is,

@@ -148,7 +148,7 @@ def test_a_noise_free_counted_response_is_fitted_to_its_own_time_constant_and_de
     assert fits[False].delay_s == pytest.approx(theta + dt / 2, abs=2e-4)
 
 
-@pytest.mark.parametrize(("seed", "sampled_covers"), [(0, False), (2, False)])
+@pytest.mark.parametrize(("seed", "sampled_covers"), [(0, False), pytest.param(2, False, marks=pytest.mark.slow)])
 def test_the_counted_rig_log_gives_the_motors_timing_inside_its_interval(seed, sampled_covers, tmp_path):
     """``motorid identify --counted-velocity`` on the l298n-rpm rig's log, in a fresh process with the
     default environment: the residence time's 95 % interval covers the motor's own (the truth less
