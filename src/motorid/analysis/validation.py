@@ -343,11 +343,12 @@ def _responses(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, h: fl
     the stamp that logged it, as the identification places it), the dead time ``delay`` exact
     (:func:`~motorid.model.forced.zero_hold_delayed`); else the input is linear between samples
     (a sampled voltage: a sampled step's edge in the interval before its first sample), ``u``
-    delayed already and ``delay`` unused.  ``window``: the output's means over each interval ``(t_{k−1}, t_k]`` (a
-    speed counted over each interval), from the realisation with an integrator of the output
-    appended, ``İ = C x + D u``: ``(I[k] − I[k−1])/h``; the free responses likewise (the
-    integrator's own start cancels).  The first sample, which has no interval before it, is the
-    model's sample.
+    delayed already and ``delay`` unused.
+
+    ``window``: the output's means over each interval ``(t_{k−1}, t_k]`` (a speed counted over
+    each interval), from the realisation with an integrator of the output appended,
+    ``İ = C x + D u``: ``(I[k] − I[k−1])/h``; the free responses likewise (the integrator's own
+    start cancels).  The first sample, which has no interval before it, is the model's sample.
     """
     n = a.shape[0]
     rows = [(a, b, c, d)]
@@ -448,8 +449,8 @@ def validate_capture(
         notes.append(f"position unwrapped: {wraps} encoder wrap(s) removed")
     t = t_file - t_file[0]
     (a, b, c, d), names = _channel_system(model, channel)
-    # the input is linear between samples on an evenly spaced grid: a logger's jittered time
-    # stamps are simulated on the even grid of the same span and read back at the samples
+    # the model runs on an evenly spaced grid: a logger's jittered time stamps are simulated on the
+    # even grid of the same span and read back at the samples
     dt = np.diff(t)
     even = bool(np.allclose(dt, t[-1] / (t.size - 1), rtol=1e-6, atol=0.0))
     grid = t if even else np.linspace(0.0, t[-1], t.size)
