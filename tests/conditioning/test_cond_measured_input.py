@@ -61,3 +61,25 @@ def test_the_picoscope_log_is_timed_as_a_scope_and_its_interval_covers_the_truth
     assert lo <= rec.truth.residence_time_s <= hi, (lo, hi, rec.truth.residence_time_s)
     assert hi - lo > 2 * 1.96 * 1e-3 / np.sqrt(12) * 0.9  # the instant's ±dt/√12 is in it (dt 1 ms)
     assert "a measured voltage rather than a logged command" in " ".join(proc.stdout.split())
+
+
+def test_inspect_says_where_the_step_instant_is_taken(tmp_path, run_cli):
+    """``motorid inspect``: the picoscope log's step instant is sampled, the l298n log's is logged (the
+    same words in the table, the same key in the JSON, which keeps to its schema)."""
+    import jsonschema
+
+    from motorid.schemas import schema
+    from motorid.trainer.realsetups import write_real_setup
+
+    pico = write_real_setup("picoscope", tmp_path / "p", seed=0)
+    rpm = write_real_setup("l298n-rpm", tmp_path / "r", seed=0)
+    columns = pico.cli_args[pico.cli_args.index("--columns") + 1]
+    res = run_cli("inspect", pico.files["log"], "--columns", columns, "--json")
+    assert res.code == 0, res.err
+    doc = json.loads(res.out)
+    jsonschema.validate(doc, schema("inspect"))
+    assert doc[0]["step"]["timing"] == "sampled"
+    res = run_cli("inspect", rpm.files["log"], "--json")
+    assert json.loads(res.out)[0]["step"]["timing"] == "logged"
+    res = run_cli("inspect", rpm.files["log"])
+    assert "at its stamp (logged)" in res.out

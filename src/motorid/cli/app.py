@@ -25,6 +25,9 @@ from motorid.options import COLUMNS, COUNTED_VELOCITY, READ, TRAINER_PRESETS, TR
 #: ``--segment``'s help, from its declaration.
 SEGMENT_HELP = (lambda h: h[:1].upper() + h[1:])(next(o.help for o in READ if o.name == "segment"))
 COUNTED_HELP = COUNTED_VELOCITY.sentence
+#: ``inspect``'s words for where the step instant comes from (``CaptureSummary.timing``).
+INSTANT_WORDS = {"logged": "at its stamp (logged)", "sampled": "interval before (sampled)", "onset": "response onset",
+                 "given": "given"}
 
 # Everything else loads inside the command that needs it: ``motorid --help`` imports
 # typer and rich only, not numpy, scipy, python-control or matplotlib.
@@ -234,7 +237,7 @@ def inspect(
         return
     con = _console()
     table = Table(title="captures", show_lines=False)
-    for head in ("file", "format", "Δt (s)", "samples", "step at (s)", "step (V)", "role", "wraps"):
+    for head in ("file", "format", "Δt (s)", "samples", "step at (s)", "step instant", "step (V)", "role", "wraps"):
         table.add_column(head, overflow="fold")
     for s in summaries:
         table.add_row(
@@ -243,6 +246,7 @@ def inspect(
             sig(s.sample_interval_s),
             str(s.n_samples),
             "—" if s.step is None else sig(s.step.time_s),
+            INSTANT_WORDS.get(s.timing or "", "—"),
             "—" if s.step_volts is None else sig(s.step_volts),
             s.role,
             str(s.wraps),

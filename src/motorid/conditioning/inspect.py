@@ -12,6 +12,7 @@ from typing import Any
 from motorid._threads import single_blas_thread
 from motorid.capture import Capture
 from motorid.conditioning.edge import StepEdge, response_onset, step_edge
+from motorid.conditioning.response import step_timing
 from motorid.conditioning.role import guess_role
 from motorid.conditioning.unwrap import unwrap_position
 from motorid.errors import MotorIdError, StepNotFoundError
@@ -44,6 +45,11 @@ class CaptureSummary:
         Encoder wraps found in the output channel (0 unless the role is ``position``).
     warnings : tuple of str
         Everything a user should know (clipping, no step, no input channel, …).
+    timing : str or None
+        Where ``identify`` puts the step instant (:func:`~motorid.conditioning.response.step_timing`):
+        ``logged`` (at the stamp of a log's command), ``sampled`` (in the interval before the
+        first sample at the new level: a scope's channel, a log's measured voltage) or ``onset``
+        (read off the response); ``None`` without a step.
     """
 
     file: str
@@ -56,6 +62,7 @@ class CaptureSummary:
     role_reason: str
     wraps: int
     warnings: tuple[str, ...]
+    timing: str | None = None
 
     def to_json(self) -> dict[str, Any]:
         """The docs/formats.md ``inspect --json`` object (extra keys are additions).
@@ -73,6 +80,7 @@ class CaptureSummary:
                 "index": self.step.index,
                 "baseline": self.step.baseline_v,
                 "method": self.step.method,
+                **({"timing": self.timing} if self.timing is not None else {}),
             }
         return {
             "file": self.file,
@@ -150,4 +158,5 @@ def describe_capture(capture: Capture, *, step_volts: float | None = None) -> Ca
         role_reason=guess.reason,
         wraps=wraps,
         warnings=tuple(capture.warnings) + tuple(warnings),
+        timing=None if edge is None else step_timing(capture, edge),
     )

@@ -133,6 +133,33 @@ class StepResponse:
         return self._dt_cache[0]
 
 
+def step_timing(capture: Capture, edge: StepEdge) -> str:
+    """Where a capture's step instant comes from, one of :data:`STEP_TIMINGS`.
+
+    ``onset`` or ``given`` as the edge was found (the response's onset, ``--t0``); else ``logged``
+    for a log's command (the step at the stamp of its first sample at the new level) and
+    ``sampled`` for a scope's channel, or a log's measured voltage (:func:`measured_input`): the
+    step somewhere in the interval before that sample.
+
+    Parameters
+    ----------
+    capture : Capture
+        The capture.
+    edge : StepEdge
+        Its step edge.
+
+    Returns
+    -------
+    str
+    """
+    if edge.method in ("onset", "given"):
+        return edge.method
+    # a scope re-saved as xlsx keeps its header: a sampled channel; so is a log's measured voltage
+    logged = (capture.format in LOGGED_FORMATS and capture.scope.record_length is None
+              and not measured_input(capture.input_v, edge))
+    return "logged" if logged else "sampled"
+
+
 def step_response(
     capture: Capture,
     role: str,
@@ -215,13 +242,7 @@ def step_response(
             raise ConditioningError(f"--t0 {t0_s:g} s is outside the record ({t[0]:g} to {t[-1]:g} s)",
                                     file=capture.source)
         edge = StepEdge(idx, float(t0_s), edge.baseline_v, edge.level_v, edge.amplitude_v, edge.noise_v, "given")
-    if edge.method == "onset" or edge.method == "given":
-        timing = edge.method
-    else:
-        # a scope re-saved as xlsx keeps its header: a sampled channel; so is a log's measured voltage
-        logged = (capture.format in LOGGED_FORMATS and capture.scope.record_length is None
-                  and not measured_input(capture.input_v, edge))
-        timing = "logged" if logged else "sampled"
+    timing = step_timing(capture, edge)
     k = max(1, edge.index)
     if k < 5:
         warnings.append(f"only {k} samples before the step: baseline uncertain")
