@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import contextlib
 import io
+import os
+import subprocess
 import sys
 from dataclasses import dataclass
 
@@ -37,3 +39,16 @@ def motorid_ok(*args: object) -> CliResult:
     res = run_motorid(*args)
     assert res.code == 0, f"motorid {' '.join(map(str, args))}: exit {res.code}: {res.err[-500:]}"
     return res
+
+
+def motorid_fresh(*args: object, cwd: object) -> subprocess.CompletedProcess[str]:
+    """``python -m motorid ARGS`` in a new process with the default environment, as a user runs it.
+
+    The BLAS thread variables the test run may have set are left out (the tool sets its own);
+    the call must exit 0 (the message shows the command and its stderr).
+    """
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMP_", "OPENBLAS_NUM", "MKL_"))}
+    proc = subprocess.run([sys.executable, "-m", "motorid", *map(str, args)], capture_output=True, text=True,
+                          env=env, cwd=cwd, timeout=300)
+    assert proc.returncode == 0, f"motorid {' '.join(map(str, args))}: exit {proc.returncode}: {proc.stderr[-500:]}"
+    return proc

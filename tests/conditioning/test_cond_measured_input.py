@@ -11,12 +11,10 @@ measured voltage: the instant is the interval's middle, its ±dt/√12 in the in
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
+from clihelpers import motorid_fresh
 
 from motorid.conditioning.edge import step_edge
 from motorid.conditioning.response import measured_input
@@ -51,10 +49,7 @@ def test_the_picoscope_log_is_timed_as_a_scope_and_its_interval_covers_the_truth
 
     rec = write_real_setup("picoscope", tmp_path / "rig", seed=0)
     out = tmp_path / "m.json"
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMP_", "OPENBLAS_NUM", "MKL_"))}
-    proc = subprocess.run([sys.executable, "-m", "motorid", "identify", *rec.cli_args, "--json", str(out)],
-                          capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300)
-    assert proc.returncode == 0, proc.stderr
+    proc = motorid_fresh("identify", *rec.cli_args, "--json", out, cwd=tmp_path)
     model = json.loads(out.read_text())
     assert model["timing"]["velocity"]["kind"] == "sampled"
     lo, hi = model["uncertainty"]["residence_time_s"]["ci95"]

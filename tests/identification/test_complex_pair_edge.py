@@ -13,12 +13,10 @@ clearly better (every trainer preset and HSLU log tried), the output-error fit s
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
+from clihelpers import motorid_fresh
 
 import motorid as mi
 from motorid.trainer import run_experiment
@@ -42,11 +40,8 @@ def test_auto_takes_the_complex_pair_when_its_fit_is_held_at_the_edge_as_a_user_
     files = {role: write_tds_capture(tmp_path / role, cap, index=i)
              for i, (role, cap) in enumerate(rec.captures.items())}
     args = [a for role, path in files.items() for a in (f"--{role}", str(path))]
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMP_", "OPENBLAS_NUM", "MKL_"))}
     out = tmp_path / "model.json"
-    proc = subprocess.run([sys.executable, "-m", "motorid", "identify", *args, "--json", str(out)],
-                          capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300)
-    assert proc.returncode == 0, proc.stderr
+    proc = motorid_fresh("identify", *args, "--json", out, cwd=tmp_path)
     text = " ".join(proc.stdout.split())
     assert "identified model: method markov" in text
     assert "held a pair of poles at their double pole" in text and "that model is the answer" in text

@@ -12,12 +12,10 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
+from clihelpers import motorid_fresh
 import scipy.integrate
 
 from motorid.capture import Capture, ChannelInfo
@@ -156,14 +154,11 @@ def test_the_counted_rig_log_gives_the_motors_timing_inside_its_interval(seed, s
     and shape in a dead time, +0.04 to +0.06 % against an interval of ±0.03 %)."""
     assert "l298n-rpm" in COUNTED_SPEED_RIGS
     rec = write_real_setup("l298n-rpm", tmp_path / "rig", seed=seed)
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMP_", "OPENBLAS_NUM", "MKL_"))}
     models = {}
     for counted in (False, True):
         out = tmp_path / f"m{int(counted)}.json"
         args = [*rec.cli_args, *(["--counted-velocity"] if counted else []), "--json", str(out)]
-        proc = subprocess.run([sys.executable, "-m", "motorid", "identify", *args], capture_output=True, text=True,
-                              env=env, cwd=tmp_path, timeout=300)
-        assert proc.returncode == 0, proc.stderr
+        proc = motorid_fresh("identify", *args, cwd=tmp_path)
         models[counted] = (json.loads(out.read_text()), proc.stdout)
     motor = rec.truth.residence_time_s - rec.truth.sensor_lag_s
     for counted, (m, _) in models.items():

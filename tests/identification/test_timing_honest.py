@@ -13,6 +13,7 @@ from pathlib import Path
 import control
 import numpy as np
 import pytest
+from clihelpers import motorid_fresh
 
 from motorid.capture import Capture, ChannelInfo
 from motorid.identification.pipeline import IdentifySettings, identify_experiment
@@ -299,19 +300,12 @@ def test_a_millis_stamped_step_carries_its_clock_in_the_timing_interval(tmp_path
     residence-time interval was ±0.03–0.06 ms and missed the truth in 6 seeds of 6 (by 2.6 to
     28 σ; the errors, −0.41 to +0.31 ms, are that one stamp's). After: the interval carries the
     clock and covers the truth. As a user runs it: a fresh process, default environment."""
-    import os
-    import subprocess
-    import sys
-
     from motorid.trainer.realsetups import write_real_setup
 
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMP_", "OPENBLAS_NUM", "MKL_"))}
     for seed in range(4):
         rec = write_real_setup("arduino-millis", tmp_path / f"s{seed}", seed=seed)
         out = tmp_path / f"m{seed}.json"
-        proc = subprocess.run([sys.executable, "-m", "motorid", "identify", *rec.cli_args, "--json", str(out)],
-                              capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300)
-        assert proc.returncode == 0, proc.stderr
+        motorid_fresh("identify", *rec.cli_args, "--json", out, cwd=tmp_path)
         m = json.loads(out.read_text())
         assert "rounded to the clock's 1 ms" in m["timing"]["velocity"]["step_instant"]
         res = m["uncertainty"]["residence_time_s"]

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from clihelpers import motorid_fresh
 
 from motorid.io import read_capture
 from motorid.trainer.hobbyrigs import HOBBY_RIGS, STAIR_LEVELS_V
@@ -98,16 +99,10 @@ def test_each_rig_through_the_cli_in_a_fresh_process(name, tmp_path):
     """As a user runs it: ``python -m motorid identify <the rig's arguments>`` in a new process with
     the default environment, default options; gain within 1 %, residence time within 5 %."""
     import json
-    import os
-    import subprocess
-    import sys
 
     rec = write_real_setup(name, tmp_path / name, seed=0)
     out = tmp_path / "m.json"
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMP_", "OPENBLAS_NUM", "MKL_"))}
-    proc = subprocess.run([sys.executable, "-m", "motorid", "identify", *rec.cli_args, "--json", str(out)],
-                          capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300)
-    assert proc.returncode == 0, proc.stderr
+    motorid_fresh("identify", *rec.cli_args, "--json", out, cwd=tmp_path)
     m = json.loads(out.read_text())
     assert m["first_order"]["dc_gain"] == pytest.approx(rec.truth.dc_gain, rel=0.01)
     residence = m["first_order"]["time_constant"] + (m.get("delay_s") or 0.0)
