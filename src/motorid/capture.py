@@ -235,6 +235,19 @@ class Capture:
         """Sample interval in seconds (median spacing of the time axis)."""
         return float(np.median(np.diff(self.time_s)))
 
+    def counted(self) -> Capture:
+        """The capture with each output sample the mean over its sample interval (a counted speed).
+
+        What ``counted_velocity`` of :func:`motorid.read_experiment` and :func:`motorid.validate`
+        declare: :attr:`sample_window_s` is the capture's own :attr:`sample_interval_s`; a capture
+        that has a window already is returned as it is.
+
+        Returns
+        -------
+        Capture
+        """
+        return self if self.sample_window_s else dataclasses.replace(self, sample_window_s=self.sample_interval_s)
+
 
 def validate_samples(
     time_s: np.ndarray,

@@ -359,7 +359,7 @@ def read_experiment(
                                   f"give it as --{looks.role}, or --force-role to keep --{role}",
                                   file=str(paths[0]))
         if role == "velocity" and counted_velocity:
-            cap = replace(cap, sample_window_s=cap.sample_interval_s)
+            cap = cap.counted()
         captures[role] = cap
         sources[role] = tuple(str(p) for p in paths)
         digests.update(_file_digests(paths))
@@ -1279,8 +1279,8 @@ def validate(
         else:
             paths = [str(p) for p in _paths(item)]
             cap = read_capture(paths[0] if len(paths) == 1 else paths, columns=columns)
-        if counted_velocity and not cap.sample_window_s:
-            cap = replace(cap, sample_window_s=cap.sample_interval_s)
+        if counted_velocity:
+            cap = cap.counted()
         try:
             res = validate_capture(motor, cap, channel=channel, step_volts=step_volts, t0_s=t0, warmup_s=warmup_s)
         except MotorIdError as exc:

@@ -213,3 +213,11 @@ def test_the_several_levels_fit_takes_counted_speeds_as_means():
     as_samples = mi.identify_levels([dataclasses.replace(_counted_level(v, window=0.01), sample_window_s=0.0)
                                      for v in (2.0, 4.0, 6.0)])
     assert as_samples.model.first_order().time_constant_s > 0.08 + 0.002  # about +T/2
+
+
+def test_a_capture_marked_counted_keeps_its_samples_and_takes_its_interval_as_window():
+    cap = _counted_level(4.0, window=0.0)
+    counted = cap.counted()
+    assert counted.sample_window_s == pytest.approx(cap.sample_interval_s) and cap.sample_window_s == 0.0
+    np.testing.assert_array_equal(counted.output_v, cap.output_v)
+    assert counted.counted() is counted  # a window already given is kept

@@ -26,7 +26,7 @@ import numpy as np
 from motorid._threads import single_blas_thread
 from motorid.capture import Capture
 from motorid.conditioning.edge import step_edge
-from motorid.conditioning.response import LOGGED_FORMATS, step_response
+from motorid.conditioning.response import is_log, step_response
 from motorid.conditioning.unwrap import unwrap_position
 from motorid.errors import CaptureDataError, OptionError, StepNotFoundError
 from motorid.identification.metrics import fit_percent, nrmse
@@ -332,7 +332,7 @@ def _recorded_drive(capture: Capture, channel: str, step_volts: float | None, t0
         warnings.extend(un.warnings)
     notes.append("input: CH1 as recorded")
     return _Drive(u, y, wraps, "span", "recorded", None,
-                  held=capture.format in LOGGED_FORMATS and capture.scope.record_length is None)
+                  held=is_log(capture))
 
 
 def _responses(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, h: float, u: np.ndarray,

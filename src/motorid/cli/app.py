@@ -626,8 +626,6 @@ def _capture_names(specs: list[str] | None) -> list[str]:
 
 def _validation_captures(specs: list[str] | None, columns: str | None, counted: bool = False) -> dict:
     """The report's validation captures by name (a counted velocity's window on each with ``counted``)."""
-    from dataclasses import replace
-
     from motorid.io import read_capture
 
     colmap = _parse_columns(columns)
@@ -636,7 +634,7 @@ def _validation_captures(specs: list[str] | None, columns: str | None, counted: 
     short = [Path(n).name for n in names]
     caps = {(k if short.count(k) == 1 else n): read_capture(_capture_paths(n), columns=colmap)
             for k, n in zip(short, names, strict=False)}
-    return {k: replace(c, sample_window_s=c.sample_interval_s) for k, c in caps.items()} if counted else caps
+    return {k: c.counted() for k, c in caps.items()} if counted else caps
 
 
 @app.command()

@@ -16,7 +16,7 @@ from motorid.capture import ROLES, Capture
 from motorid.conditioning.checks import check_step_responses
 from motorid.conditioning.denoise import fft_denoise
 from motorid.conditioning.resample import ratio_for_interval, sample_reduction
-from motorid.conditioning.response import LOGGED_FORMATS, StepResponse, step_response
+from motorid.conditioning.response import StepResponse, is_log, step_response
 from motorid.conditioning.sync import synchronise
 from motorid.conditioning.timescale import ResponseTimes, auto_reduction_ratio, response_times
 from motorid.errors import ConditioningError, OptionError
@@ -193,8 +193,7 @@ def condition_experiment(
         responses, shared = _shared_onsets(captures, responses, step_volts)
         notes.extend(shared)
     for role, cap in captures.items():
-        if (cap.format in LOGGED_FORMATS and cap.scope.record_length is None
-                and responses[role].timing == "sampled"):
+        if is_log(cap) and responses[role].timing == "sampled":
             notes.append(f"{cap.source}: its input column scatters around its levels, a measured voltage rather "
                          "than a logged command: its step lies in the sample interval before the first sample at "
                          "the new level (taken at the interval's middle, ±dt/√12 in the intervals), as on a scope; "

@@ -33,6 +33,25 @@ STEP_VOLTS_TOLERANCE = 0.05
 MEASURED_INPUT_SPREAD = 0.02
 
 
+def is_log(capture: Capture) -> bool:
+    """Whether a capture is a log (plain CSV or spreadsheet) rather than a scope's file.
+
+    A scope's capture re-saved as ``.xlsx`` keeps its header (a record length): it stays a
+    scope's.  A log's input column is a command held from its stamp unless it measured the
+    voltage (:func:`measured_input`).
+
+    Parameters
+    ----------
+    capture : Capture
+        Any capture.
+
+    Returns
+    -------
+    bool
+    """
+    return capture.format in LOGGED_FORMATS and capture.scope.record_length is None
+
+
 def measured_input(input_v: np.ndarray | None, edge: StepEdge) -> bool:
     """Whether a log's input column measured the drive's voltage rather than logged a command.
 
@@ -154,10 +173,8 @@ def step_timing(capture: Capture, edge: StepEdge) -> str:
     """
     if edge.method in ("onset", "given"):
         return edge.method
-    # a scope re-saved as xlsx keeps its header: a sampled channel; so is a log's measured voltage
-    logged = (capture.format in LOGGED_FORMATS and capture.scope.record_length is None
-              and not measured_input(capture.input_v, edge))
-    return "logged" if logged else "sampled"
+    # a scope's channel is sampled; so is a log's measured voltage
+    return "logged" if is_log(capture) and not measured_input(capture.input_v, edge) else "sampled"
 
 
 def step_response(

@@ -214,12 +214,21 @@ def _unit_step(den: np.ndarray, t: np.ndarray) -> np.ndarray:
     """
     if den.size == 2:
         return -np.expm1(-den[1] * t)
-    p1, p2 = np.roots(den).astype(complex)
-    if abs(p1 - p2) < 1e-6 * abs(p1):
-        p2 = p1 * (1 + 1e-6)
+    p1, p2 = _two_poles(den)
     with np.errstate(over="ignore", invalid="ignore"):
         s = 1.0 + (p2 * np.exp(p1 * t) - p1 * np.exp(p2 * t)) / (p1 - p2)
     return np.real(s)
+
+
+def _two_poles(den: np.ndarray) -> tuple[complex, complex]:
+    """The roots of a second-order ``den``, a double pole split by 1e-6 relative.
+
+    The closed forms divide by ``p₁ − p₂``.
+    """
+    p1, p2 = np.roots(den).astype(complex)
+    if abs(p1 - p2) < 1e-6 * abs(p1):
+        p2 = p1 * (1 + 1e-6)
+    return complex(p1), complex(p2)
 
 
 def _unit_step_integral(den: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -230,9 +239,7 @@ def _unit_step_integral(den: np.ndarray, t: np.ndarray) -> np.ndarray:
     t = np.clip(t, 0.0, None)
     if den.size == 2:
         return t + np.expm1(-den[1] * t) / den[1]
-    p1, p2 = np.roots(den).astype(complex)
-    if abs(p1 - p2) < 1e-6 * abs(p1):
-        p2 = p1 * (1 + 1e-6)
+    p1, p2 = _two_poles(den)
     with np.errstate(over="ignore", invalid="ignore"):
         s = t + (p2 * np.expm1(p1 * t) / p1 - p1 * np.expm1(p2 * t) / p2) / (p1 - p2)
     return np.real(s)
