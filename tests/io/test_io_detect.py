@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from iohelpers import HSLU, TDS2012B, TDS2024B, need, step_capture
@@ -130,6 +130,8 @@ def test_csv_shaped_garbage_is_rejected_with_motoriderror(tmp_path, lines):
 
 @_FUZZ
 @given(cut=st.integers(0, 79086), flips=st.lists(st.tuples(st.integers(0, 79085), st.integers(0, 255)), max_size=5))
+# Found by this test: both "Record Length" and "Horizontal Scale" damaged, 44 of 2500 lines left.
+@example(cut=1735, flips=[(0, 1), (540, 1)])
 def test_damaged_real_file_gives_capture_or_motoriderror(tmp_path, cut, flips):
     data = bytearray(need(TDS2012B).read_bytes()[:cut])
     for pos, byte in flips:
@@ -143,3 +145,28 @@ def test_damaged_real_file_gives_capture_or_motoriderror(tmp_path, cut, flips):
         return
     # survived only if the damage left a whole record, or it says it may be truncated
     assert cap.n_samples == 2500 or any("truncated" in w for w in cap.warnings)
+
+
+@pytest.mark.parametrize("labels", [
+    ("Record Length", "Horizontal Scale"),  # the Trigger Point (1250) lies beyond the 44 lines kept
+    ("Record Length", "Horizontal Scale", "Trigger Point"),  # nothing left to check the length against
+])
+def test_part_of_a_record_without_its_length_fields_is_called_possibly_truncated(tmp_path, labels):
+    text = need(TDS2012B).read_text()
+    for label in labels:
+        text = text.replace(label, "x" * len(label), 1)
+    f = tmp_path / "F0000CH1.CSV"
+    f.write_text("".join(text.splitlines(keepends=True)[:44]))
+    cap = read_capture(f)
+    assert cap.n_samples == 44
+    assert any("truncated" in w and "Record Length" in w for w in cap.warnings), cap.warnings
+
+
+def test_whole_record_without_its_length_field_is_not_called_truncated(tmp_path):
+    # the Horizontal Scale (10 divisions) confirms the 2500 samples: no warning to cry wolf
+    text = need(TDS2012B).read_text().replace("Record Length", "x" * 13, 1)
+    f = tmp_path / "F0000CH1.CSV"
+    f.write_text(text)
+    cap = read_capture(f)
+    assert cap.n_samples == 2500
+    assert not any("truncated" in w for w in cap.warnings), cap.warnings

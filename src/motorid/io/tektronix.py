@@ -441,6 +441,13 @@ def _channel(meta: Meta, time_s: np.ndarray, values_v: np.ndarray, rows, resaved
     if math.isfinite(expected) and abs(expected) < 1e9 and round(expected) != n:
         warnings.append(f"{label}: no Record Length field, and {n} samples where the Horizontal Scale "
                         f"implies {round(expected)}: the file may be truncated")
+    elif rl is None and scope.trigger_index is not None and scope.trigger_index >= n:
+        warnings.append(f"{label}: no Record Length field, and its Trigger Point (sample "
+                        f"{scope.trigger_index}) lies beyond its {n} samples: the file may be truncated")
+    elif rl is None and not (si and hs):
+        # Nothing left to check the length against: say so rather than pass a part of a record as whole.
+        warnings.append(f"{label}: no Record Length field (nor Sample Interval and Horizontal Scale): "
+                        f"cannot check that its {n} samples are the whole record; it may be truncated")
     if resaved:
         warnings.append(f"{label}: re-saved by a spreadsheet (not the scope's 6-field layout); "
                         "numbers may have been rounded")
