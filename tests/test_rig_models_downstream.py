@@ -24,12 +24,16 @@ def _poles(model) -> list[float]:
     return [-slow * (1.5 + 0.5 * k) for k in range(model.order)]
 
 
-@pytest.mark.parametrize("rig", RIGS)
-def test_each_rig_model_through_design_simulate_and_report(rig, tmp_path):
+@pytest.mark.parametrize(("rig", "counted"), [(rig, False) for rig in RIGS]
+                         + [("l298n-rpm", True), ("ms-time", True)])
+def test_each_rig_model_through_design_simulate_and_report(rig, counted, tmp_path):
     rec = write_real_setup(rig, tmp_path / rig, seed=0)
-    args = list(rec.cli_args)
+    # a speed counted per line is fitted as the motor's model: the same path downstream
+    args = [*rec.cli_args, *(["--counted-velocity"] if counted else [])]
     motorid_ok("identify", *args, "--json", tmp_path / "m.json", "--report", tmp_path / "r.html")
-    model = mi.MotorModel.from_json(json.loads((tmp_path / "m.json").read_text()))
+    doc = json.loads((tmp_path / "m.json").read_text())
+    assert ("window_s" in doc.get("timing", {}).get("velocity", {})) == counted
+    model = mi.MotorModel.from_json(doc)
     # Python: the model the CLI wrote
     des = mi.design(model, poles=_poles(model))
     sim = mi.simulate(model, des, duration_s=2.0, level_v=1.0)
