@@ -568,7 +568,8 @@ class _Planner:
             random = _quantised_var(q, var) * (1.0 / n_pre + 1.0 / max(n_after, 1)) / max(len(self.roles), 1)
             bias = 0.0 if _one_code(q, var) else _bias(q, var) ** 2 * (1.0 + (base != 0.0))
             terms += (random + bias) / u**2
-        if "velocity" in self.channels and n_pre > 1:
+        if "velocity" in self.channels and n_pre > 1 and "velocity" not in self.res.quantum:
+            # (a velocity whose quantiser error the fit counts along the record has its levels' in it)
             ch = self.channels["velocity"]
             q = s.volts_per_div["velocity"] / CODES_PER_DIV
             change = abs(self.res.dc_gain * u)
@@ -597,10 +598,14 @@ class _Planner:
         instant = tuple((c, s.sample_interval_s / math.sqrt(12.0)) for c in self.fitted if c in self.sampled)
         n_after = next(iter(grid.values())).size
         try:
+            quantum = {c: s.volts_per_div.get(c, self.now.volts_per_div[c]) / CODES_PER_DIV
+                       for c in self.fitted if c in self.res.quantum}
+            # the dither the fit of that record would see: its residuals besides the quantiser's
+            dither = {c: math.sqrt(self.channels[c].residual_var / s.averages) for c in quantum}
             return planned_uncertainty(self.res, grid, s.step_volts, sigma, whiten=self.noise.whiten,
                                        pre_samples={c: n_pre for c in self.fitted}, pre_sigma=pre_sigma,
                                        instant_std=instant, step_rel_std=self._step_rel_std(s, n_pre, n_after),
-                                       variance_scale=self.s2)
+                                       variance_scale=self.s2, quantum=quantum, dither_rms=dither)
         except IdentificationError:
             return None
 

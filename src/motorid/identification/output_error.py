@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike
 import scipy.linalg
 import scipy.optimize
 
+from motorid.conditioning.edge import quantisation_step
 from motorid.identification.closed_form import (
     PartialFractions,
     ResponseBasis,
@@ -37,6 +38,7 @@ from motorid.identification.closed_form import (
 )
 from motorid.identification.method_options import FIT_TOLERANCE, MAX_NFEV
 from motorid.identification.metrics import bic
+from motorid.identification.quantiser import harmonic_variances, sawtooth_basis
 from motorid.identification.result import STOPPED_EARLY, IdentificationError
 
 __all__ = [
@@ -166,6 +168,8 @@ class OeResult:
     residuals : dict[str, ndarray]
         Per channel: measured minus fitted (block means when the record was averaged),
         before any whitening.
+    quantum : dict[str, float]
+        Each channel whose quantiser's error along the record is in ``cov``: its step (one code).
     """
 
     params: np.ndarray
@@ -193,6 +197,7 @@ class OeResult:
     warnings: tuple[str, ...] = field(default=())
     residuals: dict[str, np.ndarray] = field(default_factory=dict)
     shifts: dict[str, float] = field(default_factory=dict)
+    quantum: dict[str, float] = field(default_factory=dict)
 
 
 def _block_mean(x: np.ndarray, ratio: int, *, from_end: bool = False) -> np.ndarray:
@@ -707,6 +712,9 @@ class _OeProblem:
     n_total: int
     lower: np.ndarray
     upper: np.ndarray
+    #: Each channel's quantiser step (one code) where its error enters the covariance
+    #: (:meth:`_quantiser_covariance`); a channel not in it is not quantised (or not so counted).
+    quantum: dict[str, float] = field(default_factory=dict)
     #: The last parameters' grid exponentials (the residuals and the Jacobian at one point share them).
     basis_key: bytes = b""
     basis: dict[str, ResponseBasis | WindowBasis] = field(default_factory=dict)
@@ -716,8 +724,13 @@ class _OeProblem:
               channels: Mapping[str, np.ndarray], sigma: Mapping[str, float], settings: OeSettings, *,
               pre: Mapping[str, np.ndarray] | None, block: Mapping[str, int] | None,
               whiten: Mapping[str, np.ndarray] | None, pre_sigma: Mapping[str, float] | None,
-              wrap_count: Mapping[str, np.ndarray] | None) -> _OeProblem:
-        """Check the channels, drop the current's edge sample, block-average, set weights and bounds."""
+              wrap_count: Mapping[str, np.ndarray] | None,
+              quantum: Mapping[str, float] | None = None) -> _OeProblem:
+        """Check the channels, drop the current's edge sample, block-average, set weights and bounds.
+
+        ``quantum``: each channel's quantiser step; by default each one's smallest change between
+        samples (:func:`_detected_quantum`).
+        """
         names = [c for c in ("velocity", "position", "current") if c in channels]
         if "velocity" not in names and "position" not in names:
             raise IdentificationError("the output-error fit needs a velocity or a position capture")
@@ -771,8 +784,14 @@ class _OeProblem:
         for c, v in pre_data.items():
             mean = float(np.mean(v))
             pre_stats[c] = (v.size, mean, float(np.linalg.norm(v - mean)))
+        if quantum is None:
+            # not: block means, counted speeds (the count's quantum differenced, not a rounded value),
+            # a position that wraps (each turn moves it on the code grid)
+            counted = dict(settings.windows)
+            quantum = {c: _detected_quantum(raw[c], float(sigma.get(c, 1.0))) for c in names
+                       if ratio[c] == 1 and c not in counted and not (c == "position" and wraps is not None)}
         return cls(settings, layout, names, step_volts, tc, raw, data, ratio, fast, wraps, pre_stats, sigma,
-                   w, w_pre, filt, n_total, lower, upper)
+                   w, w_pre, filt, n_total, lower, upper, quantum={c: q for c, q in quantum.items() if q > 0})
 
     def initial_parameters(self, init_taus: Sequence[float], init_dc_gain: float, init_zeros: Sequence[float],
                            init_delay_s: float) -> np.ndarray:
@@ -962,6 +981,37 @@ class _OeProblem:
             cov += np.outer(g, g) * sd**2
         return cov
 
+    def _quantiser_covariance(self, th: np.ndarray, gain: np.ndarray, dither_rms: Mapping[str, float],
+                              pred: Mapping[str, np.ndarray] | None = None) -> np.ndarray:
+        """Parameter covariance from each quantised channel's sawtooth error along its fitted signal.
+
+        :mod:`motorid.identification.quantiser`: each harmonic of the code grid, at an unknown
+        phase, moves the parameters by ``gain·b`` (``b``: its cosine or sine on the channel's rows,
+        whitened and weighted as the residuals; its pre-step level's row too), with the harmonic's
+        variance for the channel's dither.  ``pred``: :meth:`predict` at ``th`` when at hand.
+        """
+        cov = np.zeros((th.size, th.size))
+        if not self.quantum:
+            return cov
+        pred = self.predict(th) if pred is None else pred
+        start, starts = 0, {}
+        for c in self.names:
+            starts[c] = start
+            start += self.data[c].size
+        pre_row = {c: start + 2 * i for i, c in enumerate(self.pre_stats)}
+        for c, q in self.quantum.items():
+            var = harmonic_variances(q, dither_rms.get(c, 0.0))
+            var = np.repeat(var[var >= MIN_HARMONIC_SHARE * var[0]], 2)  # the harmonics that count
+            count = var.size // 2
+            rows = self._white(c, sawtooth_basis(pred[c], q, count)) * self.w[c]
+            g = gain[:, starts[c] : starts[c] + rows.shape[0]] @ rows
+            if c in self.pre_stats:
+                # the level before the step: its samples' mean row, at the fitted offset
+                level = sawtooth_basis(np.array([th[self.layout.idx[f"off_{c}"]]]), q, count)[0]
+                g = g + np.outer(gain[:, pre_row[c]], np.sqrt(self.pre_stats[c][0]) * self.w_pre[c] * level)
+            cov += (g * var) @ g.T
+        return cov
+
     def result(self, sol: Any, step_std: float, warnings: list[str], *, level_rel_std: float = 0.0) -> OeResult:
         """Covariance (Gauss–Newton, scaled by the residual variance), delta-method intervals."""
         layout, names, n = self.layout, self.names, self.settings.n_poles
@@ -978,7 +1028,16 @@ class _OeProblem:
         if not np.isfinite(cond) or cond > MAX_FISHER_CONDITION:
             warnings.append(f"parameters poorly determined (Fisher information condition number {cond:.2g}): "
                             "a lower order may do")
+        pred = self.predict(th)
+        data = self.data
         cov = np.linalg.pinv(jtj) * s2 + self._instant_covariance(th, jac_m, jtj)
+        if self.quantum:
+            # the dither: what the residuals hold besides the quantiser's own q²/12
+            dither = {c: math.sqrt(max(float(np.var(data[c] - pred[c])) - q * q / 12.0, 0.0))
+                      for c, q in self.quantum.items()}
+            cov = cov + self._quantiser_covariance(th, np.linalg.pinv(jtj) @ jac_m.T, dither, pred)
+            if "velocity" in self.quantum:
+                level_rel_std = 0.0  # the velocity's levels are in it (their quantiser error)
         d0, std, ci = _delta_method(layout, th, cov, float(np.hypot(step_std / self.step_volts, level_rel_std)))
         q = layout.unpack(th)
         num = _vel_num(q["K"], q["tz"])
@@ -986,8 +1045,6 @@ class _OeProblem:
         for tau in q["taus"]:
             den = np.polymul(den, [tau, 1.0])
         lead = den[0]
-        pred = self.predict(th)
-        data = self.data
         return OeResult(
             params=th, param_names=layout.names, cov=cov,
             velocity_num=num / lead, velocity_den=den / lead,
@@ -1006,7 +1063,28 @@ class _OeProblem:
             settings=self.settings, warnings=tuple(warnings),
             residuals={c: data[c] - pred[c] for c in names},
             shifts={c: float(v) for c, v in q["shift"].items()},
+            quantum=dict(self.quantum),
         )
+
+
+#: A quantiser step under this fraction of a channel's noise level is not counted: its error is
+#: under 1/300 of the noise.
+NEGLIGIBLE_QUANTUM = 0.01
+#: The quantiser's harmonics whose variance is under this share of the first's are left out of
+#: the covariance: with a ripple's dither (variances as ``1/k³``) the first four hold 98 %.
+MIN_HARMONIC_SHARE = 0.01
+
+
+def _detected_quantum(y: np.ndarray, sigma: float) -> float:
+    """A channel's quantiser step: its smallest change between samples (0 when negligible).
+
+    Changes of a quarter of the trace's range or more (the step itself) are not a code.
+    """
+    y = np.asarray(y, dtype=float)
+    if y.size < 2:
+        return 0.0
+    q = quantisation_step(y, below=0.25 * float(np.ptp(y)))
+    return q if q >= NEGLIGIBLE_QUANTUM * sigma else 0.0
 
 
 def _bounds(layout: _Layout, settings: OeSettings, tc: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
@@ -1183,6 +1261,8 @@ def planned_uncertainty(
     instant_std: tuple[tuple[str, float], ...] = (),
     step_rel_std: float = 0.0,
     variance_scale: float = 1.0,
+    quantum: Mapping[str, float] | None = None,
+    dither_rms: Mapping[str, float] | None = None,
 ) -> PlannedUncertainty:
     """Intervals of the fitted model's quantities predicted for another record of the same motor.
 
@@ -1214,6 +1294,11 @@ def planned_uncertainty(
         Relative standard error of the measured step (and of the velocity's level) that scales the DC gain.
     variance_scale : float
         Factor of the covariance (the fit's residual variance over the noise model's, ``s²``).
+    quantum : Mapping[str, float], optional
+        The planned quantiser step of each channel whose error the fit counts
+        (:attr:`OeResult.quantum`); none by default.
+    dither_rms : Mapping[str, float], optional
+        What dithers each of those channels (its residuals' RMS besides the quantiser's ``q/√12``).
 
     Returns
     -------
@@ -1233,13 +1318,14 @@ def planned_uncertainty(
     resp = _predict(layout0, th0, {c: np.asarray(time_s[c], dtype=float) for c in names}, step_volts, names)
     pre = {c: np.zeros(int((pre_samples or {}).get(c, 0))) for c in names}
     prob = _OeProblem.build(dict(time_s), step_volts, resp, sigma, settings, pre=pre, block=None, whiten=whiten,
-                            pre_sigma=pre_sigma, wrap_count=None)
+                            pre_sigma=pre_sigma, wrap_count=None, quantum=dict(quantum or {}))
     th = np.array([res.params[res.param_names.index(n)] if n in res.param_names else 0.0
                    for n in prob.layout.names])
     jac_m = prob.jacobian(th)
     jtj = jac_m.T @ jac_m
     cond = float(np.linalg.cond(jtj)) if np.all(np.isfinite(jtj)) else float("inf")
-    cov = (np.linalg.pinv(jtj) * variance_scale + prob._instant_covariance(th, jac_m, jtj))
+    cov = (np.linalg.pinv(jtj) * variance_scale + prob._instant_covariance(th, jac_m, jtj)
+           + prob._quantiser_covariance(th, np.linalg.pinv(jtj) @ jac_m.T, dither_rms or {}))
     # an ill-conditioned information matrix is inverted as the fit's own is (pseudo-inverse): its
     # poorly determined directions come out with large variances, as the fit would report them
     d0, std, _ = _delta_method(prob.layout, th, cov, step_rel_std)

@@ -36,6 +36,7 @@ from motorid.identification.method_options import (
     OutputErrorOptions,
 )
 from motorid.identification.noise_json import SCALE_ONLY, ChannelNoise
+from motorid.identification.quantiser import harmonic_variances
 from motorid.identification.result import IdentificationError
 from motorid.identification.sanity import pole_unresolved, zero_undemanded
 from motorid.identification.srivc import SrivcSettings, srivc_fit
@@ -115,6 +116,18 @@ def channel_sigma(cond: ConditionedExperiment, role: str, block: int = 1) -> flo
     return max(sd, _code_step(r) / np.sqrt(12.0 * block), 1e-9)
 
 
+#: Harmonics of the sawtooth summed for a level's error (a sum, not a covariance: all of them that matter).
+LEVEL_HARMONICS = 32
+
+
+def _quantiser_words(quantum: Mapping[str, float]) -> str:
+    """What the covariance holds of the quantiser (:attr:`OeResult.quantum`), as a clause ('' for none)."""
+    if not quantum:
+        return ""
+    return (f"; with the quantiser's error along the record ({', '.join(quantum)}), its code grid at an "
+            "unknown place")
+
+
 def quantisation_bias_std(y: np.ndarray, quantum: float) -> float:
     """RMS error of a quantised plateau's mean that no number of samples averages out.
 
@@ -128,7 +141,8 @@ def quantisation_bias_std(y: np.ndarray, quantum: float) -> float:
     an unknown place on the code grid the RMS is ``√(Σₖ (q/πk)²·φₖ²/2)``, ``q/√12`` for a
     trace on one code.  ``σ²`` is the samples' variance less the quantiser's ``q²/12``.  A trace
     that reads exactly 0 throughout is a sensor at rest on the zero code: its level is 0.
-    Written here because no library states a quantised mean's residual error.
+    The harmonics are :func:`~motorid.identification.quantiser.harmonic_variances` (the same
+    error along a whole record enters the output-error fit's covariance).
 
     Parameters
     ----------
@@ -144,10 +158,8 @@ def quantisation_bias_std(y: np.ndarray, quantum: float) -> float:
     """
     if quantum <= 0.0 or y.size < 2 or not np.any(y):
         return 0.0
-    amplitude = np.sqrt(2.0 * max(variance(y) - quantum**2 / 12.0, 0.0))
-    k = np.arange(1, 33, dtype=float)
-    smooth2 = np.minimum(1.0, quantum / (2.0 * np.pi**2 * k * amplitude)) if amplitude > 0 else np.ones_like(k)
-    return float(np.sqrt(np.sum((quantum / (np.pi * k)) ** 2 * smooth2 / 2.0)))
+    dither = math.sqrt(max(variance(y) - quantum**2 / 12.0, 0.0))
+    return float(np.sqrt(np.sum(harmonic_variances(quantum, dither, LEVEL_HARMONICS))))
 
 
 def step_level_std(cond: ConditionedExperiment) -> float:
@@ -529,7 +541,8 @@ def oe_uncertainty(res: OeResult, cond: ConditionedExperiment | None = None) -> 
         t63_s=item("t63", float(np.mean(res.ci95["t63"])) if "t63" in res.ci95 else float("nan")),
         poles=tuple(root(f"pole_{i}", p) for i, p in enumerate(res.poles)),
         zeros=tuple(root(f"zero_{i}", z) for i, z in enumerate(res.zeros)),
-        method="Gauss-Newton covariance of the output-error fit (delta method), 95% = ±1.96 std",
+        method="Gauss-Newton covariance of the output-error fit (delta method), 95% = ±1.96 std"
+               + _quantiser_words(res.quantum),
         pole_pairs=tuple(PolePair((i, i + 1), item(f"pair_{i}_wn", res_value(res, f"pair_{i}_wn")),
                                   _pair_damping(res, i, item(f"pair_{i}_zeta", res_value(res, f"pair_{i}_zeta"))))
                          for i in pairs),
