@@ -181,15 +181,33 @@ def recorded_step_response(model: MotorModel, time_s: Any, step_volts: float | N
     out = step_response(model, time_s, step_volts)
     if velocity_window_s <= 0 or "velocity" not in out:
         return out
-    from motorid.model.motor import model_from_velocity_tf
-
     t = np.asarray(time_s, dtype=float).ravel()
-    integral = model_from_velocity_tf(*model._row_tf("velocity"), with_position=True).replace(
-        delay_s=model.delay_s, static_nonlinearity=model.static_nonlinearity)
+    integral = velocity_integral(model)
     step = model.step_volts if step_volts is None else step_volts
     late = step_response(integral, t, step)["position"]
     early = step_response(integral, t - velocity_window_s, step)["position"]
     return {**out, "velocity": (late - early) / velocity_window_s}
+
+
+def velocity_integral(model: MotorModel) -> MotorModel:
+    """The model whose ``position`` output is the integral of ``model``'s velocity.
+
+    Its velocity transfer function with an integrator appended, with the same dead time and
+    static nonlinearity (a velocity-only model's position, a counted velocity's window).
+
+    Parameters
+    ----------
+    model : MotorModel
+        A model with a velocity output.
+
+    Returns
+    -------
+    MotorModel
+    """
+    from motorid.model.motor import model_from_velocity_tf
+
+    return model_from_velocity_tf(*model._row_tf("velocity"), with_position=True).replace(
+        delay_s=model.delay_s, static_nonlinearity=model.static_nonlinearity)
 
 
 def step_nrmse(
@@ -234,14 +252,12 @@ def step_nrmse(
     if channel in model.outputs:
         yhat = model.step_response(t, step_volts)[channel]
     else:
-        # Position of a velocity-only model: integral of the velocity output.
+        # Position of a velocity-only model: integral of the velocity output (its dead time and
+        # static nonlinearity included, as the velocity's own response has them)
         step = model.step_volts if step_volts is None else float(step_volts)
         if step is None:
             raise OptionError("step_nrmse needs step_volts (the model has none)")
-        from motorid.model.motor import model_from_velocity_tf
-
-        integ = model_from_velocity_tf(*model._row_tf("velocity"), with_position=True)
-        yhat = integ.step_response(t, step)["position"]
+        yhat = velocity_integral(model).step_response(t, step)["position"]
     tail = y[-max(1, y.size // 10):]
     final = float(np.mean(tail))
     if final == 0.0:
