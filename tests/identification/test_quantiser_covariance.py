@@ -80,3 +80,21 @@ def test_a_counted_speed_gets_no_quantiser_term():
     res = output_error_fit(t, STEP, {"velocity": y}, {"velocity": 0.5 / np.sqrt(12)}, [0.4], 1.9,
                            OeSettings(n_poles=1, windows=(("velocity", 0.01),)))
     assert res.quantum == {}
+
+
+def test_a_logged_speed_in_rpm_is_taken_for_counted_and_gets_no_quantiser_term(tmp_path):
+    # through the conditioning: a speed column in rpm is a count of edges (its quantum differenced);
+    # the same column in volts is a rounded reading and keeps the term
+    from motorid.capture import Capture, ChannelInfo
+    from motorid.conditioning.pipeline import condition_experiment
+    from motorid.identification.stages import oe_settings
+
+    t = np.arange(-50, 450) * 0.01
+    u = np.where(t >= 0, STEP, 0.0)
+    y = np.round(np.where(t >= 0, K * STEP * (1 - np.exp(-np.clip(t, 0, None) / TAU)), 0.0) / 0.5) * 0.5
+    for unit, rounded in (("rpm", False), ("V", True)):
+        cap = Capture(time_s=t, output_v=y, input_v=u, source=f"log-{unit}.csv", format="csv",
+                      output_info=ChannelInfo("speed", unit))
+        cond = condition_experiment({"velocity": cap})
+        assert cond.responses["velocity"].rounded is rounded
+        assert oe_settings(cond, (1, 0)).differenced == (() if rounded else ("velocity",))

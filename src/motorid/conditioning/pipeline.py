@@ -16,7 +16,7 @@ from motorid.capture import ROLES, Capture
 from motorid.conditioning.checks import check_step_responses
 from motorid.conditioning.denoise import fft_denoise
 from motorid.conditioning.resample import ratio_for_interval, sample_reduction
-from motorid.conditioning.response import StepResponse, is_log, step_response
+from motorid.conditioning.response import COUNTED_SPEED_UNITS, StepResponse, is_log, step_response
 from motorid.conditioning.sync import synchronise
 from motorid.conditioning.timescale import ResponseTimes, auto_reduction_ratio, response_times
 from motorid.errors import ConditioningError, OptionError
@@ -145,11 +145,6 @@ class ConditionedExperiment:
         """The window each sample of a counted velocity capture is the mean over (0: sampled, or none)."""
         r = self.responses.get("velocity")
         return r.sample_window_s if r is not None else 0.0
-
-
-#: Units of a logged speed column that may be a count of encoder edges over each line (a volts
-#: column is a tacho's, sampled).
-COUNTED_SPEED_UNITS: tuple[str, ...] = ("rpm", "rad/s", "rev/s", "deg/s", "counts/s")
 
 
 def condition_experiment(

@@ -33,6 +33,11 @@ STEP_VOLTS_TOLERANCE = 0.05
 MEASURED_INPUT_SPREAD = 0.02
 
 
+#: Units of a logged speed column that may be a count of encoder edges over each line (a volts
+#: column is a tacho's, sampled).
+COUNTED_SPEED_UNITS: tuple[str, ...] = ("rpm", "rad/s", "rev/s", "deg/s", "counts/s")
+
+
 def is_log(capture: Capture) -> bool:
     """Whether a capture is a log (plain CSV or spreadsheet) rather than a scope's file.
 
@@ -123,6 +128,11 @@ class StepResponse:
     sample_window_s : float
         The interval each output sample is the mean over (a counted speed,
         :attr:`motorid.capture.Capture.sample_window_s`); 0 for samples.
+    rounded : bool
+        Whether the output's steps are a reading rounded to its codes (an ADC's, a scope's), whose
+        error follows the value; False for a speed in a counted-speed unit
+        (:data:`COUNTED_SPEED_UNITS`), most often a difference of two encoder counts, whose errors
+        telescope.
     """
 
     source: str
@@ -139,6 +149,7 @@ class StepResponse:
     timing: str = "onset"
     stamp_resolution_s: float = 0.0
     sample_window_s: float = 0.0
+    rounded: bool = True
     #: The sample interval, computed once: an identification asks for it over a hundred times
     #: (a median of the whole record's steps each time: 13 % of ``auto`` on the demo).
     _dt_cache: list[float] = field(default_factory=list, init=False, repr=False, compare=False)
@@ -283,6 +294,7 @@ def step_response(
         timing=timing,
         stamp_resolution_s=capture.stamp_resolution_s if timing == "logged" else 0.0,
         sample_window_s=capture.sample_window_s,
+        rounded=not (role == "velocity" and capture.output_info.units in COUNTED_SPEED_UNITS),
     )
 
 

@@ -112,6 +112,11 @@ class OeSettings:
         Channels whose every sample is the mean over the window (s) before its time — a speed
         counted over each sample interval — fitted as such means
         (:class:`~motorid.identification.closed_form.WindowBasis`) instead of samples.
+    differenced : tuple of str
+        Channels whose steps are not a reading rounded to its codes but a difference of two
+        counts (a speed counted from encoder edges, however it is fitted): their quantiser's
+        errors telescope, so the covariance leaves out the rounding's error along the record
+        (:mod:`~motorid.identification.quantiser`), which a windowed channel never gets.
     """
 
     n_poles: int = 2
@@ -127,6 +132,7 @@ class OeSettings:
     phase_group: tuple[str, ...] = ()
     instant_shared: tuple[tuple[str, ...], ...] = ()
     windows: tuple[tuple[str, float], ...] = ()
+    differenced: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -787,7 +793,7 @@ class _OeProblem:
         if quantum is None:
             # not: block means, counted speeds (the count's quantum differenced, not a rounded value),
             # a position that wraps (each turn moves it on the code grid)
-            counted = dict(settings.windows)
+            counted = {*dict(settings.windows), *settings.differenced}
             quantum = {c: _detected_quantum(raw[c], float(sigma.get(c, 1.0))) for c in names
                        if ratio[c] == 1 and c not in counted and not (c == "position" and wraps is not None)}
         return cls(settings, layout, names, step_volts, tc, raw, data, ratio, fast, wraps, pre_stats, sigma,

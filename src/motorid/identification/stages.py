@@ -383,7 +383,8 @@ def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, dela
         Shift groups from :func:`timing_groups`; the channels whose input a scope sampled have
         their common instant at the middle of the interval before their edge samples (each
         one's ``dt/√12`` as ``instant_std``) and their phases relative to each other fitted
-        (``phase_group``); a counted speed is fitted as its means over its window (``windows``).
+        (``phase_group``); a counted speed is fitted as its means over its window (``windows``); a speed
+        in a counted-speed unit has no rounding error along the record (``differenced``).
     """
     # a sub-sample phase cannot be told from the lags of the dynamics (an electrical pole, a
     # dead time): fitted, it took them up and τ came out short; so the captures' common instant
@@ -401,7 +402,9 @@ def oe_settings(cond: ConditionedExperiment, structure: tuple[int, int], *, dela
                                         if r.timing == "sampled" and role in cond.full_outputs),
                       instant_shared=_on_one_time_axis(cond, stamped),
                       windows=tuple((role, r.sample_window_s) for role, r in cond.responses.items()
-                                    if r.sample_window_s > 0 and role in cond.full_outputs))
+                                    if r.sample_window_s > 0 and role in cond.full_outputs),
+                      differenced=tuple(role for role, r in cond.responses.items()
+                                        if not r.rounded and role in cond.full_outputs))
 
 
 @dataclass(frozen=True, slots=True)
