@@ -17,3 +17,17 @@ def test_a_model_built_from_a_transfer_function_is_summarised_without_a_step():
     assert any(ln.startswith("first order:") and "dc gain 2 " in ln for ln in lines)  # 10/5, unit follows
     stepped = model_summary(model_from_velocity_tf(np.array([10.0]), np.array([1.0, 5.0]), step_volts=3.0))
     assert stepped[0].endswith("step 3 V")
+
+
+def test_the_summary_says_when_its_intervals_hold_the_quantisers_error():
+    # a scope's 8-bit codes (the trainer's velocity at 2 V/div): the line names the channel; the same
+    # capture unquantised has no such line
+    import motorid as mi
+    from motorid.trainer import run_experiment
+
+    for quantised, expected in ((True, "intervals: they hold the quantiser's error along the record (velocity)"),
+                                (False, None)):
+        rec = run_experiment("first-order", seed=0, validation=False, roles=("velocity",), quantised=quantised)
+        lines = model_summary(mi.identify(mi.Experiment(captures=dict(rec.captures))).model)
+        held = [ln for ln in lines if ln.startswith("intervals:")]
+        assert (held[0].startswith(expected) if expected else not held), held

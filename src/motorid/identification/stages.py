@@ -120,12 +120,16 @@ def channel_sigma(cond: ConditionedExperiment, role: str, block: int = 1) -> flo
 LEVEL_HARMONICS = 32
 
 
+#: How the intervals' method (:attr:`~motorid.model.uncertainty.Uncertainty.method`) names the quantiser's
+#: error along the record; the channels follow in parentheses.
+QUANTISER_CLAUSE = "with the quantiser's error along the record"
+
+
 def _quantiser_words(quantum: Mapping[str, float]) -> str:
     """What the covariance holds of the quantiser (:attr:`OeResult.quantum`), as a clause ('' for none)."""
     if not quantum:
         return ""
-    return (f"; with the quantiser's error along the record ({', '.join(quantum)}), its code grid at an "
-            "unknown place")
+    return f"; {QUANTISER_CLAUSE} ({', '.join(quantum)}), its code grid at an unknown place"
 
 
 def quantisation_bias_std(y: np.ndarray, quantum: float) -> float:
