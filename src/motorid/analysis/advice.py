@@ -590,16 +590,17 @@ class _Planner:
             return None
         grid, n_pre = grids
         sigma, pre_sigma = {}, {}
+        # each fitted channel's code at the planned volts/div
+        code = {c: s.volts_per_div.get(c, self.now.volts_per_div[c]) / CODES_PER_DIV for c in self.fitted}
         for c in self.fitted:
             ch = self.channels[c]
-            q2 = (s.volts_per_div.get(c, self.now.volts_per_div[c]) / CODES_PER_DIV) ** 2 / 12.0
+            q2 = code[c] ** 2 / 12.0
             sigma[c] = math.sqrt(ch.random_var / s.averages + q2)
             pre_sigma[c] = math.sqrt(ch.pre_random_var / s.averages + q2)
         instant = tuple((c, s.sample_interval_s / math.sqrt(12.0)) for c in self.fitted if c in self.sampled)
         n_after = next(iter(grid.values())).size
         try:
-            quantum = {c: s.volts_per_div.get(c, self.now.volts_per_div[c]) / CODES_PER_DIV
-                       for c in self.fitted if c in self.res.quantum}
+            quantum = {c: q for c, q in code.items() if c in self.res.quantum}
             # the dither the fit of that record would see: its residuals besides the quantiser's
             dither = {c: math.sqrt(self.channels[c].residual_var / s.averages) for c in quantum}
             return planned_uncertainty(self.res, grid, s.step_volts, sigma, whiten=self.noise.whiten,

@@ -1035,11 +1035,11 @@ class _OeProblem:
             warnings.append(f"parameters poorly determined (Fisher information condition number {cond:.2g}): "
                             "a lower order may do")
         pred = self.predict(th)
-        data = self.data
+        resid = {c: self.data[c] - pred[c] for c in names}  # before any whitening
         cov = np.linalg.pinv(jtj) * s2 + self._instant_covariance(th, jac_m, jtj)
         if self.quantum:
             # the dither: what the residuals hold besides the quantiser's own q²/12
-            dither = {c: math.sqrt(max(float(np.var(data[c] - pred[c])) - q * q / 12.0, 0.0))
+            dither = {c: math.sqrt(max(float(np.var(resid[c])) - q * q / 12.0, 0.0))
                       for c, q in self.quantum.items()}
             cov = cov + self._quantiser_covariance(th, np.linalg.pinv(jtj) @ jac_m.T, dither, pred)
             if "velocity" in self.quantum:
@@ -1061,13 +1061,13 @@ class _OeProblem:
             position_scale=None if q["c"] is None else float(q["c"]),
             current_num=None if q["cur"] is None else np.asarray(q["cur"], dtype=float) / lead,
             std=std, ci95=ci,
-            residual_rms={c: float(np.sqrt(np.mean((data[c] - pred[c]) ** 2))) for c in names},
+            residual_rms={c: float(np.sqrt(np.mean(resid[c] ** 2))) for c in names},
             sigma={c: float(self.sigma.get(c, 1.0)) for c in names},
             n_samples=n_total, nfev=int(sol.nfev), cost=0.5 * rss,
             bic=bic({"whitened residuals": n_total}, {"whitened residuals": rss / n_total}, n_par),
             aic=n_total * np.log(rss / n_total) + 2 * n_par,
             settings=self.settings, warnings=tuple(warnings),
-            residuals={c: data[c] - pred[c] for c in names},
+            residuals=resid,
             shifts={c: float(v) for c, v in q["shift"].items()},
             quantum=dict(self.quantum),
         )

@@ -28,7 +28,11 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["QUANTISER_HARMONICS", "harmonic_variances", "sawtooth_basis"]
+__all__ = ["QUANTISER_CLAUSE", "QUANTISER_HARMONICS", "harmonic_variances", "sawtooth_basis"]
+
+#: How the intervals' method (:attr:`~motorid.model.uncertainty.Uncertainty.method`) names the quantiser's
+#: error along the record; the channels follow in parentheses.
+QUANTISER_CLAUSE = "with the quantiser's error along the record"
 
 #: Harmonics of the sawtooth kept in a fit's covariance: the first twelve hold 95 % of the sum for
 #: an undithered signal (the variances fall as ``1/k²``) and over 99 % with a ripple's dither (``1/k³``).

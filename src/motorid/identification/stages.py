@@ -36,7 +36,7 @@ from motorid.identification.method_options import (
     OutputErrorOptions,
 )
 from motorid.identification.noise_json import SCALE_ONLY, ChannelNoise
-from motorid.identification.quantiser import harmonic_variances
+from motorid.identification.quantiser import QUANTISER_CLAUSE, harmonic_variances
 from motorid.identification.result import IdentificationError
 from motorid.identification.sanity import pole_unresolved, zero_undemanded
 from motorid.identification.srivc import SrivcSettings, srivc_fit
@@ -118,11 +118,6 @@ def channel_sigma(cond: ConditionedExperiment, role: str, block: int = 1) -> flo
 
 #: Harmonics of the sawtooth summed for a level's error (a sum, not a covariance: all of them that matter).
 LEVEL_HARMONICS = 32
-
-
-#: How the intervals' method (:attr:`~motorid.model.uncertainty.Uncertainty.method`) names the quantiser's
-#: error along the record; the channels follow in parentheses.
-QUANTISER_CLAUSE = "with the quantiser's error along the record"
 
 
 def _quantiser_words(quantum: Mapping[str, float]) -> str:

@@ -17,8 +17,8 @@ from typing import Any
 import numpy as np
 
 from motorid.identification.noise_json import noise_of
+from motorid.identification.quantiser import QUANTISER_CLAUSE
 from motorid.identification.sanity import SanityReport, demanded_zero_note
-from motorid.identification.stages import QUANTISER_CLAUSE
 from motorid.model.notation import poly_text
 from motorid.model.uncertainty import Uncertainty
 from motorid.model.units import channel_unit, physical_gain
