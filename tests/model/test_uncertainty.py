@@ -69,6 +69,20 @@ def test_what_it_does_not_type_is_kept_and_written_back():
     assert out["dc_gain"]["ci95"] == [pytest.approx(np.nan, nan_ok=True)] * 2
 
 
+def test_the_quantised_channels_are_typed_and_written_back():
+    # each channel whose intervals hold its quantiser's error, with its code step; a malformed entry is
+    # not typed (no channel is claimed) and is written back as it was
+    u = Uncertainty.from_dict({"method": "m", "quantiser": {"velocity": 0.08, "current": 0.04}})
+    assert dict(u.quantiser) == {"velocity": 0.08, "current": 0.04}
+    assert isinstance(u.quantiser, MappingProxyType) and "quantiser" not in u.other
+    assert u.to_dict()["quantiser"] == {"velocity": 0.08, "current": 0.04}
+    assert pickle.loads(pickle.dumps(u)).quantiser == u.quantiser
+    assert "quantiser" not in Uncertainty.from_dict({"method": "m"}).to_dict()
+    for bad in ({"velocity": -1.0}, {"velocity": "x"}, [0.08]):
+        odd = Uncertainty.from_dict({"quantiser": bad})
+        assert not odd.quantiser and odd.to_dict()["quantiser"] == bad
+
+
 def test_a_model_takes_a_mapping_or_none_and_refuses_anything_else():
     m = model_from_velocity_tf([2.0], [1.0, 2.0], step_volts=1.0)
     assert m.uncertainty is None

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import jsonschema
 import numpy as np
+import pytest
 
 from motorid.model import model_from_velocity_tf
 from motorid.report.summary import model_summary
+from motorid.schemas import schema
 
 
 def test_a_model_built_from_a_transfer_function_is_summarised_without_a_step():
@@ -28,6 +31,11 @@ def test_the_summary_says_when_its_intervals_hold_the_quantisers_error():
     for quantised, expected in ((True, "intervals: they hold the quantiser's error along the record (velocity)"),
                                 (False, None)):
         rec = run_experiment("first-order", seed=0, validation=False, roles=("velocity",), quantised=quantised)
-        lines = model_summary(mi.identify(mi.Experiment(captures=dict(rec.captures))).model)
-        held = [ln for ln in lines if ln.startswith("intervals:")]
+        model = mi.identify(mi.Experiment(captures=dict(rec.captures))).model
+        held = [ln for ln in model_summary(model) if ln.startswith("intervals:")]
         assert (held[0].startswith(expected) if expected else not held), held
+        # the model JSON says the same, with the code step: 2 V/div over the scope's 25 codes a division
+        doc = model.to_dict()
+        jsonschema.Draft202012Validator(schema("model")).validate(doc)
+        steps = doc["uncertainty"].get("quantiser", {})
+        assert steps == ({"velocity": pytest.approx(2.0 / 25, rel=1e-6)} if quantised else {}), steps

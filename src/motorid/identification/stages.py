@@ -545,6 +545,7 @@ def oe_uncertainty(res: OeResult, cond: ConditionedExperiment | None = None) -> 
         zeros=tuple(root(f"zero_{i}", z) for i, z in enumerate(res.zeros)),
         method="Gauss-Newton covariance of the output-error fit (delta method), 95% = ±1.96 std"
                + _quantiser_words(res.quantum),
+        quantiser=dict(res.quantum),
         pole_pairs=tuple(PolePair((i, i + 1), item(f"pair_{i}_wn", res_value(res, f"pair_{i}_wn")),
                                   _pair_damping(res, i, item(f"pair_{i}_zeta", res_value(res, f"pair_{i}_zeta"))))
                          for i in pairs),

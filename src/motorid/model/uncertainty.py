@@ -284,6 +284,20 @@ class ChannelTiming:
                    float(window) if isinstance(window, (int, float)) and not isinstance(window, bool) else 0.0)
 
 
+def _quantiser(entry: Any, other: dict[str, Any]) -> dict[str, float]:
+    """The JSON's ``quantiser`` (channel → code step); anything else is kept in ``other`` as it was."""
+    if entry is None:
+        return {}
+    try:
+        steps = {str(k): float(v) for k, v in entry.items()}
+    except (AttributeError, TypeError, ValueError):
+        steps = None
+    if steps is None or not all(math.isfinite(v) and v > 0 for v in steps.values()):
+        other["quantiser"] = entry
+        return {}
+    return steps
+
+
 #: The typed top-level keys of ``uncertainty``, in the order the JSON has them.
 _HEADLINE = ("dc_gain", "time_constant", "residence_time_s", "t63_s")
 
@@ -311,6 +325,9 @@ class Uncertainty(JsonView):
         Each fitted channel's step instant and shift (the JSON's top-level ``timing``).
     method : str
         How the intervals were obtained, in words.
+    quantiser : Mapping of str to float
+        The channels whose intervals hold their quantiser's error along the record, each with
+        its code step in the channel's unit (the JSON's ``quantiser``; empty for none).
     other : Mapping
         Keys of the JSON object this type does not hold (written back as they were).
     """
@@ -329,9 +346,11 @@ class Uncertainty(JsonView):
     joint: JointCovariance | None = None
     timing: Mapping[str, ChannelTiming] = field(default_factory=dict)
     method: str = ""
+    quantiser: Mapping[str, float] = field(default_factory=dict)
     other: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "quantiser", MappingProxyType({str(k): float(v) for k, v in self.quantiser.items()}))
         object.__setattr__(self, "poles", tuple(self.poles))
         object.__setattr__(self, "zeros", tuple(self.zeros))
         object.__setattr__(self, "pole_pairs", tuple(self.pole_pairs))
@@ -391,7 +410,7 @@ class Uncertainty(JsonView):
         -------
         Uncertainty
         """
-        known = {*_HEADLINE, "poles", "zeros", "pole_pairs", "delay", "joint", "timing", "method"}
+        known = {*_HEADLINE, "poles", "zeros", "pole_pairs", "delay", "joint", "timing", "method", "quantiser"}
         other = {k: v for k, v in data.items() if k not in known}
         joint = None
         entry = data.get("joint")
@@ -413,6 +432,7 @@ class Uncertainty(JsonView):
             joint=joint,
             timing={str(k): ChannelTiming.from_dict(v) for k, v in timing.items() if isinstance(v, Mapping)},
             method=str(data.get("method") or ""),
+            quantiser=_quantiser(data.get("quantiser"), other),
             other=other,
         )
 
@@ -434,6 +454,8 @@ class Uncertainty(JsonView):
         out["zeros"] = [z.to_dict() for z in self.zeros]
         if self.method:
             out["method"] = self.method
+        if self.quantiser:
+            out["quantiser"] = dict(self.quantiser)
         if self.pole_pairs:
             out["pole_pairs"] = [p.to_dict() for p in self.pole_pairs]
         if self.delay is not None:

@@ -17,7 +17,6 @@ from typing import Any
 import numpy as np
 
 from motorid.identification.noise_json import noise_of
-from motorid.identification.quantiser import QUANTISER_CLAUSE
 from motorid.identification.sanity import SanityReport, demanded_zero_note
 from motorid.model.notation import poly_text
 from motorid.model.uncertainty import Uncertainty
@@ -103,9 +102,9 @@ def _uncertainty(u: Uncertainty | None, gain_unit: str = "V/V") -> list[SummaryL
         lo, hi = item.interval_or_nan()
         lines.append(_plain(f"{label}: {sig(item.value.real)} ± {sig(1.96 * item.stderr, 2)} "
                             f"(95 % interval [{sig(lo)}, {sig(hi)}])"))
-    if QUANTISER_CLAUSE in u.method:
+    if u.quantiser:
         # why the intervals are wider than the noise alone makes them (docs/timing.md)
-        held = u.method.split(QUANTISER_CLAUSE, 1)[1].split(")", 1)[0].strip(" (")
+        held = ", ".join(u.quantiser)
         lines.append(_plain(f"intervals: they hold the quantiser's error along the record ({held}): where the "
                             "noise does not dither its codes it rounds the signal the same way wherever the signal "
                             "moves slowly, an error that does not average out"))
