@@ -9,6 +9,7 @@ except where a sample lies exactly on the band edge (``>`` vs ``>=``, documented
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -100,3 +101,25 @@ def test_never_reaching_ninety_percent_is_nan_not_an_error() -> None:
     m = response_metrics(t, y, r, np.zeros_like(t), step=True)
     assert math.isnan(m.rise_time_s) and math.isnan(m.settling_time_s) and m.overshoot_pct == 0.0
     assert m.steady_state_error_v == pytest.approx(0.5, abs=1e-3)
+
+
+@pytest.mark.parametrize("top", [1e100, 1e200, 1.7e308])
+def test_a_diverging_loops_metrics_are_its_values_not_an_overflow(top: float) -> None:
+    # a sampled loop that diverges (a design the 1 ms controller cannot realise): its output grows past
+    # 1e154, whose square overflowed ("RuntimeWarning: overflow encountered in square", an error where
+    # warnings are errors); the RMS, the steady-state error and the overshoot are now its own values
+    t = np.arange(8001) * 1e-3
+    y = np.sin(40 * t) * np.exp(np.log(top) * t / t[-1])
+    r = np.ones_like(t)
+    r[0] = 0.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = response_metrics(t, y, r, y, step=True)
+    # the same quantities computed on the output scaled down by 1/top, where nothing overflows
+    small = y / top
+    half = slice(t.size // 2, None)
+    rms = float(np.sqrt(np.mean((r[half] / top - small[half]) ** 2))) * top
+    tail = float(np.mean(small[-(t.size // 20):])) * top
+    assert m.tracking_rms_v == pytest.approx(rms, rel=1e-12)
+    assert m.steady_state_error_v == pytest.approx(1.0 - tail, rel=1e-12)
+    assert m.overshoot_pct > 1e90 and math.isnan(m.settling_time_s)

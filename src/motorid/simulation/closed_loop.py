@@ -366,6 +366,20 @@ def reference_values(ref: ReferenceSignal, time_s: np.ndarray) -> np.ndarray:
 ROUNDING = 1e-9
 
 
+def _scaled(e: np.ndarray, power: int) -> float:
+    """The mean of ``e`` (``power`` 1) or its root mean square (2), without overflow.
+
+    ``e`` is divided through by its largest magnitude first: a diverging loop's output (past about
+    1e154 its square overflows, past 1e305 its sum) gives its value, or ``inf``.
+    """
+    top = float(np.max(np.abs(e), initial=0.0))
+    if top == 0.0 or not np.isfinite(top):
+        return top  # 0, inf, or nan
+    if power == 1:
+        return top * float(np.mean(e / top))
+    return top * float(np.sqrt(np.mean((e / top) ** 2)))
+
+
 def response_metrics(time_s: np.ndarray, output_v: np.ndarray, reference_v: np.ndarray,
                      control_v: np.ndarray, step: bool) -> ResponseMetrics:
     """Rise/settling time, overshoot, steady-state error, tracking RMS and peak control.
@@ -394,10 +408,10 @@ def response_metrics(time_s: np.ndarray, output_v: np.ndarray, reference_v: np.n
     t, y, r = (np.asarray(v, dtype=float) for v in (time_s, output_v, reference_v))
     n = t.size
     half = slice(n // 2, None)
-    rms = float(np.sqrt(np.mean((r[half] - y[half]) ** 2)))
+    rms = _scaled(r[half] - y[half], 2)
     peak_u = float(np.max(np.abs(control_v)))
     rf = float(r[-1])
-    ess = float(rf - np.mean(y[-max(1, n // 20):]))
+    ess = float(rf - _scaled(y[-max(1, n // 20):], 1))
     # an error below a billionth of the reference is the simulation's rounding (a loop with
     # integral action ends on r to 1e-15): it is 0, not "1.776e-15 rpm"
     scale = float(np.max(np.abs(r), initial=0.0))
@@ -422,8 +436,9 @@ def response_metrics(time_s: np.ndarray, output_v: np.ndarray, reference_v: np.n
     # 10 → 90 % of the step, settling = first sample after the last one outside ±2 % of it,
     # overshoot = peak beyond the final value in % of the step), with the final *reference*
     # as the final value, so a steady-state error shows as an unsettled response
-    info = control.step_info(y[k0:] - y0, T=t[k0:] - t[k0], yfinal=delta, SettlingTimeThreshold=0.02,
-                             RiseTimeLimits=(0.1, 0.9))
+    with np.errstate(over="ignore"):  # a diverging loop's overshoot past 1e306: inf, not a warning
+        info = control.step_info(y[k0:] - y0, T=t[k0:] - t[k0], yfinal=delta, SettlingTimeThreshold=0.02,
+                                 RiseTimeLimits=(0.1, 0.9))
     return ResponseMetrics(float(info["RiseTime"]), float(info["SettlingTime"]), float(info["Overshoot"]), ess,
                            rms, peak_u)
 
