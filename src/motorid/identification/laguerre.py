@@ -724,11 +724,12 @@ def laguerre_identify(
         raise IdentificationError("no stable realisation of the Laguerre coefficients for any pole, number of "
                                   "terms or order" + (f" ({errors[0]})" if errors else ""))
     chosen = min(candidates, key=lambda c: c.score)
-    polished = (_polish_orders(candidates, t, {output: yy, **extras}, u, step_volts, output, pre_step, phase_s)
-                if settings.polish else [])
+    polished, pick, passed_over = (
+        _polish_orders(candidates, t, {output: yy, **extras}, u, step_volts, output, pre_step, phase_s)
+        if settings.polish else ([], -1, ""))
     polish: LaguerrePolish | None = None
     if polished:
-        _, chosen, polish, a_p, b_p, c_p = min(polished, key=lambda r: r[0])
+        _, chosen, polish, a_p, b_p, c_p = polished[pick]
     warnings: list[str] = []
     coeff, sv, floor, above, m = chosen.coefficients, chosen.sv, chosen.floor, chosen.above, chosen.order
     if not chosen.stable:
@@ -746,6 +747,8 @@ def laguerre_identify(
         warnings.append(f"the order-{m} model's DC gain {model_dc:.4g} differs from the Laguerre coefficients' "
                         f"{dc:.4g} ± {dc_std:.2g}: the order may be too low")
     choice = _choice_text(chosen, len(candidates), tau, settings, polish, polished, pre_step)
+    if passed_over:
+        choice += f"; {passed_over}"
     return LaguerreResult(
         A=a_f, B=b_f, C=c_f, order=m, coefficients=coeff, hankel_sv=sv, noise_floor=floor,
         dc_gain=dc, dc_gain_std=dc_std, model_dc_gain=model_dc, step_volts=float(step_volts), output=output,

@@ -62,8 +62,18 @@ def _transfer_function(a: Any, b: Any, c: Any) -> tuple[np.ndarray, np.ndarray]:
 
 def _polish_orders(candidates: list[_Candidate], t: np.ndarray, outputs: dict[str, np.ndarray],
                    u: np.ndarray | None, step_volts: float, primary: str,
-                   pre_step: dict[str, np.ndarray] | None = None, phase_s: float = 0.0) -> list[tuple[Any, ...]]:
-    """The best realisation of each order, polished; (BIC, candidate, polish, A, B, C) of the stable ones."""
+                   pre_step: dict[str, np.ndarray] | None = None, phase_s: float = 0.0,
+                   ) -> tuple[list[tuple[Any, ...]], int, str]:
+    """The best realisation of each order, polished, and the order chosen among them.
+
+    Returns ``(rows, chosen, note)``: a row (BIC, candidate, polish, A, B, C) per stable order; the
+    index of the chosen one, the least-BIC order whose poles the data resolve (the sanity gate's
+    rule, as the output-error method's structure choice applies it), or the least-BIC order when
+    none does; and ``note``, what was passed over and why ('' when the least BIC is chosen).  An
+    order with poles to spare can win BIC by hundreds on a record with a tone in its noise (a
+    tacho's ripple fitted as a complex pair of damping 1e-5 whose interval reaches the right
+    half-plane): that pair is the noise, not the motor.
+    """
     best: dict[int, _Candidate] = {}
     for c in candidates:
         if c.stable and (c.order not in best or c.score < best[c.order].score):
@@ -78,19 +88,41 @@ def _polish_orders(candidates: list[_Candidate], t: np.ndarray, outputs: dict[st
         if fits:
             chosen.append((c, fits))
     if not chosen:
-        return []
+        return [], -1, ""
     final, noise = _with_shared_noise_model(chosen, t, outputs, u, step_volts, primary, pre_step, phase_s)
-    final = _chosen_refitted(final, noise, run)
+    pick, note = _resolved_choice([pol for _, pol in final])
+    final = _chosen_refitted(final, noise, run, pick)
     out: list[tuple[Any, ...]] = []
     for c, pol in final:
         sys = _state_space(pol.num, pol.den)
         out.append((pol.bic, c, pol, *(np.asarray(x, dtype=float) for x in (sys.A, sys.B, sys.C))))
-    return out
+    return out, pick, note
+
+
+def _resolved_choice(fits: list[LaguerrePolish]) -> tuple[int, str]:
+    """The least-BIC fit whose poles the data resolve (or the least-BIC one), and what it passed over."""
+    from motorid.identification.laguerre_uncertainty import unresolved_poles
+
+    ranked = sorted(range(len(fits)), key=lambda k: fits[k].bic)
+    passed = []
+    for k in ranked:
+        loose = unresolved_poles(fits[k])
+        if not loose:
+            break
+        order = fits[k].den.size - 1
+        passed.append(f"order {order} (BIC {fits[k].bic:.1f}: the data do not resolve its pole(s) "
+                      + ", ".join(str(i + 1) for i in loose) + ")")
+    else:
+        return ranked[0], ""
+    if not passed:
+        return k, ""
+    return k, (f"order {fits[k].den.size - 1} is the least BIC among the orders whose poles the data resolve, "
+               "passed over: " + "; ".join(passed) + ", which the sanity gate would reject")
 
 
 def _chosen_refitted(final: list[tuple[_Candidate, LaguerrePolish]], noise: dict[str, np.ndarray] | None,
-                     run: Callable[..., LaguerrePolish]) -> list[tuple[_Candidate, LaguerrePolish]]:
-    """The least-BIC order refitted at the final fit's tolerance, resumed where its candidate fit stopped.
+                     run: Callable[..., LaguerrePolish], i: int) -> list[tuple[_Candidate, LaguerrePolish]]:
+    """The chosen order (``final[i]``) refitted at the final fit's tolerance, resumed where its candidate fit stopped.
 
     As the output-error method does: the candidates of the order search stop at
     :data:`SEARCH_TOLERANCE` (an order with a pole to spare creeps along a ridge for its whole
@@ -99,7 +131,6 @@ def _chosen_refitted(final: list[tuple[_Candidate, LaguerrePolish]], noise: dict
     """
     if not final:
         return final
-    i = min(range(len(final)), key=lambda k: final[k][1].bic)
     pol = final[i][1]
     sys = _state_space(pol.num, pol.den)
     try:

@@ -20,7 +20,7 @@ from motorid.identification.laguerre_refine import LaguerrePolish, _PolishModel
 from motorid.model import MotorModel, model_from_velocity_tf
 from motorid.model.uncertainty import ChannelTiming, JointCovariance, ParameterEstimate, Uncertainty
 
-__all__ = ["polish_uncertainty", "polished_tf"]
+__all__ = ["polish_uncertainty", "polished_tf", "unresolved_poles"]
 
 #: Relative step of the central differences, in standard errors of the parameter moved.
 STEP_STD = 1e-3
@@ -56,6 +56,53 @@ def polished_tf(polish: LaguerrePolish, params: np.ndarray) -> tuple[np.ndarray,
     big = float(np.max(np.abs(num))) if num.size else 0.0
     num = np.trim_zeros(np.where(np.abs(num) < 1e-12 * big, 0.0, num), "f")
     return (num if num.size else np.zeros(1)), np.r_[1.0, np.asarray(q["d"], dtype=float)[::-1]], float(q["delay"])
+
+
+def unresolved_poles(polish: LaguerrePolish) -> list[int]:
+    """Indices (slowest first) of the poles of ``polish`` that the data do not resolve.
+
+    Each pole's real part with its delta-method interval, as :func:`polish_uncertainty` gives it
+    (central differences of the denominator's roots), judged by the sanity gate's rule
+    (:func:`motorid.identification.sanity.pole_unresolved`).  Without a covariance nothing can be
+    judged, and no pole is listed.
+
+    Parameters
+    ----------
+    polish : LaguerrePolish
+        A polished fit.
+
+    Returns
+    -------
+    list of int
+    """
+    from motorid.identification.sanity import pole_unresolved
+
+    cov = polish.covariance
+    if cov is None or cov.shape != (polish.params.size, polish.params.size) or not np.all(np.isfinite(cov)):
+        return []
+    moving = _PolishModel(polish.den.size - 1, polish.channels, polish.n_zeros).delay_index + 1
+
+    def roots(x: np.ndarray) -> np.ndarray:
+        with np.errstate(all="ignore"):
+            return _slowest_first(np.roots(polished_tf(polish, x)[1]))
+
+    base = roots(polish.params)
+    grad = np.zeros((base.size, moving))
+    for i in range(moving):
+        h = STEP_STD * float(np.sqrt(cov[i, i])) or 1e-9 * max(abs(float(polish.params[i])), 1.0)
+        up, down = polish.params.copy(), polish.params.copy()
+        up[i] += h
+        down[i] -= h
+        a, b = _matched(base, roots(up)), _matched(base, roots(down))
+        grad[:, i] = np.nan if a is None or b is None else np.real(a - b) / (2.0 * h)
+    sub = cov[:moving, :moving]
+    out = []
+    for k, p in enumerate(base):
+        std = float(np.sqrt(max(float(grad[k] @ sub @ grad[k]), 0.0)))
+        if np.isfinite(std) and pole_unresolved(float(np.real(p)), float(np.real(p)) - 1.96 * std,
+                                                float(np.real(p)) + 1.96 * std):
+            out.append(k)
+    return out
 
 
 def _slowest_first(roots: np.ndarray) -> np.ndarray:
