@@ -41,10 +41,14 @@ class DemoRun:
 
 
 @pytest.fixture(scope="session")
-def demo_run(tmp_path_factory) -> DemoRun:
+def demo_run(tmp_path_factory, request) -> DemoRun:
     """``motorid demo`` (seed 0) into a session folder: every test reading the demo captures
     shares this one run instead of simulating, writing and identifying its own. Under
-    ``pytest -n`` the workers share it too: the first one runs it, the others read its result."""
+    ``pytest -n`` the workers share it too: the first one runs it, the others read its result.
+
+    A worker is known by its ``workerinput``, not by ``PYTEST_XDIST_WORKER``: a pytest run started
+    from inside a worker (the other Pythons' test) inherits that variable, and its temporary
+    folder's parent is the one every run shares, where a result pickled by older code waited."""
     import json
 
     from motorid.cli.demo import run_demo
@@ -53,7 +57,7 @@ def demo_run(tmp_path_factory) -> DemoRun:
         import fcntl
     except ImportError:  # not POSIX: each worker runs its own
         fcntl = None
-    if fcntl is None or "PYTEST_XDIST_WORKER" not in os.environ:
+    if fcntl is None or getattr(request.config, "workerinput", None) is None:
         out = tmp_path_factory.mktemp("demo") / "D"
         result = run_demo(out, seed=0)
     else:
