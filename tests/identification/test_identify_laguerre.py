@@ -481,7 +481,7 @@ def test_arrays_of_different_lengths_are_one_line_errors_in_every_estimator():
 
 
 def test_an_order_whose_poles_the_data_do_not_resolve_is_passed_over():
-    """First order, realistic noise, seed 23: the polish's least BIC (by 1200) was three poles, two of them a
+    """First order, realistic noise, seed 46: the polish's least BIC (by 770) was three poles, two of them a
     pair of damping 1e-5 at the tacho's ripple (836 rad/s) whose intervals reach the right half-plane: the
     noise's tone, not the motor.  The Markov method chose it and its own sanity gate rejected the model (5 of
     80 seeds).  Now the least-BIC order whose poles are resolved is chosen (the output-error method's rule),
@@ -491,7 +491,7 @@ def test_an_order_whose_poles_the_data_do_not_resolve_is_passed_over():
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        exp = _trainer("first-order", "realistic", seed=23)
+        exp = _trainer("first-order", "realistic", seed=46)
         res = identify_conditioned(condition_experiment(dict(exp.captures), ConditioningSettings()),
                                    IdentifySettings(method="markov"))
     assert res.sanity.passed, res.sanity.failures
