@@ -152,7 +152,11 @@ def test_design_on_every_model(class_root, tmp_path):
     root, _ = class_root
     settings = BatchSettings(report=False, design={"damping": 0.7, "wn": 5.0})
     result = run_batch([root / "s00"], tmp_path, settings)
-    assert [r.status for r in result.rows] == ["ok"]
+    (row,) = result.rows
+    # the design adds no warning of its own; the model may carry one (its fit at the double pole)
+    model_warnings = json.loads((tmp_path / "s00" / "model.json").read_text(encoding="utf-8"))["warnings"]
+    assert row.status == ("warning" if model_warnings else "ok"), row
+    assert set(row.warnings) <= set(model_warnings), row.warnings
     doc = read_design_json(tmp_path / "s00" / "design.json")
     # the closed-loop poles are the ones asked for: ζ = 0.7, ωn = 5 rad/s (independent of the gains)
     poles = sorted((complex(*p) if isinstance(p, list) else complex(p) for p in doc["closed_loop_poles"]),

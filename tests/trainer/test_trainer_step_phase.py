@@ -40,3 +40,18 @@ def test_the_response_starts_at_the_true_step_instant(seed):
     assert err_true < 1e-3 * scale  # the plant's own nonlinear parts are off in the ideal preset
     if truth.step_time_s < -0.2 * dt:  # a phase large enough to tell
         assert err_true < 0.5 * err_edge
+
+
+def test_the_instants_spread_evenly_over_the_sample_interval():
+    # a real switch's instant is uniform in the interval before the trigger sample, its mean at the middle
+    # (where the conditioning puts the step); the sub-steps' starts had their mean dt/16 late
+    from motorid.trainer.experiment import _step_instant
+
+    dt, m = 0.004, preset("paper").substeps
+    instants = np.array([_step_instant(k, dt, m) for k in range(m)])
+    assert np.all((-dt < instants) & (instants < 0.0))
+    assert np.mean(instants) == pytest.approx(-dt / 2, abs=1e-15)
+    assert np.var(instants) == pytest.approx(dt**2 / 12, rel=2 / m**2)  # a uniform's, to the grid's 1/m²
+    seen = {run_experiment("paper", seed=s, validation=False, roles=("velocity",)).capture_truth["velocity"].step_time_s
+            for s in range(24)}
+    assert all(np.min(np.abs(instants - x)) < 1e-12 for x in seen) and len(seen) > m // 2

@@ -115,7 +115,7 @@ def _averaged(role: str, cfg: TrainerConfig, settings: ScopeSettings, t: np.ndar
     steps, wraps = [], 0
     for _ in range(averages):
         k = int(rng.integers(0, cfg.substeps))
-        step_t = -k * dt / cfg.substeps
+        step_t = _step_instant(k, dt, cfg.substeps)
         if k not in plants:  # the plant is deterministic: one simulation per sub-step phase
             plants[k] = _simulate_between_samples(cfg, t, step_t, step_volts)
         plant = replace(plants[k], motor_angle_rad=plants[k].motor_angle_rad + float(rng.uniform(0, 2 * np.pi)))
@@ -127,16 +127,31 @@ def _averaged(role: str, cfg: TrainerConfig, settings: ScopeSettings, t: np.ndar
     return acc_u / averages, acc_y / averages, float(np.mean(steps)), wraps
 
 
+def _step_instant(k: int, dt: float, substeps: int) -> float:
+    """The instant of a switch thrown in sub-step ``k`` before a sample (``t = 0``): its middle.
+
+    The ``substeps`` instants ``−(k + ½)·dt/substeps`` spread evenly over the sample interval
+    ``(−dt, 0)``, their mean at its middle, as a real switch's uniform instant (at the sub-steps'
+    starts, ``−k·dt/substeps``, they had a mean ``dt/(2·substeps)`` later than the middle: every
+    trainer capture's response then started on average a sixteenth of a sample late).
+    """
+    return -(k + 0.5) * dt / substeps
+
+
 def _simulate_between_samples(cfg: TrainerConfig, t: np.ndarray, step_t: float, step_volts: float) -> PlantResponse:
     """The plant's response to a step at ``step_t``, which may fall between two samples of ``t``.
 
     The plant holds its input over each integration step; simulated on its sub-step grid (one
-    sub-step per point), the step starts at the sub-step where the switch was thrown, not at the
-    next scope sample, and the states are kept at the scope's samples.
+    sub-step per point), each sub-step holds the input's mean over it: 0 before the switch is
+    thrown, the level after, and in the sub-step where it is thrown the part of the level that
+    comes after the instant (the step's integral is exact, its response to second order in the
+    sub-step).  The states are kept at the scope's samples.
     """
     m = cfg.substeps
-    fine = t[0] + np.arange(t.size * m) * ((t[1] - t[0]) / m)
-    full = simulate_plant(cfg, fine, step_signal(fine, step_t - 1e-9 * (t[1] - t[0]), step_volts), substeps=1)
+    h = (t[1] - t[0]) / m
+    fine = t[0] + np.arange(t.size * m) * h
+    u = step_volts * np.clip((fine + h - step_t) / h, 0.0, 1.0)
+    full = simulate_plant(cfg, fine, u, substeps=1)
     return PlantResponse(t, *(np.asarray(a)[::m] for a in (
         full.amp_out_v, full.current_a, full.motor_speed_rad_s, full.motor_angle_rad, full.output_angle_rad)))
 
@@ -251,8 +266,8 @@ def run_experiment(
             continue
         # the scope triggers on the first sample after the CH1 edge; the switch is thrown at a
         # random instant in the sample interval before it, which the motor sees (the plant runs
-        # on its integration sub-steps, so the step falls on one of them)
-        step_t = -float(child.integers(0, cfg.substeps)) * dt / cfg.substeps
+        # on its integration sub-steps: the instant is the middle of one of them)
+        step_t = _step_instant(int(child.integers(0, cfg.substeps)), dt, cfg.substeps)
         t = record_time(settings, trig)
         u = step_signal(t, step_t, step_volts)
         plant = _simulate_between_samples(cfg, t, step_t, step_volts)
