@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from dataclasses import replace
 
@@ -480,25 +481,47 @@ def test_arrays_of_different_lengths_are_one_line_errors_in_every_estimator():
         laguerre_identify(t, np.arange(10.0), float("nan"))
 
 
-def test_an_order_whose_poles_the_data_do_not_resolve_is_passed_over():
-    """First order, realistic noise, seed 46: the polish's least BIC (by 770) was three poles, two of them a
-    pair of damping 1e-5 at the tacho's ripple (836 rad/s) whose intervals reach the right half-plane: the
-    noise's tone, not the motor.  The Markov method chose it and its own sanity gate rejected the model (5 of
-    80 seeds).  Now the least-BIC order whose poles are resolved is chosen (the output-error method's rule),
-    and the choice says what it passed over."""
+def _passed_over_is_named(choice: str) -> None:
+    """Every order with a lower BIC than the chosen one is named as passed over, with its reason."""
+    listed = re.search(r"order (\d+) by the polished fits' BIC on one effective sample size per channel \(([^)]*)\)",
+                       choice)
+    assert listed, choice
+    chosen = int(listed.group(1))
+    bics = {int(o): float(b) for o, b in (item.split(": ") for item in listed.group(2).split(", "))}
+    for order, value in bics.items():
+        if value < bics[chosen]:
+            assert re.search(rf"passed over: .*order {order} \(BIC [^:]*: ", choice), choice
+
+
+@pytest.mark.parametrize(("name", "seed"), [("first-order", 46), ("first-order", 9), ("lab-report", 5),
+                                            ("lab-report", 7)])
+def test_the_markov_method_chooses_an_order_the_data_support(name, seed):
+    """The polish's least BIC was an order its own gate rejected on these records (Python 3.11's scipy): on the
+    first-order preset three poles, two of them a pair of damping 1e-5 at the tacho's ripple (836 rad/s, above
+    the Nyquist frequency of 4 ms samples, its interval reaching the right half-plane: the noise's tone, not the
+    motor; 5 of 80 seeds); on the lab report's (poles −1.82 and −499 1/s: one pole at 4 ms samples) a second
+    pole at −0.5 1/s the data do not resolve once refitted at the final tolerance (2 of 10 seeds; in one of them
+    the one pole trailed both and was left out of the comparison under the shared noise model).  Now the
+    least-BIC order the data support is chosen (the output-error method's rules), and the choice names what it
+    passed over."""
     from motorid.conditioning.pipeline import ConditioningSettings, condition_experiment
     from motorid.identification.pipeline import IdentifySettings, identify_conditioned
+    from motorid.trainer import run_experiment
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        exp = _trainer("first-order", "realistic", seed=46)
+        exp = run_experiment(name, seed=seed, validation=False)
         res = identify_conditioned(condition_experiment(dict(exp.captures), ConditioningSettings()),
                                    IdentifySettings(method="markov"))
     assert res.sanity.passed, res.sanity.failures
-    assert res.model.poles().size == 1
-    assert res.model.first_order().time_constant_s == pytest.approx(exp.truth.time_constant_s, rel=0.02)
-    choice = res.model.extras["markov_choice"]
-    assert "passed over: order 3 (BIC" in choice and "do not resolve its pole(s) 1, 2" in choice, choice
+    poles = res.model.poles()
+    assert np.max(np.abs(poles)) < 2.0 / res.model.sample_interval_s
+    if name == "first-order":
+        assert poles.size == 1
+        assert res.model.first_order().time_constant_s == pytest.approx(exp.truth.time_constant_s, rel=0.02)
+    else:  # the motor's pole is there (beside it, at most a second pole the gate found resolved)
+        assert np.min(np.abs(poles + 1.82)) < 0.02 * 1.82, poles
+    _passed_over_is_named(res.model.extras["markov_choice"])
 
 
 def test_the_polishs_unresolved_poles_are_the_gates():
@@ -527,7 +550,7 @@ def test_the_polishs_unresolved_poles_are_the_gates():
         identify_conditioned(condition_experiment(dict(exp.captures), ConditioningSettings()),
                              IdentifySettings(method="markov"))
     rows = seen[0][0]
-    assert len(rows) >= 2 and any(unresolved_poles(r[2]) for r in rows)
+    assert len(rows) >= 2
     for row in rows:
         pol = row[2]
         u = polish_uncertainty(model_from_velocity_tf(pol.num, pol.den), pol)

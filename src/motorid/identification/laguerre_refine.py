@@ -90,8 +90,15 @@ def _polish_orders(candidates: list[_Candidate], t: np.ndarray, outputs: dict[st
     if not chosen:
         return [], -1, ""
     final, noise = _with_shared_noise_model(chosen, t, outputs, u, step_volts, primary, pre_step, phase_s)
-    pick, note = _resolved_choice([pol for _, pol in final])
-    final = _chosen_refitted(final, noise, run, pick)
+    fastest = 2.0 / float(t[1] - t[0])
+    final, pick, resolved, note = _resolved_choice(final, noise, run, fastest)
+    if not resolved and len(final) < len(chosen):
+        # none of the two best orders is resolved: every order under the same noise model (a simpler one
+        # that trailed both, e.g. one pole where two and three each have a pole the data cannot place)
+        every, _ = _with_shared_noise_model(chosen, t, outputs, u, step_volts, primary, pre_step, phase_s,
+                                            every=True)
+        if len(every) > len(final):
+            final, pick, resolved, note = _resolved_choice(every, noise, run, fastest)
     out: list[tuple[Any, ...]] = []
     for c, pol in final:
         sys = _state_space(pol.num, pol.den)
@@ -99,25 +106,54 @@ def _polish_orders(candidates: list[_Candidate], t: np.ndarray, outputs: dict[st
     return out, pick, note
 
 
-def _resolved_choice(fits: list[LaguerrePolish]) -> tuple[int, str]:
-    """The least-BIC fit whose poles the data resolve (or the least-BIC one), and what it passed over."""
+def _resolved_choice(final: list[tuple[_Candidate, LaguerrePolish]], noise: dict[str, np.ndarray] | None,
+                     run: Callable[..., LaguerrePolish], fastest: float = np.inf,
+                     ) -> tuple[list[tuple[_Candidate, LaguerrePolish]], int, bool, str]:
+    """The least-BIC order whose poles the data resolve, refitted at the final tolerance, and what it passed over.
+
+    Orders are taken by BIC; one whose poles are not all resolved where its search fit stopped is passed
+    over, as is one that no longer resolves them once refitted at the final tolerance, and one with a
+    pole faster than ``fastest`` (``2/dt``: half a sample, which the samples do not see; a tacho's
+    ripple above the Nyquist frequency was fitted as a lightly damped pair there).  The output-error
+    method's structure choice applies the same rules.  When none is resolved the least-BIC order is refitted and
+    kept (the sanity gate then says which pole the data do not resolve).  Returns the fits (the chosen
+    one refitted), its index, whether its poles are resolved, and the words for what was passed over
+    ('' when nothing was).
+    """
     from motorid.identification.laguerre_uncertainty import unresolved_poles
 
-    ranked = sorted(range(len(fits)), key=lambda k: fits[k].bic)
-    passed = []
+    def why(pol: LaguerrePolish) -> str:
+        # poles only: a zero the polish leaves far out (a numerator term near rounding) changes nothing the
+        # samples see, and the polish drops a zero the data do not determine when BIC agrees
+        if np.max(np.abs(np.roots(pol.den)), initial=0.0) > fastest:
+            return "a pole beyond the sampling rate"
+        loose = unresolved_poles(pol)
+        return "the data do not resolve its pole(s) " + ", ".join(str(i + 1) for i in loose) if loose else ""
+
+    def words(pol: LaguerrePolish, reason: str, refitted: bool) -> str:
+        return (f"order {pol.den.size - 1} (BIC {pol.bic:.1f}: " + ("refitted at the final tolerance, " if refitted
+                                                                   else "") + reason + ")")
+
+    ranked = sorted(range(len(final)), key=lambda k: final[k][1].bic)
+    passed: list[tuple[float, str]] = []
+    refits: dict[int, list[tuple[_Candidate, LaguerrePolish]]] = {}
     for k in ranked:
-        loose = unresolved_poles(fits[k])
-        if not loose:
-            break
-        order = fits[k].den.size - 1
-        passed.append(f"order {order} (BIC {fits[k].bic:.1f}: the data do not resolve its pole(s) "
-                      + ", ".join(str(i + 1) for i in loose) + ")")
-    else:
-        return ranked[0], ""
-    if not passed:
-        return k, ""
-    return k, (f"order {fits[k].den.size - 1} is the least BIC among the orders whose poles the data resolve, "
-               "passed over: " + "; ".join(passed) + ", which the sanity gate would reject")
+        reason = why(final[k][1])
+        if reason:
+            passed.append((final[k][1].bic, words(final[k][1], reason, False)))
+            continue
+        refits[k] = _chosen_refitted(final, noise, run, k)
+        reason = why(refits[k][k][1])
+        if not reason:
+            # what the reader sees passed over: an order listed with a lower BIC than the chosen one's
+            named = [text for bic, text in passed if bic < refits[k][k][1].bic]
+            note = "" if not named else (
+                f"order {final[k][1].den.size - 1} is the least BIC among the orders the data support, "
+                "passed over: " + "; ".join(named))
+            return refits[k], k, True, note
+        passed.append((refits[k][k][1].bic, words(refits[k][k][1], reason, True)))
+    k = ranked[0]
+    return (refits[k] if k in refits else _chosen_refitted(final, noise, run, k)), k, False, ""
 
 
 def _chosen_refitted(final: list[tuple[_Candidate, LaguerrePolish]], noise: dict[str, np.ndarray] | None,
@@ -149,7 +185,7 @@ def _chosen_refitted(final: list[tuple[_Candidate, LaguerrePolish]], noise: dict
 def _with_shared_noise_model(orders: list[tuple[_Candidate, list[LaguerrePolish]]], t: np.ndarray,
                              outputs: dict[str, np.ndarray], u: np.ndarray | None, step_volts: float, primary: str,
                              pre_step: dict[str, np.ndarray] | None,
-                             phase_s: float = 0.0,
+                             phase_s: float = 0.0, *, every: bool = False,
                              ) -> tuple[list[tuple[_Candidate, LaguerrePolish]], dict[str, np.ndarray] | None]:
     """The orders compared, refitted by generalised least squares under one noise model when residuals are coloured.
 
@@ -159,7 +195,7 @@ def _with_shared_noise_model(orders: list[tuple[_Candidate, list[LaguerrePolish]
     alone leaves most of what they hide unused (a 7 ms pole beside 4 ms samples was told from a dead time in
     half the realistic runs).  The two best orders are then refitted under it, each resumed from every fit it
     had (a fit in the wrong valley can win under the lag-1 inflation), and compared on the whitened residuals.
-    With white residuals everywhere the first scores stand.
+    With white residuals everywhere the first scores stand.  ``every`` refits every order, not the two best.
     """
     from motorid.identification.output_error import ar_noise_model  # the output-error method's own Yule–Walker AR
 
@@ -173,7 +209,7 @@ def _with_shared_noise_model(orders: list[tuple[_Candidate, list[LaguerrePolish]
     out: list[tuple[_Candidate, LaguerrePolish]] = []
     # the two best orders compete again (a third one behind both under the lag-1 inflation has not come back in
     # the bench's runs, and each GLS refit costs a full fit)
-    for i in sorted(ranked[:2]):
+    for i in sorted(ranked if every else ranked[:2]):
         c, fits = orders[i]
         m = fits[0].den.size - 1
         starts = []
