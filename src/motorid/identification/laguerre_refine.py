@@ -67,12 +67,12 @@ def _polish_orders(candidates: list[_Candidate], t: np.ndarray, outputs: dict[st
     """The best realisation of each order, polished, and the order chosen among them.
 
     Returns ``(rows, chosen, note)``: a row (BIC, candidate, polish, A, B, C) per stable order; the
-    index of the chosen one, the least-BIC order whose poles the data resolve (the sanity gate's
-    rule, as the output-error method's structure choice applies it), or the least-BIC order when
-    none does; and ``note``, what was passed over and why ('' when the least BIC is chosen).  An
-    order with poles to spare can win BIC by hundreds on a record with a tone in its noise (a
-    tacho's ripple fitted as a complex pair of damping 1e-5 whose interval reaches the right
-    half-plane): that pair is the noise, not the motor.
+    index of the chosen one, the least-BIC order the data support (:func:`_resolved_choice`), or the
+    least-BIC order when none is; and ``note``, what was passed over and why ('' when nothing listed
+    with a lower BIC was).  An order with poles to spare can win BIC by hundreds on a record with a
+    tone in its noise (a tacho's ripple fitted as a complex pair of damping 1e-5): that pair is the
+    noise, not the motor.  When neither of the two orders compared under the shared noise model is
+    supported, every order is compared under it.
     """
     best: dict[int, _Candidate] = {}
     for c in candidates:
@@ -109,16 +109,16 @@ def _polish_orders(candidates: list[_Candidate], t: np.ndarray, outputs: dict[st
 def _resolved_choice(final: list[tuple[_Candidate, LaguerrePolish]], noise: dict[str, np.ndarray] | None,
                      run: Callable[..., LaguerrePolish], fastest: float = np.inf,
                      ) -> tuple[list[tuple[_Candidate, LaguerrePolish]], int, bool, str]:
-    """The least-BIC order whose poles the data resolve, refitted at the final tolerance, and what it passed over.
+    """The least-BIC order the data support, refitted at the final tolerance, and what it passed over.
 
     Orders are taken by BIC; one whose poles are not all resolved where its search fit stopped is passed
     over, as is one that no longer resolves them once refitted at the final tolerance, and one with a
     pole faster than ``fastest`` (``2/dt``: half a sample, which the samples do not see; a tacho's
     ripple above the Nyquist frequency was fitted as a lightly damped pair there).  The output-error
-    method's structure choice applies the same rules.  When none is resolved the least-BIC order is refitted and
-    kept (the sanity gate then says which pole the data do not resolve).  Returns the fits (the chosen
-    one refitted), its index, whether its poles are resolved, and the words for what was passed over
-    ('' when nothing was).
+    method's structure choice applies the same rules.  When no order is supported the least-BIC order
+    is refitted and kept (the sanity gate then says which pole the data do not resolve).  Returns the
+    fits (the chosen one refitted), its index, whether it is supported, and the words for what was
+    passed over ('' when nothing listed with a lower BIC was).
     """
     from motorid.identification.laguerre_uncertainty import unresolved_poles
 
