@@ -312,3 +312,43 @@ def test_a_millis_stamped_step_carries_its_clock_in_the_timing_interval(tmp_path
         assert res["std"] >= 0.9 * 1e-3 / np.sqrt(12), res
         lo, hi = res["ci95"]
         assert lo <= rec.truth.residence_time_s <= hi, (seed, res, rec.truth.residence_time_s)
+
+
+def test_a_lag_under_half_a_sample_sits_in_a_read_off_onset_and_the_intervals_say_so(tmp_path):
+    """No input channel: the step instant is fitted from the response, and a lag shorter than half a sample
+    (here 0.6 ms beside 2 ms samples: no structure can hold that pole) moves the response as a later instant
+    does.  The fit puts it in the instant and τ comes out short by it; its interval was ±0.04 % and missed the
+    truth.  Now the upper ends of τ's, the residence time's and the 63 % time's intervals move up by half a
+    sample, the JSON says by how much, and the printout says why."""
+    from motorid.report.summary import model_summary
+
+    rng = np.random.default_rng(2)
+    dt, tau_m, tau_e = 2e-3, 0.05, 6e-4
+    t = (np.arange(1500) - 150) * dt
+    g = control.tf([0.8], np.polymul([tau_m, 1], [tau_e, 1]))
+    t_step = -0.5 * dt
+    fine = control.step_response(g, np.arange(0, 4, 1e-5))
+    y = 12 * np.where(t >= t_step, np.interp(t - t_step, fine.time, np.ravel(fine.outputs)), 0.0)
+    cap = Capture("<log>", "trainer", t, y + rng.normal(0, 0.005, t.size), ChannelInfo("CH1", "V"))
+    r = identify_experiment({"velocity": cap}, step_volts=12.0)
+    u = r.model.uncertainty
+    assert r.model.uncertainty["timing"]["velocity"]["kind"] == "onset"
+    truth = tau_m + tau_e
+    res = u.residence_time_s
+    assert res.value < truth - 0.5 * tau_e  # the lag is in the onset, not in τ: nothing in the data says otherwise
+    assert res.value + 1.96 * res.stderr < truth  # the statistical interval alone misses the truth
+    assert u.onset_lag_s == pytest.approx(dt / 2)
+    for item in (u.time_constant, u.residence_time_s, u.t63_s):
+        lo, hi = item.ci95
+        assert lo == pytest.approx(item.value.real - 1.96 * item.stderr)
+        assert hi == pytest.approx(item.value.real + 1.96 * item.stderr + dt / 2)
+    assert res.ci95[0] <= truth <= res.ci95[1]
+    doc = r.model.to_dict()
+    assert doc["uncertainty"]["onset_lag_s"] == pytest.approx(dt / 2)
+    assert Uncertainty.from_dict(doc["uncertainty"]).onset_lag_s == u.onset_lag_s
+    assert any(ln.startswith("intervals: the step instant is read off the response") and "reach 1 ms higher" in ln
+               for ln in model_summary(r.model))
+    # a recorded input times the step: no such allowance
+    cap_in = Capture("<log>", "trainer", t, cap.output_v, ChannelInfo("CH1", "V"),
+                     input_v=np.where(t >= t_step, 12.0, 0.0), input_info=ChannelInfo("CH2", "V"))
+    assert identify_experiment({"velocity": cap_in}).model.uncertainty.onset_lag_s == 0.0

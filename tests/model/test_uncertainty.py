@@ -83,6 +83,16 @@ def test_the_quantised_channels_are_typed_and_written_back():
         assert not odd.quantiser and odd.to_dict()["quantiser"] == bad
 
 
+def test_the_onset_lag_is_typed_and_written_back():
+    u = Uncertainty.from_dict({"method": "m", "onset_lag_s": 0.0025})
+    assert u.onset_lag_s == 0.0025 and u.to_dict()["onset_lag_s"] == 0.0025 and "onset_lag_s" not in u.other
+    assert pickle.loads(pickle.dumps(u)).onset_lag_s == 0.0025
+    assert "onset_lag_s" not in Uncertainty.from_dict({"method": "m"}).to_dict()
+    for bad in (-1.0, "x", True, [0.1]):
+        odd = Uncertainty.from_dict({"onset_lag_s": bad})
+        assert odd.onset_lag_s == 0.0 and odd.to_dict()["onset_lag_s"] == bad
+
+
 def test_a_model_takes_a_mapping_or_none_and_refuses_anything_else():
     m = model_from_velocity_tf([2.0], [1.0, 2.0], step_volts=1.0)
     assert m.uncertainty is None

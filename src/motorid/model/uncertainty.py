@@ -298,6 +298,16 @@ def _quantiser(entry: Any, other: dict[str, Any]) -> dict[str, float]:
     return steps
 
 
+def _onset_lag(entry: Any, other: dict[str, Any]) -> float:
+    """The JSON's ``onset_lag_s`` (s, at least 0); anything else is kept in ``other`` as it was."""
+    if entry is None:
+        return 0.0
+    if isinstance(entry, (int, float)) and not isinstance(entry, bool) and math.isfinite(entry) and entry >= 0:
+        return float(entry)
+    other["onset_lag_s"] = entry
+    return 0.0
+
+
 #: The typed top-level keys of ``uncertainty``, in the order the JSON has them.
 _HEADLINE = ("dc_gain", "time_constant", "residence_time_s", "t63_s")
 
@@ -328,6 +338,10 @@ class Uncertainty(JsonView):
     quantiser : Mapping of str to float
         The channels whose intervals hold their quantiser's error along the record, each with
         its code step in the channel's unit (the JSON's ``quantiser``; empty for none).
+    onset_lag_s : float
+        How much higher the intervals of τ, the residence time and the 63 % time reach because
+        the step instant was read off the response (no input channel): a lag shorter than half
+        a sample cannot be told from a later instant (the JSON's ``onset_lag_s``; 0 for none).
     other : Mapping
         Keys of the JSON object this type does not hold (written back as they were).
     """
@@ -347,10 +361,12 @@ class Uncertainty(JsonView):
     timing: Mapping[str, ChannelTiming] = field(default_factory=dict)
     method: str = ""
     quantiser: Mapping[str, float] = field(default_factory=dict)
+    onset_lag_s: float = 0.0
     other: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "quantiser", MappingProxyType({str(k): float(v) for k, v in self.quantiser.items()}))
+        object.__setattr__(self, "onset_lag_s", float(self.onset_lag_s))
         object.__setattr__(self, "poles", tuple(self.poles))
         object.__setattr__(self, "zeros", tuple(self.zeros))
         object.__setattr__(self, "pole_pairs", tuple(self.pole_pairs))
@@ -410,7 +426,8 @@ class Uncertainty(JsonView):
         -------
         Uncertainty
         """
-        known = {*_HEADLINE, "poles", "zeros", "pole_pairs", "delay", "joint", "timing", "method", "quantiser"}
+        known = {*_HEADLINE, "poles", "zeros", "pole_pairs", "delay", "joint", "timing", "method", "quantiser",
+                 "onset_lag_s"}
         other = {k: v for k, v in data.items() if k not in known}
         joint = None
         entry = data.get("joint")
@@ -433,6 +450,7 @@ class Uncertainty(JsonView):
             timing={str(k): ChannelTiming.from_dict(v) for k, v in timing.items() if isinstance(v, Mapping)},
             method=str(data.get("method") or ""),
             quantiser=_quantiser(data.get("quantiser"), other),
+            onset_lag_s=_onset_lag(data.get("onset_lag_s"), other),
             other=other,
         )
 
@@ -456,6 +474,8 @@ class Uncertainty(JsonView):
             out["method"] = self.method
         if self.quantiser:
             out["quantiser"] = dict(self.quantiser)
+        if self.onset_lag_s:
+            out["onset_lag_s"] = self.onset_lag_s
         if self.pole_pairs:
             out["pole_pairs"] = [p.to_dict() for p in self.pole_pairs]
         if self.delay is not None:

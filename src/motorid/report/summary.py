@@ -108,6 +108,12 @@ def _uncertainty(u: Uncertainty | None, gain_unit: str = "V/V") -> list[SummaryL
         lines.append(_plain(f"intervals: they hold the quantiser's error along the record ({held}): where the "
                             "noise does not dither its codes it rounds the signal the same way wherever the signal "
                             "moves slowly, an error that does not average out"))
+    if u.onset_lag_s:
+        lag = sig(1e3 * u.onset_lag_s)
+        lines.append(_plain(f"intervals: the step instant is read off the response (no input channel), and a lag "
+                            f"shorter than half a sample cannot be told from a later instant: τ's, the residence "
+                            f"time's and the 63 % time's intervals reach {lag} ms higher (give the input column, "
+                            "or --t0, to time the step)"))
     if u.delay is not None:
         item = u.delay
         lines.append(_plain(f"delay: {sig(1e3 * item.value.real)} ms ± {sig(1.96e3 * item.stderr, 2)} ms (95 %; not in "
