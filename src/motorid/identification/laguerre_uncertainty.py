@@ -11,7 +11,7 @@ model's own headline, whatever it cancels or trims.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from typing import Any
 
 import numpy as np
@@ -58,6 +58,31 @@ def polished_tf(polish: LaguerrePolish, params: np.ndarray) -> tuple[np.ndarray,
     return (num if num.size else np.zeros(1)), np.r_[1.0, np.asarray(q["d"], dtype=float)[::-1]], float(q["delay"])
 
 
+def _moving(polish: LaguerrePolish) -> int | None:
+    """How many leading parameters enter the velocity TF (denominator, numerator, dead time).
+
+    ``None`` when the fit's covariance is not known (a singular Fisher information) or not finite.
+    """
+    cov = polish.covariance
+    if cov is None or cov.shape != (polish.params.size, polish.params.size) or not np.all(np.isfinite(cov)):
+        return None
+    return _PolishModel(polish.den.size - 1, polish.channels, polish.n_zeros).delay_index + 1
+
+
+def _central_steps(params: np.ndarray, cov: np.ndarray,
+                   moving: int) -> Iterator[tuple[int, np.ndarray, np.ndarray, float]]:
+    """``(i, params + h·e_i, params − h·e_i, 2h)`` for each of the first ``moving`` parameters.
+
+    ``h`` is :data:`STEP_STD` of the parameter's standard error (a relative 1e-9 where that is 0).
+    """
+    for i in range(moving):
+        h = STEP_STD * float(np.sqrt(cov[i, i])) or 1e-9 * max(abs(float(params[i])), 1.0)
+        up, down = params.copy(), params.copy()
+        up[i] += h
+        down[i] -= h
+        yield i, up, down, 2.0 * h
+
+
 def unresolved_poles(polish: LaguerrePolish) -> list[int]:
     """Indices (slowest first) of the poles of ``polish`` that the data do not resolve.
 
@@ -77,10 +102,9 @@ def unresolved_poles(polish: LaguerrePolish) -> list[int]:
     """
     from motorid.identification.sanity import pole_unresolved
 
-    cov = polish.covariance
-    if cov is None or cov.shape != (polish.params.size, polish.params.size) or not np.all(np.isfinite(cov)):
+    moving, cov = _moving(polish), polish.covariance
+    if moving is None or cov is None:
         return []
-    moving = _PolishModel(polish.den.size - 1, polish.channels, polish.n_zeros).delay_index + 1
 
     def roots(x: np.ndarray) -> np.ndarray:
         with np.errstate(all="ignore"):
@@ -88,13 +112,9 @@ def unresolved_poles(polish: LaguerrePolish) -> list[int]:
 
     base = roots(polish.params)
     grad = np.zeros((base.size, moving))
-    for i in range(moving):
-        h = STEP_STD * float(np.sqrt(cov[i, i])) or 1e-9 * max(abs(float(polish.params[i])), 1.0)
-        up, down = polish.params.copy(), polish.params.copy()
-        up[i] += h
-        down[i] -= h
+    for i, up, down, span in _central_steps(polish.params, cov, moving):
         a, b = _matched(base, roots(up)), _matched(base, roots(down))
-        grad[:, i] = np.nan if a is None or b is None else np.real(a - b) / (2.0 * h)
+        grad[:, i] = np.nan if a is None or b is None else np.real(a - b) / span
     sub = cov[:moving, :moving]
     out = []
     for k, p in enumerate(base):
@@ -171,11 +191,10 @@ def polish_uncertainty(
     Uncertainty or None
         ``None`` when the fit's covariance is not known (a singular Fisher information).
     """
-    cov = polish.covariance
-    if cov is None or cov.shape != (polish.params.size, polish.params.size) or not np.all(np.isfinite(cov)):
-        return None
     # the denominator, the numerator and the dead time: nothing else enters the velocity TF
-    moving = _PolishModel(polish.den.size - 1, polish.channels, polish.n_zeros).delay_index + 1
+    moving, cov = _moving(polish), polish.covariance
+    if moving is None or cov is None:
+        return None
     base = _quantities(model)
 
     def rebuilt(x: np.ndarray) -> dict[str, Any]:
@@ -184,12 +203,8 @@ def polish_uncertainty(
             return _quantities(model_from_velocity_tf(num, den, settings=model.settings, delay_s=max(delay, 0.0)))
 
     grads: dict[str, np.ndarray] = {}
-    for i in range(moving):
-        h = STEP_STD * float(np.sqrt(cov[i, i])) or 1e-9 * max(abs(float(polish.params[i])), 1.0)
-        up, down = polish.params.copy(), polish.params.copy()
-        up[i] += h
-        down[i] -= h
-        _gradient_columns(grads, base, rebuilt(up), rebuilt(down), 2.0 * h, i, moving)
+    for i, up, down, span in _central_steps(polish.params, cov, moving):
+        _gradient_columns(grads, base, rebuilt(up), rebuilt(down), span, i, moving)
     sub = cov[:moving, :moving]
 
     def std_of(key: str, extra: float = 0.0) -> float:
