@@ -733,19 +733,17 @@ def _initialise(cond: ConditionedExperiment, settings: IdentifySettings) -> _Sta
     # the paper's methods first: the initial model (and the answer of paper-auto)
     init_settings = settings if settings.method == "paper-auto" else replace(settings, order="auto")
     candidates, failures = _paper_stage(cond, init_settings, list(PAPER_METHODS))
-    def unstable(k: str) -> bool:
-        return bool(np.any(np.real(candidates[k].poles()) >= 0))
-
     # a stable model before an unstable one whatever their NRMSE: over a record a slowly growing pole
     # (pinv's velocity at +0.0006 1/s beside −1.8, a position fed back) fits as well, and the gate rejects it
-    ranked = sorted(candidates, key=lambda k: (unstable(k), candidates[k].fit.get("velocity_nrmse", np.inf)))
+    unstable = {k: bool(np.any(np.real(m.poles()) >= 0)) for k, m in candidates.items()}
+    ranked = sorted(candidates, key=lambda k: (unstable[k], candidates[k].fit.get("velocity_nrmse", np.inf)))
     for k in ranked:
         stages.append({"stage": "paper method", **_summary(k, candidates[k])})
-    scores = ", ".join(f"{k} {100 * candidates[k].fit['velocity_nrmse']:.2f}%" + (" unstable" if unstable(k) else "")
+    scores = ", ".join(f"{k} {100 * candidates[k].fit['velocity_nrmse']:.2f}%" + (" unstable" if unstable[k] else "")
                        for k in ranked)
     best = ranked[0]
     reason = ("smallest velocity step-response NRMSE among the paper's methods"
-              + (" whose models are stable" if any(unstable(k) for k in ranked) else "") + f" ({scores})")
+              + (" whose models are stable" if any(unstable.values()) else "") + f" ({scores})")
     if failures:
         reason += "; not run: " + "; ".join(f"{k} ({v})" for k, v in failures.items())
     return _Start(candidates, failures, best, candidates[best], reason, stages)

@@ -1125,7 +1125,7 @@ def onset_lag(u: Uncertainty | None, cond: ConditionedExperiment) -> Uncertainty
     Uncertainty or None
         ``u`` with the upper ends moved, or ``u`` itself when no channel's instant is read off its response.
     """
-    dts = [r.sample_interval_s for role, r in cond.responses.items() if r.timing == "onset"]
+    dts = [r.sample_interval_s for r in cond.responses.values() if r.timing == "onset"]
     if u is None or not dts:
         return u
     lag = 0.5 * max(dts)
