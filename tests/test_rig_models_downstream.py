@@ -44,6 +44,12 @@ def test_each_rig_model_through_design_simulate_and_report(rig, counted, tmp_pat
     motorid_ok("simulate", tmp_path / "m.json", tmp_path / "d.json", "--duration", "2", "--json", tmp_path / "s.json")
     assert json.loads((tmp_path / "s.json").read_text())["output_unit"] == sim.output_unit
     assert (tmp_path / "r.html").stat().st_size > 10_000
+    # the report says why the intervals are wider than the noise makes them, as the printout does: a step
+    # instant read off the response (the encoder log and the scope's tacho and current: no input channel) holds
+    # a lag under half a sample
+    report = (tmp_path / "r.html").read_text()
+    onset = "the step instant is read off the response (no input channel)" in report
+    assert onset == bool(doc["uncertainty"].get("onset_lag_s")) == (rig in ("encoder-counts", "fast-tbs1000")), rig
     # the report with that design: its closed loop simulated on the identified model
     motorid_ok("identify", *args, "--report", tmp_path / "r2.html", "--design", tmp_path / "d.json")
     page = (tmp_path / "r2.html").read_text()

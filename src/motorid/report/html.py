@@ -34,6 +34,7 @@ from motorid.model.notation import poly_text
 from motorid.model.units import channel_unit, physical_gain
 from motorid.numfmt import DIGITS, complex_text, metric_name, roots_text, sig
 from motorid.report import figures
+from motorid.report.summary import interval_notes
 from motorid.report.truth import reference_values, truth_checks
 
 __all__ = [
@@ -373,6 +374,7 @@ def model_section(inp: ReportInputs) -> dict[str, Any]:
                              "1/s"])
     root_notes = [f"zero {i + 1}: {note}" for i, item in enumerate(u.zeros if u is not None else ())
                   if (note := demanded_zero_note(float(np.real(item.value)), item.interval_or_nan()[0]))]
+    root_notes += [f"Intervals: {note}." for note in (interval_notes(u) if u is not None else ())]
     noise_rows = [[f"{role} ({channel_unit(model.units, role)})", nm.sigma, nm.ar_order, nm.pre_step_sigma,
                    "its scale only: 8-bit codes not dithered by noise" if nm.scale_only
                    else "the dynamics"] for role, nm in noise_of(model).items()]

@@ -23,7 +23,7 @@ from motorid.model.uncertainty import Uncertainty
 from motorid.model.units import channel_unit, physical_gain
 from motorid.numfmt import complex_text, metric_name, roots_text, sig
 
-__all__ = ["Span", "SummaryLine", "model_summary", "model_summary_lines"]
+__all__ = ["Span", "SummaryLine", "interval_notes", "model_summary", "model_summary_lines"]
 
 #: A piece of a line and its rich style (``""``: plain).
 Span = tuple[str, str]
@@ -78,6 +78,35 @@ def _header(model: Any, title: str) -> list[SummaryLine]:
     return lines
 
 
+def interval_notes(u: Uncertainty) -> list[str]:
+    """Why the intervals are wider than the noise alone makes them, one sentence each (docs/timing.md).
+
+    The printout and the report say the same.
+
+    Parameters
+    ----------
+    u : Uncertainty
+        A model's uncertainty.
+
+    Returns
+    -------
+    list of str
+        Empty when the intervals hold neither the quantiser's error along the record nor a read-off
+        onset's lag.
+    """
+    notes = []
+    if u.quantiser:
+        notes.append(f"they hold the quantiser's error along the record ({', '.join(u.quantiser)}): where the "
+                     "noise does not dither its codes it rounds the signal the same way wherever the signal "
+                     "moves slowly, an error that does not average out")
+    if u.onset_lag_s:
+        notes.append(f"the step instant is read off the response (no input channel), and a lag shorter than half a "
+                     f"sample cannot be told from a later instant: τ's, the residence time's and the 63 % time's "
+                     f"intervals reach {sig(1e3 * u.onset_lag_s)} ms higher (give the input column, or --t0, to "
+                     "time the step)")
+    return notes
+
+
 def _uncertainty(u: Uncertainty | None, gain_unit: str = "V/V") -> list[SummaryLine]:
     lines: list[SummaryLine] = []
     if u is None:
@@ -102,18 +131,7 @@ def _uncertainty(u: Uncertainty | None, gain_unit: str = "V/V") -> list[SummaryL
         lo, hi = item.interval_or_nan()
         lines.append(_plain(f"{label}: {sig(item.value.real)} ± {sig(1.96 * item.stderr, 2)} "
                             f"(95 % interval [{sig(lo)}, {sig(hi)}])"))
-    if u.quantiser:
-        # why the intervals are wider than the noise alone makes them (docs/timing.md)
-        held = ", ".join(u.quantiser)
-        lines.append(_plain(f"intervals: they hold the quantiser's error along the record ({held}): where the "
-                            "noise does not dither its codes it rounds the signal the same way wherever the signal "
-                            "moves slowly, an error that does not average out"))
-    if u.onset_lag_s:
-        lag = sig(1e3 * u.onset_lag_s)
-        lines.append(_plain(f"intervals: the step instant is read off the response (no input channel), and a lag "
-                            f"shorter than half a sample cannot be told from a later instant: τ's, the residence "
-                            f"time's and the 63 % time's intervals reach {lag} ms higher (give the input column, "
-                            "or --t0, to time the step)"))
+    lines.extend(_plain(f"intervals: {note}") for note in interval_notes(u))
     if u.delay is not None:
         item = u.delay
         lines.append(_plain(f"delay: {sig(1e3 * item.value.real)} ms ± {sig(1.96e3 * item.stderr, 2)} ms (95 %; not in "
