@@ -104,6 +104,7 @@ def test_garbage_bytes_are_rejected_with_motoriderror(tmp_path, data):
 
 @_FUZZ
 @given(text=st.text(max_size=2000))
+@example(text='0\n\r"')  # a carriage return in an open quote: csv's own error escaped as an internal error
 def test_garbage_text_is_rejected_with_motoriderror(tmp_path, text):
     f = tmp_path / "garbage.txt"
     f.write_text(text, encoding="utf-8")

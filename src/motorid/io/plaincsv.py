@@ -52,7 +52,10 @@ def _split(line: str, delim: str | None) -> list[str]:
         return line.split()
     if '"' not in line:
         return line.split(delim)
-    return next(csv.reader([line], delimiter=delim))
+    try:
+        return next(csv.reader([line], delimiter=delim))
+    except csv.Error:  # a stray carriage return in an open quote: not a table's line, split as it stands
+        return line.split(delim)
 
 
 #: A units row's cell under the time column: ``(ms)``, ``[s]``, ``us``, ``µs``.
