@@ -140,6 +140,11 @@ class Capture:
         The interval (s) each output sample is the mean over, ending at its time: a speed counted
         from the encoder edges since the last sample (``counted_velocity`` of
         :func:`motorid.read_experiment`); 0 for samples taken at their instant.
+    count_step : float
+        The step a log's output column comes in when it may count encoder edges over each line
+        (its values, or their products with their stamped intervals, are whole multiples of one
+        count: read off the raw column); 0 when it does not.  A sampled signal through an ADC
+        comes in steps too: this says that the column may count, ``sample_window_s`` that it does.
     """
 
     __getstate__ = frozen_getstate
@@ -158,6 +163,7 @@ class Capture:
     warnings: tuple[str, ...] = ()
     stamp_resolution_s: float = 0.0
     sample_window_s: float = 0.0
+    count_step: float = 0.0
 
     def __post_init__(self) -> None:
         self._freeze(copy=True)
@@ -219,6 +225,9 @@ class Capture:
         if isinstance(window, bool) or not isinstance(window, (int, float)) or not (math.isfinite(window)
                                                                                   and window >= 0):
             raise ValueError(f"sample_window_s must be a finite number ≥ 0, got {window!r}")
+        step = self.count_step
+        if isinstance(step, bool) or not isinstance(step, (int, float)) or not (math.isfinite(step) and step >= 0):
+            raise ValueError(f"count_step must be a finite number ≥ 0, got {step!r}")
         object.__setattr__(self, "time_s", t)
         object.__setattr__(self, "output_v", y)
         object.__setattr__(self, "input_v", u)

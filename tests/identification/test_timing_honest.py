@@ -352,3 +352,34 @@ def test_a_lag_under_half_a_sample_sits_in_a_read_off_onset_and_the_intervals_sa
     cap_in = Capture("<log>", "trainer", t, cap.output_v, ChannelInfo("CH1", "V"),
                      input_v=np.where(t >= t_step, 12.0, 0.0), input_info=ChannelInfo("CH2", "V"))
     assert identify_experiment({"velocity": cap_in}).model.uncertainty.onset_lag_s == 0.0
+
+
+def test_a_speed_in_whole_counts_fitted_as_samples_has_intervals_that_reach_the_counted_reading(tmp_path):
+    """An L298N rig's rpm, counted over each 10 ms line and fitted as samples (the default). Before: the
+    residence time came out +0.05 % against an interval of ±0.03 %, whose lower end missed the truth in 5
+    seeds of 6 (the model samples where the sensor averages), and the motor's own timing (5 ms quicker, what
+    ``--counted-velocity`` fits) was far outside it. Now the column's whole counts are read off the raw log
+    and the lower ends reach half a line lower: both readings are inside. As a user runs it: a fresh process."""
+    from motorid.trainer.realsetups import write_real_setup
+
+    for seed in range(3):
+        rec = write_real_setup("l298n-rpm", tmp_path / f"s{seed}", seed=seed)
+        out = tmp_path / f"m{seed}.json"
+        proc = motorid_fresh("identify", *rec.cli_args, "--json", out, cwd=tmp_path)
+        m = json.loads(out.read_text())
+        unc = m["uncertainty"]
+        assert unc["counting_lag_s"] == pytest.approx(0.005)
+        res = unc["residence_time_s"]
+        lo, hi = res["ci95"]
+        assert hi == pytest.approx(res["value"] + 1.96 * res["std"])
+        assert lo == pytest.approx(res["value"] - 1.96 * res["std"] - 0.005)
+        # the statistical interval alone misses the truth by more than half its width in these seeds: not now
+        assert lo <= rec.truth.residence_time_s <= hi, (seed, res, rec.truth.residence_time_s)
+        # the motor's own, if it counts: the lower end reaches it, but for the sampled fit's own +0.05 %
+        assert lo <= 1.001 * (rec.truth.residence_time_s - rec.truth.sensor_lag_s)
+        said = " ".join(proc.stdout.split())  # (the printout wraps its lines)
+        assert "whole steps of 8.57" in said and "intervals reach 5 ms lower" in said
+        # declared counted: fitted so, no allowance
+        out_c = tmp_path / f"c{seed}.json"
+        motorid_fresh("identify", *rec.cli_args, "--counted-velocity", "--json", out_c, cwd=tmp_path)
+        assert "counting_lag_s" not in json.loads(out_c.read_text())["uncertainty"]

@@ -83,14 +83,15 @@ def test_the_quantised_channels_are_typed_and_written_back():
         assert not odd.quantiser and odd.to_dict()["quantiser"] == bad
 
 
-def test_the_onset_lag_is_typed_and_written_back():
-    u = Uncertainty.from_dict({"method": "m", "onset_lag_s": 0.0025})
-    assert u.onset_lag_s == 0.0025 and u.to_dict()["onset_lag_s"] == 0.0025 and "onset_lag_s" not in u.other
-    assert pickle.loads(pickle.dumps(u)).onset_lag_s == 0.0025
-    assert "onset_lag_s" not in Uncertainty.from_dict({"method": "m"}).to_dict()
+@pytest.mark.parametrize("key", ["onset_lag_s", "counting_lag_s"])
+def test_the_timing_allowances_are_typed_and_written_back(key):
+    u = Uncertainty.from_dict({"method": "m", key: 0.0025})
+    assert getattr(u, key) == 0.0025 and u.to_dict()[key] == 0.0025 and key not in u.other
+    assert getattr(pickle.loads(pickle.dumps(u)), key) == 0.0025
+    assert key not in Uncertainty.from_dict({"method": "m"}).to_dict()
     for bad in (-1.0, "x", True, [0.1]):
-        odd = Uncertainty.from_dict({"onset_lag_s": bad})
-        assert odd.onset_lag_s == 0.0 and odd.to_dict()["onset_lag_s"] == bad
+        odd = Uncertainty.from_dict({key: bad})
+        assert getattr(odd, key) == 0.0 and odd.to_dict()[key] == bad
 
 
 def test_a_model_takes_a_mapping_or_none_and_refuses_anything_else():

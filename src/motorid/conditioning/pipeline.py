@@ -199,13 +199,18 @@ def condition_experiment(
             notes.append(f"{cap.source} also holds a {' and a '.join(unused)} column, not used: give the file as "
                          + " and ".join(f"--{r}" for r in unused) + " too to fit it")
         if (role == "velocity" and cap.sample_window_s == 0 and responses[role].timing == "logged"
-                and cap.output_info.units in COUNTED_SPEED_UNITS):
+                and (cap.output_info.units in COUNTED_SPEED_UNITS or responses[role].count_step > 0)):
             # the default takes the column for samples; a count's half interval is then in the model's timing
             window = 1e3 * cap.sample_interval_s
-            notes.append(f"{cap.source}: the speed ({cap.output_info.units}) is fitted as sampled at each stamp; if "
-                         "the log counts encoder edges over each line (as Arduino sketches print it), each value is "
-                         f"the mean over the {window:.4g} ms before it, the motor is about {0.5 * window:.3g} ms "
-                         "quicker than this model, and --counted-velocity fits it so")
+            unit = cap.output_info.units
+            step = responses[role].count_step
+            counts = (f"; its values come in whole steps of {step:.4g}{' ' + unit if unit else ''}"
+                      " (one encoder edge over a line, or an ADC's code: the two look alike), so the timing intervals "
+                      f"reach {0.5 * window:.3g} ms lower" if step > 0 else "")
+            notes.append(f"{cap.source}: the speed{f' ({unit})' if unit else ''} is fitted as sampled at each stamp; "
+                         "if the log counts encoder edges over each line (as Arduino sketches print it), each value "
+                         f"is the mean over the {window:.4g} ms before it, the motor is about {0.5 * window:.3g} ms "
+                         f"quicker than this model{counts}, and --counted-velocity fits it so")
         if cap.sample_window_s > 0:
             notes.append(f"{cap.source}: each sample is the mean speed over the {1e3 * cap.sample_window_s:.4g} ms "
                          "before it (counted over each interval, --counted-velocity): the output-error fit (methods "

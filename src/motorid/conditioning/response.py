@@ -133,6 +133,10 @@ class StepResponse:
         error follows the value; False for a speed in a counted-speed unit
         (:data:`COUNTED_SPEED_UNITS`), most often a difference of two encoder counts, whose errors
         telescope.
+    count_step : float
+        A velocity fitted as samples whose values come in whole steps (:attr:`motorid.capture.Capture.count_step`)
+        and whose unit is a counted speed's or none: the column may count encoder edges over each
+        line, so the motor may be quicker than its samples by half a line; 0 otherwise.
     """
 
     source: str
@@ -150,6 +154,7 @@ class StepResponse:
     stamp_resolution_s: float = 0.0
     sample_window_s: float = 0.0
     rounded: bool = True
+    count_step: float = 0.0
     #: The sample interval, computed once: an identification asks for it over a hundred times
     #: (a median of the whole record's steps each time: 13 % of ``auto`` on the demo).
     _dt_cache: list[float] = field(default_factory=list, init=False, repr=False, compare=False)
@@ -295,6 +300,8 @@ def step_response(
         stamp_resolution_s=capture.stamp_resolution_s if timing == "logged" else 0.0,
         sample_window_s=capture.sample_window_s,
         rounded=not (role == "velocity" and capture.output_info.units in COUNTED_SPEED_UNITS),
+        count_step=(capture.count_step if role == "velocity" and capture.sample_window_s == 0
+                    and capture.output_info.units in ("", *COUNTED_SPEED_UNITS) else 0.0),
     )
 
 

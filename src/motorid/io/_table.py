@@ -16,6 +16,7 @@ import numpy as np
 from motorid.capture import ROLES, Capture, ChannelInfo
 from motorid.errors import CaptureFormatError, OptionError
 from motorid.io._common import column_to_floats, parse_number, uniform_grid, validate_rows
+from motorid.io._counts import count_step
 
 __all__ = ["COLUMN_KEYS", "TIME_UNITS", "capture_from_table", "check_role", "classify_name", "parse_column_map",
            "role_from_name"]
@@ -471,6 +472,7 @@ def capture_from_table(
     median_step = validate_rows(time_s, {f"{where} {k!r}": v for k, v in checked.items()}, file=file, rows=rows,
                                 time_name=f"{where} {names[asg.time]!r}", jitter_ok=True)
     notes = list(warnings) + clock_notes + ([time_note] if time_note else [])
+    counts = count_step(time_s, output)  # on the stamps and values as logged: resampling would blur the counts
     time_s, output, inp, extra, grid_note, resolution = uniform_grid(time_s, output, inp, extra, file=file,
                                                                      median=median_step)
     if grid_note:
@@ -500,4 +502,5 @@ def capture_from_table(
         extra=extra,
         warnings=tuple(notes),
         stamp_resolution_s=resolution,
+        count_step=counts,
     )

@@ -298,13 +298,13 @@ def _quantiser(entry: Any, other: dict[str, Any]) -> dict[str, float]:
     return steps
 
 
-def _onset_lag(entry: Any, other: dict[str, Any]) -> float:
-    """The JSON's ``onset_lag_s`` (s, at least 0); anything else is kept in ``other`` as it was."""
+def _allowance(key: str, entry: Any, other: dict[str, Any]) -> float:
+    """The JSON's ``onset_lag_s`` or ``counting_lag_s`` (s, at least 0); anything else is kept in ``other``."""
     if entry is None:
         return 0.0
     if isinstance(entry, (int, float)) and not isinstance(entry, bool) and math.isfinite(entry) and entry >= 0:
         return float(entry)
-    other["onset_lag_s"] = entry
+    other[key] = entry
     return 0.0
 
 
@@ -342,6 +342,11 @@ class Uncertainty(JsonView):
         How much higher the intervals of τ, the residence time and the 63 % time reach because
         the step instant was read off the response (no input channel): a lag shorter than half
         a sample cannot be told from a later instant (the JSON's ``onset_lag_s``; 0 for none).
+    counting_lag_s : float
+        How much lower the intervals of τ, the residence time and the 63 % time reach because a
+        speed fitted as samples comes in whole counts: if it counts encoder edges over each line,
+        each value is the mean over the line before it and the motor is quicker by half a line
+        (the JSON's ``counting_lag_s``; 0 for none).
     other : Mapping
         Keys of the JSON object this type does not hold (written back as they were).
     """
@@ -362,11 +367,13 @@ class Uncertainty(JsonView):
     method: str = ""
     quantiser: Mapping[str, float] = field(default_factory=dict)
     onset_lag_s: float = 0.0
+    counting_lag_s: float = 0.0
     other: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "quantiser", MappingProxyType({str(k): float(v) for k, v in self.quantiser.items()}))
         object.__setattr__(self, "onset_lag_s", float(self.onset_lag_s))
+        object.__setattr__(self, "counting_lag_s", float(self.counting_lag_s))
         object.__setattr__(self, "poles", tuple(self.poles))
         object.__setattr__(self, "zeros", tuple(self.zeros))
         object.__setattr__(self, "pole_pairs", tuple(self.pole_pairs))
@@ -427,7 +434,7 @@ class Uncertainty(JsonView):
         Uncertainty
         """
         known = {*_HEADLINE, "poles", "zeros", "pole_pairs", "delay", "joint", "timing", "method", "quantiser",
-                 "onset_lag_s"}
+                 "onset_lag_s", "counting_lag_s"}
         other = {k: v for k, v in data.items() if k not in known}
         joint = None
         entry = data.get("joint")
@@ -450,7 +457,8 @@ class Uncertainty(JsonView):
             timing={str(k): ChannelTiming.from_dict(v) for k, v in timing.items() if isinstance(v, Mapping)},
             method=str(data.get("method") or ""),
             quantiser=_quantiser(data.get("quantiser"), other),
-            onset_lag_s=_onset_lag(data.get("onset_lag_s"), other),
+            onset_lag_s=_allowance("onset_lag_s", data.get("onset_lag_s"), other),
+            counting_lag_s=_allowance("counting_lag_s", data.get("counting_lag_s"), other),
             other=other,
         )
 
@@ -476,6 +484,8 @@ class Uncertainty(JsonView):
             out["quantiser"] = dict(self.quantiser)
         if self.onset_lag_s:
             out["onset_lag_s"] = self.onset_lag_s
+        if self.counting_lag_s:
+            out["counting_lag_s"] = self.counting_lag_s
         if self.pole_pairs:
             out["pole_pairs"] = [p.to_dict() for p in self.pole_pairs]
         if self.delay is not None:

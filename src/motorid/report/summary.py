@@ -91,8 +91,8 @@ def interval_notes(u: Uncertainty) -> list[str]:
     Returns
     -------
     list of str
-        Empty when the intervals hold neither the quantiser's error along the record nor a read-off
-        onset's lag.
+        Empty when the intervals hold none of the quantiser's error along the record, a read-off
+        onset's lag, and a counted speed's lag.
     """
     notes = []
     if u.quantiser:
@@ -104,6 +104,11 @@ def interval_notes(u: Uncertainty) -> list[str]:
                      f"sample cannot be told from a later instant: τ's, the residence time's and the 63 % time's "
                      f"intervals reach {sig(1e3 * u.onset_lag_s)} ms higher (give the input column, or --t0, to "
                      "time the step)")
+    if u.counting_lag_s:
+        notes.append("the speed comes in whole counts, as one counted over each line does (encoder edges since the "
+                     "last line), and was fitted as samples: if it counts, the motor is quicker by half a line, so "
+                     f"τ's, the residence time's and the 63 % time's intervals reach {sig(1e3 * u.counting_lag_s)} ms "
+                     "lower (--counted-velocity if it counts: the fit then models the counting)")
     return notes
 
 
