@@ -82,3 +82,31 @@ def test_unwrap_real_hslu_encoder(real_dir):
     # the motor turns one way throughout: the unwrapped position never steps back by more
     # than the encoder noise
     assert np.diff(res.position_v).min() > -2.0
+
+
+def test_the_span_fit_equals_a_dense_least_squares():
+    """The span's spline fit solves its normal equations from the sparse design (a fifth of the
+    cost); a dense least squares of the same columns (numpy's, BIC over the same knot spacings)
+    gives the same span."""
+    from scipy.interpolate import BSpline
+
+    from motorid.conditioning.unwrap import _fit_span
+
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 1.0, 2500)
+    theta = 90.0 * (t - 0.3 * (1 - np.exp(-t / 0.3)))  # a motor's angle (V of a 10 V encoder): six turns
+    wraps = np.floor(theta / 10.0)
+    y = np.round((theta - 10.0 * wraps + rng.normal(0, 0.02, t.size)) / 0.08) * 0.08  # 8-bit codes
+    good = np.ones(t.size, bool)
+    best = None
+    for spacing in (100, 50, 25):
+        inner = np.linspace(t[0], t[-1], int(np.clip(t.size // spacing, 2, 400)))
+        design = BSpline.design_matrix(t, np.r_[[t[0]] * 3, inner, [t[-1]] * 3], 3).toarray()
+        cols = np.column_stack([design, -wraps])
+        sol = np.linalg.lstsq(cols, y, rcond=None)[0]
+        rss = float(np.sum((cols @ sol - y) ** 2))
+        bic = t.size * np.log(rss / t.size) + cols.shape[1] * np.log(t.size)
+        if best is None or bic < best[0]:
+            best = (bic, sol[-1])
+    assert _fit_span(t, y, wraps, good) == pytest.approx(best[1], rel=1e-10)
+    assert best[1] == pytest.approx(10.0, rel=1e-3)
