@@ -383,3 +383,33 @@ def test_a_speed_in_whole_counts_fitted_as_samples_has_intervals_that_reach_the_
         out_c = tmp_path / f"c{seed}.json"
         motorid_fresh("identify", *rec.cli_args, "--counted-velocity", "--json", out_c, cwd=tmp_path)
         assert "counting_lag_s" not in json.loads(out_c.read_text())["uncertainty"]
+
+
+def test_the_markov_polish_fits_a_read_off_onsets_error_as_its_shift_not_a_dead_time():
+    """The same log without an input as above, by the Markov method.  Its polish had no shift for
+    the primary channel, so it fitted the read-off onset's error (1.45 ms) as a dead time and
+    counted it in the residence time: 51.46 ms against the truth's 50.6, interval ±0.02 ms.  With
+    the instant read off the response a dead time is in the onset already, so that delay is the
+    channel's shift (reported with its interval, as the output-error fit's), and the intervals
+    hold the lag a read-off onset can hide."""
+    from motorid.report.summary import model_summary
+
+    rng = np.random.default_rng(2)
+    dt, tau_m, tau_e = 2e-3, 0.05, 6e-4
+    t = (np.arange(1500) - 150) * dt
+    g = control.tf([0.8], np.polymul([tau_m, 1], [tau_e, 1]))
+    fine = control.step_response(g, np.arange(0, 4, 1e-5))
+    y = 12 * np.where(t >= -0.5 * dt, np.interp(t + 0.5 * dt, fine.time, np.ravel(fine.outputs)), 0.0)
+    cap = Capture("<log>", "trainer", t, y + rng.normal(0, 0.005, t.size), ChannelInfo("CH1", "V"))
+    r = identify_experiment({"velocity": cap}, step_volts=12.0, settings=IdentifySettings(method="markov"))
+    u = r.model.uncertainty
+    truth = tau_m + tau_e
+    assert r.model.delay_s == 0.0 and u.delay is None and "delay" not in u.joint.parameters
+    shift = u.timing["velocity"].shift
+    assert shift is not None and 0.5 * dt < shift.value < dt and shift.ci95[0] < shift.value < shift.ci95[1]
+    assert u.onset_lag_s == pytest.approx(dt / 2)
+    res = u.residence_time_s
+    assert res.value == pytest.approx(u.time_constant.value)  # no dead time in it
+    assert res.ci95[0] <= truth <= res.ci95[1]
+    said = " ".join(" ".join(model_summary(r.model)).split())
+    assert "fitted shift" in said and "not in τ or the residence time" in said

@@ -12,6 +12,7 @@ model's own headline, whatever it cancels or trims.
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -25,6 +26,9 @@ __all__ = ["polish_uncertainty", "polished_tf", "unresolved_poles"]
 #: Relative step of the central differences, in standard errors of the parameter moved.
 STEP_STD = 1e-3
 
+#: The primary channel's shift when its step instant was read off its response, in its ``timing`` note.
+ONSET_SHIFT = ("the step instant read off the response, moved by the fitted shift: the onset's error, not a "
+               "dead time of the motor (with no input channel a dead time is in the onset)")
 #: A shift the data do not resolve within its bound, in the channel's ``timing`` note.
 UNRESOLVED_SHIFT = "not resolved by the data within its bound of one grid step (its interval is the bound)"
 
@@ -159,6 +163,7 @@ def polish_uncertainty(
     timing: Mapping[str, tuple[str, float]] | None = None,
     shift_bound_s: float = float("inf"),
     kinds: Mapping[str, str] | None = None,
+    onset_shift: bool = False,
 ) -> Uncertainty | None:
     """The typed uncertainty of a model the Markov method's polish fitted.
 
@@ -185,6 +190,11 @@ def polish_uncertainty(
     kinds : Mapping, optional
         Per channel: the kind of its step instant (``logged``, ``sampled``, ``onset``, ``given``:
         :attr:`~motorid.model.uncertainty.ChannelTiming.kind`).
+    onset_shift : bool
+        The primary channel's step instant was read off its response (no input channel): the
+        polish's dead time is that read-off's error, a shift of the channel (its ``timing``, with
+        its interval), not a delay of the motor.  Every quantity is then the model's without it
+        (``model`` has none), and the joint covariance leaves it out.
 
     Returns
     -------
@@ -199,8 +209,9 @@ def polish_uncertainty(
 
     def rebuilt(x: np.ndarray) -> dict[str, Any]:
         num, den, delay = polished_tf(polish, x)
+        delay = 0.0 if onset_shift else max(delay, 0.0)
         with np.errstate(all="ignore"):
-            return _quantities(model_from_velocity_tf(num, den, settings=model.settings, delay_s=max(delay, 0.0)))
+            return _quantities(model_from_velocity_tf(num, den, settings=model.settings, delay_s=delay))
 
     grads: dict[str, np.ndarray] = {}
     for i, up, down, span in _central_steps(polish.params, cov, moving):
@@ -220,6 +231,19 @@ def polish_uncertainty(
     dc = float(base["dc_gain"])
     gain_extra = (dc * step_rel_std) ** 2 if np.isfinite(dc) else 0.0
     timing_extra = instant_std**2
+    timing_of = _shift_timing(polish, cov, timing or {}, shift_bound_s, kinds or {})
+    delay: ParameterEstimate | None = _at_least_zero(estimate(float(base["delay"]), std_of("delay", timing_extra)))
+    joint = _joint(polish, cov, moving)
+    if onset_shift and polish.channels and polish.channels[0] in timing_of:
+        # the dead time the polish fitted is the read-off onset's error: the primary channel's shift
+        k = moving - 1  # (the delay is the last parameter that moves the velocity TF)
+        value, std = float(polish.params[k]), float(np.sqrt(max(float(cov[k, k]), 0.0)))
+        primary = polish.channels[0]
+        # (cut at 0 as a dead time's interval is: the polish's bound)
+        shift = _at_least_zero(ParameterEstimate(value, std, (value - 1.96 * std, value + 1.96 * std)))
+        timing_of[primary] = replace(timing_of[primary], shift=shift, note=ONSET_SHIFT)
+        delay = None
+        joint = JointCovariance(joint.parameters[:-1], joint.values[:-1], joint.covariance[:-1, :-1])
     return Uncertainty(
         dc_gain=estimate(dc, std_of("dc_gain", gain_extra)),
         time_constant=estimate(float(base["time_constant"]), std_of("time_constant")),
@@ -227,10 +251,10 @@ def polish_uncertainty(
         t63_s=estimate(float(base["t63_s"]), std_of("t63_s", timing_extra)),
         poles=tuple(estimate(complex(p), std_of(f"pole_{k}")) for k, p in enumerate(base["poles"])),
         zeros=tuple(estimate(complex(z), std_of(f"zero_{k}")) for k, z in enumerate(base["zeros"])),
-        delay=_at_least_zero(estimate(float(base["delay"]), std_of("delay", timing_extra))),
+        delay=delay,
         method=METHOD,
-        joint=_joint(polish, cov, moving),
-        timing=_shift_timing(polish, cov, timing or {}, shift_bound_s, kinds or {}),
+        joint=joint,
+        timing=timing_of,
     )
 
 

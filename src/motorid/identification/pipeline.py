@@ -333,20 +333,39 @@ def _markov_laguerre(cond: ConditionedExperiment, s: IdentifySettings) -> MotorM
     model = model.replace(warnings=tuple(model.warnings) + tuple(notes), sample_interval_s=float(t[1] - t[0]),
                           # first_order() cancels only pairs slower than the record: the intervals' models the same
                           settings={**dict(model.settings), "record_length_s": float(cond.full_time_s[-1])})
-    return model if res.polish is None else model.replace(uncertainty=_polish_uncertainty(cond, model, res.polish))
+    if res.polish is None:
+        return model
+    # a step instant read off the response (no input channel) holds any dead time already: the polish's
+    # delay is that read-off's error, the channel's shift (as the output-error fit has it), not the motor's
+    onset = cond.responses[res.polish.channels[0]].timing == "onset"
+    shifted = onset and model.delay_s > 0
+    if shifted:
+        choice = str(model.extras.get("markov_choice", ""))
+        model = model.replace(delay_s=0.0, extras={**dict(model.extras), "markov_choice": choice + (
+            f"; the polish's dead time ({1e3 * model.delay_s:.3g} ms) is the error of the step instant read off the "
+            f"response: the {res.polish.channels[0]}'s shift, not in τ or the residence time")})
+    return model.replace(uncertainty=_polish_uncertainty(cond, model, res.polish, onset_shift=shifted, onset=onset))
 
 
-def _polish_uncertainty(cond: ConditionedExperiment, model: MotorModel, polish: Any) -> Any:
-    """The Markov polish's intervals, with the step level's and the step instant's errors the fit does not see."""
+def _polish_uncertainty(cond: ConditionedExperiment, model: MotorModel, polish: Any, *,
+                        onset_shift: bool = False, onset: bool = False) -> Any:
+    """The Markov polish's intervals, with the step level's and the step instant's errors the fit does not see.
+
+    A read-off onset's error fitted as a delay is the primary channel's shift (``onset_shift``), and
+    an instant read off the response (``onset``) gets intervals that hold the lag such an onset can
+    hide (:func:`~motorid.identification.stages.onset_lag`), as the output-error fit's do.
+    """
     from motorid.identification.laguerre_uncertainty import polish_uncertainty
-    from motorid.identification.stages import instant_std, output_level_rel_std, step_instant, step_level_std
+    from motorid.identification.stages import (instant_std, onset_lag, output_level_rel_std, step_instant,
+                                                step_level_std)
 
     timing = {role: step_instant(r) for role, r in cond.responses.items() if role in polish.channels}
-    return polish_uncertainty(
+    u = polish_uncertainty(
         model, polish, step_rel_std=float(np.hypot(step_level_std(cond) / cond.step_volts, output_level_rel_std(cond))),
         instant_std=instant_std(cond.responses[polish.channels[0]]), timing=timing,
         kinds={role: r.timing for role, r in cond.responses.items() if role in polish.channels},
-        shift_bound_s=float(model.sample_interval_s or np.inf))
+        shift_bound_s=float(model.sample_interval_s or np.inf), onset_shift=onset_shift)
+    return onset_lag(u, cond) if onset else u
 
 
 #: Most Markov parameters (or Laguerre terms) asked for: each needs several samples, and the

@@ -159,6 +159,7 @@ def srivc_fit(time_s: np.ndarray, u: np.ndarray, y: np.ndarray, settings: SrivcS
         den = np.poly(np.resize(np.roots(den), n)) if den.size > 1 else np.poly(-np.ones(n))
     theta_old = None
     last_step: np.ndarray | None = None
+    was_stable = False
     converged = False
     warnings: list[str] = []
     num = np.zeros(m + 1)
@@ -202,13 +203,18 @@ def srivc_fit(time_s: np.ndarray, u: np.ndarray, y: np.ndarray, settings: SrivcS
             step = np.abs(theta - theta_old)
             # the previous estimate's residuals scale the instruments' covariance: a step far inside
             # the standard errors moves nothing the data can tell
-            stderr = np.sqrt(sigma2 * np.maximum(np.diag(p_mat), 0.0))
+            # (only between stable estimates: an unstable one's residuals, which scale the errors, are its
+            # divergence, not the noise)
+            stable = bool(np.all(np.real(np.roots(den)) < 0))
+            stderr = (np.sqrt(sigma2 * np.maximum(np.diag(p_mat), 0.0)) if stable and was_stable
+                      else np.zeros(step.size))
             if (np.linalg.norm(step) <= settings.tol * np.linalg.norm(theta)
-                    or np.all(step <= settings.step_in_stderr * stderr)):
+                    or (np.all(np.isfinite(stderr)) and np.all(step <= settings.step_in_stderr * stderr))):
                 converged = True
                 break
             last_step = (theta - theta_old) / np.maximum(np.abs(theta_old), 1e-300)
         theta_old = theta
+        was_stable = bool(np.all(np.real(np.roots(den)) < 0))
     with np.errstate(over="ignore", invalid="ignore"):  # an unstable estimate overflows
         x_hat = _simulate(num, den, t, u)
         sigma2 = float(np.mean((y - x_hat) ** 2))
