@@ -22,8 +22,10 @@ Usage::
 
 ``--counted`` also runs each rig whose speed column counts encoder edges over each interval
 (:data:`~motorid.trainer.hobbyrigs.COUNTED_SPEED_RIGS`) with ``--counted-velocity``, the rows
-named ``RIG +counted``: that model is the motor's, so its residence time is compared with the
-truth's less the counting's lag (``sensor_lag_s``, half the interval).
+named ``RIG +counted``. A model that fitted its velocity as counted (``timing.velocity.window_s``:
+said so, or read off a log whose speed times its own stamped intervals is whole counts) is the
+motor's, so its residence time is compared with the truth's less the counting's lag
+(``sensor_lag_s``, half the interval).
 
 ``--src DIR`` runs another checkout's source (``PYTHONPATH=DIR/src``), e.g. the code before
 the real-set-up work: ``git worktree add /tmp/motorid-before 595a727`` then ``--src /tmp/motorid-before``.
@@ -56,6 +58,11 @@ HSLU_REFERENCE = {
     "06_dc_step_5_15_00.csv": (245.5, 2 * 0.1468 + 0.035),
     "06_dc_step_5_15_05.csv": (150.5, 2 * 0.1015 + 0.045),
 }
+
+
+def counted(model: dict) -> bool:
+    """Whether the model fitted its velocity as counted over a window (``timing.velocity.window_s``)."""
+    return bool(((model.get("timing") or {}).get("velocity") or {}).get("window_s"))
 
 
 def residence_time(model: dict) -> float:
@@ -139,27 +146,32 @@ def main(argv: list[str] | None = None) -> int:
         for name in setups:
             for seed in range(opts.seeds):
                 rec = write_real_setup(name, work / f"{name}-{seed}", seed=seed)
-                cases.append((name, str(seed), list(rec.cli_args), rec.truth.dc_gain, rec.truth.residence_time_s))
+                cases.append((name, str(seed), list(rec.cli_args), rec.truth.dc_gain, rec.truth.residence_time_s,
+                              rec.truth.sensor_lag_s))
                 if opts.counted and name in COUNTED_SPEED_RIGS:
                     cases.append((f"{name} +counted", str(seed), [*rec.cli_args, "--counted-velocity"],
-                                  rec.truth.dc_gain, rec.truth.residence_time_s - rec.truth.sensor_lag_s))
+                                  rec.truth.dc_gain, rec.truth.residence_time_s, rec.truth.sensor_lag_s))
         if not opts.no_real and REAL.is_dir():
             for f in sorted(REAL.glob("06_*.csv")):
                 dc, res = HSLU_REFERENCE.get(f.name, (float("nan"), float("nan")))
-                cases.append(("hslu:" + f.stem[3:], "—", ["--velocity", str(f)], dc, res))
-        for i, (name, seed, args, dc_true, res_true) in enumerate(cases):
+                cases.append(("hslu:" + f.stem[3:], "—", ["--velocity", str(f)], dc, res, 0.0))
+        for i, (name, seed, args, dc_true, res_true, lag) in enumerate(cases):
             out = work / f"model-{i}.json"
             code, model, wall, err = run_identify(args, out, opts.src)
             if model is None:
                 rows.append((name, seed, code, float("nan"), float("nan"), "—", wall, "—", err, "—"))
                 continue
+            if counted(model):
+                # the model is the motor's, the counting modelled (said, or read off the log): its own timing
+                res_true -= lag
             dc = float(model["first_order"]["dc_gain"])
             truth_ci = truth_in_ci(model, dc_true, res_true) if not name.startswith("hslu:") else "—"
             rows.append((name, seed, code, pct(dc, dc_true), pct(residence_time(model), res_true),
                          inside_ci(model), wall, str(len(model.get("warnings") or [])), "", truth_ci))
     src = str(opts.src) if opts.src else "this checkout"
     print(f"# motorid identify, default options, fresh process each ({src})\n")
-    print("truth: presets = their linearised plant (incremental gain; τ by moments + dead time + encoder lag);")
+    print("truth: presets = their linearised plant (incremental gain; τ by moments + dead time + encoder lag; "
+          "without the encoder's counting lag for a model that fitted the counting);")
     print("hslu = the authors' gain and 2·T1 + Td with their hand-refined T1, Td (a reference, not ground truth)")
     if opts.counted:
         print("RIG +counted = the same log with --counted-velocity, against the motor's own timing (the truth's "

@@ -145,6 +145,11 @@ class Capture:
         (its values, or their products with their stamped intervals, are whole multiples of one
         count: read off the raw column); 0 when it does not.  A sampled signal through an ADC
         comes in steps too: this says that the column may count, ``sample_window_s`` that it does.
+    count_over_stamps : bool
+        The output's values are on no grid, their products with their (jittered) stamped intervals
+        are (``count_step`` times the median interval): each is a count over the interval its own
+        clock measured, which no sampled reading is.  :func:`motorid.read_experiment` then reads
+        a velocity as counted (:meth:`counted`).
     """
 
     __getstate__ = frozen_getstate
@@ -164,6 +169,7 @@ class Capture:
     stamp_resolution_s: float = 0.0
     sample_window_s: float = 0.0
     count_step: float = 0.0
+    count_over_stamps: bool = False
 
     def __post_init__(self) -> None:
         self._freeze(copy=True)

@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import motorid as mi
-from motorid.io._counts import count_step, print_resolution
+from motorid.io._counts import count_lattice, count_step, print_resolution
 
 
 def _angle(t: np.ndarray, t_step: float, speed: float = 120.0, tau: float = 0.08) -> np.ndarray:
@@ -36,7 +36,9 @@ def test_a_speed_counted_over_a_steady_loop_comes_in_one_counts_step(decimals):
     rng = np.random.default_rng(decimals)
     t = np.arange(300) * 0.01
     rpm = np.round(_counted_rpm(t, 700, 0.01, rng), decimals)
-    assert count_step(t, rpm) == pytest.approx(60.0 / (700 * 0.01), rel=1e-4)
+    step, over_stamps = count_lattice(t, rpm)
+    assert step == pytest.approx(60.0 / (700 * 0.01), rel=1e-4)
+    assert not over_stamps  # a grid of values: an ADC's codes would look alike
 
 
 def test_a_loop_that_divides_by_its_own_jittered_interval_counts_over_its_stamps():
@@ -46,6 +48,7 @@ def test_a_loop_that_divides_by_its_own_jittered_interval_counts_over_its_stamps
     rpm = np.round(_counted_rpm(t, 960, None, rng), 2)
     step = 60.0 / 960 / float(np.median(np.diff(t)))
     assert count_step(t, rpm) == pytest.approx(step, rel=1e-3)
+    assert count_lattice(t, rpm)[1]  # on its stamps, not on a grid of values: a count, not a sample
     # its values themselves are on no grid: divided by the nominal 20 ms the counts would be
     assert count_step(np.arange(t.size) * 0.02, rpm) == 0.0
 
@@ -94,3 +97,24 @@ def test_the_reader_keeps_the_step_of_the_raw_column(tmp_path):
     cap = mi.read_experiment(velocity=path).captures["velocity"]
     assert cap.count_step == pytest.approx(60.0 / (1200 * 0.01024), rel=1e-3)
     assert count_step(cap.time_s, cap.output_v) == 0.0  # the resampled column has lost it
+
+
+def test_a_speed_counted_over_its_own_stamped_intervals_is_read_as_counted(tmp_path):
+    """A Raspberry Pi loop's log (clock stamps, rpm = counts over the interval its clock measured): no
+    sampled reading makes its values times their intervals whole counts, so it is read as counted
+    without ``counted_velocity``; a steady loop's grid of values is not (an ADC's codes look alike)."""
+    rng = np.random.default_rng(7)
+    t = np.round(np.r_[0.0, np.cumsum(0.02 + rng.normal(0, 0.0015, 259))], 6)
+    rpm = np.round(_counted_rpm(t, 960, None, rng), 2)
+    path = tmp_path / "pi.csv"
+    path.write_text("time_s,u_V,rpm\n" + "\n".join(
+        f"{a:.6f},{9.0 if i >= 40 else 0.0:.1f},{r:.2f}" for i, (a, r) in enumerate(zip(t, rpm, strict=True))) + "\n")
+    cap = mi.read_experiment(velocity=path).captures["velocity"]
+    assert cap.count_over_stamps and cap.sample_window_s == pytest.approx(float(np.median(np.diff(t))), rel=0.05)
+    steady = tmp_path / "steady.csv"
+    ts = np.arange(300) * 0.01
+    steady.write_text("time_s,u_V,rpm\n" + "\n".join(
+        f"{a:.2f},{6.0 if i >= 40 else 0.0:.1f},{r:.1f}"
+        for i, (a, r) in enumerate(zip(ts, np.round(_counted_rpm(ts, 700, 0.01, rng), 1), strict=True))) + "\n")
+    cap = mi.read_experiment(velocity=steady).captures["velocity"]
+    assert cap.count_step > 0 and not cap.count_over_stamps and cap.sample_window_s == 0.0

@@ -212,8 +212,12 @@ def condition_experiment(
                          f"is the mean over the {window:.4g} ms before it, the motor is about {0.5 * window:.3g} ms "
                          f"quicker than this model{counts}, and --counted-velocity fits it so")
         if cap.sample_window_s > 0:
+            why = (f"its values times their stamped intervals are whole counts of {cap.count_step:.4g}"
+                   f"{' ' + cap.output_info.units if cap.output_info.units else ''} over the median interval, so it "
+                   "counts over each interval its clock measured" if cap.count_over_stamps else
+                   "counted over each interval, --counted-velocity")
             notes.append(f"{cap.source}: each sample is the mean speed over the {1e3 * cap.sample_window_s:.4g} ms "
-                         "before it (counted over each interval, --counted-velocity): the output-error fit (methods "
+                         f"before it ({why}): the output-error fit (methods "
                          "auto, oe) models it so, and its dead time and time constants are the motor's, without the "
                          f"counting's lag of about {0.5e3 * cap.sample_window_s:.3g} ms, which the other methods "
                          "take for dead time")

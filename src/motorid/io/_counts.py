@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["COUNT_MAX_DIVISOR", "COUNT_MIN_LEVELS", "COUNT_MIN_VALUES", "COUNT_SHARE", "count_step",
-           "print_resolution"]
+__all__ = ["COUNT_MAX_DIVISOR", "COUNT_MIN_LEVELS", "COUNT_MIN_VALUES", "COUNT_SHARE", "count_lattice",
+           "count_step", "print_resolution"]
 
 #: The share of the non-zero values that must lie within the print's rounding of a multiple of the step.
 COUNT_SHARE = 0.99
@@ -111,6 +111,8 @@ def _lattice(a: np.ndarray, tol: np.ndarray) -> float:
 def count_step(time_s: np.ndarray, values: np.ndarray) -> float:
     """The step a logged speed's values come in when it counts encoder edges over each line; 0 when it does not.
 
+    :func:`count_lattice`'s step alone.
+
     Parameters
     ----------
     time_s : ndarray
@@ -121,26 +123,47 @@ def count_step(time_s: np.ndarray, values: np.ndarray) -> float:
     Returns
     -------
     float
+    """
+    return count_lattice(time_s, values)[0]
+
+
+def count_lattice(time_s: np.ndarray, values: np.ndarray) -> tuple[float, bool]:
+    """The step a logged speed's values come in when it counts encoder edges over each line, and on what.
+
+    Parameters
+    ----------
+    time_s : ndarray
+        The log's stamps (s), as logged (before any resampling).
+    values : ndarray
+        The speed column, as logged.
+
+    Returns
+    -------
+    step : float
         The step in the column's unit: one count over the median interval (the values are whole
         multiples of it, or their products with their stamped intervals are whole multiples of it
         times the median interval); 0 when neither holds for :data:`COUNT_SHARE` of the non-zero
         values, with at least :data:`COUNT_MIN_LEVELS` multiples, a step of at least
         :data:`COUNT_MIN_RESOLUTIONS` times the print's rounding, and no more than
         :data:`COUNT_MAX_DIVISOR` counts in the smallest non-zero value.
+    over_stamps : bool
+        The values themselves are on no grid, their products with their jittered stamped intervals
+        are: each value is a count over the interval its own clock measured, which no sampled
+        reading is (an ADC's codes are a grid of the values).
     """
     t = np.asarray(time_s, dtype=float)[:COUNT_ROWS]
     v = np.asarray(values, dtype=float)[:COUNT_ROWS]
     if t.size < COUNT_MIN_VALUES + 1 or not (np.all(np.isfinite(v)) and np.all(np.isfinite(t))):
-        return 0.0
+        return 0.0, False
     rv, rt = print_resolution(v), print_resolution(t)
     # a printed value is within half its resolution of the count's: one resolution leaves room for the
     # fitted step's error
     step = _lattice(v, np.full(v.size, rv))
     if step > 0:
-        return step
+        return step, False
     dt = np.diff(t)
     if dt.size == 0 or np.any(dt <= 0):
-        return 0.0
+        return 0.0, False
     # a loop that divides its count by its own stamped interval: the value times that interval counts
     per_line = _lattice(v[1:] * dt, rv * dt + 2.0 * rt * np.abs(v[1:]))
-    return per_line / float(np.median(dt)) if per_line > 0 else 0.0
+    return (per_line / float(np.median(dt)), True) if per_line > 0 else (0.0, False)

@@ -16,7 +16,7 @@ import numpy as np
 from motorid.capture import ROLES, Capture, ChannelInfo
 from motorid.errors import CaptureFormatError, OptionError
 from motorid.io._common import column_to_floats, parse_number, uniform_grid, validate_rows
-from motorid.io._counts import count_step
+from motorid.io._counts import count_lattice
 
 __all__ = ["COLUMN_KEYS", "TIME_UNITS", "capture_from_table", "check_role", "classify_name", "parse_column_map",
            "role_from_name"]
@@ -472,7 +472,8 @@ def capture_from_table(
     median_step = validate_rows(time_s, {f"{where} {k!r}": v for k, v in checked.items()}, file=file, rows=rows,
                                 time_name=f"{where} {names[asg.time]!r}", jitter_ok=True)
     notes = list(warnings) + clock_notes + ([time_note] if time_note else [])
-    counts = count_step(time_s, output)  # on the stamps and values as logged: resampling would blur the counts
+    # on the stamps and values as logged: resampling would blur the counts
+    counts, over_stamps = count_lattice(time_s, output)
     time_s, output, inp, extra, grid_note, resolution = uniform_grid(time_s, output, inp, extra, file=file,
                                                                      median=median_step)
     if grid_note:
@@ -503,4 +504,5 @@ def capture_from_table(
         warnings=tuple(notes),
         stamp_resolution_s=resolution,
         count_step=counts,
+        count_over_stamps=over_stamps,
     )
