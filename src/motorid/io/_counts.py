@@ -37,6 +37,9 @@ COUNT_SCREEN = 200
 #: value off the counts then lands within one rounding of a multiple by chance at most once in five, and
 #: 99 % of 20 or more values never do.
 COUNT_MIN_RESOLUTIONS = 10
+#: The most counts one value may hold: a step finer than the largest value over this is not looked for
+#: (an encoder line with a million edges is none a log prints; and the counts' squares stay finite).
+COUNT_MAX_COUNTS = 1e6
 #: Only the first this many rows are looked at (a step is there from the first lines on).
 COUNT_ROWS = 100_000
 
@@ -89,7 +92,7 @@ def _lattice(a: np.ndarray, tol: np.ndarray) -> float:
     b, t = np.abs(a[nz]), tol[nz]
     order = np.argsort(b)
     b, t = b[order], t[order]
-    floor = COUNT_MIN_RESOLUTIONS * float(np.median(t))
+    floor = max(COUNT_MIN_RESOLUTIONS * float(np.median(t)), float(b[-1]) / COUNT_MAX_COUNTS)
     # screened on an even spread of the values (their smallest and largest among them) before all are checked
     pick = np.unique(np.linspace(0, b.size - 1, min(COUNT_SCREEN, b.size)).astype(int))
     few, few_t = b[pick], t[pick]
