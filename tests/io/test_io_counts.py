@@ -133,3 +133,12 @@ def test_any_column_gives_a_finite_step_and_no_warning(v, dt):
         warnings.simplefilter("error")
         step, _ = count_lattice(np.arange(values.size) * dt, values)
     assert np.isfinite(step) and step >= 0
+
+
+def test_a_long_log_whose_motion_starts_late_is_looked_at_all_along():
+    """300 000 lines at rest before a step: the pairs of lines looked at are spread over the whole log."""
+    rng = np.random.default_rng(8)
+    t = np.arange(300_300) * 0.01
+    moving = _counted_rpm(t[-300:] - t[-300], 700, 0.01, rng)
+    rpm = np.r_[np.zeros(300_000), np.round(moving, 1)]
+    assert count_step(t, rpm) == pytest.approx(60.0 / (700 * 0.01), rel=1e-4)

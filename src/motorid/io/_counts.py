@@ -40,7 +40,7 @@ COUNT_MIN_RESOLUTIONS = 10
 #: The most counts one value may hold: a step finer than the largest value over this is not looked for
 #: (an encoder line with a million edges is none a log prints; and the counts' squares stay finite).
 COUNT_MAX_COUNTS = 1e6
-#: Only the first this many rows are looked at (a step is there from the first lines on).
+#: At most this many rows are looked at (pairs of consecutive lines spread over a longer log).
 COUNT_ROWS = 100_000
 
 
@@ -154,19 +154,27 @@ def count_lattice(time_s: np.ndarray, values: np.ndarray) -> tuple[float, bool]:
         are: each value is a count over the interval its own clock measured, which no sampled
         reading is (an ADC's codes are a grid of the values).
     """
-    t = np.asarray(time_s, dtype=float)[:COUNT_ROWS]
-    v = np.asarray(values, dtype=float)[:COUNT_ROWS]
-    if t.size < COUNT_MIN_VALUES + 1 or not (np.all(np.isfinite(v)) and np.all(np.isfinite(t))):
+    t_all = np.asarray(time_s, dtype=float)
+    v_all = np.asarray(values, dtype=float)
+    if t_all.size < COUNT_MIN_VALUES + 1:
         return 0.0, False
-    rv, rt = print_resolution(v), print_resolution(t)
+    # a long log: pairs of consecutive lines spread over all of it (the motion may start late)
+    first = (np.arange(t_all.size - 1) if t_all.size <= COUNT_ROWS
+             else np.unique(np.linspace(0, t_all.size - 2, COUNT_ROWS // 2).astype(int)))
+    t0, t1, v0, v1 = t_all[first], t_all[first + 1], v_all[first], v_all[first + 1]
+    if not (np.all(np.isfinite(v0)) and np.all(np.isfinite(v1)) and np.all(np.isfinite(t0))
+            and np.all(np.isfinite(t1))):
+        return 0.0, False
+    v = np.r_[v0, v1[-1:]] if t_all.size <= COUNT_ROWS else np.r_[v0, v1]
+    rv, rt = print_resolution(v), print_resolution(np.r_[t0, t1])
     # a printed value is within half its resolution of the count's: one resolution leaves room for the
     # fitted step's error
     step = _lattice(v, np.full(v.size, rv))
     if step > 0:
         return step, False
-    dt = np.diff(t)
-    if dt.size == 0 or np.any(dt <= 0):
+    dt = t1 - t0
+    if np.any(dt <= 0):
         return 0.0, False
     # a loop that divides its count by its own stamped interval: the value times that interval counts
-    per_line = _lattice(v[1:] * dt, rv * dt + 2.0 * rt * np.abs(v[1:]))
+    per_line = _lattice(v1 * dt, rv * dt + 2.0 * rt * np.abs(v1))
     return (per_line / float(np.median(dt)), True) if per_line > 0 else (0.0, False)
