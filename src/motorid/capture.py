@@ -150,6 +150,9 @@ class Capture:
         are (``count_step`` times the median interval): each is a count over the interval its own
         clock measured, which no sampled reading is.  :func:`motorid.read_experiment` then reads
         a velocity as counted (:meth:`counted`).
+    count_hold : int
+        Lines each value of such a column is kept for (a firmware that counts over several loops
+        and logs every loop): 1 when it changes from line to line.
     """
 
     __getstate__ = frozen_getstate
@@ -170,6 +173,7 @@ class Capture:
     sample_window_s: float = 0.0
     count_step: float = 0.0
     count_over_stamps: bool = False
+    count_hold: int = 1
 
     def __post_init__(self) -> None:
         self._freeze(copy=True)
@@ -234,6 +238,8 @@ class Capture:
         step = self.count_step
         if isinstance(step, bool) or not isinstance(step, (int, float)) or not (math.isfinite(step) and step >= 0):
             raise ValueError(f"count_step must be a finite number ≥ 0, got {step!r}")
+        if isinstance(self.count_hold, bool) or not isinstance(self.count_hold, int) or self.count_hold < 1:
+            raise ValueError(f"count_hold must be a whole number ≥ 1, got {self.count_hold!r}")
         object.__setattr__(self, "time_s", t)
         object.__setattr__(self, "output_v", y)
         object.__setattr__(self, "input_v", u)

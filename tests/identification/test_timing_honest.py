@@ -436,3 +436,19 @@ def test_a_pi_loops_rpm_over_its_own_clock_is_fitted_as_counted_by_default(tmp_p
         assert len(m["velocity_tf"]["den"]) == 2  # one pole, as the motor has
         said = " ".join(proc.stdout.split())
         assert "its values times their stamped intervals are whole counts" in said
+
+
+def test_a_count_held_over_several_lines_widens_the_intervals_by_its_whole_lag(tmp_path):
+    """A firmware that counts encoder edges over five 1 ms loops and logs every loop: its lag if it
+    counts is the window's half and the hold's, 4.5 ms, not half a line.  The interval's lower end
+    reaches the motor's own residence time."""
+    from motorid.trainer.realsetups import write_real_setup
+
+    rec = write_real_setup("pwm-encoder", tmp_path / "r", seed=0)
+    out = tmp_path / "m.json"
+    proc = motorid_fresh("identify", *rec.cli_args, "--json", out, cwd=tmp_path)
+    unc = json.loads(out.read_text())["uncertainty"]
+    assert unc["counting_lag_s"] == pytest.approx(rec.truth.sensor_lag_s)  # (2·5 − 1)/2 lines of 1 ms
+    lo, hi = unc["residence_time_s"]["ci95"]
+    assert lo <= rec.truth.residence_time_s - rec.truth.sensor_lag_s and rec.truth.residence_time_s <= hi
+    assert "each kept for 5 lines" in " ".join(proc.stdout.split())

@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import motorid as mi
-from motorid.io._counts import count_lattice, count_step, print_resolution
+from motorid.io._counts import count_hold, count_lattice, count_step, print_resolution
 
 
 def _angle(t: np.ndarray, t_step: float, speed: float = 120.0, tau: float = 0.08) -> np.ndarray:
@@ -36,7 +36,7 @@ def test_a_speed_counted_over_a_steady_loop_comes_in_one_counts_step(decimals):
     rng = np.random.default_rng(decimals)
     t = np.arange(300) * 0.01
     rpm = np.round(_counted_rpm(t, 700, 0.01, rng), decimals)
-    step, over_stamps = count_lattice(t, rpm)
+    step, over_stamps, _ = count_lattice(t, rpm)
     assert step == pytest.approx(60.0 / (700 * 0.01), rel=1e-4)
     assert not over_stamps  # a grid of values: an ADC's codes would look alike
 
@@ -131,7 +131,7 @@ def test_any_column_gives_a_finite_step_and_no_warning(v, dt):
     values = np.asarray(v)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        step, _ = count_lattice(np.arange(values.size) * dt, values)
+        step = count_lattice(np.arange(values.size) * dt, values).step
     assert np.isfinite(step) and step >= 0
 
 
@@ -142,3 +142,18 @@ def test_a_long_log_whose_motion_starts_late_is_looked_at_all_along():
     moving = _counted_rpm(t[-300:] - t[-300], 700, 0.01, rng)
     rpm = np.r_[np.zeros(300_000), np.round(moving, 1)]
     assert count_step(t, rpm) == pytest.approx(60.0 / (700 * 0.01), rel=1e-4)
+
+
+def test_a_count_over_several_lines_held_between_is_told_by_its_runs():
+    """A firmware that counts over five 1 ms loops and logs every loop prints each count five times."""
+    rng = np.random.default_rng(9)
+    t = np.arange(1500) * 0.001
+    counts = np.floor(_angle(t, t[300]) / (2 * math.pi) * 1632 + rng.uniform())
+    every = np.arange(t.size) // 5 * 5
+    per5 = np.r_[np.zeros(5), np.diff(counts[::5])][np.arange(t.size) // 5]  # counted over the last five loops
+    omega = np.round(per5 / 1632 * 2 * math.pi / 0.005, 4)
+    assert every.size == omega.size
+    found = count_lattice(t, omega)
+    assert found.hold == 5 and found.step == pytest.approx(2 * math.pi / (1632 * 0.005), rel=1e-4)
+    assert count_hold(np.round(_counted_rpm(t, 700, 0.001, rng), 1)) == 1  # counted over each line
+    assert count_hold(np.zeros(50)) == 1

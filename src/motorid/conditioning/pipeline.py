@@ -16,7 +16,7 @@ from motorid.capture import ROLES, Capture
 from motorid.conditioning.checks import check_step_responses
 from motorid.conditioning.denoise import fft_denoise
 from motorid.conditioning.resample import ratio_for_interval, sample_reduction
-from motorid.conditioning.response import COUNTED_SPEED_UNITS, StepResponse, is_log, step_response
+from motorid.conditioning.response import COUNTED_SPEED_UNITS, StepResponse, counting_lag, is_log, step_response
 from motorid.conditioning.sync import synchronise
 from motorid.conditioning.timescale import ResponseTimes, auto_reduction_ratio, response_times
 from motorid.errors import ConditioningError, OptionError
@@ -201,16 +201,7 @@ def condition_experiment(
         if (role == "velocity" and cap.sample_window_s == 0 and responses[role].timing == "logged"
                 and (cap.output_info.units in COUNTED_SPEED_UNITS or responses[role].count_step > 0)):
             # the default takes the column for samples; a count's half interval is then in the model's timing
-            window = 1e3 * cap.sample_interval_s
-            unit = cap.output_info.units
-            step = responses[role].count_step
-            counts = (f"; its values come in whole steps of {step:.4g}{' ' + unit if unit else ''}"
-                      " (one encoder edge over a line, or an ADC's code: the two look alike), so the timing intervals "
-                      f"reach {0.5 * window:.3g} ms lower" if step > 0 else "")
-            notes.append(f"{cap.source}: the speed{f' ({unit})' if unit else ''} is fitted as sampled at each stamp; "
-                         "if the log counts encoder edges over each line (as Arduino sketches print it), each value "
-                         f"is the mean over the {window:.4g} ms before it, the motor is about {0.5 * window:.3g} ms "
-                         f"quicker than this model{counts}, and --counted-velocity fits it so")
+            notes.append(_sampled_speed_note(cap, responses[role]))
         if cap.sample_window_s > 0:
             why = (f"its values times their stamped intervals are whole counts of {cap.count_step:.4g}"
                    f"{' ' + cap.output_info.units if cap.output_info.units else ''} over the median interval, so it "
@@ -283,6 +274,25 @@ def condition_experiment(
         dead_time_s=times.dead_time_s if np.isfinite(times.dead_time_s) else 0.0,
         notes=tuple(notes),
     )
+
+
+def _sampled_speed_note(cap: Capture, r: StepResponse) -> str:
+    """What fitting a logged speed as samples leaves in the model if it counts, and what its values show."""
+    window = 1e3 * cap.sample_interval_s
+    unit = cap.output_info.units
+    lag = 1e3 * counting_lag(r)
+    head = f"{cap.source}: the speed{f' ({unit})' if unit else ''} is fitted as sampled at each stamp; "
+    steps = f"its values come in whole steps of {r.count_step:.4g}{' ' + unit if unit else ''}"
+    if r.count_step > 0 and r.count_hold > 1:
+        return (head + f"{steps}, each kept for {r.count_hold} lines: if that is a count of encoder edges over "
+                f"{r.count_hold} lines ({r.count_hold * window:.4g} ms) held until the next, the motor is about "
+                f"{lag:.3g} ms quicker than this model, so the timing intervals reach {lag:.3g} ms lower "
+                "(--counted-velocity models a count over each line, not this)")
+    counts = (f"; {steps} (one encoder edge over a line, or an ADC's code: the two look alike), so the timing "
+              f"intervals reach {lag:.3g} ms lower" if r.count_step > 0 else "")
+    return (head + "if the log counts encoder edges over each line (as Arduino sketches print it), each value is "
+            f"the mean over the {window:.4g} ms before it, the motor is about {0.5 * window:.3g} ms quicker than "
+            f"this model{counts}, and --counted-velocity fits it so")
 
 
 def _response_times(responses: Mapping[str, StepResponse], time_s: np.ndarray, outputs: Mapping[str, np.ndarray]

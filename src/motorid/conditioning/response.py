@@ -12,7 +12,7 @@ from motorid.conditioning.edge import StepEdge, ramp_onset, response_onset, step
 from motorid.conditioning.unwrap import unwrap_position
 from motorid.errors import ConditioningError, OptionError, StepNotFoundError
 
-__all__ = ["STEP_TIMINGS", "STEP_VOLTS_TOLERANCE", "StepResponse", "split_at", "step_response"]
+__all__ = ["STEP_TIMINGS", "STEP_VOLTS_TOLERANCE", "StepResponse", "counting_lag", "split_at", "step_response"]
 
 #: Where a response's step instant comes from (:attr:`StepResponse.timing`):
 #: ``logged`` — a logged input column (a DAQ or Arduino log writes the command at the stamp it
@@ -137,6 +137,9 @@ class StepResponse:
         A velocity fitted as samples whose values come in whole steps (:attr:`motorid.capture.Capture.count_step`)
         and whose unit is a counted speed's or none: the column may count encoder edges over each
         line, so the motor may be quicker than its samples by half a line; 0 otherwise.
+    count_hold : int
+        Lines each of its values is kept for (:attr:`motorid.capture.Capture.count_hold`): counted
+        over that many lines and held, the motor may be quicker by ``(2·hold − 1)/2`` lines.
     """
 
     source: str
@@ -155,6 +158,7 @@ class StepResponse:
     sample_window_s: float = 0.0
     rounded: bool = True
     count_step: float = 0.0
+    count_hold: int = 1
     #: The sample interval, computed once: an identification asks for it over a hundred times
     #: (a median of the whole record's steps each time: 13 % of ``auto`` on the demo).
     _dt_cache: list[float] = field(default_factory=list, init=False, repr=False, compare=False)
@@ -302,7 +306,26 @@ def step_response(
         rounded=not (role == "velocity" and capture.output_info.units in COUNTED_SPEED_UNITS),
         count_step=(capture.count_step if role == "velocity" and capture.sample_window_s == 0
                     and capture.output_info.units in ("", *COUNTED_SPEED_UNITS) else 0.0),
+        count_hold=capture.count_hold,
     )
+
+
+def counting_lag(r: StepResponse) -> float:
+    """How much quicker the motor is than a speed fitted as samples if that speed counts (s; 0 if it cannot).
+
+    A count over ``hold`` lines (kept for that many) lags by half its window and half its hold:
+    ``(2·hold − 1)/2`` lines; over each line, half a line.
+
+    Parameters
+    ----------
+    r : StepResponse
+        A response whose ``count_step`` says whether it may count.
+
+    Returns
+    -------
+    float
+    """
+    return 0.5 * (2 * r.count_hold - 1) * r.sample_interval_s if r.count_step > 0 else 0.0
 
 
 def split_at(time_s: np.ndarray, values: np.ndarray, t0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:

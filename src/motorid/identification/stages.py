@@ -19,7 +19,7 @@ import numpy as np
 from motorid.blockwise import variance
 from motorid.conditioning.edge import noise_level, quantisation_step
 from motorid.conditioning.pipeline import ConditionedExperiment
-from motorid.conditioning.response import split_at
+from motorid.conditioning.response import counting_lag, split_at
 from motorid.identification.output_error import (  # _block_mean: the fit's own block averaging
     GAVE_UP,
     OeResult,
@@ -1116,7 +1116,8 @@ def onset_lag(u: Uncertainty | None, cond: ConditionedExperiment) -> Uncertainty
       steady rate, which look alike) may be the mean over the line before each value: the motor
       is then quicker by half a line, and the model, fitted to samples, cannot be (an rpm log at
       10 ms: +0.05 % against an interval of ±0.03 %, the motor 4 % quicker).  Each interval's
-      lower end moves down by half that channel's sample interval
+      lower end moves down by that lag, half its sample interval (and half the hold of a value kept
+      over several lines: :func:`~motorid.conditioning.response.counting_lag`)
       (:attr:`~motorid.model.uncertainty.Uncertainty.counting_lag_s`); ``--counted-velocity``
       says that it counts, and fits it so.
 
@@ -1135,11 +1136,11 @@ def onset_lag(u: Uncertainty | None, cond: ConditionedExperiment) -> Uncertainty
         ``u`` with the ends moved, or ``u`` itself when neither applies.
     """
     onset = [r.sample_interval_s for r in cond.responses.values() if r.timing == "onset"]
-    counting = [r.sample_interval_s for r in cond.responses.values() if r.count_step > 0]
+    counting = [counting_lag(r) for r in cond.responses.values() if r.count_step > 0]
     if u is None or not (onset or counting):
         return u
     lag = 0.5 * max(onset, default=0.0)
-    early = 0.5 * max(counting, default=0.0)
+    early = max(counting, default=0.0)
     changes: dict[str, Any] = {}
     for key in ("time_constant", "residence_time_s", "t63_s"):
         item = u.headline(key)

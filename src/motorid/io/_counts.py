@@ -17,10 +17,12 @@ numpy and scipy have no approximate greatest common divisor of real numbers, hen
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
-__all__ = ["COUNT_MAX_DIVISOR", "COUNT_MIN_LEVELS", "COUNT_MIN_VALUES", "COUNT_SHARE", "count_lattice",
-           "count_step", "print_resolution"]
+__all__ = ["COUNT_MAX_DIVISOR", "COUNT_MIN_LEVELS", "COUNT_MIN_VALUES", "COUNT_SHARE", "CountLattice",
+           "count_hold", "count_lattice", "count_step", "print_resolution"]
 
 #: The share of the non-zero values that must lie within the print's rounding of a multiple of the step.
 COUNT_SHARE = 0.99
@@ -40,6 +42,8 @@ COUNT_MIN_RESOLUTIONS = 10
 #: The most counts one value may hold: a step finer than the largest value over this is not looked for
 #: (an encoder line with a million edges is none a log prints; and the counts' squares stay finite).
 COUNT_MAX_COUNTS = 1e6
+#: Runs of one value a held speed needs, and the share of them whose length is a multiple of the hold.
+HOLD_MIN_RUNS, HOLD_SHARE = 10, 0.8
 #: At most this many rows are looked at (pairs of consecutive lines spread over a longer log).
 COUNT_ROWS = 100_000
 
@@ -111,6 +115,54 @@ def _lattice(a: np.ndarray, tol: np.ndarray) -> float:
     return 0.0
 
 
+class CountLattice(NamedTuple):
+    """What :func:`count_lattice` reads off a speed column.
+
+    Attributes
+    ----------
+    step : float
+        The step its values come in (one count over the median interval), 0 for none.
+    over_stamps : bool
+        The counts are over each line's own stamped interval (its values on no grid).
+    hold : int
+        Lines each value is kept for (a firmware that counts over several lines and logs every
+        line): 1 when it changes from line to line.
+    """
+
+    step: float
+    over_stamps: bool
+    hold: int
+
+
+def count_hold(values: np.ndarray) -> int:
+    """Lines a moving speed's value is kept for: the commonest run of one value, if most runs are its multiples.
+
+    A firmware that counts encoder edges over five loops and logs every loop prints each count
+    five times (runs of 5, or 10 when two counts agree); a speed counted every line has runs of 1.
+
+    Parameters
+    ----------
+    values : ndarray
+        The column, consecutive lines.
+
+    Returns
+    -------
+    int
+        At least 1.
+    """
+    v = np.asarray(values, dtype=float)
+    if v.size < 2:
+        return 1
+    starts = np.r_[0, np.flatnonzero(np.diff(v) != 0) + 1]
+    lengths = np.diff(np.r_[starts, v.size])
+    runs = lengths[v[starts] != 0][1:-1]  # while it moves; the first and last runs are cut by the record
+    if runs.size < HOLD_MIN_RUNS:
+        return 1
+    kinds, counts = np.unique(runs, return_counts=True)
+    mode = int(kinds[np.argmax(counts)])
+    return mode if mode >= 2 and float(np.mean(runs % mode == 0)) >= HOLD_SHARE else 1
+
+
 def count_step(time_s: np.ndarray, values: np.ndarray) -> float:
     """The step a logged speed's values come in when it counts encoder edges over each line; 0 when it does not.
 
@@ -127,10 +179,10 @@ def count_step(time_s: np.ndarray, values: np.ndarray) -> float:
     -------
     float
     """
-    return count_lattice(time_s, values)[0]
+    return count_lattice(time_s, values).step
 
 
-def count_lattice(time_s: np.ndarray, values: np.ndarray) -> tuple[float, bool]:
+def count_lattice(time_s: np.ndarray, values: np.ndarray) -> CountLattice:
     """The step a logged speed's values come in when it counts encoder edges over each line, and on what.
 
     Parameters
@@ -142,39 +194,46 @@ def count_lattice(time_s: np.ndarray, values: np.ndarray) -> tuple[float, bool]:
 
     Returns
     -------
-    step : float
-        The step in the column's unit: one count over the median interval (the values are whole
+    CountLattice
+        ``step``, the step in the column's unit: one count over the median interval (the values are whole
         multiples of it, or their products with their stamped intervals are whole multiples of it
         times the median interval); 0 when neither holds for :data:`COUNT_SHARE` of the non-zero
         values, with at least :data:`COUNT_MIN_LEVELS` multiples, a step of at least
         :data:`COUNT_MIN_RESOLUTIONS` times the print's rounding, and no more than
         :data:`COUNT_MAX_DIVISOR` counts in the smallest non-zero value.
-    over_stamps : bool
-        The values themselves are on no grid, their products with their jittered stamped intervals
-        are: each value is a count over the interval its own clock measured, which no sampled
-        reading is (an ADC's codes are a grid of the values).
+        ``over_stamps``: the values themselves are on no grid, their products with their jittered
+        stamped intervals are: each value is a count over the interval its own clock measured, which
+        no sampled reading is (an ADC's codes are a grid of the values). ``hold``: the lines each
+        value is kept for (:func:`count_hold`, on the lines from the first moving one), 1 without a step.
     """
     t_all = np.asarray(time_s, dtype=float)
     v_all = np.asarray(values, dtype=float)
+    none = CountLattice(0.0, False, 1)
     if t_all.size < COUNT_MIN_VALUES + 1:
-        return 0.0, False
+        return none
     # a long log: pairs of consecutive lines spread over all of it (the motion may start late)
     first = (np.arange(t_all.size - 1) if t_all.size <= COUNT_ROWS
              else np.unique(np.linspace(0, t_all.size - 2, COUNT_ROWS // 2).astype(int)))
     t0, t1, v0, v1 = t_all[first], t_all[first + 1], v_all[first], v_all[first + 1]
     if not (np.all(np.isfinite(v0)) and np.all(np.isfinite(v1)) and np.all(np.isfinite(t0))
             and np.all(np.isfinite(t1))):
-        return 0.0, False
+        return none
     v = np.r_[v0, v1[-1:]] if t_all.size <= COUNT_ROWS else np.r_[v0, v1]
     rv, rt = print_resolution(v), print_resolution(np.r_[t0, t1])
     # a printed value is within half its resolution of the count's: one resolution leaves room for the
     # fitted step's error
     step = _lattice(v, np.full(v.size, rv))
     if step > 0:
-        return step, False
+        return CountLattice(step, False, _hold_from_motion(v_all))
     dt = t1 - t0
     if np.any(dt <= 0):
-        return 0.0, False
+        return none
     # a loop that divides its count by its own stamped interval: the value times that interval counts
     per_line = _lattice(v1 * dt, rv * dt + 2.0 * rt * np.abs(v1))
-    return (per_line / float(np.median(dt)), True) if per_line > 0 else (0.0, False)
+    return CountLattice(per_line / float(np.median(dt)), True, 1) if per_line > 0 else none
+
+
+def _hold_from_motion(v: np.ndarray) -> int:
+    """:func:`count_hold` on at most :data:`COUNT_ROWS` consecutive lines from the first that moves."""
+    moving = np.flatnonzero(v != 0)
+    return 1 if moving.size == 0 else count_hold(v[int(moving[0]) : int(moving[0]) + COUNT_ROWS])

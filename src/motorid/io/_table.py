@@ -473,7 +473,7 @@ def capture_from_table(
                                 time_name=f"{where} {names[asg.time]!r}", jitter_ok=True)
     notes = list(warnings) + clock_notes + ([time_note] if time_note else [])
     # on the stamps and values as logged: resampling would blur the counts
-    counts, over_stamps = count_lattice(time_s, output)
+    counts = count_lattice(time_s, output)
     time_s, output, inp, extra, grid_note, resolution = uniform_grid(time_s, output, inp, extra, file=file,
                                                                      median=median_step)
     if grid_note:
@@ -503,6 +503,7 @@ def capture_from_table(
         extra=extra,
         warnings=tuple(notes),
         stamp_resolution_s=resolution,
-        count_step=counts,
-        count_over_stamps=over_stamps,
+        count_step=counts.step,
+        count_over_stamps=counts.over_stamps,
+        count_hold=counts.hold,
     )

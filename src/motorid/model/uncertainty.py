@@ -346,7 +346,8 @@ class Uncertainty(JsonView):
         How much lower the intervals of τ, the residence time and the 63 % time reach because a
         speed fitted as samples comes in whole counts: if it counts encoder edges over each line,
         each value is the mean over the line before it and the motor is quicker by half a line
-        (the JSON's ``counting_lag_s``; 0 for none).
+        (``(2·h − 1)/2`` lines for a count kept over ``h`` lines; the JSON's ``counting_lag_s``; 0
+        for none).
     other : Mapping
         Keys of the JSON object this type does not hold (written back as they were).
     """

@@ -106,9 +106,10 @@ def interval_notes(u: Uncertainty) -> list[str]:
                      "time the step)")
     if u.counting_lag_s:
         notes.append("the speed comes in whole counts, as one counted over each line does (encoder edges since the "
-                     "last line), and was fitted as samples: if it counts, the motor is quicker by half a line, so "
-                     f"τ's, the residence time's and the 63 % time's intervals reach {sig(1e3 * u.counting_lag_s)} ms "
-                     "lower (--counted-velocity if it counts: the fit then models the counting)")
+                     "last line), and was fitted as samples: if it counts, the motor is quicker by the counting's lag "
+                     "(half a line, and half the hold of a value kept over several lines), so τ's, the residence "
+                     f"time's and the 63 % time's intervals reach {sig(1e3 * u.counting_lag_s)} ms lower "
+                     "(--counted-velocity if it counts over each line: the fit then models the counting)")
     return notes
 
 
