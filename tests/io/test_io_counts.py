@@ -14,7 +14,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import motorid as mi
-from motorid.io._counts import count_hold, count_lattice, count_step, print_resolution
+from motorid.io._counts import count_hold, count_lattice, print_resolution
+
+
+def count_step(time_s: np.ndarray, values: np.ndarray) -> float:
+    return count_lattice(time_s, values).step
 
 
 def _angle(t: np.ndarray, t_step: float, speed: float = 120.0, tau: float = 0.08) -> np.ndarray:

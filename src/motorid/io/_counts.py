@@ -22,7 +22,7 @@ from typing import NamedTuple
 import numpy as np
 
 __all__ = ["COUNT_MAX_DIVISOR", "COUNT_MIN_LEVELS", "COUNT_MIN_VALUES", "COUNT_SHARE", "CountLattice",
-           "count_hold", "count_lattice", "count_step", "print_resolution"]
+           "count_hold", "count_lattice", "print_resolution"]
 
 #: The share of the non-zero values that must lie within the print's rounding of a multiple of the step.
 COUNT_SHARE = 0.99
@@ -161,25 +161,6 @@ def count_hold(values: np.ndarray) -> int:
     kinds, counts = np.unique(runs, return_counts=True)
     mode = int(kinds[np.argmax(counts)])
     return mode if mode >= 2 and float(np.mean(runs % mode == 0)) >= HOLD_SHARE else 1
-
-
-def count_step(time_s: np.ndarray, values: np.ndarray) -> float:
-    """The step a logged speed's values come in when it counts encoder edges over each line; 0 when it does not.
-
-    :func:`count_lattice`'s step alone.
-
-    Parameters
-    ----------
-    time_s : ndarray
-        The log's stamps (s), as logged (before any resampling).
-    values : ndarray
-        The speed column, as logged.
-
-    Returns
-    -------
-    float
-    """
-    return count_lattice(time_s, values).step
 
 
 def count_lattice(time_s: np.ndarray, values: np.ndarray) -> CountLattice:
