@@ -383,6 +383,12 @@ def test_a_speed_in_whole_counts_fitted_as_samples_has_intervals_that_reach_the_
         out_c = tmp_path / f"c{seed}.json"
         motorid_fresh("identify", *rec.cli_args, "--counted-velocity", "--json", out_c, cwd=tmp_path)
         assert "counting_lag_s" not in json.loads(out_c.read_text())["uncertainty"]
+    # the Markov method's intervals hold it alike (the data's ambiguity, not the method's)
+    out_m = tmp_path / "markov.json"
+    motorid_fresh("identify", *rec.cli_args, "--method", "markov", "--json", out_m, cwd=tmp_path)
+    unc = json.loads(out_m.read_text())["uncertainty"]
+    assert unc["counting_lag_s"] == pytest.approx(0.005)
+    assert unc["residence_time_s"]["ci95"][0] <= rec.truth.residence_time_s <= unc["residence_time_s"]["ci95"][1]
 
 
 def test_the_markov_polish_fits_a_read_off_onsets_error_as_its_shift_not_a_dead_time():

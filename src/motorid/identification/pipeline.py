@@ -344,20 +344,20 @@ def _markov_laguerre(cond: ConditionedExperiment, s: IdentifySettings) -> MotorM
         model = model.replace(delay_s=0.0, extras={**dict(model.extras), "markov_choice": choice + (
             f"; the polish's dead time ({1e3 * model.delay_s:.3g} ms) is the error of the step instant read off the "
             f"response: the {res.polish.channels[0]}'s shift, not in τ or the residence time")})
-    return model.replace(uncertainty=_polish_uncertainty(cond, model, res.polish, onset_shift=shifted, onset=onset))
+    return model.replace(uncertainty=_polish_uncertainty(cond, model, res.polish, onset_shift=shifted))
 
 
 def _polish_uncertainty(cond: ConditionedExperiment, model: MotorModel, polish: Any, *,
-                        onset_shift: bool = False, onset: bool = False) -> Any:
+                        onset_shift: bool = False) -> Any:
     """The Markov polish's intervals, with the step level's and the step instant's errors the fit does not see.
 
     A read-off onset's error fitted as a delay is the primary channel's shift (``onset_shift``), and
-    an instant read off the response (``onset``) gets intervals that hold the lag such an onset can
-    hide (:func:`~motorid.identification.stages.onset_lag`), as the output-error fit's do.
+    the intervals hold what the readings cannot tell apart (a read-off onset's lag, a counted speed's:
+    :func:`~motorid.identification.stages.reading_allowances`), as the output-error fit's do.
     """
     from motorid.identification.laguerre_uncertainty import polish_uncertainty
-    from motorid.identification.stages import (instant_std, onset_lag, output_level_rel_std, step_instant,
-                                                step_level_std)
+    from motorid.identification.stages import (instant_std, output_level_rel_std, reading_allowances,
+                                                step_instant, step_level_std)
 
     timing = {role: step_instant(r) for role, r in cond.responses.items() if role in polish.channels}
     u = polish_uncertainty(
@@ -365,7 +365,7 @@ def _polish_uncertainty(cond: ConditionedExperiment, model: MotorModel, polish: 
         instant_std=instant_std(cond.responses[polish.channels[0]]), timing=timing,
         kinds={role: r.timing for role, r in cond.responses.items() if role in polish.channels},
         shift_bound_s=float(model.sample_interval_s or np.inf), onset_shift=onset_shift)
-    return onset_lag(u, cond) if onset else u
+    return reading_allowances(u, cond)
 
 
 #: Most Markov parameters (or Laguerre terms) asked for: each needs several samples, and the

@@ -1101,7 +1101,7 @@ def structure_uncertainty(best: MotorModel, fits: list[tuple[float, MotorModel]]
                      "structures (dc gain, τ + dead time)")
 
 
-def onset_lag(u: Uncertainty | None, cond: ConditionedExperiment) -> Uncertainty | None:
+def reading_allowances(u: Uncertainty | None, cond: ConditionedExperiment) -> Uncertainty | None:
     """The intervals of τ, the residence time and the 63 % time widened by what the data cannot tell apart.
 
     - **A read-off onset** (upper ends).  A channel without an input has its step instant read
@@ -1449,7 +1449,8 @@ def select_order(
     # only structures the data support are averaged over: an unresolved one's residence time
     # counts a pole–zero pair the data cannot place (it would stretch the interval past zero)
     others = [(b, m) for b, _, _, r, m in fits[1:] if resolved(r)]
-    model = best[4].replace(uncertainty=onset_lag(structure_uncertainty(best[4], [(best[0], best[4]), *others]), cond))
+    widened = structure_uncertainty(best[4], [(best[0], best[4]), *others])
+    model = best[4].replace(uncertainty=reading_allowances(widened, cond))
     runner = fits[1] if len(fits) > 1 else None
     if runner is None:
         evidence = f"only {_describe(best[1], best[2])} could be fitted"
