@@ -74,3 +74,23 @@ def test_the_counted_rig_model_scores_on_another_seeds_log_as_it_was_identified(
     assert c.nrmse < 0.005  # 0.32 %; driven linear between samples the sampled model scored 0.67 %
     (mixed,) = mi.validate(counted, check_log)
     assert mixed.nrmse > 1.5 * c.nrmse
+
+
+def test_a_log_counted_over_its_own_stamped_intervals_is_scored_as_counted_and_says_why(tmp_path):
+    """A Raspberry Pi loop's rpm, the count over the interval its clock measured (20 ± 1.5 ms): read
+    as counted without the option (its values times their intervals are whole counts), scored as
+    the model's means over each interval, as ``identify`` fitted it; the notes say why."""
+    import motorid as mi
+
+    rng = np.random.default_rng(10)
+    t = np.round(np.r_[0.0, np.cumsum(0.02 + rng.normal(0, 0.0015, 259))], 6)
+    s = np.clip(t - t[40], 0.0, None)
+    angle = 120.0 * (s - 0.08 * (1.0 - np.exp(-s / 0.08)))  # a first-order motor's angle (rad)
+    counts = np.floor(angle / (2 * np.pi) * 960 + rng.uniform())
+    rpm = np.round(np.r_[0.0, np.diff(counts) / np.diff(t)] / 960 * 60.0, 2)
+    path = tmp_path / "pi.csv"
+    path.write_text("time_s,u_V,rpm\n" + "\n".join(
+        f"{a:.6f},{9.0 if i >= 40 else 0.0:.1f},{r:.2f}" for i, (a, r) in enumerate(zip(t, rpm, strict=True))) + "\n")
+    model = mi.identify(mi.read_experiment(velocity=path)).model
+    result = mi.validate(model, [path])[0]
+    assert any("read as counted" in n and "mean over each interval is scored" in n for n in result.notes)

@@ -161,3 +161,4 @@ def test_a_count_over_several_lines_held_between_is_told_by_its_runs():
     assert found.hold == 5 and found.step == pytest.approx(2 * math.pi / (1632 * 0.005), rel=1e-4)
     assert count_hold(np.round(_counted_rpm(t, 700, 0.001, rng), 1)) == 1  # counted over each line
     assert count_hold(np.zeros(50)) == 1
+

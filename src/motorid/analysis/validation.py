@@ -478,7 +478,9 @@ def validate_capture(
         notes.append("the logged input holds each value from its stamp to the next (the step at the stamp that "
                      "logged it)")
     if counted:
-        notes.append(f"the velocity is counted over each {1e3 * window:.4g} ms interval: the model's mean over "
+        why = (" (its values times their stamped intervals are whole counts: read as counted)"
+               if capture.count_over_stamps else "")
+        notes.append(f"the velocity is counted over each {1e3 * window:.4g} ms interval{why}: the model's mean over "
                      "each interval is scored")
     elif window > 0:
         warnings.append(f"the velocity is counted over {1e3 * window:.4g} ms, not over this record's "
