@@ -254,6 +254,9 @@ def inspect(
     con.print(table)
     for s in summaries:
         con.print(f"[bold]{s.file}[/bold]: role {s.role} ({s.role_reason})")
+        counts = s.counts_line()
+        if counts is not None:
+            con.print(f"  counts: {counts}")
         for w in s.warnings:
             con.print(f"  [yellow]warning:[/yellow] {w}")
 

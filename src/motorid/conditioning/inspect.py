@@ -12,7 +12,7 @@ from typing import Any
 from motorid._threads import single_blas_thread
 from motorid.capture import Capture
 from motorid.conditioning.edge import StepEdge, response_onset, step_edge
-from motorid.conditioning.response import step_timing
+from motorid.conditioning.response import may_count, step_timing
 from motorid.conditioning.role import guess_role
 from motorid.conditioning.unwrap import unwrap_position
 from motorid.errors import MotorIdError, StepNotFoundError
@@ -50,6 +50,10 @@ class CaptureSummary:
         ``logged`` (at the stamp of a log's command), ``sampled`` (in the interval before the
         first sample at the new level: a scope's channel, a log's measured voltage) or ``onset``
         (read off the response); ``None`` without a step.
+    count_step, count_hold, count_over_stamps : float, int, bool
+        A log's output column in whole encoder counts (:attr:`motorid.capture.Capture.count_step`
+        and the rest): the step, the lines each value is kept for, whether the counts are over each
+        line's own stamped interval; ``count_step`` 0 for none.
     """
 
     file: str
@@ -63,6 +67,9 @@ class CaptureSummary:
     wraps: int
     warnings: tuple[str, ...]
     timing: str | None = None
+    count_step: float = 0.0
+    count_hold: int = 1
+    count_over_stamps: bool = False
 
     def to_json(self) -> dict[str, Any]:
         """The docs/formats.md ``inspect --json`` object (extra keys are additions).
@@ -92,7 +99,27 @@ class CaptureSummary:
             "role_reason": self.role_reason,
             "wraps": self.wraps,
             "warnings": list(self.warnings),
+            **({"counts": {"step": self.count_step, "hold": self.count_hold, "over_stamps": self.count_over_stamps}}
+               if self.count_step > 0 else {}),
         }
+
+    def counts_line(self) -> str | None:
+        """What the output's whole counts mean for ``identify``, one line; ``None`` when it has none.
+
+        Returns
+        -------
+        str or None
+        """
+        if self.count_step <= 0:
+            return None
+        step = f"{self.count_step:.4g}"
+        if self.count_over_stamps:
+            return (f"its values times their stamped intervals are whole counts ({step} over the median interval): "
+                    "a count of encoder edges over each interval its clock measured; identify fits it so")
+        held = f", each kept for {self.count_hold} lines" if self.count_hold > 1 else ""
+        return (f"its values come in whole steps of {step}{held}: a count of encoder edges over each line may give "
+                "that, or an ADC's codes; identify fits it as samples with timing intervals that hold the counted "
+                "reading too (--counted-velocity if it counts over each line)")
 
 
 def _find_step(capture: Capture, step_volts: float | None) -> tuple[StepEdge | None, float | None, list[str]]:
@@ -147,6 +174,7 @@ def describe_capture(capture: Capture, *, step_volts: float | None = None) -> Ca
         else:
             wraps = unwrapped.wraps
             warnings.extend(unwrapped.warnings)
+    counted = capture.count_over_stamps and guess.role in ("velocity", "unknown")
     return CaptureSummary(
         file=capture.source,
         format=capture.format,
@@ -159,4 +187,8 @@ def describe_capture(capture: Capture, *, step_volts: float | None = None) -> Ca
         wraps=wraps,
         warnings=tuple(capture.warnings) + tuple(warnings),
         timing=None if edge is None else step_timing(capture, edge),
+        # (what identify makes of them: a velocity's, in a counted speed's unit or none)
+        count_step=capture.count_step if counted or may_count(capture, guess.role) else 0.0,
+        count_hold=capture.count_hold,
+        count_over_stamps=counted,
     )

@@ -12,7 +12,8 @@ from motorid.conditioning.edge import StepEdge, ramp_onset, response_onset, step
 from motorid.conditioning.unwrap import unwrap_position
 from motorid.errors import ConditioningError, OptionError, StepNotFoundError
 
-__all__ = ["STEP_TIMINGS", "STEP_VOLTS_TOLERANCE", "StepResponse", "counting_lag", "split_at", "step_response"]
+__all__ = ["STEP_TIMINGS", "STEP_VOLTS_TOLERANCE", "StepResponse", "counting_lag", "may_count", "split_at",
+           "step_response"]
 
 #: Where a response's step instant comes from (:attr:`StepResponse.timing`):
 #: ``logged`` — a logged input column (a DAQ or Arduino log writes the command at the stamp it
@@ -304,10 +305,31 @@ def step_response(
         stamp_resolution_s=capture.stamp_resolution_s if timing == "logged" else 0.0,
         sample_window_s=capture.sample_window_s,
         rounded=not (role == "velocity" and capture.output_info.units in COUNTED_SPEED_UNITS),
-        count_step=(capture.count_step if role == "velocity" and capture.sample_window_s == 0
-                    and capture.output_info.units in ("", *COUNTED_SPEED_UNITS) else 0.0),
+        count_step=capture.count_step if may_count(capture, role) else 0.0,
         count_hold=capture.count_hold,
     )
+
+
+def may_count(capture: Capture, role: str) -> bool:
+    """Whether a capture's output, fitted as samples, may be a speed counted over each line.
+
+    A velocity (or a column whose role is not known yet) in a counted speed's unit or none, whose
+    values come in whole steps (:attr:`~motorid.capture.Capture.count_step`), not already read as
+    counted; a volts column is a tacho's, sampled.
+
+    Parameters
+    ----------
+    capture : Capture
+        Any capture.
+    role : str
+        Its role (``unknown`` before one is given).
+
+    Returns
+    -------
+    bool
+    """
+    return (capture.count_step > 0 and role in ("velocity", "unknown") and capture.sample_window_s == 0
+            and capture.output_info.units in ("", *COUNTED_SPEED_UNITS))
 
 
 def counting_lag(r: StepResponse) -> float:
