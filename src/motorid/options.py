@@ -111,7 +111,8 @@ COLUMNS = OptionSpec("columns", "--columns", None, "",
 COUNTED_VELOCITY = OptionSpec("counted_velocity", "--counted-velocity", False, "",
                               "the velocity counts encoder edges over each sample interval (a mean speed, as Arduino "
                               "sketches print rpm): the model's means over each interval are fitted and scored, so "
-                              "its timing is the motor's")
+                              "its timing is the motor's (a log whose speed times its own stamped intervals is whole "
+                              "counts is read so without it)")
 
 #: :func:`motorid.read_experiment`'s options.
 READ: tuple[OptionSpec, ...] = (
