@@ -139,7 +139,8 @@ class Capture:
     sample_window_s : float
         The interval (s) each output sample is the mean over, ending at its time: a speed counted
         from the encoder edges since the last sample (``counted_velocity`` of
-        :func:`motorid.read_experiment`); 0 for samples taken at their instant.
+        :func:`motorid.read_experiment`, or the reader itself for ``count_over_stamps``); 0 for
+        samples taken at their instant.
     count_step : float
         The step a log's output column comes in when it may count encoder edges over each line
         (its values, or their products with their stamped intervals, are whole multiples of one
@@ -148,8 +149,9 @@ class Capture:
     count_over_stamps : bool
         The output's values are on no grid, their products with their (jittered) stamped intervals
         are (``count_step`` times the median interval): each is a count over the interval its own
-        clock measured, which no sampled reading is.  :func:`motorid.read_experiment` then reads
-        a velocity as counted (:meth:`counted`).
+        clock measured, which no sampled reading is.  The reader then reads it as counted
+        (``sample_window_s`` its median interval) unless it is declared, or named, a position or a
+        current.
     count_hold : int
         Lines each value of such a column is kept for (a firmware that counts over several loops
         and logs every loop): 1 when it changes from line to line.

@@ -299,7 +299,7 @@ def read_experiment(
         The velocity is counted over each sample interval (encoder edges since the last sample,
         as Arduino sketches print rpm): each value is the mean speed over the interval before
         it, and the output-error fit models it so (:attr:`Capture.sample_window_s`).  A log whose
-        speed times its own jittered stamped intervals is whole counts is read so without it
+        speed times its own jittered stamped intervals is whole counts is read so by the reader
         (:attr:`Capture.count_over_stamps`).
 
     Returns
@@ -360,9 +360,7 @@ def read_experiment(
                 raise OptionError(f"given as --{role} but looks like a {looks.role} capture ({looks.reason}); "
                                   f"give it as --{looks.role}, or --force-role to keep --{role}",
                                   file=str(paths[0]))
-        # a speed whose values times their own stamped intervals are whole counts is counted (no sampled
-        # reading is that): read so whether or not it was said
-        if role == "velocity" and (counted_velocity or cap.count_over_stamps):
+        if role == "velocity" and counted_velocity:
             cap = cap.counted()
         captures[role] = cap
         sources[role] = tuple(str(p) for p in paths)
@@ -1283,7 +1281,7 @@ def validate(
         else:
             paths = [str(p) for p in _paths(item)]
             cap = read_capture(paths[0] if len(paths) == 1 else paths, columns=columns)
-        if counted_velocity or (channel == "velocity" and cap.count_over_stamps):
+        if counted_velocity:
             cap = cap.counted()
         try:
             res = validate_capture(motor, cap, channel=channel, step_volts=step_volts, t0_s=t0, warmup_s=warmup_s)

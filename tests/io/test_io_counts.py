@@ -117,6 +117,13 @@ def test_a_speed_counted_over_its_own_stamped_intervals_is_read_as_counted(tmp_p
         f"{a:.6f},{9.0 if i >= 40 else 0.0:.1f},{r:.2f}" for i, (a, r) in enumerate(zip(t, rpm, strict=True))) + "\n")
     cap = mi.read_experiment(velocity=path).captures["velocity"]
     assert cap.count_over_stamps and cap.sample_window_s == pytest.approx(float(np.median(np.diff(t))), rel=0.05)
+    # the reader reads it so, for every path that reads captures (a report's validation captures, the
+    # several-levels path), unless the column is declared another role
+    from motorid.io import read_capture
+
+    assert read_capture(str(path)).sample_window_s == cap.sample_window_s
+    as_position = read_capture(str(path), role="position")
+    assert as_position.count_over_stamps and as_position.sample_window_s == 0.0
     steady = tmp_path / "steady.csv"
     ts = np.arange(300) * 0.01
     steady.write_text("time_s,u_V,rpm\n" + "\n".join(

@@ -506,4 +506,8 @@ def capture_from_table(
         count_step=counts.step,
         count_over_stamps=counts.over_stamps,
         count_hold=counts.hold,
+        # a speed counted over the interval its own clock measured (no sampled reading is whole counts
+        # so) is read as counted on every path that reads it: each value the mean over its interval
+        sample_window_s=(float(np.median(np.diff(time_s))) if counts.over_stamps and role in (None, "velocity")
+                         and asg.role_hint in (None, "velocity") else 0.0),
     )
