@@ -123,6 +123,11 @@ def _simulate(num: np.ndarray, den: np.ndarray, t: np.ndarray, u: np.ndarray) ->
     return _lsim(a, b, c, d, t, u)[0]
 
 
+def _relative(theta: np.ndarray, before: np.ndarray) -> np.ndarray:
+    """The step from ``before`` to ``theta``, each parameter's relative to its size before."""
+    return (theta - before) / np.maximum(np.abs(before), 1e-300)
+
+
 def srivc_fit(time_s: np.ndarray, u: np.ndarray, y: np.ndarray, settings: SrivcSettings = SrivcSettings(),
               *, init_den: np.ndarray) -> SrivcResult:
     """Estimate ``B(s)/A(s)`` from input ``u`` and output ``y`` (uniformly sampled, from rest).
@@ -189,32 +194,31 @@ def srivc_fit(time_s: np.ndarray, u: np.ndarray, y: np.ndarray, settings: SrivcS
         except np.linalg.LinAlgError:
             raise IdentificationError("SRIVC instrumental-variable system is singular: try a lower order") from None
         theta = th_s / scale
-        if last_step is not None and theta_old is not None:
-            rel = (theta - theta_old) / np.maximum(np.abs(theta_old), 1e-300)
-            if float(np.dot(rel, last_step)) < 0:
-                # the iteration swings back and forth (a poorly determined fast pair: the map's slowest
-                # mode near −1 took 15–30 iterations to settle on the paper's motor); the mean of the two
-                # iterates has the same fixed point and damps that mode
-                theta = 0.5 * (theta + theta_old)
+        if last_step is not None and theta_old is not None and float(np.dot(_relative(theta, theta_old),
+                                                                            last_step)) < 0:
+            # the iteration swings back and forth (a poorly determined fast pair: the map's slowest
+            # mode near −1 took 15–30 iterations to settle on the paper's motor); the mean of the two
+            # iterates has the same fixed point and damps that mode
+            theta = 0.5 * (theta + theta_old)
         den = np.r_[1.0, theta[:n]]
         num = theta[n:]
         p_mat = np.linalg.pinv((zeta / scale[:, None]) @ (zeta / scale[:, None]).T) / np.outer(scale, scale)
+        stable = bool(np.all(np.real(np.roots(den)) < 0))
         if theta_old is not None:
             step = np.abs(theta - theta_old)
             # the previous estimate's residuals scale the instruments' covariance: a step far inside
             # the standard errors moves nothing the data can tell
             # (only between stable estimates: an unstable one's residuals, which scale the errors, are its
             # divergence, not the noise)
-            stable = bool(np.all(np.real(np.roots(den)) < 0))
             stderr = (np.sqrt(sigma2 * np.maximum(np.diag(p_mat), 0.0)) if stable and was_stable
                       else np.zeros(step.size))
             if (np.linalg.norm(step) <= settings.tol * np.linalg.norm(theta)
                     or (np.all(np.isfinite(stderr)) and np.all(step <= settings.step_in_stderr * stderr))):
                 converged = True
                 break
-            last_step = (theta - theta_old) / np.maximum(np.abs(theta_old), 1e-300)
+            last_step = _relative(theta, theta_old)
         theta_old = theta
-        was_stable = bool(np.all(np.real(np.roots(den)) < 0))
+        was_stable = stable
     with np.errstate(over="ignore", invalid="ignore"):  # an unstable estimate overflows
         x_hat = _simulate(num, den, t, u)
         sigma2 = float(np.mean((y - x_hat) ** 2))
