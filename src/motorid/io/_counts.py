@@ -192,15 +192,17 @@ def count_lattice(time_s: np.ndarray, values: np.ndarray) -> CountLattice:
     none = CountLattice(0.0, False, 1)
     if t_all.size < COUNT_MIN_VALUES + 1:
         return none
-    # a long log: pairs of consecutive lines spread over all of it (the motion may start late)
-    first = (np.arange(t_all.size - 1) if t_all.size <= COUNT_ROWS
-             else np.unique(np.linspace(0, t_all.size - 2, COUNT_ROWS // 2).astype(int)))
-    t0, t1, v0, v1 = t_all[first], t_all[first + 1], v_all[first], v_all[first + 1]
-    if not (np.all(np.isfinite(v0)) and np.all(np.isfinite(v1)) and np.all(np.isfinite(t0))
-            and np.all(np.isfinite(t1))):
+    if t_all.size <= COUNT_ROWS:
+        t, v = t_all, v_all
+        t0, t1, v1 = t[:-1], t[1:], v[1:]
+    else:
+        # a long log: pairs of consecutive lines spread over all of it (the motion may start late)
+        first = np.unique(np.linspace(0, t_all.size - 2, COUNT_ROWS // 2).astype(int))
+        t0, t1, v1 = t_all[first], t_all[first + 1], v_all[first + 1]
+        t, v = np.r_[t0, t1], np.r_[v_all[first], v1]
+    if not (np.all(np.isfinite(v)) and np.all(np.isfinite(t))):
         return none
-    v = np.r_[v0, v1[-1:]] if t_all.size <= COUNT_ROWS else np.r_[v0, v1]
-    rv, rt = print_resolution(v), print_resolution(np.r_[t0, t1])
+    rv, rt = print_resolution(v), print_resolution(t)
     # a printed value is within half its resolution of the count's: one resolution leaves room for the
     # fitted step's error
     step = _lattice(v, np.full(v.size, rv))
