@@ -36,6 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
+from numpy.lib.stride_tricks import sliding_window_view
 
 from motorid.model import lti
 
@@ -74,10 +75,11 @@ def held_states(f: np.ndarray, x0: np.ndarray, g: np.ndarray, w: np.ndarray | No
     for j in range(size):
         powers[j + 1] = f @ powers[j]
     fg = powers[:size] @ g  # F^j G
-    lag = np.arange(size)[:, None] - 1 - np.arange(size)[None, :]  # j − 1 − i
-    causal = lag >= 0
-    kernel = np.where(causal[:, :, None, None], fg[np.clip(lag, 0, None)], 0.0)  # (j, i, states, columns)
     ni = x0.shape[1]
+    # the block's Toeplitz kernel K[j, i] = F^(j−1−i) G for j > i, else 0, as (j, states, columns, i):
+    # windows of the reversed sequence [F^(size−1) G, …, G, 0, …, 0] (views; the reshape copies once)
+    reversed_fg = np.concatenate([np.zeros((size, ns, ni)), fg])[::-1]
+    kernel = sliding_window_view(reversed_fg, size, axis=0)[size:0:-1]
     out = np.empty((n, ns, ni))
     x = x0
     # every block's forced response in one matrix product: the kernel as a (rows, i) matrix
@@ -89,7 +91,7 @@ def held_states(f: np.ndarray, x0: np.ndarray, g: np.ndarray, w: np.ndarray | No
         padded = np.zeros(n_blocks * size)
         padded[:n] = w[:n]
         inputs = padded.reshape(n_blocks, size).T
-    flat = kernel.transpose(0, 2, 3, 1).reshape(size * ns * ni, size)
+    flat = np.ascontiguousarray(kernel.reshape(size * ns * ni, size))
     forced_all = (flat @ inputs).reshape(size, ns, ni, -1)
     for b, s0 in enumerate(range(0, n, size)):
         m = min(size, n - s0)
