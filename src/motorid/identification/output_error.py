@@ -647,6 +647,21 @@ class _Compressed:
         return f, jac
 
 
+class _Gain:
+    """``(JᵀJ)⁺Jᵀ``, the parameters' response to a change of the residuals: formed once, when first asked for."""
+
+    __slots__ = ("_inverse", "_jac", "_value")
+
+    def __init__(self, inverse: np.ndarray, jac: np.ndarray) -> None:
+        self._inverse, self._jac = inverse, jac
+        self._value: np.ndarray | None = None
+
+    def __call__(self) -> np.ndarray:
+        if self._value is None:
+            self._value = self._inverse @ self._jac.T
+        return self._value
+
+
 def _triangular_factor(jac: np.ndarray, f: np.ndarray, min_pivot: float) -> np.ndarray:
     """Upper-triangular ``R`` (``(n+1)×(n+1)``) with ``RᵀR = AᵀA`` for ``A = [jac f]``."""
     k = jac.shape[1] + 1
@@ -830,19 +845,23 @@ class _OeProblem:
             th0_list.append(0.0)
         return np.asarray(th0_list, dtype=float)
 
-    def _white(self, c: str, e: np.ndarray) -> np.ndarray:
+    def _white(self, c: str, e: np.ndarray, into: np.ndarray | None = None) -> np.ndarray:
         """The channel's FIR whitening from rest, along axis 0 (residuals or Jacobian columns).
 
         A vector goes through np.convolve; a matrix as one shifted sum per filter tap over all
         its columns at once (lfilter filters column by column through apply_along_axis: twice
-        the time for the dozen columns of a Jacobian).
+        the time for the dozen columns of a Jacobian), written into ``into`` when given (a
+        matrix of ``e``'s shape, not ``e`` itself).
         """
         if c not in self.filt:
-            return e
+            if into is None:
+                return e
+            into[...] = e
+            return into
         f = self.filt[c]
-        if e.ndim == 1:
+        if e.ndim == 1 and into is None:
             return np.convolve(e, f)[: e.size]
-        out = f[0] * e
+        out = np.multiply(f[0], e, out=into)
         for k in range(1, min(f.size, e.shape[0])):
             out[k:] += f[k] * e[:-k]
         return out
@@ -938,27 +957,34 @@ class _OeProblem:
                     d[c][:, layout.idx[f"phase_{other}"]] = slope[c]
             if "delay" in layout.idx:
                 d[c][:, layout.idx["delay"]] = -slope[c]
-        rows = []
+        blocks = {}
         for c in names:
             block = d[c] if self.ratio[c] == 1 or c in fast else d[c].reshape(-1, self.ratio[c], n_par).mean(axis=1)
             if c == "position" and self.wraps is not None:
                 block[:, layout.idx["span_position"]] = self.wraps
-            rows.append(-self.w[c] * self._white(c, block))
+            blocks[c] = block
+        # each channel's whitened, weighted rows written into their place (no stack of copies)
+        out = np.zeros((sum(b.shape[0] for b in blocks.values()) + 2 * len(self.pre_stats), n_par))
+        start = 0
+        for c, block in blocks.items():
+            rows = out[start : start + block.shape[0]]
+            self._white(c, block, into=rows)
+            np.multiply(-self.w[c], rows, out=rows)
+            start += block.shape[0]
         for c, (k, _, _) in self.pre_stats.items():
-            r_pre = np.zeros((2, n_par))
-            r_pre[0, layout.idx[f"off_{c}"]] = -np.sqrt(k) * self.w_pre[c]
-            rows.append(r_pre)
-        return np.vstack(rows)
+            out[start, layout.idx[f"off_{c}"]] = -np.sqrt(k) * self.w_pre[c]
+            start += 2
+        return out
 
-    def _instant_covariance(self, th: np.ndarray, jac_m: np.ndarray, jtj: np.ndarray) -> np.ndarray:
+    def _instant_covariance(self, th: np.ndarray, gain: _Gain) -> np.ndarray:
         """Parameter covariance from step instants known only to within their sample interval.
 
         A channel's instant off by ``δ`` moves its residuals by ``j·δ`` (``j``: their derivative in
         the instant, central differences); least squares then moves the parameters by
-        ``−(JᵀJ)⁻¹Jᵀj·δ``, of variance ``(JᵀJ)⁻¹Jᵀj jᵀJ(JᵀJ)⁻¹·σ_δ²``.
+        ``−(JᵀJ)⁻¹Jᵀj·δ``, of variance ``(JᵀJ)⁻¹Jᵀj jᵀJ(JᵀJ)⁻¹·σ_δ²``.  ``gain()``: ``(JᵀJ)⁺Jᵀ``
+        (asked for only when an instant is uncertain).
         """
         cov = np.zeros((th.size, th.size))
-        gain = None
         present = [(c, sd) for c, sd in self.settings.instant_std if c in self.names and sd > 0]
         phased = set(self.layout.phased)
         # phases fitted relative to each other: only their common part is unknown, the mean of
@@ -981,9 +1007,7 @@ class _OeProblem:
             for c in chans:
                 up[c], down[c] = self.tc[c] + h, self.tc[c] - h
             col = (self.residuals(th, up) - self.residuals(th, down)) / (2 * h)
-            if gain is None:
-                gain = np.linalg.pinv(jtj) @ jac_m.T
-            g = gain @ col
+            g = gain() @ col
             cov += np.outer(g, g) * sd**2
         return cov
 
@@ -1036,12 +1060,14 @@ class _OeProblem:
                             "a lower order may do")
         pred = self.predict(th)
         resid = {c: self.data[c] - pred[c] for c in names}  # before any whitening
-        cov = np.linalg.pinv(jtj) * s2 + self._instant_covariance(th, jac_m, jtj)
+        inverse = np.linalg.pinv(jtj)
+        gain = _Gain(inverse, jac_m)
+        cov = inverse * s2 + self._instant_covariance(th, gain)
         if self.quantum:
             # the dither: what the residuals hold besides the quantiser's own q²/12
             dither = {c: math.sqrt(max(float(np.var(resid[c])) - q * q / 12.0, 0.0))
                       for c, q in self.quantum.items()}
-            cov = cov + self._quantiser_covariance(th, np.linalg.pinv(jtj) @ jac_m.T, dither, pred)
+            cov = cov + self._quantiser_covariance(th, gain(), dither, pred)
             if "velocity" in self.quantum:
                 level_rel_std = 0.0  # the velocity's levels are in it (their quantiser error)
         d0, std, ci = _delta_method(layout, th, cov, float(np.hypot(step_std / self.step_volts, level_rel_std)))
@@ -1330,8 +1356,10 @@ def planned_uncertainty(
     jac_m = prob.jacobian(th)
     jtj = jac_m.T @ jac_m
     cond = float(np.linalg.cond(jtj)) if np.all(np.isfinite(jtj)) else float("inf")
-    cov = (np.linalg.pinv(jtj) * variance_scale + prob._instant_covariance(th, jac_m, jtj)
-           + prob._quantiser_covariance(th, np.linalg.pinv(jtj) @ jac_m.T, dither_rms or {}))
+    inverse = np.linalg.pinv(jtj)
+    gain = _Gain(inverse, jac_m)
+    cov = (inverse * variance_scale + prob._instant_covariance(th, gain)
+           + prob._quantiser_covariance(th, gain(), dither_rms or {}))
     # an ill-conditioned information matrix is inverted as the fit's own is (pseudo-inverse): its
     # poorly determined directions come out with large variances, as the fit would report them
     d0, std, _ = _delta_method(prob.layout, th, cov, step_rel_std)
