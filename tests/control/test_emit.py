@@ -18,6 +18,7 @@ import pytest
 
 from motorid.control import DesignSettings, MotorParams, design_controller, design_model, model_from_params
 from motorid.control.controller import controller_system, signal_unit
+from motorid.control.design import output_row
 from motorid.control.emit import (
     METHODS,
     DiscreteController,
@@ -146,6 +147,8 @@ def _reference(dc: DiscreteController, w: np.ndarray) -> np.ndarray:
 @pytest.mark.parametrize("method", ["zoh", "tustin"])
 def test_discretise_is_python_controls_c2d(case, method):
     model, design = case
+    if method == "zoh" and (design.L is not None or design.reduced is not None):
+        pytest.skip("zoh places an observer on the sampled motor: test_a_zoh_observer_is_placed_on_the_sampled_motor")
     dc = discretise_design(model, design, 0.002, method)
     ref = control.c2d(controller_system(model, design), 0.002, method="bilinear" if method == "tustin" else method)
     for got, want in ((dc.Ad, ref.A), (dc.Bd, ref.B), (dc.Cd, ref.C), (dc.Dd, ref.D)):
@@ -153,6 +156,33 @@ def test_discretise_is_python_controls_c2d(case, method):
     assert dc.system.dt == 0.002 and dc.method == method
     w = _inputs(dc)
     np.testing.assert_allclose(dc.difference(w)[:, 0], _reference(dc, w), rtol=0, atol=1e-9)
+
+
+def test_a_zoh_observer_is_placed_on_the_sampled_motor(case):
+    # independently: the motor behind a zero-order hold (python-control's c2d), closed with the
+    # sampled controller, has the sampled state feedback's poles (the command held, the estimate
+    # exact) and the observer's poles mapped by z = e^{p·TS}: the separation of a sampled observer
+    model, design = case
+    if design.L is None and design.reduced is None:
+        pytest.skip("no observer: zoh is python-control's c2d (above)")
+    ts = 0.002
+    dc = discretise_design(model, design, ts, "zoh")
+    assert dc.method == "zoh" and "observer placed on the motor" in dc.description()
+    motor = control.c2d(_plant(model, design), ts, method="zoh")
+    loop = control.interconnect([motor, dc.system], inplist=["r"], outlist=["u"], check_unused=False)
+    got = np.sort_complex(np.linalg.eigvals(np.asarray(loop.A, dtype=float)))
+    work = design_model(model, design)
+    phi = np.asarray(control.c2d(control.ss(work.A, work.B, np.eye(work.A.shape[0]), 0), ts).A)
+    gam = np.asarray(control.c2d(control.ss(work.A, work.B, np.eye(work.A.shape[0]), 0), ts).B)
+    k = design.K.reshape(1, -1)
+    if design.ki is None:
+        feedback = phi - gam @ k
+    else:
+        c = np.asarray(output_row(work, design.output)[1], dtype=float).reshape(1, -1)
+        feedback = np.block([[phi - gam @ k, -gam * design.ki], [ts * c, np.ones((1, 1))]])
+    observer = design.reduced.poles if design.reduced is not None else design.observer_poles
+    want = np.sort_complex(np.r_[np.linalg.eigvals(feedback), np.exp(np.asarray(observer, dtype=complex) * ts)])
+    np.testing.assert_allclose(got, want, rtol=1e-7, atol=1e-9)
 
 
 CC = shutil.which("cc")
@@ -257,10 +287,11 @@ def test_the_header_names_the_signals_units_and_limits():
 
 
 def test_a_long_interval_warns_with_the_rule_and_its_source():
+    # sampled by c2d (tustin), the observer's poles count among the loop's
     design = design_controller(REPORT_MODEL, CASES["observer"][1])
-    fast = discretise_design(REPORT_MODEL, design, 0.001)
+    fast = discretise_design(REPORT_MODEL, design, 0.001, "tustin")
     assert fast.warnings == ()
-    slow = discretise_design(REPORT_MODEL, design, 0.01)
+    slow = discretise_design(REPORT_MODEL, design, 0.01, "tustin")
     # the fastest of the loop's poles and the controller's own (A − BK − LC: 56.7 rad/s here)
     own = np.linalg.eigvals(controller_system(REPORT_MODEL, design).A)
     fastest = max(np.max(np.abs(design.output_feedback_poles)), np.max(np.abs(own)))
@@ -281,8 +312,13 @@ def test_a_non_positive_interval_is_refused_naming_the_option(ts):
 def test_an_interval_beyond_the_nyquist_limit_is_refused():
     design = design_controller(REPORT_MODEL, CASES["observer"][1])  # fastest pole 56.7 rad/s: π/56.7 = 0.0554 s
     with pytest.raises(OptionError, match=r"^--discrete 0\.06 s is at or beyond the Nyquist limit") as err:
-        discretise_design(REPORT_MODEL, design, 0.06)
+        discretise_design(REPORT_MODEL, design, 0.06, "tustin")
     assert "\n" not in str(err.value)
+    # placed on the sampled motor (zoh), the observer's poles map to e^{p·TS} exactly: only the
+    # state feedback's (9 rad/s here) limit the interval, and 0.06 s keeps its loop stable
+    sampled = discretise_design(REPORT_MODEL, design, 0.06)
+    assert sampled.fastest_pole_rad_s == pytest.approx(9.0, rel=1e-9)
+    assert sampled.loop_spectral_radius < 1
 
 
 def test_an_interval_that_makes_the_sampled_loop_unstable_is_refused():

@@ -206,8 +206,9 @@ def design(
         "--derivative-filter", help="N of the derivative filter Td/N (default 10).")] = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the Design JSON here.")] = None,
     discrete: Annotated[float | None, typer.Option(
-        "--discrete", help="Sample the controller every TS seconds (python-control c2d); the JSON gains "
-                           "'discrete' with its difference equations.")] = None,
+        "--discrete", help="Sample the controller every TS seconds (python-control c2d; with zoh an observer is "
+                           "placed on the motor as sampled); the JSON gains 'discrete' with its difference "
+                           "equations.")] = None,
     discrete_method: Annotated[str | None, typer.Option(
         "--discrete-method", help="How to discretise: zoh (default), foh, tustin, euler or backward_diff.")] = None,
     emit: Annotated[str | None, typer.Option(
@@ -356,7 +357,7 @@ def _check_code_options(discrete: float | None, method: str | None, emit: str | 
 
 def _print_discrete(dc, say) -> None:
     """The sampled controller's summary and its sample-rate limits (``dc``: a DiscreteController)."""
-    line = f"discrete controller: TS = {sig(dc.ts_s)} s ({sig(1 / dc.ts_s)} Hz), {dc.method} (python-control c2d)"
+    line = f"discrete controller: TS = {sig(dc.ts_s)} s ({sig(1 / dc.ts_s)} Hz), {dc.description()}"
     if dc.fastest_pole_rad_s is not None:
         line += (f"; fastest loop pole |p| = {sig(dc.fastest_pole_rad_s)} rad/s, TS·|p| = "
                  f"{sig(dc.ts_s * dc.fastest_pole_rad_s)} (rule of thumb ≤ 0.2), Nyquist limit TS < π/|p| = "

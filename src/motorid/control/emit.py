@@ -61,6 +61,10 @@ __all__ = [
 METHODS: tuple[str, ...] = ("zoh", "foh", "tustin", "euler", "backward_diff")
 #: The emitters by language name.
 LANGUAGES: tuple[str, ...] = ("c", "python", "matlab")
+#: How a design's ``zoh`` controller with an observer is sampled (:func:`discretise_design`).
+SAMPLED_OBSERVER = ("zoh: the command held between samples, the observer placed on the motor behind that hold "
+                    "(its error decays at the design's observer poles at every sample, whatever the motor does), "
+                    "the gains as designed")
 #: Largest ``TS·|p|`` (fastest loop pole) without a warning.
 SAMPLING_RULE = 0.2
 #: Where the rule comes from, for the header and the warning.
@@ -92,6 +96,9 @@ class DiscreteController:
     notes : tuple of str
         What the controller is (model, design, signals), for the emitted code's header.
     warnings : tuple of str
+    how : str
+        How it was sampled, in words (default: ``method`` by python-control's ``c2d``;
+        :func:`discretise_design` says so when it placed the observer on the sampled motor).
     """
 
     system: Any
@@ -103,6 +110,16 @@ class DiscreteController:
     loop_spectral_radius: float | None = None
     notes: tuple[str, ...] = ()
     warnings: tuple[str, ...] = ()
+    how: str = ""
+
+    def description(self) -> str:
+        """How it was sampled, in words: :attr:`how`, else ``"<method> (python-control c2d)"``.
+
+        Returns
+        -------
+        str
+        """
+        return self.how or f"{self.method} (python-control c2d)"
 
     @property
     def Ad(self) -> np.ndarray:
@@ -303,13 +320,21 @@ def discretise_design(model: MotorModel, design: Design, ts: float, method: str 
                           f"{float(np.max(np.real(designed))):.3g} rad/s in the right half-plane or on the axis); "
                           "fix the design before sampling it (see its warnings)")
     csys = controller_system(model, design)
-    poles = [np.asarray(p, dtype=complex).ravel() for p in
-             (design.closed_loop_poles, design.observer_poles, design.output_feedback_poles, csys.poles())
-             if p is not None]
     units = {name: signal_unit(name, design.units, output=design.output)
              for name in (*csys.input_labels, *csys.output_labels)}
+    sampled = None
+    limiting: tuple[Any, ...] = (design.closed_loop_poles, design.observer_poles, design.output_feedback_poles,
+                                 csys.poles())
+    if method == "zoh" and (design.L is not None or design.reduced is not None):
+        from motorid.control.sampled import sampled_controller
+
+        # the observer placed on the motor behind the hold, not c2d's hold of the measured signals: its
+        # poles map to e^{p·TS} exactly, so only the state feedback's (held command) limit the interval
+        sampled = sampled_controller(model, design, ts)
+        limiting = (design.closed_loop_poles,)
+    poles = [np.asarray(p, dtype=complex).ravel() for p in limiting if p is not None]
     return _sampled(csys, plant_system(model, design), float(model.delay_s), poles, ts, method, units,
-                    _design_notes(model, design))
+                    _design_notes(model, design), sampled=sampled)
 
 
 def discretise_pid(model: MotorModel, pid: PidDesign, ts: float, method: str = "zoh") -> DiscreteController:
@@ -361,8 +386,9 @@ def discretise_pid(model: MotorModel, pid: PidDesign, ts: float, method: str = "
 
 
 def _sampled(csys: control.StateSpace, motor_c: control.StateSpace, tau: float, poles: list[np.ndarray],
-             ts: float, method: str, units: dict[str, str], notes: tuple[str, ...]) -> DiscreteController:
-    """``csys`` discretised, with the sample-rate limits of ``poles`` and the sampled loop's check."""
+             ts: float, method: str, units: dict[str, str], notes: tuple[str, ...], *,
+             sampled: control.StateSpace | None = None) -> DiscreteController:
+    """``csys`` discretised (or ``sampled``, already so), with the sample-rate limits of ``poles``, the loop checked."""
     import control
 
     fastest = float(np.max(np.abs(np.concatenate([np.asarray(p, dtype=complex).ravel() for p in poles])),
@@ -372,7 +398,8 @@ def _sampled(csys: control.StateSpace, motor_c: control.StateSpace, tau: float, 
         raise OptionError(f"--discrete {ts:g} s is at or beyond the Nyquist limit pi/|p| = {ts_max:.3g} s of the "
                           f"loop's fastest pole (|p| = {fastest:.3g} rad/s); sample faster, e.g. --discrete "
                           f"{SAMPLING_RULE / fastest:.2g}")
-    dc = discretise(csys, ts, method, units=units)
+    dc = discretise(csys, ts, method, units=units) if sampled is None else \
+        DiscreteController(sampled, float(ts), method, dict(units), how=SAMPLED_OBSERVER)
     # the sampled loop: the motor (its dead time as a Padé approximant, as in the margins) behind a
     # zero-order hold (the DAC), read every TS
     delayed = tau * max(fastest, 1.0) > 1e-6
@@ -393,7 +420,7 @@ def _sampled(csys: control.StateSpace, motor_c: control.StateSpace, tau: float, 
                         f"above {SAMPLING_RULE} (the rule of thumb, {RULE_SOURCE}): the sampled loop departs from "
                         f"the design; TS <= {SAMPLING_RULE / fastest:.2g} s keeps to it")
     return DiscreteController(dc.system, dc.ts_s, method, units, fastest if fastest > 0 else None, ts_max, rho,
-                              notes, tuple(warnings))
+                              notes, tuple(warnings), dc.how)
 
 
 def _design_notes(model: MotorModel, design: Design) -> tuple[str, ...]:
@@ -530,8 +557,7 @@ def _header(dc: DiscreteController, name: str, source: str | None) -> list[str]:
         lines.append(source)
     lines.append("")
     lines += list(dc.notes)
-    how = (f"discretised by {dc.method} (python-control c2d)" if dc.method in METHODS
-           else "a discrete-time system as given")
+    how = f"discretised by {dc.description()}" if dc.method in METHODS else "a discrete-time system as given"
     lines.append(f"Sampling: TS = {dc.ts_s:g} s ({1 / dc.ts_s:.6g} Hz), {how}")
     lines.append("Signals: " + ", ".join(f"{n} [{dc.units.get(n) or '-'}]" for n in (*dc.inputs, *dc.outputs)))
     if dc.states:

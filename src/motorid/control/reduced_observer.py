@@ -24,7 +24,7 @@ import numpy as np
 from motorid.control.feedback import UNCONTROLLABLE_TOL, ControlDesignError, pbh_margins, place_gains
 from motorid.errors import OptionError
 
-__all__ = ["OBSERVER_SPEED", "ReducedObserver", "command_rows", "default_poles", "reduced_loop",
+__all__ = ["OBSERVER_SPEED", "ReducedObserver", "command_rows", "default_poles", "placed_observer", "reduced_loop",
            "reduced_loop_matrix", "reduced_observer"]
 
 #: Default observer poles: this many times the fastest closed-loop pole's real part, spread
@@ -184,7 +184,6 @@ def reduced_observer(a: np.ndarray, b: np.ndarray, states: tuple[str, ...], meas
         The estimated states cannot be seen from the measured ones (``(A_uu, A_mu)`` not
         observable), or the placement fails.
     """
-    mi = [i for i, s in enumerate(states) if s in measured]
     ui = [i for i, s in enumerate(states) if s not in measured]
     p = np.asarray(poles, dtype=complex)
     if p.size != len(ui):
@@ -192,6 +191,39 @@ def reduced_observer(a: np.ndarray, b: np.ndarray, states: tuple[str, ...], meas
                           f"pole(s), got {p.size}")
     if np.any(p.real >= 0):
         raise OptionError(f"observer poles must be stable (negative real part), got {list(p)}")
+    return placed_observer(a, b, states, measured, p)
+
+
+def placed_observer(a: np.ndarray, b: np.ndarray, states: tuple[str, ...], measured: tuple[str, ...],
+                    poles: np.ndarray) -> ReducedObserver:
+    """The reduced-order observer with ``eig(F) = poles``, continuous or sampled alike.
+
+    The same algebra holds for ``ż = A z + B u`` and for the sampled ``z[k+1] = Φ z[k] + Γ u[k]``
+    (``F = Φ_uu − L Φ_mu``, …, the estimate's error then ``e[k+1] = F e[k]``): given ``(Φ, Γ)``
+    and poles inside the unit circle, this is the observer of a controller that runs every sample
+    (:func:`motorid.control.sampled.sampled_reduced_observer`).
+
+    Parameters
+    ----------
+    a, b : ndarray
+        ``(A, B)``, or ``(Φ, Γ)``.
+    states, measured : tuple of str
+        As :func:`reduced_observer`.
+    poles : ndarray
+        One per estimated state (not checked here).
+
+    Returns
+    -------
+    ReducedObserver
+
+    Raises
+    ------
+    ControlDesignError
+        As :func:`reduced_observer`.
+    """
+    mi = [i for i, s in enumerate(states) if s in measured]
+    ui = [i for i, s in enumerate(states) if s not in measured]
+    p = np.asarray(poles, dtype=complex)
     a, b = np.asarray(a, float), np.asarray(b, float).reshape(-1, 1)
     a_mm, a_mu, a_um, a_uu = a[np.ix_(mi, mi)], a[np.ix_(mi, ui)], a[np.ix_(ui, mi)], a[np.ix_(ui, ui)]
     # (A_uu, A_mu) observable ⇔ (A_uuᵀ, A_muᵀ) controllable: the scale-free PBH test of the design

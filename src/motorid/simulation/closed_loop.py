@@ -445,7 +445,7 @@ def response_metrics(time_s: np.ndarray, output_v: np.ndarray, reference_v: np.n
 
 def _sampled_loop_radius(phi: np.ndarray, gam: np.ndarray, c: np.ndarray, k: np.ndarray, ki: float | None,
                          dt: float, observer: tuple[np.ndarray, np.ndarray] | None) -> float:
-    """Spectral radius of the linear sampled loop (plant, held control, observer fed the held output, integrator).
+    """Spectral radius of the linear sampled loop (plant, held command, the observer of the sampled plant, integrator).
 
     The design is continuous; the simulation samples it.  This is the loop the simulation runs,
     without saturation: above 1 it diverges whatever the continuous poles say.
@@ -511,16 +511,18 @@ class _Reduced:
     gam: np.ndarray  # on [z_m, u]
 
     @classmethod
-    def of(cls, design: Design, n: int, dt: float) -> _Reduced | None:
-        red = design.reduced
-        if red is None:
+    def of(cls, design: Design, a: np.ndarray, b: np.ndarray, dt: float) -> _Reduced | None:
+        """The design's reduced-order observer placed on the motor sampled every ``dt`` (None without one)."""
+        if design.reduced is None:
             return None
         from motorid.control.reduced_observer import command_rows
+        from motorid.control.sampled import sampled_reduced_observer
 
-        mi, ui = red.split(tuple(design.states))
-        kz, kw, _ = command_rows(design.K, design.ki, red, tuple(design.states))
-        phi, gam = _zoh(red.F, np.hstack([red.G, red.H]), dt)
-        return cls(mi, ui, np.eye(n)[mi], red.L, kz, kw, phi, gam)
+        states = tuple(design.states)
+        red = sampled_reduced_observer(a, b, design.reduced, states, dt)
+        mi, ui = red.split(states)
+        kz, kw, _ = command_rows(design.K, design.ki, red, states)
+        return cls(mi, ui, np.eye(a.shape[0])[mi], red.L, kz, kw, red.F, np.hstack([red.G, red.H]))
 
 
 def _zoh(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -627,9 +629,11 @@ def simulate_closed_loop(model: MotorModel, design: Design | PidDesign, settings
     if lag:
         warnings.append(f"the model's dead time of {1e3 * model.delay_s:.3g} ms is applied to the plant input "
                         f"({lag} step(s) of {s.dt_s:g} s)")
-    if l_col is not None:  # (use_obs)
-        phi_o, gam_o = _zoh(a - l_col @ c, np.hstack([b, l_col]), s.dt_s)
-    reduced = _Reduced.of(design, n, s.dt_s)
+    if l_col is not None:  # (use_obs): the observer placed on the motor as the sampled controller sees it
+        from motorid.control.sampled import design_observer_poles, sampled_observer
+
+        phi_o, gam_o = sampled_observer(a, b, c, design_observer_poles(design, a, c), s.dt_s)
+    reduced = _Reduced.of(design, a, b, s.dt_s)
     if reduced is not None:
         rho = _reduced_loop_radius(phi, gam, c, ki, s.dt_s, reduced)
         # the estimate starts at xhat0 (default: the motor at rest, so exact)
