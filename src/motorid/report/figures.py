@@ -458,7 +458,7 @@ def loop_bode_nyquist(omega: np.ndarray, loop: np.ndarray, margins: Mapping[str,
                  label=f"|1 + L| = 1/Ms (Ms {ms:.3g})")
     nyq.set_xlim(-3, 1.5)
     nyq.set_ylim(-2.5, 2.5)
-    nyq.set_aspect("equal", adjustable="datalim")
+    nyq.set_aspect("equal", adjustable="box")  # keeps the limits (datalim would override them, and say so)
     nyq.set_xlabel("Re L")
     nyq.set_ylabel("Im L")
     nyq.legend(loc="lower right", fontsize="small")
