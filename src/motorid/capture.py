@@ -262,14 +262,18 @@ class Capture:
         """The capture with each output sample the mean over its sample interval (a counted speed).
 
         What ``counted_velocity`` of :func:`motorid.read_experiment` and :func:`motorid.validate`
-        declare: :attr:`sample_window_s` is the capture's own :attr:`sample_interval_s`; a capture
-        that has a window already is returned as it is.
+        declare: :attr:`sample_window_s` is the capture's own :attr:`sample_interval_s`, times
+        :attr:`count_hold` for a count kept over several lines (a firmware that counts over five
+        loops and logs every loop: each count spans five intervals); a capture that has a window
+        already is returned as it is.
 
         Returns
         -------
         Capture
         """
-        return self if self.sample_window_s else dataclasses.replace(self, sample_window_s=self.sample_interval_s)
+        if self.sample_window_s:
+            return self
+        return dataclasses.replace(self, sample_window_s=self.sample_interval_s * max(1, self.count_hold))
 
 
 def validate_samples(

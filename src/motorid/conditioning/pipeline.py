@@ -7,6 +7,7 @@ is left to the identification method that needs it.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
@@ -16,7 +17,8 @@ from motorid.capture import ROLES, Capture
 from motorid.conditioning.checks import check_step_responses
 from motorid.conditioning.denoise import fft_denoise
 from motorid.conditioning.resample import ratio_for_interval, sample_reduction
-from motorid.conditioning.response import COUNTED_SPEED_UNITS, StepResponse, counting_lag, is_log, step_response
+from motorid.conditioning.response import (COUNTED_SPEED_UNITS, StepResponse, counting_lag, is_log, step_response,
+                                          window_ends)
 from motorid.conditioning.sync import synchronise
 from motorid.conditioning.timescale import ResponseTimes, auto_reduction_ratio, response_times
 from motorid.errors import ConditioningError, OptionError
@@ -146,6 +148,24 @@ class ConditionedExperiment:
         r = self.responses.get("velocity")
         return r.sample_window_s if r is not None else 0.0
 
+    def velocity_window_ends(self, time_s: np.ndarray) -> np.ndarray:
+        """Where the counted velocity's window ends for its samples at ``time_s``: their own stamps, unless held.
+
+        A count kept over several lines ends at the last line that logged it
+        (:func:`~motorid.conditioning.response.window_ends`).
+
+        Parameters
+        ----------
+        time_s : ndarray
+            Times from the step.
+
+        Returns
+        -------
+        ndarray
+        """
+        r = self.responses.get("velocity")
+        return np.asarray(time_s, dtype=float) if r is None else window_ends(r, time_s)
+
 
 def condition_experiment(
     captures: Mapping[str, Capture],
@@ -207,10 +227,14 @@ def condition_experiment(
                    f"{' ' + cap.output_info.units if cap.output_info.units else ''} over the median interval, so it "
                    "counts over each interval its clock measured" if cap.count_over_stamps else
                    "counted over each interval, --counted-velocity")
+            held = responses[role].count_hold if math.isfinite(responses[role].count_refresh_s) else 1
+            lag = 0.5 * cap.sample_window_s + 0.5 * (held - 1) * cap.sample_interval_s
+            where = (f"before the line that logged it (each count kept for {held} lines, every {held}th line "
+                     "fitted)") if held > 1 else "before it"
             notes.append(f"{cap.source}: each sample is the mean speed over the {1e3 * cap.sample_window_s:.4g} ms "
-                         f"before it ({why}): the output-error fit (methods "
+                         f"{where} ({why}): the output-error fit (methods "
                          "auto, oe) models it so, and its dead time and time constants are the motor's, without the "
-                         f"counting's lag of about {0.5e3 * cap.sample_window_s:.3g} ms, which the other methods "
+                         f"counting's lag of about {1e3 * lag:.3g} ms, which the other methods "
                          "take for dead time")
     warnings: list[str] = []
     for r in responses.values():

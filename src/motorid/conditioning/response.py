@@ -12,8 +12,8 @@ from motorid.conditioning.edge import StepEdge, ramp_onset, response_onset, step
 from motorid.conditioning.unwrap import unwrap_position
 from motorid.errors import ConditioningError, OptionError, StepNotFoundError
 
-__all__ = ["STEP_TIMINGS", "STEP_VOLTS_TOLERANCE", "StepResponse", "counting_lag", "may_count", "split_at",
-           "step_response"]
+__all__ = ["STEP_TIMINGS", "STEP_VOLTS_TOLERANCE", "StepResponse", "counting_lag", "may_count", "refresh_time",
+           "refreshed", "split_at", "step_response", "window_ends"]
 
 #: Where a response's step instant comes from (:attr:`StepResponse.timing`):
 #: ``logged`` — a logged input column (a DAQ or Arduino log writes the command at the stamp it
@@ -141,6 +141,10 @@ class StepResponse:
     count_hold : int
         Lines each of its values is kept for (:attr:`motorid.capture.Capture.count_hold`): counted
         over that many lines and held, the motor may be quicker by ``(2·hold − 1)/2`` lines.
+    count_refresh_s : float
+        A counted speed (``sample_window_s`` > 0) kept over ``count_hold`` lines: the time (from the
+        step) of one line that logged a new count, whose window ends there; every ``count_hold``-th
+        line from it does (:func:`window_ends`).  NaN otherwise.
     """
 
     source: str
@@ -160,6 +164,7 @@ class StepResponse:
     rounded: bool = True
     count_step: float = 0.0
     count_hold: int = 1
+    count_refresh_s: float = math.nan
     #: The sample interval, computed once: an identification asks for it over a hundred times
     #: (a median of the whole record's steps each time: 13 % of ``auto`` on the demo).
     _dt_cache: list[float] = field(default_factory=list, init=False, repr=False, compare=False)
@@ -289,12 +294,14 @@ def step_response(
         u = _minus(capture.input_v, float(np.mean(capture.input_v[:k])))
     else:
         u = np.where(t >= edge.time_s, amp, 0.0)
+    time = _minus(t, edge.time_s)
+    output = _minus(y, base_y)
     return StepResponse(
         source=capture.source,
         role=role,
-        time_s=_minus(t, edge.time_s),
+        time_s=time,
         input_v=u,
-        output_v=_minus(y, base_y),
+        output_v=output,
         step_volts=float(amp),
         edge=edge,
         wraps=wraps,
@@ -307,7 +314,82 @@ def step_response(
         rounded=not (role == "velocity" and capture.output_info.units in COUNTED_SPEED_UNITS),
         count_step=capture.count_step if may_count(capture, role) else 0.0,
         count_hold=capture.count_hold,
+        count_refresh_s=(refresh_time(time, output, capture.count_hold)
+                         if capture.sample_window_s > 0 and capture.count_hold > 1 else math.nan),
     )
+
+
+def refresh_time(time_s: np.ndarray, values: np.ndarray, hold: int) -> float:
+    """The stamp of a line that logged a new count, for a count kept over ``hold`` lines (NaN if none shows).
+
+    A firmware that counts over ``hold`` loops and logs every loop changes its value only on the
+    lines it counts anew: their commonest index modulo ``hold`` is the count's phase.  On an even
+    grid only (jittered stamps have no fixed phase in time).
+
+    Parameters
+    ----------
+    time_s, values : ndarray
+        The record.
+    hold : int
+        Lines each count is kept for (> 1).
+
+    Returns
+    -------
+    float
+    """
+    t = np.asarray(time_s, dtype=float)
+    changes = np.flatnonzero(np.diff(np.asarray(values, dtype=float)) != 0) + 1
+    if hold < 2 or changes.size == 0 or t.size < 2:
+        return math.nan
+    steps = np.diff(t)
+    dt = float(np.median(steps))
+    if not dt > 0 or float(np.max(np.abs(steps - dt))) > 1e-6 * dt:
+        return math.nan
+    phase = int(np.argmax(np.bincount(changes % hold, minlength=hold)))
+    return float(t[phase])
+
+
+def window_ends(r: StepResponse, time_s: np.ndarray) -> np.ndarray:
+    """Where the count of a counted speed's sample at each of ``time_s`` ends (its own stamp, unless held).
+
+    A count kept over several lines (:attr:`StepResponse.count_refresh_s`) ends at the last line
+    that logged it: ``refresh + ⌊(t − refresh)/T⌋·T`` with ``T`` the count's window.
+
+    Parameters
+    ----------
+    r : StepResponse
+        The velocity's response.
+    time_s : ndarray
+        Times on its axis (from the step).
+
+    Returns
+    -------
+    ndarray
+        ``time_s`` itself when not held.
+    """
+    t = np.asarray(time_s, dtype=float)
+    if not (r.sample_window_s > 0 and math.isfinite(r.count_refresh_s)):
+        return t
+    period = r.sample_window_s
+    return r.count_refresh_s + np.floor((t - r.count_refresh_s) / period + 1e-6) * period
+
+
+def refreshed(r: StepResponse) -> np.ndarray | None:
+    """The samples of a held counted speed on the lines that logged a new count (None when not held).
+
+    The other lines repeat them: fitted, they would count each value ``count_hold`` times.
+
+    Parameters
+    ----------
+    r : StepResponse
+
+    Returns
+    -------
+    ndarray of bool or None
+    """
+    if not (r.sample_window_s > 0 and math.isfinite(r.count_refresh_s)):
+        return None
+    return np.abs(window_ends(r, r.time_s) - r.time_s) <= 1e-6 * r.sample_interval_s
 
 
 def may_count(capture: Capture, role: str) -> bool:

@@ -24,7 +24,7 @@ import scipy.optimize
 
 from motorid.capture import Capture
 from motorid.conditioning.edge import quantisation_step
-from motorid.conditioning.response import StepResponse, step_response
+from motorid.conditioning.response import StepResponse, refreshed, step_response
 from motorid.conditioning.timescale import response_times
 from motorid.errors import OptionError
 from motorid.identification.metrics import bic
@@ -265,7 +265,8 @@ def _joint_fit(responses: list[tuple[StepResponse, float]], order: int, t63: flo
     data = []
     for resp, noise in responses:
         t, y = resp.time_s, resp.output_v
-        keep = np.flatnonzero((t >= 0) & (t <= JOINT_TIME_CONSTANTS * t63))
+        fresh = refreshed(resp)  # a count kept over several lines: the lines that logged it
+        keep = np.flatnonzero((t >= 0) & (t <= JOINT_TIME_CONSTANTS * t63) & (True if fresh is None else fresh))
         keep = keep[np.unique(np.linspace(0, keep.size - 1, min(JOINT_SAMPLES, keep.size)).astype(int))]
         data.append((t[keep], y[keep], 1.0 / max(noise, 1e-12), resp.sample_window_s))
 

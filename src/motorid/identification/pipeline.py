@@ -471,7 +471,8 @@ def _with_fit(model: MotorModel, cond: ConditionedExperiment) -> MotorModel:
 
     def simulate(block: slice) -> dict[str, np.ndarray]:
         with np.errstate(over="ignore", invalid="ignore"):
-            return recorded_step_response(model, t[block], cond.step_volts, velocity_window_s=cond.velocity_window_s)
+            return recorded_step_response(model, t[block], cond.step_volts, velocity_window_s=cond.velocity_window_s,
+                                          velocity_window_ends=cond.velocity_window_ends(t[block]))
 
     # the residuals a block at a time (step_fit): a 10 M-sample record's fit holds no array of its length
     errors, fits = step_fit(measured, simulate, channels)
@@ -893,7 +894,8 @@ def _gated(cond: ConditionedExperiment, settings: IdentifySettings, model: Motor
     t_gate, v_gate = _dynamic_part(cond, SANITY_SAMPLES, t, v)
     sanity = sanity_checks(model, t_gate, v_gate, cond.step_volts,
                            sample_interval_s=float(t[1] - t[0]), unwhitened=unwhitened, input_v=recorded,
-                           velocity_window_s=cond.velocity_window_s)
+                           velocity_window_s=cond.velocity_window_s,
+                           velocity_window_ends=cond.velocity_window_ends(t_gate))
     gate = tuple(f"SANITY CHECK FAILED — {f}" for f in sanity.failures)
     # a fit that stopped early is a failed check of the gate, whose line says it with what it means
     model = model.replace(warnings=tuple(w for w in model.warnings if not w.startswith(STOPPED_EARLY)))

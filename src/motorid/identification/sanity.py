@@ -330,6 +330,7 @@ def sanity_checks(
     unwhitened: Mapping[str, float] | None = None,
     input_v: Mapping[str, np.ndarray] | None = None,
     velocity_window_s: float = 0.0,
+    velocity_window_ends: np.ndarray | None = None,
 ) -> SanityReport:
     """Run the sanity gate on one model.
 
@@ -355,6 +356,9 @@ def sanity_checks(
     velocity_window_s : float
         The window a counted velocity's samples are means over: the model's response is compared
         averaged the same way (:func:`~motorid.model.response.recorded_step_response`); 0 when sampled.
+    velocity_window_ends : ndarray, optional
+        Where each sample's window ends (a count kept over several lines: the line that logged it);
+        default the samples' own times.
 
     Returns
     -------
@@ -378,8 +382,9 @@ def sanity_checks(
         checks.append(SanityCheck("stable", True, "every pole in the left half-plane"))
     final = float(np.mean(v[-max(2, v.size // 10):]))
     with np.errstate(over="ignore", invalid="ignore"):
-        yhat = np.asarray(recorded_step_response(model, t, step_volts, velocity_window_s=velocity_window_s)["velocity"],
-                          dtype=float)
+        ends = None if velocity_window_ends is None else np.asarray(velocity_window_ends, dtype=float)[keep]
+        yhat = np.asarray(recorded_step_response(model, t, step_volts, velocity_window_s=velocity_window_s,
+                                                 velocity_window_ends=ends)["velocity"], dtype=float)
     finite = bool(np.all(np.isfinite(yhat)))
     err = float(np.sqrt(np.mean((v - yhat) ** 2)) / abs(final)) if finite and final else float("inf")
     base, bpar = first_order_baseline(t, v, step_volts)

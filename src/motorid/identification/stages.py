@@ -19,7 +19,7 @@ import numpy as np
 from motorid.blockwise import variance
 from motorid.conditioning.edge import noise_level, quantisation_step
 from motorid.conditioning.pipeline import ConditionedExperiment
-from motorid.conditioning.response import counting_lag, split_at
+from motorid.conditioning.response import counting_lag, refreshed, split_at
 from motorid.identification.output_error import (  # _block_mean: the fit's own block averaging
     GAVE_UP,
     OeResult,
@@ -465,6 +465,11 @@ def _channel_data(cond: ConditionedExperiment, max_samples: int = MAX_FIT_SAMPLE
             good = np.ones(t.size, dtype=bool)
             good[r.glitches] = False
             keep, keep_pre = np.flatnonzero(good[fitted]) + k0, np.flatnonzero(good[before])
+        fresh = refreshed(r)
+        if fresh is not None:
+            # a count kept over several lines: the lines that logged it (the others repeat it), each the
+            # mean over the window that ends at its stamp
+            keep, keep_pre = np.flatnonzero(fresh[fitted]) + k0, np.flatnonzero(fresh[before])
         times[role], outs[role] = t[keep] + _sampled_phase(r), _read_only(r.output_v[keep])
         pre[role] = _read_only(r.output_v[keep_pre])
         block[role] = max(1, int(np.ceil(times[role].size / max_samples)))
@@ -702,7 +707,8 @@ def channel_timing(res: OeResult, cond: ConditionedExperiment) -> dict[str, Chan
             shift = _estimate_of(res, f"shift_{role}", res.shifts[role])
         elif r.timing == "onset" and res.delay_s is not None:
             note = "its shift is the dead time (a step instant read off the response cannot be told from it)"
-        out[role] = ChannelTiming(*step_instant(r), shift, note, kind=r.timing, window_s=r.sample_window_s)
+        out[role] = ChannelTiming(*step_instant(r), shift, note, kind=r.timing, window_s=r.sample_window_s,
+                                  count_hold=r.count_hold if refreshed(r) is not None else 1)
     return out
 
 

@@ -153,7 +153,7 @@ def _affine_orbit(phi: np.ndarray, gam: np.ndarray, x0: np.ndarray, count: int,
 
 
 def recorded_step_response(model: MotorModel, time_s: Any, step_volts: float | None = None, *,
-                           velocity_window_s: float = 0.0) -> dict[str, np.ndarray]:
+                           velocity_window_s: float = 0.0, velocity_window_ends: Any = None) -> dict[str, np.ndarray]:
     """:func:`step_response` as the sensors record it: a counted velocity is a mean over a window.
 
     A speed counted from encoder edges over each sample interval is the mean over the window
@@ -172,6 +172,10 @@ def recorded_step_response(model: MotorModel, time_s: Any, step_volts: float | N
         Step level; defaults to the model's ``step_volts``.
     velocity_window_s : float
         The velocity's window ``T`` (s); 0 for a sampled velocity (then :func:`step_response`).
+    velocity_window_ends : array_like, optional
+        Where each time's window ends (default: at the time itself); a count kept over several
+        lines ends at the last line that logged it
+        (:meth:`~motorid.conditioning.pipeline.ConditionedExperiment.velocity_window_ends`).
 
     Returns
     -------
@@ -181,7 +185,7 @@ def recorded_step_response(model: MotorModel, time_s: Any, step_volts: float | N
     out = step_response(model, time_s, step_volts)
     if velocity_window_s <= 0 or "velocity" not in out:
         return out
-    t = np.asarray(time_s, dtype=float).ravel()
+    t = np.asarray(time_s if velocity_window_ends is None else velocity_window_ends, dtype=float).ravel()
     integral = velocity_integral(model)
     step = model.step_volts if step_volts is None else step_volts
     late = step_response(integral, t, step)["position"]

@@ -239,6 +239,9 @@ class ChannelTiming:
     window_s : float
         The window each of the channel's samples is the mean over, ending at its time (a speed
         counted over each sample interval, fitted as such means); 0 for samples.
+    count_hold : int
+        Lines each count is kept for (1: a new one every line): its window ends at the last line
+        that logged it, and only those lines are fitted.
     """
 
     step_instant: str
@@ -247,6 +250,18 @@ class ChannelTiming:
     note: str | None = None
     kind: str | None = None
     window_s: float = 0.0
+    count_hold: int = 1
+
+    @property
+    def counting_lag_s(self) -> float:
+        """How much a read-off on the counted record lags the motor: half the window, and half the hold.
+
+        Returns
+        -------
+        float
+            ``window·(2·hold − 1)/(2·hold)``; 0 for samples.
+        """
+        return self.window_s * (2 * self.count_hold - 1) / (2 * self.count_hold)
 
     def to_dict(self) -> dict[str, Any]:
         """The model JSON's ``timing`` entry of this channel.
@@ -265,6 +280,8 @@ class ChannelTiming:
             out["kind"] = self.kind
         if self.window_s > 0:
             out["window_s"] = float(self.window_s)
+        if self.count_hold > 1:
+            out["count_hold"] = int(self.count_hold)
         return out
 
     @classmethod
@@ -280,8 +297,10 @@ class ChannelTiming:
         if kind not in TIMING_KINDS:
             kind = next((k for k, text in TIMING_SOURCES.items() if words.startswith(text[:24])), None)
         window = data.get("window_s")
+        hold = data.get("count_hold")
         return cls(words, _number(data.get("edge_s")), shift, None if note is None else str(note), kind,
-                   float(window) if isinstance(window, (int, float)) and not isinstance(window, bool) else 0.0)
+                   float(window) if isinstance(window, (int, float)) and not isinstance(window, bool) else 0.0,
+                   int(hold) if isinstance(hold, int) and not isinstance(hold, bool) and hold > 1 else 1)
 
 
 def _quantiser(entry: Any, other: dict[str, Any]) -> dict[str, float]:

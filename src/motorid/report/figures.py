@@ -386,7 +386,8 @@ def step_fit_figure(model: MotorModel, cond: ConditionedExperiment) -> Figure:
     if not roles and "velocity" in cond.full_outputs:
         roles = ["velocity"]
     # a counted velocity is compared with the model's means over the same window
-    sim = recorded_step_response(model, t, cond.step_volts, velocity_window_s=cond.velocity_window_s)
+    sim = recorded_step_response(model, t, cond.step_volts, velocity_window_s=cond.velocity_window_s,
+                                 velocity_window_ends=cond.velocity_window_ends(t))
     fig, axes = _subplots(2 * len(roles), 1, figsize=(FULL_WIDTH_IN, 2.9 * len(roles)), squeeze=False,
                           gridspec_kw={"height_ratios": [3, 1.3] * len(roles)})
     for j, role in enumerate(roles):

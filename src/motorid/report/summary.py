@@ -121,11 +121,11 @@ def _uncertainty(u: Uncertainty | None, gain_unit: str = "V/V") -> list[SummaryL
     # sampling cannot resolve, and any dead time, went into that onset, not into the times
     onset = any(t.kind == "onset" for t in u.timing.values())
     # a speed counted over each interval lags the motor by half of it: a read-off on that record does too
-    window = max((t.window_s for t in u.timing.values()), default=0.0)
+    window = max((t.counting_lag_s for t in u.timing.values()), default=0.0)
     t63_label = ("63 % time (s; from the response's fitted onset: with no input channel a dead time or a lag under "
                  "a sample is in the onset, not here)" if onset else
                  "63 % time (s; the motor's, dead time included: a read-off on the counted speed is about "
-                 f"{sig(0.5e3 * window)} ms later)" if window > 0 else
+                 f"{sig(1e3 * window)} ms later)" if window > 0 else
                  "63 % time (s; what a scope read-off measures, dead time included)")
     for key, label in (("dc_gain", f"dc gain ({gain_unit})"),
                        ("time_constant", "τ (s; by moments: Σ1/|p| − Σ1/|z|)"),
