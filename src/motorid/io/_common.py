@@ -12,6 +12,7 @@ import os
 import stat
 import sys
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TypeVar
 
@@ -29,9 +30,11 @@ __all__ = [
     "SAMPLE_INTERVAL_RANGE_S",
     "TEXT_SNIFF_BYTES",
     "PathLike",
+    "TimeSteps",
     "binary_kind",
     "check_capture_file",
     "check_samples",
+    "check_time_steps",
     "check_writable",
     "column_to_floats",
     "parse_number",
@@ -383,6 +386,23 @@ def _first_out_of_range(col: np.ndarray) -> np.ndarray:
     return np.empty(0, dtype=np.intp)
 
 
+@dataclass(frozen=True, slots=True)
+class TimeSteps:
+    """Order statistics of a time column's steps ``np.diff(time_s)``, as :func:`check_time_steps` found them.
+
+    Attributes
+    ----------
+    median_s : float
+        ``np.median`` of the steps (s), the same bits.
+    smallest_s, largest_s : float
+        The smallest and largest step (s).
+    """
+
+    median_s: float
+    smallest_s: float
+    largest_s: float
+
+
 def check_samples(
     time_s: np.ndarray,
     channels: Mapping[str, np.ndarray],
@@ -394,6 +414,35 @@ def check_samples(
     time_name: str = "time",
     jitter_ok: bool = False,
 ) -> float:
+    """Check a record's samples; raise naming the file line of the first bad one.
+
+    :func:`check_time_steps`, returning the median step only.
+
+    Returns
+    -------
+    float
+        The median time step (s), for :func:`uniform_grid`.
+
+    Raises
+    ------
+    CaptureDataError
+        The first problem found, as ``file:line: what``.
+    """
+    return check_time_steps(time_s, channels, file=file, line_of=line_of, rel_jitter=rel_jitter,
+                            min_samples=min_samples, time_name=time_name, jitter_ok=jitter_ok).median_s
+
+
+def check_time_steps(
+    time_s: np.ndarray,
+    channels: Mapping[str, np.ndarray],
+    *,
+    file: str,
+    line_of: Callable[[int], int | None],
+    rel_jitter: float = 0.01,
+    min_samples: int = MIN_SAMPLES,
+    time_name: str = "time",
+    jitter_ok: bool = False,
+) -> TimeSteps:
     """Check a record's samples; raise naming the file line of the first bad one.
 
     The checks of :func:`motorid.capture.validate_samples` (finite values, strictly
@@ -423,8 +472,8 @@ def check_samples(
 
     Returns
     -------
-    float
-        The median time step (s), for :func:`uniform_grid`.
+    TimeSteps
+        The median, smallest and largest time step (s), for :func:`uniform_grid`.
 
     Raises
     ------
@@ -446,18 +495,17 @@ def check_samples(
             raise CaptureDataError(f"{name} value {plain_number(x)} {why}", file=file, row=line_of(i))
     if n < min_samples:
         raise CaptureDataError(f"only {n} sample(s): a capture needs at least {min_samples}", file=file)
-    # one array of the steps, reordered by the median and the 99th percentile (order statistics:
-    # the same values in any order); its smallest and largest step decide the tests that need the
-    # steps in order, which take them again in blocks of the time column only to find the first bad
-    # one (a record that passes, the usual case, is not scanned again)
-    steps = np.diff(t)
-    smallest, largest = (float(steps.min()), float(steps.max())) if steps.size else (1.0, 1.0)
+    # the steps' smallest and largest (and their median, an order statistic) decide the tests that
+    # need the steps in order, which take them again in blocks of the time column only to find the
+    # first bad one (a record that passes, the usual case, is not scanned again)
+    count = _StepCount.of(t)
+    smallest, largest = count.smallest, count.largest
     back = _first_step(t, lambda d: d <= 0) if smallest <= 0 else None
     if back is not None:
         what = "duplicated" if t[back] == t[back - 1] else "goes backwards"
         raise CaptureDataError(f"{time_name} {what} ({plain_number(t[back - 1])} then {plain_number(t[back])}): "
                                "time must increase", file=file, row=line_of(back))
-    med = float(np.median(steps, overwrite_input=True))
+    med = count.median(t)
     lo, hi = SAMPLE_INTERVAL_RANGE_S
     if not lo <= med <= hi:
         raise CaptureDataError(
@@ -466,11 +514,9 @@ def check_samples(
     # (rounding is monotonic: no step is beyond a bound that the largest and the smallest are within)
     if jitter_ok:
         # a gap is beyond GAP_MEDIANS medians in any case: below that, no percentile is needed
-        limit = _gap_limit(steps, med) if largest > GAP_MEDIANS * med else largest
-        del steps
+        limit = _gap_limit(np.diff(t), med) if largest > GAP_MEDIANS * med else largest
         gap = _first_step(t, lambda d: d > limit) if largest > limit else None
     else:
-        del steps
         # (increasing times: the largest magnitude is at an end)
         tol = rel_jitter * med + 1e-12 * max(1.0, abs(float(t[0])), abs(float(t[-1])))
         within = abs(largest - med) <= tol and abs(smallest - med) <= tol
@@ -479,7 +525,82 @@ def check_samples(
         raise CaptureDataError(
             f"time step {plain_number(t[gap] - t[gap - 1])} s differs from the sample interval {plain_number(med)} s "
             "(gap or corrupt record)", file=file, row=line_of(gap))
-    return med
+    return TimeSteps(med, smallest, largest)
+
+
+#: Steps taken at a time by the median's counting passes: a block's steps stay in the cache.
+_STEP_BLOCK = 1 << 16
+#: Steps sampled (evenly over the record) to bracket the median before counting.
+_STEP_SAMPLE = 1 << 16
+#: Fraction of the steps each side of the middle the sampled bracket spans (about five standard
+#: deviations of a sampled median's rank).
+_BRACKET = 0.01
+
+
+@dataclass(frozen=True, slots=True)
+class _StepCount:
+    """One counting pass over a time column's steps, in blocks: extremes and a bracket of the median.
+
+    ``below`` steps are under ``low`` and ``not_above`` are at most ``high`` (``low`` and ``high`` from
+    an even sample of the steps): when the middle ranks lie between, the median is among the few
+    steps in ``[low, high]`` (a single value when ``low == high``, the usual case of a logger's
+    nearly constant steps), found without an array of the record's length.
+    """
+
+    size: int
+    smallest: float
+    largest: float
+    low: float
+    high: float
+    below: int
+    not_above: int
+
+    @classmethod
+    def of(cls, t: np.ndarray) -> _StepCount:
+        """Count the steps of ``t`` (finite, at least two samples)."""
+        m = t.size - 1
+        if m <= 2 * _STEP_BLOCK:
+            # a short record: its steps are about one block, their median numpy's (below)
+            steps = np.diff(t)
+            ends = (float(steps.min()), float(steps.max())) if steps.size else (1.0, 1.0)
+            return cls(m, *ends, 0.0, -1.0, 0, 0)
+        stride = max(1, m // _STEP_SAMPLE)
+        sample = np.sort(t[1::stride][: m // stride] - t[:-1:stride][: m // stride])
+        k = sample.size // 2
+        margin = int(_BRACKET * sample.size) + 1
+        low, high = float(sample[max(0, k - margin)]), float(sample[min(sample.size - 1, k + margin)])
+        buf = np.empty(_STEP_BLOCK)
+        smallest, largest, below, not_above = math.inf, -math.inf, 0, 0
+        for start in range(0, m, _STEP_BLOCK):
+            stop = min(m, start + _STEP_BLOCK)
+            d = np.subtract(t[start + 1 : stop + 1], t[start:stop], out=buf[: stop - start])  # np.diff's steps
+            smallest, largest = min(smallest, float(d.min())), max(largest, float(d.max()))
+            below += int(np.count_nonzero(d < low))
+            not_above += int(np.count_nonzero(d <= high))
+        return cls(m, smallest, largest, low, high, below, not_above)
+
+    def median(self, t: np.ndarray) -> float:
+        """``np.median(np.diff(t))``, bit for bit: the middle step(s) by rank, averaged as numpy does."""
+        m = self.size
+        ranks = sorted({(m - 1) // 2, m // 2})
+        inside = self.not_above - self.below
+        if not (self.below <= ranks[0] and ranks[-1] < self.not_above) or (self.low < self.high and inside > m // 8):
+            # not bracketed, or a bracket holding many steps of more than one value: numpy's median
+            return float(np.median(np.diff(t), overwrite_input=True))
+        if self.low == self.high:
+            middle = np.full(len(ranks), self.low)
+        else:
+            # the steps in the bracket, and the middle ranks among them
+            kept = []
+            for start in range(0, m, _STEP_BLOCK):
+                d = np.diff(t[start : min(m, start + _STEP_BLOCK) + 1])
+                kept.append(d[(d >= self.low) & (d <= self.high)])
+            near = np.concatenate(kept)
+            offsets = [r - self.below for r in ranks]
+            near.partition(offsets)
+            middle = near[offsets]
+        # numpy's median is the mean of the middle element(s) (one for an odd count of steps)
+        return float(np.mean(middle))
 
 
 def _first_step(t: np.ndarray, bad: Callable[[np.ndarray], np.ndarray]) -> int | None:
@@ -538,6 +659,7 @@ UNIFORM_REL = 0.01
 
 def uniform_grid(time_s: np.ndarray, output: np.ndarray, inp: np.ndarray | None,
                  extra: Mapping[str, np.ndarray], *, file: str, median: float | None = None,
+                 steps: TimeSteps | None = None,
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, dict[str, np.ndarray], str, float]:
     """A log with jittered stamps on a uniform grid, the note that says so ('' when uniform), their resolution.
 
@@ -562,6 +684,9 @@ def uniform_grid(time_s: np.ndarray, output: np.ndarray, inp: np.ndarray | None,
     median : float, optional
         ``np.median(np.diff(time_s))`` when the caller has it (:func:`check_samples` returns it):
         then the steps are tested in blocks, with no array of the log's length.
+    steps : TimeSteps, optional
+        What :func:`check_time_steps` found: its median, and its smallest and largest steps,
+        which decide uniform stamps without taking the steps again.
 
     Returns
     -------
@@ -573,10 +698,15 @@ def uniform_grid(time_s: np.ndarray, output: np.ndarray, inp: np.ndarray | None,
     t = np.asarray(time_s, dtype=float)
     if t.size < 3:
         return time_s, output, inp, dict(extra), "", 0.0
+    if steps is not None:
+        median = steps.median_s
     if median is None:
         median = float(np.median(np.diff(t), overwrite_input=True))
     med = median
     tol = UNIFORM_REL * med + 1e-12 * max(1.0, abs(float(t[0])), abs(float(t[-1])))
+    # (rounding is monotonic: every step is within a bound that the smallest and the largest are within)
+    if steps is not None and abs(steps.largest_s - med) <= tol and abs(steps.smallest_s - med) <= tol:
+        return time_s, output, inp, dict(extra), "", 0.0
     if _first_step(t, lambda d: ~(np.abs(d - med) <= tol)) is None:
         return time_s, output, inp, dict(extra), "", 0.0
     dt = np.diff(t)
