@@ -39,6 +39,8 @@ ODD_FILES = {
     "signs_and_exponents": "time,input,velocity\n" + "".join(
         f"{t:.6e},+{u:.3f},{y:+.17g}\n" for t, u, y in zip(T, U, Y, strict=True)),
     "no_last_line_feed": "time,input,velocity\n" + "".join(rows()).rstrip("\n"),
+    "latin1_text_column": "time,note,input,velocity\n" + "".join(
+        r.replace(",", ",Drehzahl \xb0C \xe9t\xe9,", 1) for r in rows()),
     "spaces_around_cells": "time, input, velocity\n" + "".join(r.replace(",", " , ") for r in rows()),
 }
 

@@ -51,7 +51,7 @@ def _read(path, how: str, monkeypatch):
 @pytest.mark.parametrize("name", sorted(ODD_FILES))
 def test_pandas_loadtxt_and_careful_paths_give_the_same_bits(tmp_path, monkeypatch, name):
     path = tmp_path / f"{name}.csv"
-    path.write_bytes(ODD_FILES[name].encode())
+    path.write_bytes(ODD_FILES[name].encode("latin-1"))
     want = _expected(ODD_FILES[name])
     for how in ("pandas", "loadtxt", "careful"):
         with monkeypatch.context() as m:
@@ -134,7 +134,7 @@ def test_pandas_block_by_block_gives_the_bits_of_the_independent_parse(tmp_path,
     inside lines, the last short) and one block; with the row estimate too small, the columns grow as
     the blocks come (then are cut to the rows read)."""
     path = tmp_path / "log.csv"
-    path.write_bytes(ODD_FILES[name].encode())
+    path.write_bytes(ODD_FILES[name].encode("latin-1"))
     monkeypatch.setattr(_common, "PANDAS_BLOCK_BYTES", block)
     if estimate is not None:
         monkeypatch.setattr(_common, "_expected_rows", lambda _path, _size: estimate)

@@ -42,7 +42,7 @@ def _read_with(path, parser: str, monkeypatch):
 @pytest.mark.parametrize("name", sorted(ODD_FILES))
 def test_pyarrow_gives_the_bits_of_every_other_path(tmp_path, monkeypatch, name):
     path = tmp_path / f"{name}.csv"
-    path.write_bytes(ODD_FILES[name].encode())
+    path.write_bytes(ODD_FILES[name].encode("latin-1"))
     want = csvpaths.expected(ODD_FILES[name])
     mine = _read_with(path, "pyarrow", monkeypatch)
     others = ["careful", *[p for p in csvpaths.installed_parsers() if p != "pyarrow"]]
@@ -55,6 +55,22 @@ def test_pyarrow_gives_the_bits_of_every_other_path(tmp_path, monkeypatch, name)
         assert got.tobytes() == want[key].tobytes(), key
 
 
+def test_lone_cr_line_ends_give_the_same_bits_whichever_parser_reads_them(tmp_path, monkeypatch):
+    """A file whose lines end in CR alone (no line feed to skip the header by) is left to np.loadtxt by
+    pyarrow's and pandas' paths: the same bits as the row-by-row reader's."""
+    text = "time,input,velocity\r" + "".join(csvpaths.rows(end="\r"))
+    path = tmp_path / "log.csv"
+    path.write_bytes(text.encode("latin-1"))
+    careful = _read_with(path, "careful", monkeypatch)
+    for parser in csvpaths.installed_parsers():
+        with monkeypatch.context() as m:
+            csvpaths.use_parser(m, parser)
+            cap = plaincsv._read_fast(path, str(path), None, None, path.stat().st_size)
+        for field in ("time_s", "input_v", "output_v"):
+            assert getattr(cap, field).tobytes() == getattr(careful, field).tobytes(), (parser, field)
+    assert careful.output_v.tobytes() == Y.tobytes()
+
+
 @pytest.mark.parametrize("block", [128, 700, 1 << 20], ids=["about two lines", "about 11 lines", "one block"])
 @pytest.mark.parametrize("estimate", [None, 3], ids=["estimated rows", "columns grown"])
 @pytest.mark.parametrize("name", ["crlf", "blank_lines_in_body", "text_column", "no_last_line_feed", "tab"])
@@ -63,7 +79,7 @@ def test_pyarrow_block_by_block_gives_the_bits_of_the_independent_parse(tmp_path
     """pyarrow's blocks of 128 bytes (it cuts them at a line's end), of 700 and one block; with the row
     estimate too small the columns grow as the blocks come, then are cut to the rows read."""
     path = tmp_path / "log.csv"
-    path.write_bytes(ODD_FILES[name].encode())
+    path.write_bytes(ODD_FILES[name].encode("latin-1"))
     monkeypatch.setattr(_common, "PYARROW_BLOCK_BYTES", block)
     if estimate is not None:
         monkeypatch.setattr(_common, "_expected_rows", lambda _path, _size: estimate)
@@ -77,7 +93,7 @@ def test_pyarrow_block_by_block_gives_the_bits_of_the_independent_parse(tmp_path
 def test_a_line_longer_than_a_block_is_left_to_the_next_parser(tmp_path, monkeypatch):
     """pyarrow needs a whole line in a block (1 MiB in use): the file is read by the next parser, the same bits."""
     path = tmp_path / "log.csv"
-    path.write_bytes(ODD_FILES["text_column"].encode())
+    path.write_bytes(ODD_FILES["text_column"].encode("latin-1"))
     monkeypatch.setattr(_common, "PYARROW_BLOCK_BYTES", 50)
     assert _common._load_with_pyarrow(pa_csv, path, 1, ",", [0, 2, 3], path.stat().st_size) is None
     with monkeypatch.context() as m:

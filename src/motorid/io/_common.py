@@ -1143,16 +1143,16 @@ def _load_with_pyarrow(pa_csv, path: PathLike, skiprows: int, delimiter: str,
     try:
         with _open(path) as fh:
             for _ in range(skiprows):
-                fh.readline()
+                if not fh.readline(1 << 16).endswith(b"\n"):
+                    return None  # no line feed in 64 KiB (lone CR line ends): not read whole here
+            # the first line with a field in the next 64 KiB (any line end): how many fields the rows have
             start = fh.tell()
-            width = 0
-            for line in fh:  # the first line with a field: how many the rows have (no quoting)
-                if line.strip(b"\r\n"):
-                    width = line.rstrip(b"\r\n").count(delimiter.encode()) + 1
-                    break
-            if not width:
-                return None
+            head = fh.read(1 << 16)
             fh.seek(start)
+            first = next((line for line in head.replace(b"\r", b"\n").split(b"\n") if line), b"")
+            if not first:
+                return None
+            width = first.count(delimiter.encode()) + 1  # (no quoting)
             names = [f"f{j}" for j in range(width)]
             wanted = [names[j] for j in (range(width) if usecols is None else usecols) if 0 <= j < width]
             if usecols is not None and len(wanted) != len(usecols):
