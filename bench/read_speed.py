@@ -4,8 +4,8 @@ Run: ``python3 bench/read_speed.py [--rows 10000,100000,1000000,2500000,10000000
 [--src DIR] [--timeout 60] [--dir /tmp/motorid-read-bench]``.
 
 Each read runs in a fresh child process (``python -c``); its CPU time (``time.process_time``,
-from the interpreter's start: the imports are counted, pandas' too when a reader imports it) and its
-peak resident memory
+from the interpreter's start: the imports are counted, pyarrow's or pandas' too when a reader imports
+it) and its peak resident memory
 (``resource.getrusage(RUSAGE_SELF).ru_maxrss`` of the child, includes the interpreter and
 numpy, about 30 MB) are its own.  The files are plain CSVs ``time,input,velocity`` of about 26
 bytes a row (a DAQ log) and one Tektronix "Save All" pair (``ALL0000/F0000CH1.CSV`` +

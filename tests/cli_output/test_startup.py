@@ -14,7 +14,7 @@ import textwrap
 
 import pytest
 
-HEAVY = ("numpy", "scipy", "control", "matplotlib", "pandas")
+HEAVY = ("numpy", "scipy", "control", "matplotlib", "pandas", "pyarrow")
 
 
 def _modules_after(args: list[str], env_extra: dict[str, str] | None = None) -> tuple[list[str], int]:

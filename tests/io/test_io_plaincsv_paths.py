@@ -1,14 +1,17 @@
-"""The plain-CSV reader's three paths give the same capture: pandas' C parser, np.loadtxt, row by row.
+"""The plain-CSV reader's paths give the same capture: pandas' C parser, np.loadtxt, row by row.
 
 The fast paths are taken on large files only; here they are forced on small odd files, and each
 result is compared with the careful reader's (every cell read with ``float``) and with an
-independent parse (``float`` on the split text, in the test).
+independent parse (``float`` on the split text, in the test).  pyarrow's CSV reader, the first
+fast parser when it is installed, is made unimportable here where pandas is meant
+(tests/io/test_io_plaincsv_pyarrow.py compares it).
 """
 
 from __future__ import annotations
 
 import sys
 
+import csvpaths
 import numpy as np
 import pytest
 
@@ -19,46 +22,14 @@ pandas = pytest.importorskip("pandas")
 needs_pandas3 = pytest.mark.skipif(int(pandas.__version__.split(".")[0]) < 3,
                                    reason="pandas < 3 is not used (its float parser may round differently)")
 
-RNG = np.random.default_rng(7)
-# 17 significant digits: a value whose last bit a less careful parser gets wrong
-T = np.arange(200) * 1e-3
-U = np.where(np.arange(200) >= 20, 5.92, 0.0)
-Y = RNG.normal(0.0, 1.0, 200) * 10.0 ** RNG.integers(-8, 8, 200)
-
-
-def _rows(delim: str = ",", end: str = "\n", trailing: str = "") -> list[str]:
-    return [f"{t!r}{delim}{u!r}{delim}{y!r}{trailing}{end}" for t, u, y in zip(T.tolist(), U.tolist(), Y.tolist(), strict=True)]
-
-
-ODD_FILES = {
-    "crlf": "time,input,velocity\r\n" + "".join(_rows(end="\r\n")),
-    "trailing_comma": "time,input,velocity,\n" + "".join(_rows(trailing=",")),
-    "semicolon": "time;input;velocity\n" + "".join(_rows(";")),
-    "tab": "time\tinput\tvelocity\n" + "".join(_rows("\t")),
-    "comments_and_blank_lines_first": "# DAQ log\n# rate 1 kHz\n\ntime,input,velocity\n" + "".join(_rows()),
-    "blank_lines_in_body": "time,input,velocity\n" + "".join(r + ("\n" if k % 50 == 7 else "")
-                                                         for k, r in enumerate(_rows())),
-    "text_column": "time,date,input,velocity\n" + "".join(
-        r.replace(",", ",2026-01-01,", 1) for r in _rows()),
-    "signs_and_exponents": "time,input,velocity\n" + "".join(
-        f"{t:.6e},+{u:.3f},{y:+.17g}\n" for t, u, y in zip(T, U, Y, strict=True)),
-}
-
-
-def _expected(text: str) -> dict[str, np.ndarray]:
-    """An independent parse: ``float`` on the cells of the lines that hold numbers."""
-    lines = [ln for ln in text.replace("\r", "").split("\n") if ln.strip() and not ln.startswith("#")]
-    delim = max((",", ";", "\t"), key=lines[0].count)
-    names = lines[0].split(delim)
-    cells = [ln.split(delim) for ln in lines[1:]]
-    return {n: np.array([float(c[j]) for c in cells]) for j, n in enumerate(names)
-            if n in ("time", "input", "velocity")}
+ODD_FILES, BAD, T, U, Y = csvpaths.ODD_FILES, csvpaths.BAD, csvpaths.T, csvpaths.U, csvpaths.Y
+_rows, _expected = csvpaths.rows, csvpaths.expected
 
 
 def _read(path, how: str, monkeypatch):
     file = str(path)
     if how == "pandas":
-        monkeypatch.setattr(_common, "PANDAS_MIN_BYTES", 1)
+        csvpaths.use_parser(monkeypatch, "pandas")
         real = _common._load_with_pandas
         taken = []
 
@@ -71,7 +42,7 @@ def _read(path, how: str, monkeypatch):
         assert taken == [True], "pandas did not read the file (np.loadtxt did)"
         return cap
     if how == "loadtxt":
-        monkeypatch.setitem(sys.modules, "pandas", None)  # import pandas → ImportError
+        csvpaths.use_parser(monkeypatch, "loadtxt")  # import pandas, pyarrow.csv → ImportError
         return plaincsv._read_fast(path, file, None, None, path.stat().st_size)
     return plaincsv._read_careful(path, file, None, None)
 
@@ -80,7 +51,7 @@ def _read(path, how: str, monkeypatch):
 @pytest.mark.parametrize("name", sorted(ODD_FILES))
 def test_pandas_loadtxt_and_careful_paths_give_the_same_bits(tmp_path, monkeypatch, name):
     path = tmp_path / f"{name}.csv"
-    path.write_bytes(ODD_FILES[name].encode())
+    path.write_bytes(ODD_FILES[name].encode("latin-1"))
     want = _expected(ODD_FILES[name])
     for how in ("pandas", "loadtxt", "careful"):
         with monkeypatch.context() as m:
@@ -94,7 +65,7 @@ def test_pandas_loadtxt_and_careful_paths_give_the_same_bits(tmp_path, monkeypat
 def test_pandas_path_is_taken_on_a_large_file(tmp_path, monkeypatch):
     path = tmp_path / "log.csv"
     path.write_text(ODD_FILES["crlf"])
-    monkeypatch.setattr(_common, "PANDAS_MIN_BYTES", 1)
+    csvpaths.use_parser(monkeypatch, "pandas")
     calls = []
     real = _common._load_with_pandas
 
@@ -112,18 +83,9 @@ def test_small_file_does_not_import_pandas(tmp_path, monkeypatch):
     path = tmp_path / "log.csv"
     path.write_text(ODD_FILES["tab"])
     monkeypatch.delitem(sys.modules, "pandas", raising=False)
+    monkeypatch.delitem(sys.modules, "pyarrow.csv", raising=False)
     cap = plaincsv.read_plain_csv(path)
-    assert "pandas" not in sys.modules and cap.n_samples == T.size
-
-
-BAD = {
-    # (text of the bad line, its 1-based line in the file, error type, words of the message)
-    "word": ("0.1,5.92,abc", CaptureFormatError, "cannot read 'abc' as a number"),
-    "short_row": ("0.1,5.92", CaptureFormatError, "2 fields but the header has 3"),
-    "long_row": ("0.1,5.92,1.0,7", CaptureFormatError, "4 fields but the header has 3"),
-    "empty_cell": ("0.1,,1.0", CaptureFormatError, "empty cell"),
-    "nan": ("0.1,5.92,nan", CaptureDataError, "not a finite number"),
-}
+    assert "pandas" not in sys.modules and "pyarrow.csv" not in sys.modules and cap.n_samples == T.size
 
 
 @pytest.mark.parametrize("careful_max", [None, 1], ids=["small file", "large file (streamed scan)"])
@@ -137,14 +99,15 @@ def test_a_bad_row_names_the_file_and_its_line_on_every_path(tmp_path, monkeypat
     line = 102  # header, then rows[0] on line 2
     if careful_max is not None:
         monkeypatch.setattr(_common, "CAREFUL_MAX_BYTES", careful_max)
-    for pandas_min in (1, 1 << 62):
-        monkeypatch.setattr(_common, "PANDAS_MIN_BYTES", pandas_min)
-        with pytest.raises(exc) as info:
-            plaincsv.read_plain_csv(path)
+    for parser in csvpaths.installed_parsers():
+        with monkeypatch.context() as m:
+            csvpaths.use_parser(m, parser)
+            with pytest.raises(exc) as info:
+                plaincsv.read_plain_csv(path)
         message = str(info.value)
-        assert str(path) in message and f":{line}:" in message, message
+        assert str(path) in message and f":{line}:" in message, (parser, message)
         if name != "nan" or careful_max is None:
-            assert words in message, message
+            assert words in message, (parser, message)
 
 
 def test_a_header_written_twice_is_refused_in_one_line_on_every_path(tmp_path, monkeypatch):
@@ -152,11 +115,12 @@ def test_a_header_written_twice_is_refused_in_one_line_on_every_path(tmp_path, m
     would have read the numbers (it was an IndexError once pandas had been imported)."""
     path = tmp_path / "log.csv"
     path.write_text("time,input,velocity\ntime,input,velocity\n" + "".join(_rows()))
-    for pandas_min in (1, 1 << 62):
-        monkeypatch.setattr(_common, "PANDAS_MIN_BYTES", pandas_min)
-        with pytest.raises(CaptureFormatError) as info:
-            plaincsv.read_plain_csv(path)
-        assert str(path) in str(info.value)
+    for parser in csvpaths.installed_parsers():
+        with monkeypatch.context() as m:
+            csvpaths.use_parser(m, parser)
+            with pytest.raises(CaptureFormatError) as info:
+                plaincsv.read_plain_csv(path)
+        assert str(path) in str(info.value), parser
 
 
 # ---- pandas block by block: columns allocated once, every block copied in, errors still name their line
@@ -170,7 +134,7 @@ def test_pandas_block_by_block_gives_the_bits_of_the_independent_parse(tmp_path,
     inside lines, the last short) and one block; with the row estimate too small, the columns grow as
     the blocks come (then are cut to the rows read)."""
     path = tmp_path / "log.csv"
-    path.write_bytes(ODD_FILES[name].encode())
+    path.write_bytes(ODD_FILES[name].encode("latin-1"))
     monkeypatch.setattr(_common, "PANDAS_BLOCK_BYTES", block)
     if estimate is not None:
         monkeypatch.setattr(_common, "_expected_rows", lambda _path, _size: estimate)
@@ -204,7 +168,7 @@ def test_a_bad_row_in_a_later_block_names_its_line(tmp_path, monkeypatch, name):
     rows[30] = rows[30] + "\n"  # a blank line in the first block: lines and samples differ by two
     path = tmp_path / "log.csv"
     path.write_text("time,input,velocity\n" + "".join(rows))
-    monkeypatch.setattr(_common, "PANDAS_MIN_BYTES", 1)
+    csvpaths.use_parser(monkeypatch, "pandas")
     monkeypatch.setattr(_common, "PANDAS_BLOCK_BYTES", 1000)
     assert _common._load_with_pandas(pandas.read_csv, path, 1, ",", None, 1) is None  # left to loadtxt
     for careful_max in (1 << 62, 1):
@@ -224,7 +188,7 @@ def test_time_going_back_in_a_later_block_names_its_line(tmp_path, monkeypatch):
     rows[150] = rows[149]  # a duplicated sample: line 152
     path = tmp_path / "log.csv"
     path.write_text("time,input,velocity\n" + "".join(rows))
-    monkeypatch.setattr(_common, "PANDAS_MIN_BYTES", 1)
+    csvpaths.use_parser(monkeypatch, "pandas")
     monkeypatch.setattr(_common, "PANDAS_BLOCK_BYTES", 1000)
     with pytest.raises(CaptureDataError, match="duplicated") as info:
         plaincsv.read_plain_csv(path)

@@ -12,6 +12,7 @@ import os
 import stat
 import sys
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TypeVar
 
@@ -29,9 +30,11 @@ __all__ = [
     "SAMPLE_INTERVAL_RANGE_S",
     "TEXT_SNIFF_BYTES",
     "PathLike",
+    "TimeSteps",
     "binary_kind",
     "check_capture_file",
     "check_samples",
+    "check_time_steps",
     "check_writable",
     "column_to_floats",
     "parse_number",
@@ -383,6 +386,23 @@ def _first_out_of_range(col: np.ndarray) -> np.ndarray:
     return np.empty(0, dtype=np.intp)
 
 
+@dataclass(frozen=True, slots=True)
+class TimeSteps:
+    """Order statistics of a time column's steps ``np.diff(time_s)``, as :func:`check_time_steps` found them.
+
+    Attributes
+    ----------
+    median_s : float
+        ``np.median`` of the steps (s), the same bits.
+    smallest_s, largest_s : float
+        The smallest and largest step (s).
+    """
+
+    median_s: float
+    smallest_s: float
+    largest_s: float
+
+
 def check_samples(
     time_s: np.ndarray,
     channels: Mapping[str, np.ndarray],
@@ -394,6 +414,35 @@ def check_samples(
     time_name: str = "time",
     jitter_ok: bool = False,
 ) -> float:
+    """Check a record's samples; raise naming the file line of the first bad one.
+
+    :func:`check_time_steps`, returning the median step only.
+
+    Returns
+    -------
+    float
+        The median time step (s), for :func:`uniform_grid`.
+
+    Raises
+    ------
+    CaptureDataError
+        The first problem found, as ``file:line: what``.
+    """
+    return check_time_steps(time_s, channels, file=file, line_of=line_of, rel_jitter=rel_jitter,
+                            min_samples=min_samples, time_name=time_name, jitter_ok=jitter_ok).median_s
+
+
+def check_time_steps(
+    time_s: np.ndarray,
+    channels: Mapping[str, np.ndarray],
+    *,
+    file: str,
+    line_of: Callable[[int], int | None],
+    rel_jitter: float = 0.01,
+    min_samples: int = MIN_SAMPLES,
+    time_name: str = "time",
+    jitter_ok: bool = False,
+) -> TimeSteps:
     """Check a record's samples; raise naming the file line of the first bad one.
 
     The checks of :func:`motorid.capture.validate_samples` (finite values, strictly
@@ -423,8 +472,8 @@ def check_samples(
 
     Returns
     -------
-    float
-        The median time step (s), for :func:`uniform_grid`.
+    TimeSteps
+        The median, smallest and largest time step (s), for :func:`uniform_grid`.
 
     Raises
     ------
@@ -446,18 +495,17 @@ def check_samples(
             raise CaptureDataError(f"{name} value {plain_number(x)} {why}", file=file, row=line_of(i))
     if n < min_samples:
         raise CaptureDataError(f"only {n} sample(s): a capture needs at least {min_samples}", file=file)
-    # one array of the steps, reordered by the median and the 99th percentile (order statistics:
-    # the same values in any order); its smallest and largest step decide the tests that need the
-    # steps in order, which take them again in blocks of the time column only to find the first bad
-    # one (a record that passes, the usual case, is not scanned again)
-    steps = np.diff(t)
-    smallest, largest = (float(steps.min()), float(steps.max())) if steps.size else (1.0, 1.0)
+    # the steps' smallest and largest (and their median, an order statistic) decide the tests that
+    # need the steps in order, which take them again in blocks of the time column only to find the
+    # first bad one (a record that passes, the usual case, is not scanned again)
+    count = _StepCount.of(t)
+    smallest, largest = count.smallest, count.largest
     back = _first_step(t, lambda d: d <= 0) if smallest <= 0 else None
     if back is not None:
         what = "duplicated" if t[back] == t[back - 1] else "goes backwards"
         raise CaptureDataError(f"{time_name} {what} ({plain_number(t[back - 1])} then {plain_number(t[back])}): "
                                "time must increase", file=file, row=line_of(back))
-    med = float(np.median(steps, overwrite_input=True))
+    med = count.median(t)
     lo, hi = SAMPLE_INTERVAL_RANGE_S
     if not lo <= med <= hi:
         raise CaptureDataError(
@@ -466,11 +514,9 @@ def check_samples(
     # (rounding is monotonic: no step is beyond a bound that the largest and the smallest are within)
     if jitter_ok:
         # a gap is beyond GAP_MEDIANS medians in any case: below that, no percentile is needed
-        limit = _gap_limit(steps, med) if largest > GAP_MEDIANS * med else largest
-        del steps
+        limit = _gap_limit(np.diff(t), med) if largest > GAP_MEDIANS * med else largest
         gap = _first_step(t, lambda d: d > limit) if largest > limit else None
     else:
-        del steps
         # (increasing times: the largest magnitude is at an end)
         tol = rel_jitter * med + 1e-12 * max(1.0, abs(float(t[0])), abs(float(t[-1])))
         within = abs(largest - med) <= tol and abs(smallest - med) <= tol
@@ -479,7 +525,82 @@ def check_samples(
         raise CaptureDataError(
             f"time step {plain_number(t[gap] - t[gap - 1])} s differs from the sample interval {plain_number(med)} s "
             "(gap or corrupt record)", file=file, row=line_of(gap))
-    return med
+    return TimeSteps(med, smallest, largest)
+
+
+#: Steps taken at a time by the median's counting passes: a block's steps stay in the cache.
+_STEP_BLOCK = 1 << 16
+#: Steps sampled (evenly over the record) to bracket the median before counting.
+_STEP_SAMPLE = 1 << 16
+#: Fraction of the steps each side of the middle the sampled bracket spans (about five standard
+#: deviations of a sampled median's rank).
+_BRACKET = 0.01
+
+
+@dataclass(frozen=True, slots=True)
+class _StepCount:
+    """One counting pass over a time column's steps, in blocks: extremes and a bracket of the median.
+
+    ``below`` steps are under ``low`` and ``not_above`` are at most ``high`` (``low`` and ``high`` from
+    an even sample of the steps): when the middle ranks lie between, the median is among the few
+    steps in ``[low, high]`` (a single value when ``low == high``, the usual case of a logger's
+    nearly constant steps), found without an array of the record's length.
+    """
+
+    size: int
+    smallest: float
+    largest: float
+    low: float
+    high: float
+    below: int
+    not_above: int
+
+    @classmethod
+    def of(cls, t: np.ndarray) -> _StepCount:
+        """Count the steps of ``t`` (finite, at least two samples)."""
+        m = t.size - 1
+        if m <= 2 * _STEP_BLOCK:
+            # a short record: its steps are about one block, their median numpy's (below)
+            steps = np.diff(t)
+            ends = (float(steps.min()), float(steps.max())) if steps.size else (1.0, 1.0)
+            return cls(m, *ends, 0.0, -1.0, 0, 0)
+        stride = max(1, m // _STEP_SAMPLE)
+        sample = np.sort(t[1::stride][: m // stride] - t[:-1:stride][: m // stride])
+        k = sample.size // 2
+        margin = int(_BRACKET * sample.size) + 1
+        low, high = float(sample[max(0, k - margin)]), float(sample[min(sample.size - 1, k + margin)])
+        buf = np.empty(_STEP_BLOCK)
+        smallest, largest, below, not_above = math.inf, -math.inf, 0, 0
+        for start in range(0, m, _STEP_BLOCK):
+            stop = min(m, start + _STEP_BLOCK)
+            d = np.subtract(t[start + 1 : stop + 1], t[start:stop], out=buf[: stop - start])  # np.diff's steps
+            smallest, largest = min(smallest, float(d.min())), max(largest, float(d.max()))
+            below += int(np.count_nonzero(d < low))
+            not_above += int(np.count_nonzero(d <= high))
+        return cls(m, smallest, largest, low, high, below, not_above)
+
+    def median(self, t: np.ndarray) -> float:
+        """``np.median(np.diff(t))``, bit for bit: the middle step(s) by rank, averaged as numpy does."""
+        m = self.size
+        ranks = sorted({(m - 1) // 2, m // 2})
+        inside = self.not_above - self.below
+        if not (self.below <= ranks[0] and ranks[-1] < self.not_above) or (self.low < self.high and inside > m // 8):
+            # not bracketed, or a bracket holding many steps of more than one value: numpy's median
+            return float(np.median(np.diff(t), overwrite_input=True))
+        if self.low == self.high:
+            middle = np.full(len(ranks), self.low)
+        else:
+            # the steps in the bracket, and the middle ranks among them
+            kept = []
+            for start in range(0, m, _STEP_BLOCK):
+                d = np.diff(t[start : min(m, start + _STEP_BLOCK) + 1])
+                kept.append(d[(d >= self.low) & (d <= self.high)])
+            near = np.concatenate(kept)
+            offsets = [r - self.below for r in ranks]
+            near.partition(offsets)
+            middle = near[offsets]
+        # numpy's median is the mean of the middle element(s) (one for an odd count of steps)
+        return float(np.mean(middle))
 
 
 def _first_step(t: np.ndarray, bad: Callable[[np.ndarray], np.ndarray]) -> int | None:
@@ -538,6 +659,7 @@ UNIFORM_REL = 0.01
 
 def uniform_grid(time_s: np.ndarray, output: np.ndarray, inp: np.ndarray | None,
                  extra: Mapping[str, np.ndarray], *, file: str, median: float | None = None,
+                 steps: TimeSteps | None = None,
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, dict[str, np.ndarray], str, float]:
     """A log with jittered stamps on a uniform grid, the note that says so ('' when uniform), their resolution.
 
@@ -562,6 +684,9 @@ def uniform_grid(time_s: np.ndarray, output: np.ndarray, inp: np.ndarray | None,
     median : float, optional
         ``np.median(np.diff(time_s))`` when the caller has it (:func:`check_samples` returns it):
         then the steps are tested in blocks, with no array of the log's length.
+    steps : TimeSteps, optional
+        What :func:`check_time_steps` found: its median, and its smallest and largest steps,
+        which decide uniform stamps without taking the steps again.
 
     Returns
     -------
@@ -573,10 +698,15 @@ def uniform_grid(time_s: np.ndarray, output: np.ndarray, inp: np.ndarray | None,
     t = np.asarray(time_s, dtype=float)
     if t.size < 3:
         return time_s, output, inp, dict(extra), "", 0.0
+    if steps is not None:
+        median = steps.median_s
     if median is None:
         median = float(np.median(np.diff(t), overwrite_input=True))
     med = median
     tol = UNIFORM_REL * med + 1e-12 * max(1.0, abs(float(t[0])), abs(float(t[-1])))
+    # (rounding is monotonic: every step is within a bound that the smallest and the largest are within)
+    if steps is not None and abs(steps.largest_s - med) <= tol and abs(steps.smallest_s - med) <= tol:
+        return time_s, output, inp, dict(extra), "", 0.0
     if _first_step(t, lambda d: ~(np.abs(d - med) <= tol)) is None:
         return time_s, output, inp, dict(extra), "", 0.0
     dt = np.diff(t)
@@ -965,6 +1095,105 @@ def _load_with_pandas(read_csv, path: PathLike, skiprows: int, delimiter: str,
     return columns
 
 
+#: From this file size on, pyarrow's CSV reader reads the numbers when pyarrow is installed (before
+#: pandas): its parse takes about a fifth less CPU than pandas' on a DAQ log and its import a quarter
+#: of pandas' (about 0.1 against 0.4 s).  Smaller files use it when it is imported already.
+PYARROW_MIN_BYTES = 16 * 1024 * 1024
+#: Bytes of the file pyarrow parses at a time (a line must fit in one: a longer line leaves the file
+#: to pandas): each block's columns are copied into the columns allocated once while they are still
+#: in the cache, and the C library's allocator reuses the same memory for every block.  Larger blocks
+#: (1 MiB) took more fresh pages from the kernel, about three times the page faults and more CPU.
+PYARROW_BLOCK_BYTES = 128 << 10
+
+
+def _pyarrow_csv(size: int):
+    """``pyarrow.csv`` when pyarrow 16 or later is installed and worth importing, else ``None``.
+
+    Its float conversion is correctly rounded (as ``np.loadtxt``'s and pandas 3's), and with
+    quoting off and no null values it accepts the cells and rows ``np.loadtxt`` accepts
+    (tests/io/test_io_plaincsv_paths.py).  It is imported here, lazily: never when the command
+    line starts.
+    """
+    if size <= 0 or (size < PYARROW_MIN_BYTES and "pyarrow.csv" not in sys.modules):
+        return None
+    try:
+        import pyarrow.csv
+    except ImportError:
+        return None
+    # (fast_float since Arrow 3; 16 is the first with numpy 2, the oldest the test extra allows)
+    return pyarrow.csv if int(pyarrow.__version__.split(".")[0]) >= 16 else None
+
+
+def _load_with_pyarrow(pa_csv, path: PathLike, skiprows: int, delimiter: str,
+                       usecols: Sequence[int] | None, size: int = 0) -> list[np.ndarray] | None:
+    """The numeric columns by pyarrow's CSV reader, or ``None`` when the next parser must decide.
+
+    The file is streamed (``open_csv``, one thread) in blocks of :data:`PYARROW_BLOCK_BYTES`, each
+    block's columns copied into one array per column allocated once.  Every cell of the columns
+    read is converted to float64 (no type guessing, no null values, no quoting: ``""`` and
+    ``"1.0"`` in quotes are failures, as for ``np.loadtxt``); a row with another number of fields,
+    a cell that is not a number, any failure leaves the file to the next parser, so that where an
+    error points does not depend on pyarrow.  NaN and infinities are read as ``np.loadtxt`` reads
+    them (the checks after reading name them).
+    """
+    import pyarrow
+
+    columns: list[np.ndarray] = []
+    n = 0
+    try:
+        with _open(path) as fh:
+            for _ in range(skiprows):
+                if not fh.readline(1 << 16).endswith(b"\n"):
+                    return None  # no line feed in 64 KiB (lone CR line ends): not read whole here
+            # the first line with a field in the next 64 KiB (any line end): how many fields the rows have
+            start = fh.tell()
+            head = fh.read(1 << 16)
+            fh.seek(start)
+            first = next((line for line in head.replace(b"\r", b"\n").split(b"\n") if line), b"")
+            if not first:
+                return None
+            width = first.count(delimiter.encode()) + 1  # (no quoting)
+            names = [f"f{j}" for j in range(width)]
+            wanted = [names[j] for j in (range(width) if usecols is None else usecols) if 0 <= j < width]
+            if usecols is not None and len(wanted) != len(usecols):
+                return None
+            reader = pa_csv.open_csv(
+                fh,
+                read_options=pa_csv.ReadOptions(use_threads=False, block_size=PYARROW_BLOCK_BYTES, column_names=names),
+                parse_options=pa_csv.ParseOptions(delimiter=delimiter, quote_char=False, escape_char=False,
+                                                  newlines_in_values=False, ignore_empty_lines=True),
+                convert_options=pa_csv.ConvertOptions(
+                    column_types=dict.fromkeys(wanted, pyarrow.float64()), include_columns=wanted, null_values=[],
+                    strings_can_be_null=False, quoted_strings_can_be_null=False),
+                # the C library's allocator, not pyarrow's own (mimalloc): it reserves hundreds of MB
+                # of address space that it keeps, and a later array fails under a limit on it
+                memory_pool=pyarrow.system_memory_pool())
+            for batch in reader:
+                m = batch.num_rows
+                if not columns:
+                    columns = [np.empty(max(_expected_rows(path, size), m)) for _ in wanted]
+                if n + m > columns[0].size:  # the first lines were longer than the rest
+                    rows = max(n + m, int(columns[0].size * 1.5))
+                    columns = [_grown(c, n, rows) for c in columns]
+                for k, col in enumerate(columns):
+                    values = batch.column(k)
+                    if values.null_count:
+                        return None
+                    # the data buffer as it is (``to_numpy`` would import pandas, 0.3 s of CPU)
+                    col[n : n + m] = np.frombuffer(values.buffers()[1], dtype=np.float64, count=m,
+                                                   offset=8 * values.offset)
+                n += m
+    except (ValueError, pyarrow.ArrowException):  # ArrowInvalid: a bad cell or row
+        return None
+    except OSError as exc:
+        raise _os_error(exc, str(path)) from None
+    if not columns or n == 0:
+        return None
+    for col in columns:
+        col.resize(n, refcheck=False)  # in place (realloc): the pages beyond n were never written
+    return columns
+
+
 def _grown(col: np.ndarray, n: int, rows: int) -> np.ndarray:
     """``col``'s first ``n`` values in a new array of ``rows``."""
     out = np.empty(rows)
@@ -998,12 +1227,12 @@ def load_column_arrays(
 ) -> list[np.ndarray]:
     """Numeric columns of a text table with a C parser, streamed, one array per column.
 
-    ``np.loadtxt``, or pandas' C parser on a large file (:data:`PANDAS_MIN_BYTES`) when pandas 3
-    is installed, with the same values.  Both read the text in blocks, never the whole file at
-    once: ``np.loadtxt`` holds the result (8 bytes a value), pandas its parsed blocks and their
-    concatenation (twice that, while it parses).  Empty lines are skipped; anything else that is
-    not a number raises :class:`ValueError` (the caller then finds the exact line with a careful,
-    row-by-row reading).
+    ``np.loadtxt``, or on a large file pyarrow's CSV reader (:data:`PYARROW_MIN_BYTES`) when pyarrow
+    is installed, else pandas' C parser (:data:`PANDAS_MIN_BYTES`) when pandas 3 is, with the same
+    values; what one refuses goes to the next.  Each reads the text in blocks, never the whole file
+    at once, into columns allocated once (8 bytes a value).  Empty lines are skipped; anything else
+    that is not a number raises :class:`ValueError` (the caller then finds the exact line with a
+    careful, row-by-row reading).
 
     Returns
     -------
@@ -1011,6 +1240,11 @@ def load_column_arrays(
         One array per column read (``usecols``, or all), each contiguous or a column of one
         ``np.loadtxt`` table.
     """
+    pa_csv = _pyarrow_csv(size) if delimiter in (",", ";", "\t") else None
+    if pa_csv is not None:
+        cols = _load_with_pyarrow(pa_csv, path, skiprows, delimiter or ",", usecols, size)
+        if cols is not None:
+            return cols
     read_csv = _pandas_reader(size) if delimiter in (",", ";", "\t") else None
     if read_csv is not None:
         cols = _load_with_pandas(read_csv, path, skiprows, delimiter or ",", usecols, size)

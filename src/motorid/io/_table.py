@@ -15,7 +15,7 @@ import numpy as np
 
 from motorid.capture import ROLES, Capture, ChannelInfo
 from motorid.errors import CaptureFormatError, OptionError
-from motorid.io._common import column_to_floats, parse_number, uniform_grid, validate_rows
+from motorid.io._common import check_time_steps, column_to_floats, parse_number, uniform_grid
 from motorid.io._counts import count_lattice
 
 __all__ = ["COLUMN_KEYS", "TIME_UNITS", "capture_from_table", "check_role", "classify_name", "parse_column_map",
@@ -469,13 +469,14 @@ def capture_from_table(
         while key in extra:
             key += "_"
         extra[key] = values(j)
-    median_step = validate_rows(time_s, {f"{where} {k!r}": v for k, v in checked.items()}, file=file, rows=rows,
-                                time_name=f"{where} {names[asg.time]!r}", jitter_ok=True)
+    steps = check_time_steps(time_s, {f"{where} {k!r}": v for k, v in checked.items()}, file=file,
+                             line_of=lambda i: int(rows[i]) if 0 <= i < len(rows) else None,
+                             time_name=f"{where} {names[asg.time]!r}", jitter_ok=True)
     notes = list(warnings) + clock_notes + ([time_note] if time_note else [])
     # on the stamps and values as logged: resampling would blur the counts
     counts = count_lattice(time_s, output)
     time_s, output, inp, extra, grid_note, resolution = uniform_grid(time_s, output, inp, extra, file=file,
-                                                                     median=median_step)
+                                                                     steps=steps)
     if grid_note:
         notes.append(grid_note)
     role_keys = set(asg.role_columns)
