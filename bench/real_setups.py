@@ -21,7 +21,8 @@ Usage::
     python bench/real_setups.py [--seeds 5] [--src DIR] [--setups a,b] [--no-real] [--counted]
 
 ``--counted`` also runs each rig whose speed column counts encoder edges over each interval
-(:data:`~motorid.trainer.hobbyrigs.COUNTED_SPEED_RIGS`) with ``--counted-velocity``, the rows
+(:data:`~motorid.trainer.hobbyrigs.COUNTED_SPEED_RIGS`, and ``pwm-encoder``, whose speed is counted over
+five lines and logged on each) with ``--counted-velocity``, the rows
 named ``RIG +counted``. A model that fitted its velocity as counted (``timing.velocity.window_s``:
 said so, or read off a log whose speed times its own stamped intervals is whole counts) is the
 motor's, so its residence time is compared with the truth's less the counting's lag
@@ -50,6 +51,9 @@ ROOT = HERE.parent
 sys.path.insert(0, str(ROOT / "src"))
 
 from motorid.trainer.hobbyrigs import COUNTED_SPEED_RIGS  # noqa: E402
+
+#: Rigs whose speed column is counted: over each line, or over five and kept for five (pwm-encoder).
+COUNTED = (*COUNTED_SPEED_RIGS, "pwm-encoder")
 from motorid.trainer.realsetups import REAL_SETUPS, write_real_setup  # noqa: E402
 
 REAL = ROOT.parent / "shared" / "real" / "hslu-rtl-dcmotor" / "csv"
@@ -148,7 +152,7 @@ def main(argv: list[str] | None = None) -> int:
                 rec = write_real_setup(name, work / f"{name}-{seed}", seed=seed)
                 cases.append((name, str(seed), list(rec.cli_args), rec.truth.dc_gain, rec.truth.residence_time_s,
                               rec.truth.sensor_lag_s))
-                if opts.counted and name in COUNTED_SPEED_RIGS:
+                if opts.counted and name in COUNTED:
                     cases.append((f"{name} +counted", str(seed), [*rec.cli_args, "--counted-velocity"],
                                   rec.truth.dc_gain, rec.truth.residence_time_s, rec.truth.sensor_lag_s))
         if not opts.no_real and REAL.is_dir():
