@@ -26,7 +26,7 @@ import numpy as np
 from motorid._threads import single_blas_thread
 from motorid.capture import Capture
 from motorid.conditioning.edge import step_edge
-from motorid.conditioning.response import is_log, step_response
+from motorid.conditioning.response import is_log, refresh_time, step_response
 from motorid.conditioning.unwrap import unwrap_position
 from motorid.errors import CaptureDataError, OptionError, StepNotFoundError
 from motorid.identification.metrics import fit_percent, nrmse
@@ -336,7 +336,8 @@ def _recorded_drive(capture: Capture, channel: str, step_volts: float | None, t0
 
 
 def _responses(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, h: float, u: np.ndarray,
-               delay: float, n_free: int, *, held: bool, window: bool) -> tuple[np.ndarray, np.ndarray]:
+               delay: float, n_free: int, *, held: bool, window: bool,
+               ends: tuple[np.ndarray, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The model's forced response to ``u`` on a grid ``h`` apart and its free responses to unit states.
 
     ``held``: each input sample holds from its stamp to the next (a logged command: the step at
@@ -349,6 +350,10 @@ def _responses(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, h: fl
     each interval), from the realisation with an integrator of the output appended,
     ``İ = C x + D u``: ``(I[k] − I[k−1])/h``; the free responses likewise (the integrator's own
     start cancels).  The first sample, which has no interval before it, is the model's sample.
+    ``ends = (index, lines)``: a count over ``lines`` intervals kept until the next, each sample's
+    mean over the window that ends at the line ``index`` that logged it,
+    ``(I[index] − I[index − lines])/(lines·h)`` (the model's sample where that window starts
+    before the record).
     """
     n = a.shape[0]
     rows = [(a, b, c, d)]
@@ -371,6 +376,18 @@ def _responses(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, h: fl
     if not window:
         return out[0]
     (sampled, free_sampled), (integral, free_integral) = out
+    if ends is not None:
+        index, lines = ends
+        full = index >= lines  # the lines before the first one that logged a count have no window here
+        index = np.maximum(index, 0)
+        lo = np.where(full, index - lines, 0)
+
+        def held_means(x: np.ndarray, at: np.ndarray) -> np.ndarray:
+            mask = full if x.ndim == 1 else full[:, None]
+            return np.where(mask, (x[index] - x[lo]) / (lines * h), at[index])
+
+        return (held_means(integral, sampled),
+                held_means(free_integral, free_sampled) if n_free else free_sampled)
     means = np.r_[sampled[:1], np.diff(integral) / h]
     return means, (np.vstack([free_sampled[:1], np.diff(free_integral, axis=0) / h]) if n_free else free_sampled)
 
@@ -469,9 +486,17 @@ def validate_capture(
     n = a.shape[0]
     h = float(grid[1] - grid[0])
     window = capture.sample_window_s if channel == "velocity" else 0.0
-    counted = window > 0 and even and abs(window - h) <= 1e-6 * h
+    lines = max(1, capture.count_hold)
+    refresh = refresh_time(t, y, lines) if window > 0 and even and lines > 1 else math.nan
+    counted = window > 0 and even and abs(window - lines * h) <= 1e-6 * h and (lines == 1 or math.isfinite(refresh))
+    ends = None
+    if counted and lines > 1:
+        # a count kept over several lines: its window ends at the line that logged it
+        first = round((refresh - float(t[0])) / h)
+        k = np.arange(t.size)
+        ends = (k - (k - first) % lines, lines)
     forced_grid, free = _responses(a, b, c, d, h, u_grid, delay, n if estimate_initial_state else 0, held=held,
-                                   window=counted)
+                                   window=counted, ends=ends)
     if delay > 0:
         notes.append(f"input delayed by the model's dead time {delay:.4g} s")
     if held:
@@ -480,8 +505,9 @@ def validate_capture(
     if counted:
         why = (" (its values times their stamped intervals are whole counts: read as counted)"
                if capture.count_over_stamps else "")
-        notes.append(f"the velocity is counted over each {1e3 * window:.4g} ms interval{why}: the model's mean over "
-                     "each interval is scored")
+        kept = f", each count kept for {lines} lines (its window ends at the line that logged it)" if lines > 1 else ""
+        notes.append(f"the velocity is counted over each {1e3 * window:.4g} ms interval{why}{kept}: the model's mean "
+                     "over each interval is scored")
     elif window > 0:
         warnings.append(f"the velocity is counted over {1e3 * window:.4g} ms, not over this record's "
                         f"{1e3 * h:.4g} ms grid: the model's samples are scored, which lead such means by "
