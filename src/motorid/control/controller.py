@@ -34,7 +34,7 @@ if TYPE_CHECKING:
     from motorid.control.design import Design
     from motorid.model import MotorModel
 
-__all__ = ["COMMAND", "REFERENCE", "controller_system", "signal_unit"]
+__all__ = ["COMMAND", "REFERENCE", "controller_system", "loop_parts", "signal_unit"]
 
 #: The controller's output: the motor's command (amplifier input).
 COMMAND = "u"
@@ -73,6 +73,35 @@ def signal_unit(name: str, units: Mapping[str, str] | None = None, *, output: st
     return ""
 
 
+def loop_parts(model: MotorModel, design: Design) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                                             float | None, float]:
+    """What a design's controller is built from: the motor in its coordinates and the gains.
+
+    Parameters
+    ----------
+    model : MotorModel
+        The model the design was made for (re-expressed with
+        :func:`~motorid.control.design.design_model`).
+    design : Design
+
+    Returns
+    -------
+    (ndarray, ndarray, ndarray, ndarray, float or None, float)
+        ``A``, ``B`` (column), the measured channel's row ``C``, the gain row ``K``, ``ki`` and
+        ``kr`` (0 with integral action, which has none).
+    """
+    from motorid.control.design import design_model, output_row
+
+    work = design_model(model, design)
+    a = np.asarray(work.A, dtype=float)
+    b = np.asarray(work.B, dtype=float).reshape(-1, 1)
+    c = np.asarray(output_row(work, design.output)[1], dtype=float).reshape(1, -1)
+    k = np.asarray(design.K, dtype=float).reshape(1, a.shape[0])
+    ki = design.ki
+    kr = float(design.kr) if ki is None and design.kr is not None else 0.0
+    return a, b, c, k, ki, kr
+
+
 def controller_system(model: MotorModel, design: Design) -> control.StateSpace:
     """The controller of ``design`` as a continuous-time system with named signals.
 
@@ -104,17 +133,9 @@ def controller_system(model: MotorModel, design: Design) -> control.StateSpace:
     """
     import control
 
-    from motorid.control.design import design_model, output_row
-
-    work = design_model(model, design)
-    a = np.asarray(work.A, dtype=float)
-    b = np.asarray(work.B, dtype=float).reshape(-1, 1)
-    c = np.asarray(output_row(work, design.output)[1], dtype=float).reshape(1, -1)
+    a, b, c, k, ki, kr = loop_parts(model, design)
     n = a.shape[0]
-    k = np.asarray(design.K, dtype=float).reshape(1, n)
-    ki = design.ki
     observer = design.L is not None
-    kr = float(design.kr) if ki is None and design.kr is not None else 0.0
     if design.reduced is not None:
         from motorid.control.reduced_observer import command_rows
 

@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from motorid.control.controller import COMMAND, REFERENCE
+from motorid.control.controller import COMMAND, REFERENCE, loop_parts
 from motorid.control.feedback import place_gains
 from motorid.control.reduced_observer import ReducedObserver, command_rows, placed_observer
 from motorid.model.lti import zoh
@@ -154,16 +154,8 @@ def sampled_controller(model: MotorModel, design: Design, ts: float) -> control.
     """
     import control
 
-    from motorid.control.design import design_model, output_row
-
-    work = design_model(model, design)
-    a = np.asarray(work.A, dtype=float)
-    b = np.asarray(work.B, dtype=float).reshape(-1, 1)
-    c = np.asarray(output_row(work, design.output)[1], dtype=float).reshape(1, -1)
+    a, b, c, k, ki, kr = loop_parts(model, design)
     n = a.shape[0]
-    k = np.asarray(design.K, dtype=float).reshape(1, n)
-    ki = design.ki
-    kr = float(design.kr) if ki is None and design.kr is not None else 0.0
     states_ = tuple(design.states)
     if design.reduced is not None:
         red = sampled_reduced_observer(a, b, design.reduced, states_, ts)
