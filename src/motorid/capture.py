@@ -273,7 +273,7 @@ class Capture:
         """
         if self.sample_window_s:
             return self
-        return dataclasses.replace(self, sample_window_s=self.sample_interval_s * max(1, self.count_hold))
+        return dataclasses.replace(self, sample_window_s=self.sample_interval_s * self.count_hold)
 
 
 def validate_samples(

@@ -110,7 +110,8 @@ COLUMNS = OptionSpec("columns", "--columns", None, "",
 #: A velocity that counts encoder edges over each sample interval: read, identify and validate take it.
 COUNTED_VELOCITY = OptionSpec("counted_velocity", "--counted-velocity", False, "",
                               "the velocity counts encoder edges over each sample interval (a mean speed, as Arduino "
-                              "sketches print rpm): the model's means over each interval are fitted and scored, so "
+                              "sketches print rpm), or over several and kept until the next count: the model's means "
+                              "over each count's interval are fitted and scored, so "
                               "its timing is the motor's (a log whose speed times its own stamped intervals is whole "
                               "counts is read so without it)")
 

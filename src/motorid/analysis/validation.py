@@ -26,7 +26,7 @@ import numpy as np
 from motorid._threads import single_blas_thread
 from motorid.capture import Capture
 from motorid.conditioning.edge import step_edge
-from motorid.conditioning.response import is_log, refresh_time, step_response
+from motorid.conditioning.response import count_window_ends, is_log, refresh_time, step_response
 from motorid.conditioning.unwrap import unwrap_position
 from motorid.errors import CaptureDataError, OptionError, StepNotFoundError
 from motorid.identification.metrics import fit_percent, nrmse
@@ -486,15 +486,13 @@ def validate_capture(
     n = a.shape[0]
     h = float(grid[1] - grid[0])
     window = capture.sample_window_s if channel == "velocity" else 0.0
-    lines = max(1, capture.count_hold)
+    lines = capture.count_hold
     refresh = refresh_time(t, y, lines) if window > 0 and even and lines > 1 else math.nan
     counted = window > 0 and even and abs(window - lines * h) <= 1e-6 * h and (lines == 1 or math.isfinite(refresh))
     ends = None
     if counted and lines > 1:
         # a count kept over several lines: its window ends at the line that logged it
-        first = round((refresh - float(t[0])) / h)
-        k = np.arange(t.size)
-        ends = (k - (k - first) % lines, lines)
+        ends = (np.rint((count_window_ends(t, refresh, window) - float(t[0])) / h).astype(np.intp), lines)
     forced_grid, free = _responses(a, b, c, d, h, u_grid, delay, n if estimate_initial_state else 0, held=held,
                                    window=counted, ends=ends)
     if delay > 0:

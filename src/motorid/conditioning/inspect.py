@@ -119,7 +119,7 @@ class CaptureSummary:
         held = f", each kept for {self.count_hold} lines" if self.count_hold > 1 else ""
         return (f"its values come in whole steps of {step}{held}: a count of encoder edges over each line may give "
                 "that, or an ADC's codes; identify fits it as samples with timing intervals that hold the counted "
-                "reading too (--counted-velocity if it counts over each line)")
+                "reading too (--counted-velocity if it counts)")
 
 
 def _find_step(capture: Capture, step_volts: float | None) -> tuple[StepEdge | None, float | None, list[str]]:

@@ -7,7 +7,6 @@ is left to the identification method that needs it.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
@@ -227,7 +226,7 @@ def condition_experiment(
                    f"{' ' + cap.output_info.units if cap.output_info.units else ''} over the median interval, so it "
                    "counts over each interval its clock measured" if cap.count_over_stamps else
                    "counted over each interval, --counted-velocity")
-            held = responses[role].count_hold if math.isfinite(responses[role].count_refresh_s) else 1
+            held = responses[role].count_hold if responses[role].count_held else 1
             lag = 0.5 * cap.sample_window_s + 0.5 * (held - 1) * cap.sample_interval_s
             where = (f"before the line that logged it (each count kept for {held} lines, every {held}th line "
                      "fitted)") if held > 1 else "before it"
@@ -311,7 +310,7 @@ def _sampled_speed_note(cap: Capture, r: StepResponse) -> str:
         return (head + f"{steps}, each kept for {r.count_hold} lines: if that is a count of encoder edges over "
                 f"{r.count_hold} lines ({r.count_hold * window:.4g} ms) held until the next, the motor is about "
                 f"{lag:.3g} ms quicker than this model, so the timing intervals reach {lag:.3g} ms lower "
-                "(--counted-velocity models a count over each line, not this)")
+                "(--counted-velocity fits it so)")
     counts = (f"; {steps} (one encoder edge over a line, or an ADC's code: the two look alike), so the timing "
               f"intervals reach {lag:.3g} ms lower" if r.count_step > 0 else "")
     return (head + "if the log counts encoder edges over each line (as Arduino sketches print it), each value is "

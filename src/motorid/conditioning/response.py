@@ -12,8 +12,8 @@ from motorid.conditioning.edge import StepEdge, ramp_onset, response_onset, step
 from motorid.conditioning.unwrap import unwrap_position
 from motorid.errors import ConditioningError, OptionError, StepNotFoundError
 
-__all__ = ["STEP_TIMINGS", "STEP_VOLTS_TOLERANCE", "StepResponse", "counting_lag", "may_count", "refresh_time",
-           "refreshed", "split_at", "step_response", "window_ends"]
+__all__ = ["STEP_TIMINGS", "STEP_VOLTS_TOLERANCE", "StepResponse", "count_window_ends", "counting_lag", "may_count",
+           "refresh_time", "refreshed", "split_at", "step_response", "window_ends"]
 
 #: Where a response's step instant comes from (:attr:`StepResponse.timing`):
 #: ``logged`` — a logged input column (a DAQ or Arduino log writes the command at the stamp it
@@ -168,6 +168,11 @@ class StepResponse:
     #: The sample interval, computed once: an identification asks for it over a hundred times
     #: (a median of the whole record's steps each time: 13 % of ``auto`` on the demo).
     _dt_cache: list[float] = field(default_factory=list, init=False, repr=False, compare=False)
+
+    @property
+    def count_held(self) -> bool:
+        """Whether it is a counted speed whose counts are kept over several lines (:attr:`count_refresh_s` known)."""
+        return self.sample_window_s > 0 and math.isfinite(self.count_refresh_s)
 
     @property
     def sample_interval_s(self) -> float:
@@ -368,10 +373,27 @@ def window_ends(r: StepResponse, time_s: np.ndarray) -> np.ndarray:
         ``time_s`` itself when not held.
     """
     t = np.asarray(time_s, dtype=float)
-    if not (r.sample_window_s > 0 and math.isfinite(r.count_refresh_s)):
-        return t
-    period = r.sample_window_s
-    return r.count_refresh_s + np.floor((t - r.count_refresh_s) / period + 1e-6) * period
+    return count_window_ends(t, r.count_refresh_s, r.sample_window_s) if r.count_held else t
+
+
+def count_window_ends(time_s: np.ndarray, refresh_s: float, window_s: float) -> np.ndarray:
+    """``refresh + ⌊(t − refresh)/T⌋·T``: the last line at or before each time that logged a count.
+
+    Parameters
+    ----------
+    time_s : ndarray
+        Times.
+    refresh_s : float
+        One line that logged a count (:func:`refresh_time`).
+    window_s : float
+        The count's window ``T``, the lines between two counts.
+
+    Returns
+    -------
+    ndarray
+    """
+    t = np.asarray(time_s, dtype=float)
+    return refresh_s + np.floor((t - refresh_s) / window_s + 1e-6) * window_s
 
 
 def refreshed(r: StepResponse) -> np.ndarray | None:
@@ -387,7 +409,7 @@ def refreshed(r: StepResponse) -> np.ndarray | None:
     -------
     ndarray of bool or None
     """
-    if not (r.sample_window_s > 0 and math.isfinite(r.count_refresh_s)):
+    if not r.count_held:
         return None
     return np.abs(window_ends(r, r.time_s) - r.time_s) <= 1e-6 * r.sample_interval_s
 

@@ -708,7 +708,7 @@ def channel_timing(res: OeResult, cond: ConditionedExperiment) -> dict[str, Chan
         elif r.timing == "onset" and res.delay_s is not None:
             note = "its shift is the dead time (a step instant read off the response cannot be told from it)"
         out[role] = ChannelTiming(*step_instant(r), shift, note, kind=r.timing, window_s=r.sample_window_s,
-                                  count_hold=r.count_hold if refreshed(r) is not None else 1)
+                                  count_hold=r.count_hold if r.count_held else 1)
     return out
 
 

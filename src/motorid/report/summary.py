@@ -109,7 +109,7 @@ def interval_notes(u: Uncertainty) -> list[str]:
                      "last line), and was fitted as samples: if it counts, the motor is quicker by the counting's lag "
                      "(half a line, and half the hold of a value kept over several lines), so τ's, the residence "
                      f"time's and the 63 % time's intervals reach {sig(1e3 * u.counting_lag_s)} ms lower "
-                     "(--counted-velocity if it counts over each line: the fit then models the counting)")
+                     "(--counted-velocity if it counts: the fit then models the counting)")
     return notes
 
 
