@@ -26,6 +26,8 @@ def _poles(model) -> list[float]:
 
 @pytest.mark.parametrize(("rig", "counted", "method"), [(rig, False, "auto") for rig in RIGS]
                          + [("l298n-rpm", True, "auto"), ("ms-time", True, "auto"),
+                            # a count over five lines kept for five, modelled (timing.velocity.count_hold)
+                            ("pwm-encoder", True, "auto"),
                             # the Markov method's model of a log without an input (its onset's shift, no dead
                             # time) and of an rpm log in whole counts
                             ("encoder-counts", False, "markov"), ("l298n-rpm", False, "markov")])
@@ -36,6 +38,8 @@ def test_each_rig_model_through_design_simulate_and_report(rig, counted, method,
     motorid_ok("identify", *args, "--json", tmp_path / "m.json", "--report", tmp_path / "r.html")
     doc = json.loads((tmp_path / "m.json").read_text())
     assert ("window_s" in doc.get("timing", {}).get("velocity", {})) == counted
+    assert doc.get("timing", {}).get("velocity", {}).get("count_hold", 1) == (5 if counted and rig == "pwm-encoder"
+                                                                              else 1)
     model = mi.MotorModel.from_json(doc)
     # Python: the model the CLI wrote
     des = mi.design(model, poles=_poles(model))

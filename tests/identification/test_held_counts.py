@@ -18,7 +18,8 @@ import pytest
 from clihelpers import motorid_fresh
 
 import motorid as mi
-from motorid.conditioning.response import refresh_time
+from motorid.capture import Capture, ChannelInfo
+from motorid.conditioning.response import refresh_time, step_response
 from motorid.trainer.realsetups import write_real_setup
 from motorid.trainer.sensors import encoder_velocity
 
@@ -76,3 +77,20 @@ def test_validate_scores_a_held_counts_means_over_the_windows_that_end_where_it_
     assert counted.nrmse < 0.9 * sampled.nrmse and counted.nrmse < 0.017
     assert any("each count kept for 5 lines" in n for n in counted.notes)
     assert not counted.warnings
+
+
+def test_a_held_count_whose_lines_cannot_be_placed_says_so():
+    # uneven stamps (one 0.3 % longer step): no fixed phase in time, so the windows end at every line
+    dt, every = 1e-3, 5
+    t = np.arange(-50, 600) * dt
+    t[300:] += 3e-6
+    angle = np.where(t > 0, 40.0 * (t - 0.05 * (1 - np.exp(-np.clip(t, 0, None) / 0.05))), 0.0)
+    v = encoder_velocity(angle, dt, counts_per_rev=400, every=every, phase=2)
+    cap = Capture("held.csv", "plain-csv", t - t[0], v, ChannelInfo("speed", "rad/s"), input_v=np.where(t >= 0, 6.0, 0.0),
+                  input_info=ChannelInfo("voltage"), count_hold=every).counted()
+    assert cap.sample_window_s == pytest.approx(every * dt)
+    r = step_response(cap, "velocity")
+    assert not r.count_held
+    said = " ".join(r.warnings)
+    assert "each count is kept for 5 lines, but the lines that logged them cannot be placed" in said
+    assert "up to 4 ms quicker" in said

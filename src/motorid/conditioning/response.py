@@ -301,6 +301,14 @@ def step_response(
         u = np.where(t >= edge.time_s, amp, 0.0)
     time = _minus(t, edge.time_s)
     output = _minus(y, base_y)
+    refresh = (refresh_time(time, output, capture.count_hold) if capture.sample_window_s > 0 and capture.count_hold > 1
+               else math.nan)
+    if capture.sample_window_s > 0 and capture.count_hold > 1 and not math.isfinite(refresh):
+        dt = float(np.median(np.diff(t)))
+        warnings.append(f"each count is kept for {capture.count_hold} lines, but the lines that logged them cannot be "
+                        "placed (uneven stamps, or no change in the record): fitted as means over "
+                        f"{1e3 * capture.sample_window_s:.4g} ms ending at every line, so the motor may be up to "
+                        f"{1e3 * (capture.count_hold - 1) * dt:.3g} ms quicker than this model")
     return StepResponse(
         source=capture.source,
         role=role,
@@ -319,8 +327,7 @@ def step_response(
         rounded=not (role == "velocity" and capture.output_info.units in COUNTED_SPEED_UNITS),
         count_step=capture.count_step if may_count(capture, role) else 0.0,
         count_hold=capture.count_hold,
-        count_refresh_s=(refresh_time(time, output, capture.count_hold)
-                         if capture.sample_window_s > 0 and capture.count_hold > 1 else math.nan),
+        count_refresh_s=refresh,
     )
 
 
