@@ -22,8 +22,8 @@ from motorid.trainer.realsetups import write_real_setup
 
 #: The rigs whose files the trainer writes as those rigs do, the demo's scope folders (the paper
 #: preset) and every other trainer preset's captures written as the scope saves them.
-CASES = ("demo", "l298n-rpm", "l298n-rpm:counted", "arduino-millis", "host-loop", "encoder-counts", "pwm-encoder", "daq-deadtime",
-         "ms-time", "fast-tbs1000", "staircase", "serial-plotter", "picoscope", "clock-stamps", "no-header",
+CASES = ("demo", "l298n-rpm", "l298n-rpm:counted", "arduino-millis", "host-loop", "encoder-counts", "pwm-encoder",
+         "pwm-encoder:counted", "daq-deadtime", "ms-time", "fast-tbs1000", "staircase", "serial-plotter", "picoscope", "clock-stamps", "no-header",
          *(f"trainer:{p}" for p in PRESET_NAMES if p != "paper"))
 
 
@@ -52,7 +52,7 @@ def _captures(case: str, demo_run, tmp_path: Path) -> tuple[dict[str, list[Path]
     roles = {args[i][2:]: [Path(args[i + 1])] for i in range(0, len(args), 2)
              if args[i] in ("--position", "--velocity", "--current")}
     opts: dict[str, float | int | bool] = {}
-    if counted:  # the rig's speed column counts encoder edges over each line
+    if counted:  # the rig's speed column counts encoder edges over each line (pwm-encoder: over five, held)
         opts["counted_velocity"] = True
     if "--step-volts" in args:
         opts["step_volts"] = float(args[args.index("--step-volts") + 1])

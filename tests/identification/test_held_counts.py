@@ -20,6 +20,7 @@ from clihelpers import motorid_fresh
 import motorid as mi
 from motorid.capture import Capture, ChannelInfo
 from motorid.conditioning.response import refresh_time, step_response
+from motorid.model.uncertainty import ChannelTiming
 from motorid.trainer.realsetups import write_real_setup
 from motorid.trainer.sensors import encoder_velocity
 
@@ -94,3 +95,12 @@ def test_a_held_count_whose_lines_cannot_be_placed_says_so():
     said = " ".join(r.warnings)
     assert "each count is kept for 5 lines, but the lines that logged them cannot be placed" in said
     assert "up to 4 ms quicker" in said
+
+
+def test_a_count_hold_in_a_model_json_reads_back_and_a_malformed_one_reads_as_none():
+    timing = ChannelTiming("its stamp", 1.0, kind="logged", window_s=0.005, count_hold=5)
+    assert timing.to_dict()["count_hold"] == 5 and ChannelTiming.from_dict(timing.to_dict()) == timing
+    assert timing.counting_lag_s == pytest.approx(0.0045)
+    for bad in ("five", 1.5, True, 0, -3, None):
+        assert ChannelTiming.from_dict({**timing.to_dict(), "count_hold": bad}).count_hold == 1
+    assert "count_hold" not in ChannelTiming("its stamp", 1.0, window_s=0.001).to_dict()
