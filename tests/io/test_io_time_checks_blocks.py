@@ -1,6 +1,6 @@
 """The time column's checks run in blocks: the same first bad sample as the whole-column formulas.
 
-:func:`motorid.io._common.check_samples` takes the steps again in blocks of the column (no array of
+:func:`motorid.io._common.check_time_steps` takes the steps again in blocks of the column (no array of
 a 10 M-row log's length) for the backwards, jitter and gap tests, and :func:`uniform_grid` its
 uniformity test; here the blocks are 8 samples and a bad step is put at every place around their
 edges, and the sample named is compared with ``np.diff`` over the whole column.
@@ -44,7 +44,7 @@ def test_the_first_bad_step_is_found_across_block_edges(monkeypatch, kind, jitte
             t[k] = t[k - 1] - (1e-4 if kind == "backwards" else 0.0)
         want = _first_bad_sample(t, jitter_ok=jitter_ok)
         with pytest.raises(CaptureDataError) as info:
-            _common.check_samples(t, {}, file="x.csv", line_of=lambda i: i + 2, jitter_ok=jitter_ok)
+            _common.check_time_steps(t, {}, file="x.csv", line_of=lambda i: i + 2, jitter_ok=jitter_ok)
         assert "x.csv:" + str(want + 2) + ":" in str(info.value), (k, str(info.value))
         assert (kind if kind != "gap" else "differs from the sample interval") in str(info.value).replace(
             "goes backwards", "backwards")
@@ -54,7 +54,7 @@ def test_the_median_step_returned_is_numpys(monkeypatch):
     monkeypatch.setattr(_common, "_CHECK_BLOCK", 8)
     rng = np.random.default_rng(3)
     t = np.cumsum(rng.uniform(0.009, 0.011, 101))
-    med = _common.check_samples(t, {}, file="x.csv", line_of=lambda i: i, jitter_ok=True)
+    med = _common.check_time_steps(t, {}, file="x.csv", line_of=lambda i: i, jitter_ok=True).median_s
     assert med == float(np.median(np.diff(t)))
 
 

@@ -33,7 +33,6 @@ __all__ = [
     "TimeSteps",
     "binary_kind",
     "check_capture_file",
-    "check_samples",
     "check_time_steps",
     "check_writable",
     "column_to_floats",
@@ -403,35 +402,6 @@ class TimeSteps:
     largest_s: float
 
 
-def check_samples(
-    time_s: np.ndarray,
-    channels: Mapping[str, np.ndarray],
-    *,
-    file: str,
-    line_of: Callable[[int], int | None],
-    rel_jitter: float = 0.01,
-    min_samples: int = MIN_SAMPLES,
-    time_name: str = "time",
-    jitter_ok: bool = False,
-) -> float:
-    """Check a record's samples; raise naming the file line of the first bad one.
-
-    :func:`check_time_steps`, returning the median step only.
-
-    Returns
-    -------
-    float
-        The median time step (s), for :func:`uniform_grid`.
-
-    Raises
-    ------
-    CaptureDataError
-        The first problem found, as ``file:line: what``.
-    """
-    return check_time_steps(time_s, channels, file=file, line_of=line_of, rel_jitter=rel_jitter,
-                            min_samples=min_samples, time_name=time_name, jitter_ok=jitter_ok).median_s
-
-
 def check_time_steps(
     time_s: np.ndarray,
     channels: Mapping[str, np.ndarray],
@@ -682,7 +652,7 @@ def uniform_grid(time_s: np.ndarray, output: np.ndarray, inp: np.ndarray | None,
     file : str
         For the note.
     median : float, optional
-        ``np.median(np.diff(time_s))`` when the caller has it (:func:`check_samples` returns it):
+        ``np.median(np.diff(time_s))`` when the caller has it (:func:`check_time_steps` returns it):
         then the steps are tested in blocks, with no array of the log's length.
     steps : TimeSteps, optional
         What :func:`check_time_steps` found: its median, and its smallest and largest steps,
@@ -828,7 +798,7 @@ def validate_rows(
     time_name: str = "time",
     jitter_ok: bool = False,
 ) -> float:
-    """:func:`check_samples` with the file row of every sample given as a sequence.
+    """:func:`check_time_steps` with the file row of every sample given as a sequence: its median step.
 
     Returns
     -------
@@ -838,10 +808,10 @@ def validate_rows(
     Raises
     ------
     CaptureDataError
-        As :func:`check_samples`, with the row a user can open.
+        As :func:`check_time_steps`, with the row a user can open.
     """
-    return check_samples(time_s, channels, file=file, time_name=time_name, jitter_ok=jitter_ok,
-                  line_of=lambda i: int(rows[i]) if 0 <= i < len(rows) else None)
+    return check_time_steps(time_s, channels, file=file, time_name=time_name, jitter_ok=jitter_ok,
+                            line_of=lambda i: int(rows[i]) if 0 <= i < len(rows) else None).median_s
 
 
 def check_writable(
