@@ -1065,7 +1065,7 @@ def simulate(
     *,
     duration_s: float = 5.0,
     reference: str | ReferenceSignal = "step",
-    level_v: float = 5.0,
+    level_v: float | None = None,
     saturation: float | None = None,
     disturbance: float | None = None,
     disturbance_start_s: float = 0.0,
@@ -1092,8 +1092,11 @@ def simulate(
     reference : str or ReferenceSignal
         ``step``, ``sine``, ``triangle``, ``square`` (with ``level_v``), or a
         :class:`motorid.simulation.ReferenceSignal` for every detail.
-    level_v : float
-        Step level (or the mean of a periodic reference) [V] when ``reference`` is a name.
+    level_v : float, optional
+        Step level (or the mean of a periodic reference) in the output's unit when
+        ``reference`` is a name.  Default: 5 on a model of scope volts (the lab report's 5 V),
+        else what the identification's own step reached (the result's ``reference_level``
+        says which, :func:`motorid.simulation.reference.default_reference_level`).
     saturation : float, optional
         Actuator rails ±V (default: none).
     disturbance : float, optional
@@ -1148,7 +1151,7 @@ def _simulation_settings(
     *,
     duration_s: float,
     reference: str | ReferenceSignal,
-    level_v: float,
+    level_v: float | None,
     saturation: float | None,
     disturbance: float | None,
     disturbance_start_s: float,
@@ -1167,7 +1170,7 @@ def _simulation_settings(
     from motorid.options import real_number, real_numbers
 
     duration_s = cast(float, real_number(duration_s, "--duration"))
-    level_v = cast(float, real_number(level_v, "--level"))
+    level_v = real_number(level_v, "--level", optional=True)
     saturation = real_number(saturation, "--saturation", optional=True)
     disturbance = real_number(disturbance, "--disturbance", optional=True)
     disturbance_start_s = cast(float, real_number(disturbance_start_s, "--disturbance-start"))

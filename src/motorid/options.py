@@ -183,7 +183,8 @@ DESIGN_PID: tuple[OptionSpec, ...] = (
 SIMULATE: tuple[OptionSpec, ...] = (
     OptionSpec("duration_s", "--duration", 5.0, "s", "record length"),
     OptionSpec("reference", "--reference", "step", "", "step, sine, triangle or square"),
-    OptionSpec("level_v", "--level", 5.0, "V", "step level"),
+    OptionSpec("level_v", "--level", None, "output's unit",
+               "step level or wave mean (default: 5 on scope volts, else what the identification's step reached)"),
     OptionSpec("saturation", "--saturation", None, "V", "actuator rails ±"),
     OptionSpec("disturbance", "--disturbance", None, "V", "load as an input-equivalent voltage"),
     OptionSpec("disturbance_start_s", "--disturbance-start", 0.0, "s", "load applied from"),

@@ -444,8 +444,9 @@ def simulate(
     model_file: Annotated[Path, typer.Argument(help="Model JSON.")],
     design_file: Annotated[Path, typer.Argument(help="Design JSON (motorid design --json).")],
     reference: Annotated[str, typer.Option(help="step, sine, triangle or square.")] = "step",
-    level: Annotated[float, typer.Option(
-        help="Step level / sinusoid offset, in the output's unit (V for scope volts; report: 5).")] = 5.0,
+    level: Annotated[float | None, typer.Option(
+        help="Step level / sinusoid offset, in the output's unit (default: 5 on scope volts, the report's; "
+             "on data in another unit, what the identification's step reached).")] = defaults(SIMULATE)["level_v"],
     initial_ref: Annotated[float, typer.Option("--initial-ref", help="Reference before --start, output's unit.")] = 0.0,
     amplitude: Annotated[float, typer.Option(help="Wave amplitude, output's unit (report: 2).")] = 2.0,
     frequency: Annotated[float, typer.Option(help="Wave frequency, Hz (report: ω = π/2 → 0.25).")] = 0.25,
@@ -493,6 +494,8 @@ def simulate(
             reference=ReferenceSignal(kind=reference, level_v=level, initial_v=initial_ref, amplitude_v=amplitude,
                                       frequency_hz=frequency, start_s=start))
     m = res.metrics
+    if res.reference_level is not None:
+        typer.echo(res.reference_level.text())
     typer.echo(", ".join(_metric_text(key, getattr(m, key), {"output": res.output_unit,
                                                               "input": res.input_unit}.get(unit, unit))
                          for key, unit in _METRIC_UNITS))

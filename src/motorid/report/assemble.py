@@ -139,6 +139,7 @@ def _closed_loop_view(ident: Identification, des: Any, settings: SimulationSetti
                    "u (control)": cols["u"].tolist()},
         "metrics": asdict(sim.metrics),
         "output_unit": sim.output_unit,
+        "reference_level": None if sim.reference_level is None else sim.reference_level.to_dict(),
         "rails_v": settings.saturation_v,
         "disturbances_s": [settings.disturbance_start_s] if settings.disturbance_v != 0 else [],
     }

@@ -646,9 +646,11 @@ def design_section(inp: ReportInputs) -> dict[str, Any]:
                                   output_unit=out_unit, input_unit=in_unit)
         view["closed_loop_png"] = figures.data_uri(png)
         view["metric_rows"] = metric_rows
-        view["caption"] = ("Dashed: the actuator rails ±" + _cell(rails) + f" {in_unit}, where the command saturates. "
-                           if rails is not None else "No actuator rails in this run. ") + (
-            "Dotted: the instants a load is applied." if disturbances else "")
+        level = sim.get("reference_level") or {}
+        rails_words = ("Dashed: the actuator rails ±" + _cell(rails) + f" {in_unit}, where the command saturates. "
+                       if rails is not None else "No actuator rails in this run. ")
+        view["caption"] = (_reference_words(level) + rails_words
+                           + ("Dotted: the instants a load is applied." if disturbances else ""))
     gains = d.get("design_gains")
     if d.get("mode_maps"):
         view["modes_png"] = figures.data_uri(figures.mode_maps(d["mode_maps"], gains))
@@ -658,6 +660,15 @@ def design_section(inp: ReportInputs) -> dict[str, Any]:
     elif d.get("modes_png"):
         view["modes_png"] = figures.data_uri(d["modes_png"])
     return view
+
+
+def _reference_words(level: Mapping[str, Any]) -> str:
+    """The caption's first sentence: where the reference steps to, and why there when it is a default."""
+    if not level:
+        return ""
+    head = f"The reference steps to {_cell(level.get('value'))} {level.get('unit', '')}"
+    source = str(level.get("source") or "")
+    return f"{head}{'' if source in ('', 'given') else f' ({source})'}. "
 
 
 #: The sections in page order: (id, heading, the function that prepares its template's names).

@@ -11,6 +11,7 @@ from motorid.simulation.closed_loop import (
     response_metrics,
     simulate_closed_loop,
 )
+from motorid.simulation.reference import ReferenceLevel, default_reference_level
 from motorid.simulation.modes import (
     MODES,
     ModeCriteria,
@@ -30,12 +31,14 @@ __all__ = [
     "REFERENCE_KINDS",
     "ModeCriteria",
     "ModeMap",
+    "ReferenceLevel",
     "ReferenceSignal",
     "ResponseMetrics",
     "ServoPlant",
     "SimulationResult",
     "SimulationSettings",
     "classify_grid",
+    "default_reference_level",
     "mode_map",
     "modes_json",
     "parse_range",

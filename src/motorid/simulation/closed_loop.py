@@ -15,7 +15,7 @@ import io
 import json
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -27,6 +27,13 @@ from motorid.control.pid import PidDesign
 from motorid.errors import OptionError
 from motorid.model import MotorModel
 from motorid.model.units import channel_unit
+from motorid.simulation.reference import (
+    REFERENCE_KINDS,
+    ReferenceLevel,
+    ReferenceSignal,
+    reference_values,
+    with_level,
+)
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -44,39 +51,6 @@ __all__ = [
     "simulation_figure",
     "step_check",
 ]
-
-#: Reference waveforms: a step (report §2.2.1), a sinusoid (§2.2.3) and the trainer's test signals.
-REFERENCE_KINDS: tuple[str, ...] = ("step", "sine", "triangle", "square")
-
-
-@dataclass(frozen=True, slots=True)
-class ReferenceSignal:
-    """The reference ``r(t)`` in output volts.
-
-    Attributes
-    ----------
-    kind : str
-        ``step``: ``initial_v`` before ``start_s``, ``level_v`` after; ``sine``/``triangle``/
-        ``square``: ``level_v + amplitude_v·wave(2π f t)`` (report: ``5 + 2 sin ωt``).
-    level_v, initial_v, amplitude_v, frequency_hz, start_s : float
-    """
-
-    kind: str = "step"
-    level_v: float = 5.0
-    initial_v: float = 0.0
-    amplitude_v: float = 2.0
-    frequency_hz: float = 0.25
-    start_s: float = 0.0
-
-    def __post_init__(self) -> None:
-        if self.kind not in REFERENCE_KINDS:
-            raise OptionError(f"--reference {self.kind!r}: use one of {', '.join(REFERENCE_KINDS)}")
-        for name in ("level_v", "initial_v", "amplitude_v", "frequency_hz", "start_s"):
-            if not math.isfinite(float(getattr(self, name))):
-                raise OptionError(f"reference {name} must be finite")
-        if self.kind != "step" and not self.frequency_hz > 0:
-            raise OptionError(f"--frequency must be > 0 Hz, got {self.frequency_hz!r}")
-
 
 @dataclass(frozen=True, slots=True)
 class SimulationSettings:
@@ -117,7 +91,7 @@ class SimulationSettings:
 
     duration_s: float = 5.0
     dt_s: float = 1e-3
-    reference: ReferenceSignal = ReferenceSignal()
+    reference: ReferenceSignal = field(default_factory=ReferenceSignal)
     saturation_v: float | None = None
     disturbance_v: float = 0.0
     disturbance_start_s: float = 0.0
@@ -219,6 +193,8 @@ class SimulationResult:
     warnings: tuple[str, ...] = ()
     units: Mapping[str, str] = field(default_factory=dict)
     anti_windup: bool = False
+    #: The reference's level and where it came from (given, or the model's default).
+    reference_level: ReferenceLevel | None = None
 
     @property
     def output_unit(self) -> str:
@@ -309,6 +285,7 @@ class SimulationResult:
             "metrics": {k: clean(getattr(m, k)) for k in m.__slots__},
             "warnings": list(self.warnings),
             "anti_windup": self.anti_windup,
+            **({} if self.reference_level is None else {"reference_level": self.reference_level.to_dict()}),
             "series": {k: [clean(x) for x in v] for k, v in self.columns().items()},
         }
 
@@ -336,30 +313,6 @@ class SimulationResult:
             Three stacked axes; save it with ``fig.savefig(path)`` (see :func:`simulation_figure`).
         """
         return simulation_figure(self, title)
-
-
-def reference_values(ref: ReferenceSignal, time_s: np.ndarray) -> np.ndarray:
-    """``r(t)`` at the sample times.
-
-    Parameters
-    ----------
-    ref : ReferenceSignal
-        The reference signal.
-    time_s : ndarray
-        Sample times in s.
-
-    Returns
-    -------
-    ndarray
-        The reference in volts.
-    """
-    t = np.asarray(time_s, dtype=float)
-    if ref.kind == "step":
-        return np.where(t >= ref.start_s, ref.level_v, ref.initial_v)
-    from motorid.simulation.signals import test_signal
-
-    wave = test_signal(t - ref.start_s, ref.kind, amplitude_v=ref.amplitude_v, frequency_hz=ref.frequency_hz)
-    return ref.level_v + np.where(t >= ref.start_s, wave, 0.0)
 
 
 #: Relative size below which a steady-state or tracking error is the simulation's rounding.
@@ -596,9 +549,11 @@ def simulate_closed_loop(model: MotorModel, design: Design | PidDesign, settings
     ----------
     Tsiolakis 2022, §2.2 (step, brake, sinusoid), §3.2 (integral action, z(0)), §4.2 (observer).
     """
-    s = settings
     if isinstance(design, PidDesign):
-        return _simulate_pid(model, design, s, plant)
+        return _simulate_pid(model, design, settings, plant)
+    # the level in the output's unit: given, or the model's own (a 5 V step on scope volts)
+    reference, level = with_level(model, design.output, settings.reference)
+    s = replace(settings, reference=reference)
     # a design in measurable coordinates runs on the model re-expressed in them
     model = design_model(model, design)
     a, b = model.A, model.B
@@ -704,7 +659,7 @@ def simulate_closed_loop(model: MotorModel, design: Design | PidDesign, settings
     warnings += _run_warnings(ys, r, xs, us, uraw, s, sat, integral=ki is not None, held=hold)
     metrics = response_metrics(t, ys, r, us, s.reference.kind == "step")
     return SimulationResult(t, r, ys, us, uraw, xs, xhs, zs, tuple(model.states), design.output, metrics,
-                            tuple(warnings), dict(model.units), bool(hold))
+                            tuple(warnings), dict(model.units), bool(hold), level)
 
 
 def _plant_setup(model: MotorModel, s: SimulationSettings, plant: ClosedLoopPlant | None, x: np.ndarray,
@@ -754,6 +709,8 @@ def _simulate_pid(model: MotorModel, pid: PidDesign, s: SimulationSettings,
     if pid.output not in model.outputs:
         raise OptionError(f"the PID reads the {pid.output}, and the model has no {pid.output} output "
                           f"(its outputs are {list(model.outputs)})")
+    reference, level = with_level(model, pid.output, s.reference)
+    s = replace(s, reference=reference)
     _, c = output_row(model, pid.output)
     ac, bc, cc, dc, i_z = pid.matrices()
     nc = ac.shape[0]
@@ -822,7 +779,7 @@ def _simulate_pid(model: MotorModel, pid: PidDesign, s: SimulationSettings,
     warnings += _run_warnings(ys, r, xs, us, uraw, s, sat, integral=i_z is not None, held=hold)
     metrics = response_metrics(t, ys, r, us, s.reference.kind == "step")
     return SimulationResult(t, r, ys, us, uraw, xs, None, zs, tuple(model.states), pid.output, metrics,
-                            tuple(warnings), dict(model.units), bool(hold))
+                            tuple(warnings), dict(model.units), bool(hold), level)
 
 
 def step_check(model: MotorModel, pid: PidDesign, level: float = 1.0) -> SimulationResult:

@@ -207,13 +207,16 @@ def _design(tab: Tab, dform: Any) -> tuple[Any, Any]:
     assert tab.fit is not None
     model = tab.fit.model
     sat = dform.saturation_v or 10.0
-    key = (sat, dform.level_v)
+    ranges = slider_ranges(model)
+    # no level given: the model's default, the one the form showed (and the simulation uses)
+    level = dform.level_v if dform.level_v is not None else (ranges.reference.value if ranges.reference else 5.0)
+    key = (sat, level)
     with tab.lock:
         maps = tab.mode_maps.get(key)
-        if maps is None and dform.level_v != 0:
+        if maps is None and level != 0:
             try:
-                kp_max, kv_max = map_limits(model, slider_ranges(model))
-                maps = build_mode_maps(model, tab.folder, step_v=abs(dform.level_v), saturation_v=sat,
+                kp_max, kv_max = map_limits(model, ranges)
+                maps = build_mode_maps(model, tab.folder, step_v=abs(level), saturation_v=sat,
                                        kp_max=kp_max, kv_max=kv_max)
             except MotorIdError as exc:
                 maps = str(exc)  # the panel says why there is no map

@@ -23,6 +23,7 @@ if TYPE_CHECKING:
     from motorid.frontdoor import IdentificationResult
     from motorid.model import MotorModel
     from motorid.simulation.closed_loop import SimulationResult
+    from motorid.simulation.reference import ReferenceLevel
     from motorid.web.modemap import Marker, ModeMapView
     from motorid.web.uploads import CaptureFiles
 
@@ -192,12 +193,16 @@ class SliderRanges:
         Record length of the simulation at the start.
     observer_example : str
         One observer pole per state, well left of the controller's.
+    reference : ReferenceLevel or None
+        The reference step at the start, in the output's unit, and where it comes from
+        (:func:`motorid.simulation.reference.default_reference_level`).
     """
 
     damping: tuple[float, float, float, float]
     wn: tuple[float, float, float, float]
     duration_s: float
     observer_example: str = ""
+    reference: ReferenceLevel | None = None
 
 
 def slider_ranges(model: MotorModel) -> SliderRanges:
@@ -221,8 +226,12 @@ def slider_ranges(model: MotorModel) -> SliderRanges:
     step = float(f"{(hi - lo) / 300:.2g}")
     dur = float(f"{max(8.0 / (0.7 * start), 0.5):.2g}")
     observer = ",".join(f"{-(10 + 2 * i) * start:.3g}" for i in range(model.A.shape[0]))
+    from motorid.simulation.reference import default_reference_level
+
+    # the design's output by default (design_controller's choice): its unit, its level
+    output = "position" if "position" in model.outputs else "velocity"
     return SliderRanges((0.2, 2.0, 0.01, 0.7), (float(f"{lo:.3g}"), float(f"{hi:.3g}"), step, float(f"{start:.3g}")),
-                        dur, observer)
+                        dur, observer, default_reference_level(model, output))
 
 
 @dataclass(frozen=True, slots=True)
@@ -239,8 +248,9 @@ class DesignForm:
         Comma-separated observer poles (empty: no observer).
     saturation_v : float or None
         Actuator rails ±V of the simulation and the mode map (None: none; the map then uses 10 V).
-    level_v : float
-        Reference step [V].
+    level_v : float or None
+        Reference step in the output's unit (None: the model's default,
+        :func:`motorid.simulation.reference.default_reference_level`).
     duration_s : float
         Record length [s].
     """
@@ -250,7 +260,7 @@ class DesignForm:
     integral: bool = False
     observer_poles: str = ""
     saturation_v: float | None = 10.0
-    level_v: float = 5.0
+    level_v: float | None = None
     duration_s: float = 3.0
 
     def simulate_options(self) -> dict[str, Any]:
@@ -274,7 +284,7 @@ class DesignForm:
         return {"damping": repr(self.damping), "wn": repr(self.wn), "integral": "on" if self.integral else "",
                 "observer_poles": self.observer_poles,
                 "saturation": "" if self.saturation_v is None else repr(self.saturation_v),
-                "level": repr(self.level_v), "duration": repr(self.duration_s)}
+                "level": "" if self.level_v is None else repr(self.level_v), "duration": repr(self.duration_s)}
 
     @classmethod
     def from_fields(cls, fields: Mapping[str, str]) -> DesignForm:
@@ -302,9 +312,9 @@ class DesignForm:
 
         damping = number("damping", 0.7, positive=True)
         wn = number("wn", 1.0, positive=True)
-        level = number("level", 5.0)
+        level = number("level", None)
         duration = number("duration", 3.0, positive=True)
-        assert damping is not None and wn is not None and level is not None and duration is not None
+        assert damping is not None and wn is not None and duration is not None
         if duration > 120:
             raise OptionError(f"duration={duration:g}: at most 120 s on this page")
         return cls(damping, wn, fields.get("integral", "") in ("on", "true", "1"),
@@ -403,7 +413,7 @@ def _plot(des: Any, sim: SimulationResult, form: DesignForm, canvas: Any) -> str
 
     cols = sim.columns()
     series = {"reference": cols["reference"], f"output ({sim.output})": cols["output"], "u (control)": cols["u"]}
-    series.update(_robust_band(des, cols["time"], form))
+    series.update(_robust_band(des, cols["time"], form, sim))
     in_unit = sim.input_unit
     sat = f", rails ±{form.saturation_v:g} {in_unit}" if form.saturation_v else ""
     return figures.data_uri(canvas.svg(cols["time"], series,
@@ -468,16 +478,16 @@ def robust_update(model: MotorModel, form: DesignForm, canvas: Any = None, *,
     t0, c0 = time.perf_counter(), time.thread_time()
     des = _design(model, form, WEB_ROBUST_SAMPLES)
     plot = None
-    if _robust_band(des, [0.0], form):  # the band is drawn: the move's run again, with it
+    if _robust_band(des, [0.0], form, None):  # the band is drawn: the move's run again, with it
         sim = shown if shown is not None else mi.simulate(model, des, **form.simulate_options())
         plot = _plot(des, sim, form, canvas if canvas is not None else figures.ClosedLoopCanvas())
     return RobustView(des, plot, 1e3 * (time.perf_counter() - t0), 1e3 * (time.thread_time() - c0))
 
 
-def _robust_band(des: Any, time_s: Any, form: DesignForm) -> dict[str, Any]:
-    """The output's 95 % band over the plausible motors, for the plot.
+def _robust_band(des: Any, time_s: Any, form: DesignForm, sim: SimulationResult | None) -> dict[str, Any]:
+    """The output's 95 % band over the plausible motors, for the plot (scaled to ``sim``'s reference level).
 
-    A step without rails only: the band is the linear loop's.
+    A step without rails only: the band is the linear loop's.  ``sim`` None: whether there is one.
     """
     import numpy as np
 
@@ -485,7 +495,9 @@ def _robust_band(des: Any, time_s: Any, form: DesignForm) -> dict[str, Any]:
     if robust is None or not robust.band[0] or form.saturation_v is not None:
         return {}
     t = np.asarray(robust.band[0])
-    level = float(form.level_v)
+    if sim is None:
+        return {"band": None}
+    level = sim.reference_level.value if sim.reference_level is not None else float(form.level_v or 0.0)
     return {f"plausible motors {q}": level * np.interp(time_s, t, np.asarray(robust.band[i]), right=np.nan)
             for i, q in ((1, "2.5 %"), (3, "97.5 %"))}
 
