@@ -499,10 +499,10 @@ def simulate(
     typer.echo(", ".join(_metric_text(key, getattr(m, key), {"output": res.output_unit,
                                                               "input": res.input_unit}.get(unit, unit))
                          for key, unit in _METRIC_UNITS))
-    # the design's own numbers (design --robust's "the model itself") are the continuous loop's
-    step = float(res.time_s[1] - res.time_s[0])
-    typer.echo(f"the controller runs every {sig(step)} s (--dt), its command held between samples: a digital "
-               "loop, a little less damped than the continuous one the design's numbers describe")
+    # the design's own numbers (design --robust's "the model itself") are the continuous loop's; what
+    # sampling did to its damping is measured, not assumed
+    if res.sampled_damping is not None:
+        typer.echo(res.sampled_damping.text())
     for w in res.warnings:
         typer.echo(f"warning: {w}")
     with atomic_outputs(exclusive=not force) as outs:  # the CSV, JSON and plot appear together, or none

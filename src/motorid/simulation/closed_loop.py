@@ -42,8 +42,10 @@ __all__ = [
     "REFERENCE_KINDS",
     "ReferenceSignal",
     "ResponseMetrics",
+    "SampledDamping",
     "SimulationResult",
     "SimulationSettings",
+    "least_damping",
     "plot_simulation",
     "reference_values",
     "response_metrics",
@@ -51,6 +53,7 @@ __all__ = [
     "simulation_figure",
     "step_check",
 ]
+
 
 @dataclass(frozen=True, slots=True)
 class SimulationSettings:
@@ -153,6 +156,113 @@ class ResponseMetrics:
     peak_control_v: float
 
 
+def least_damping(poles_s: np.ndarray) -> float:
+    """The smallest damping ratio ``−Re(p)/|p|`` of continuous-time poles (1 for none; a pole at 0 counts 0).
+
+    Parameters
+    ----------
+    poles_s : ndarray
+        Poles in the s-plane (an infinitely fast one, ``−inf``, counts 1).
+
+    Returns
+    -------
+    float
+        Below 0 for an unstable pole.
+    """
+    p = np.asarray(poles_s, dtype=complex).ravel()
+    p = p[np.isfinite(p)]
+    if p.size == 0:
+        return 1.0
+    mag = np.abs(p)
+    return float(np.min(np.where(mag > 0, -p.real / np.where(mag > 0, mag, 1.0), 0.0)))
+
+
+@dataclass(frozen=True, slots=True)
+class SampledDamping:
+    """The sampled loop's least damping against the continuous design's.
+
+    The design places continuous poles; the simulation (and the emitted code) runs the
+    controller every ``dt`` with its command held.  The sampled loop's eigenvalues ``z``
+    mapped back by ``s = ln(z)/dt`` show what sampling did to the damping, which the
+    printout says instead of assuming (a zero-order-hold observer keeps its poles exactly;
+    the held command lags the state feedback by about half an interval).
+
+    Attributes
+    ----------
+    sampled, design : float
+        Least damping ratio of the sampled loop's poles mapped back, and of the continuous
+        design's poles (controller, integrator and observer).
+    dt_s : float
+        The control interval.
+    without_dead_time : bool
+        The model has a dead time, which neither set of poles includes (the design ignores it).
+    """
+
+    sampled: float
+    design: float
+    dt_s: float
+    without_dead_time: bool = False
+
+    #: Dampings within this of each other are the same to the printout's two digits.
+    SAME = 0.005
+
+    @classmethod
+    def of(cls, z_poles: np.ndarray, design_poles: np.ndarray, dt_s: float, lag: int = 0) -> SampledDamping:
+        """From the sampled loop's eigenvalues and the continuous design's poles.
+
+        Parameters
+        ----------
+        z_poles : ndarray
+            Eigenvalues of the sampled loop (a ``z`` of 0, deadbeat, maps to an infinitely fast pole).
+        design_poles : ndarray
+            The continuous design's poles.
+        dt_s : float
+            Control interval.
+        lag : int
+            Whole intervals of the model's dead time (left out of both).
+
+        Returns
+        -------
+        SampledDamping
+        """
+        z = np.asarray(z_poles, dtype=complex).ravel()
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s_poles = np.where(np.abs(z) > 0, np.log(np.where(np.abs(z) > 0, z, 1.0)) / dt_s, -np.inf)
+        return cls(least_damping(s_poles), least_damping(np.asarray(design_poles)), float(dt_s), lag > 0)
+
+    def text(self) -> str:
+        """The printout's sentence about the sampled controller.
+
+        Returns
+        -------
+        str
+        """
+        head = (f"the controller runs every {self.dt_s:.3g} s (--dt), its command held between samples: sampled, "
+                "the loop's poles mapped back (ln z / dt)")
+        aside = " (the dead time aside)" if self.without_dead_time else ""
+        if not (math.isfinite(self.sampled) and math.isfinite(self.design)):
+            return f"{head} cannot be compared with the design's{aside}"
+        if abs(self.sampled - self.design) <= self.SAME:
+            return f"{head} keep the continuous design's least damping, ζ {self.design:.2g}{aside}"
+        how = "less" if self.sampled < self.design else "more"
+        hint = "; a smaller --dt brings it closer" if self.sampled < self.design else ""
+        return (f"{head} are {how} damped than the continuous design's: least ζ {self.sampled:.2g} against "
+                f"{self.design:.2g}{aside}{hint}")
+
+    def to_dict(self) -> dict[str, object]:
+        """The simulation JSON's ``sampled_damping`` entry.
+
+        Returns
+        -------
+        dict
+            ``sampled``, ``design`` (least damping ratios; null when not finite), ``dt_s`` and
+            ``without_dead_time``.
+        """
+        clean = lambda v: float(v) if math.isfinite(v) else None  # noqa: E731
+        return {"sampled": clean(self.sampled), "design": clean(self.design), "dt_s": self.dt_s,
+                "without_dead_time": self.without_dead_time}
+
+
 @dataclass(frozen=True, slots=True)
 class SimulationResult:
     """Time series of a closed-loop run.
@@ -195,6 +305,8 @@ class SimulationResult:
     anti_windup: bool = False
     #: The reference's level and where it came from (given, or the model's default).
     reference_level: ReferenceLevel | None = None
+    #: The sampled loop's damping against the continuous design's (None: not computed).
+    sampled_damping: SampledDamping | None = None
 
     @property
     def output_unit(self) -> str:
@@ -286,6 +398,7 @@ class SimulationResult:
             "warnings": list(self.warnings),
             "anti_windup": self.anti_windup,
             **({} if self.reference_level is None else {"reference_level": self.reference_level.to_dict()}),
+            **({} if self.sampled_damping is None else {"sampled_damping": self.sampled_damping.to_dict()}),
             "series": {k: [clean(x) for x in v] for k, v in self.columns().items()},
         }
 
@@ -396,9 +509,9 @@ def response_metrics(time_s: np.ndarray, output_v: np.ndarray, reference_v: np.n
                            rms, peak_u)
 
 
-def _sampled_loop_radius(phi: np.ndarray, gam: np.ndarray, c: np.ndarray, k: np.ndarray, ki: float | None,
-                         dt: float, observer: tuple[np.ndarray, np.ndarray] | None) -> float:
-    """Spectral radius of the linear sampled loop (plant, held command, the observer of the sampled plant, integrator).
+def _sampled_loop_poles(phi: np.ndarray, gam: np.ndarray, c: np.ndarray, k: np.ndarray, ki: float | None,
+                        dt: float, observer: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
+    """Eigenvalues (``z``) of the linear sampled loop: plant, held command, observer of the sampled plant, integrator.
 
     The design is continuous; the simulation samples it.  This is the loop the simulation runs,
     without saturation: above 1 it diverges whatever the continuous poles say.
@@ -420,13 +533,12 @@ def _sampled_loop_radius(phi: np.ndarray, gam: np.ndarray, c: np.ndarray, k: np.
         if ki is None:
             m = m[: 2 * n, : 2 * n]
     with np.errstate(all="ignore"):
-        ev = np.linalg.eigvals(m) if np.all(np.isfinite(m)) else np.array([np.inf])
-    return float(np.max(np.abs(ev)))
+        return np.linalg.eigvals(m) if np.all(np.isfinite(m)) else np.array([np.inf + 0j])
 
 
-def _reduced_loop_radius(phi: np.ndarray, gam: np.ndarray, c: np.ndarray, ki: float | None, dt: float,
-                         reduced: _Reduced) -> float:
-    """Spectral radius of the sampled loop with a reduced-order observer, states ``[x, w(, z)]``."""
+def _reduced_loop_poles(phi: np.ndarray, gam: np.ndarray, c: np.ndarray, ki: float | None, dt: float,
+                        reduced: _Reduced) -> np.ndarray:
+    """Eigenvalues (``z``) of the sampled loop with a reduced-order observer, states ``[x, w(, z)]``."""
     n, nu = phi.shape[0], reduced.phi.shape[0]
     g = gam[:, :1]
     size = n + nu + (1 if ki is not None else 0)
@@ -446,8 +558,7 @@ def _reduced_loop_radius(phi: np.ndarray, gam: np.ndarray, c: np.ndarray, ki: fl
         m[-1, :n] = dt * c.ravel()
         m[-1, -1] = 1.0
     with np.errstate(all="ignore"):
-        ev = np.linalg.eigvals(m) if np.all(np.isfinite(m)) else np.array([np.inf])
-    return float(np.max(np.abs(ev)))
+        return np.linalg.eigvals(m) if np.all(np.isfinite(m)) else np.array([np.inf + 0j])
 
 
 @dataclass(frozen=True, slots=True)
@@ -590,12 +701,13 @@ def simulate_closed_loop(model: MotorModel, design: Design | PidDesign, settings
         phi_o, gam_o = sampled_observer(a, b, c, design_observer_poles(design, a, c), s.dt_s)
     reduced = _Reduced.of(design, a, b, s.dt_s)
     if reduced is not None:
-        rho = _reduced_loop_radius(phi, gam, c, ki, s.dt_s, reduced)
+        z_poles = _reduced_loop_poles(phi, gam, c, ki, s.dt_s, reduced)
         # the estimate starts at xhat0 (default: the motor at rest, so exact)
         w = _vector(s.xhat0, n, "--xhat0")[reduced.estimated] - reduced.gain @ x[reduced.measured]
         feed = np.empty(len(reduced.measured) + 1)  # the observer's inputs [z_m, u], one buffer
     else:
-        rho = _sampled_loop_radius(phi, gam, c, k, ki, s.dt_s, (phi_o, gam_o) if l_col is not None else None)
+        z_poles = _sampled_loop_poles(phi, gam, c, k, ki, s.dt_s, (phi_o, gam_o) if l_col is not None else None)
+    rho = float(np.max(np.abs(z_poles)))
     if rho > 1.0 + 1e-9 and s.plant != "trainer":
         warnings.append(f"at dt = {s.dt_s:g} s the sampled loop is unstable (spectral radius {rho:.4g}) although the "
                         "continuous design is stable: the controller or observer gains are too large for this rate "
@@ -658,8 +770,11 @@ def simulate_closed_loop(model: MotorModel, design: Design | PidDesign, settings
                 w = reduced.phi @ w + reduced.gam @ feed
     warnings += _run_warnings(ys, r, xs, us, uraw, s, sat, integral=ki is not None, held=hold)
     metrics = response_metrics(t, ys, r, us, s.reference.kind == "step")
+    designed = np.r_[design.closed_loop_poles, [] if design.observer_poles is None else design.observer_poles,
+                     [] if design.reduced is None else design.reduced.poles]
     return SimulationResult(t, r, ys, us, uraw, xs, xhs, zs, tuple(model.states), design.output, metrics,
-                            tuple(warnings), dict(model.units), bool(hold), level)
+                            tuple(warnings), dict(model.units), bool(hold), level,
+                            SampledDamping.of(z_poles, designed, s.dt_s, lag))
 
 
 def _plant_setup(model: MotorModel, s: SimulationSettings, plant: ClosedLoopPlant | None, x: np.ndarray,
@@ -735,7 +850,8 @@ def _simulate_pid(model: MotorModel, pid: PidDesign, s: SimulationSettings,
     g = gam[:, :1]
     loop = np.block([[phi + g @ dc[:, 1:] @ c, g @ cc], [gam_c[:, 1:] @ c, phi_c]])
     with np.errstate(all="ignore"):
-        rho = float(np.max(np.abs(np.linalg.eigvals(loop)))) if np.all(np.isfinite(loop)) else math.inf
+        z_poles = np.linalg.eigvals(loop) if np.all(np.isfinite(loop)) else np.array([np.inf + 0j])
+    rho = float(np.max(np.abs(z_poles)))
     continuous_stable = bool(np.all(np.asarray(pid.closed_loop_poles).real < 0))
     if rho > 1.0 + 1e-9 and s.plant != "trainer" and continuous_stable:
         warnings.append(f"at dt = {s.dt_s:g} s the sampled loop is unstable (spectral radius {rho:.4g}) although the "
@@ -779,7 +895,8 @@ def _simulate_pid(model: MotorModel, pid: PidDesign, s: SimulationSettings,
     warnings += _run_warnings(ys, r, xs, us, uraw, s, sat, integral=i_z is not None, held=hold)
     metrics = response_metrics(t, ys, r, us, s.reference.kind == "step")
     return SimulationResult(t, r, ys, us, uraw, xs, None, zs, tuple(model.states), pid.output, metrics,
-                            tuple(warnings), dict(model.units), bool(hold), level)
+                            tuple(warnings), dict(model.units), bool(hold), level,
+                            SampledDamping.of(z_poles, np.asarray(pid.closed_loop_poles), s.dt_s, lag))
 
 
 def step_check(model: MotorModel, pid: PidDesign, level: float = 1.0) -> SimulationResult:
