@@ -354,6 +354,7 @@ def test_a_lag_under_half_a_sample_sits_in_a_read_off_onset_and_the_intervals_sa
     assert identify_experiment({"velocity": cap_in}).model.uncertainty.onset_lag_s == 0.0
 
 
+@pytest.mark.slow  # seven fresh processes (12 s)
 def test_a_speed_in_whole_counts_fitted_as_samples_has_intervals_that_reach_the_counted_reading(tmp_path):
     """An L298N rig's rpm, counted over each 10 ms line and fitted as samples (the default). Before: the
     residence time came out +0.05 % against an interval of ±0.03 %, whose lower end missed the truth in 5
