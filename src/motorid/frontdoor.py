@@ -1098,7 +1098,7 @@ def simulate(
         else what the identification's own step reached (the result's ``reference_level``
         says which, :func:`motorid.simulation.reference.default_reference_level`).
     saturation : float, optional
-        Actuator rails ±V (default: none).
+        Actuator rails ± in the input's unit (V; pwm or % for a logged duty cycle); default: none.
     disturbance : float, optional
         Load as an input-equivalent voltage opposing positive motion [V].
     disturbance_start_s : float

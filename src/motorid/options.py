@@ -93,7 +93,7 @@ TRAINER_PRESETS: tuple[str, ...] = ("paper", "lab-report", "first-order", "secon
 #: writes it (:mod:`motorid.trainer.realsetups`, :mod:`motorid.trainer.hobbyrigs`).
 TRAINER_RIGS: tuple[str, ...] = ("fast-tbs1000", "pwm-encoder", "daq-deadtime", "l298n-rpm", "arduino-millis",
                                  "host-loop", "encoder-counts", "staircase", "ms-time", "serial-plotter", "picoscope",
-                                 "clock-stamps", "no-header")
+                                 "clock-stamps", "no-header", "arduino-pwm")
 
 #: :func:`motorid.read_experiment`'s captures, one per role (the web page's file fields).
 ROLES: tuple[OptionSpec, ...] = (
@@ -185,8 +185,8 @@ SIMULATE: tuple[OptionSpec, ...] = (
     OptionSpec("reference", "--reference", "step", "", "step, sine, triangle or square"),
     OptionSpec("level_v", "--level", None, "output's unit",
                "step level or wave mean (default: 5 on scope volts, else what the identification's step reached)"),
-    OptionSpec("saturation", "--saturation", None, "V", "actuator rails ±"),
-    OptionSpec("disturbance", "--disturbance", None, "V", "load as an input-equivalent voltage"),
+    OptionSpec("saturation", "--saturation", None, "input's unit", "actuator rails ±"),
+    OptionSpec("disturbance", "--disturbance", None, "input's unit", "load as an input-equivalent command"),
     OptionSpec("disturbance_start_s", "--disturbance-start", 0.0, "s", "load applied from"),
     OptionSpec("plant", "--plant", "linear", "", "linear (the model) or trainer"),
     OptionSpec("dt_s", "--dt", None, "s", "control interval"),

@@ -76,7 +76,7 @@ def test_the_staircase_levels(rigs):
     assert rigs["staircase"].cli_args[-2:] == ("--segment", "2")
 
 
-@pytest.mark.parametrize("name, column", [("l298n-rpm", 2), ("arduino-millis", 2), ("ms-time", 2)])
+@pytest.mark.parametrize("name, column", [("l298n-rpm", 2), ("arduino-millis", 2), ("ms-time", 2), ("arduino-pwm", 2)])
 def test_each_truth_gain_is_the_steady_level_the_file_shows(rigs, name, column):
     rec = rigs[name]
     data = _table(rec)

@@ -289,10 +289,12 @@ def design(
     if d.dead_zone_v is not None:
         info = d.dead_zone_info()
         bound = info["steady_state_error_bound_v"]
-        say(f"dead-zone: u0 = {sig(d.dead_zone_v)} V in the model"
+        from motorid.model.units import channel_unit
+
+        say(f"dead-zone: u0 = {sig(d.dead_zone_v)} {model.input_unit} in the model"
             + ("" if bound is None else
-               f"; without compensation a position step may stop anywhere within ±{sig(bound)} V "
-               "(u0 / k_position)")
+               f"; without compensation a position step may stop anywhere within ±{sig(bound)} "
+               f"{channel_unit(model.units, 'position')} (u0 / k_position)")
             + "; simulate --compensate-dead-zone adds u0·sign(u) to the command (inverse dead-zone)")
     for w in d.warnings:
         say(f"warning: {w}")
@@ -453,7 +455,8 @@ def simulate(
     start: Annotated[float, typer.Option(help="Reference start time, s.")] = 0.0,
     duration: Annotated[float, typer.Option(help="Record length, s.")] = defaults(SIMULATE)["duration_s"],
     dt: Annotated[float | None, typer.Option(help="Control interval, s (default 1 ms linear, 2 ms trainer).")] = None,
-    saturation: Annotated[float | None, typer.Option(help="Actuator rails ±V.")] = None,
+    saturation: Annotated[float | None, typer.Option(
+        help="Actuator rails ±, in the input's unit (V; pwm or % for a logged duty cycle).")] = None,
     disturbance: Annotated[float | None, typer.Option(
         help="Load (magnetic brake) as input-equivalent volts.")] = defaults(SIMULATE)["disturbance"],
     disturbance_start: Annotated[float, typer.Option("--disturbance-start", help="Load applied from, s.")] = 0.0,
@@ -523,7 +526,8 @@ def modes(
     kp: Annotated[str, typer.Option("--kp", help="Kp grid START:STOP:COUNT, e.g. 0:200:200.")],
     kv: Annotated[str, typer.Option("--kv", help="Kv grid START:STOP:COUNT, e.g. 0:10:200.")],
     step: Annotated[float, typer.Option(help="Reference step, V.")] = 1.0,
-    saturation: Annotated[float, typer.Option(help="Actuator rails ±V.")] = 10.0,
+    saturation: Annotated[float, typer.Option(
+        help="Actuator rails ±, in the input's unit (V; pwm or % for a logged duty cycle).")] = 10.0,
     duration: Annotated[float | None, typer.Option(help="Record length, s (default 20 τm).")] = None,
     extra_pole: Annotated[float | None, typer.Option(
         "--extra-pole",

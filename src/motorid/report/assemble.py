@@ -12,6 +12,7 @@ from motorid.identification.pipeline import Identification, IdentifySettings
 from motorid.report import ReportInputs, build_report
 from motorid.analysis.sweep import PAPER_LENGTHS_S, data_grid, sensitivity_table
 from motorid.simulation.closed_loop import SimulationSettings
+from motorid.simulation.reference import default_rails
 from motorid.simulation.modes import ModeCriteria
 
 __all__ = ["MODE_MAP_KP", "MODE_MAP_KV", "REPORT_RAILS_V", "make_report"]
@@ -63,8 +64,9 @@ def make_report(
     title : str
         The page title.
     simulation : SimulationSettings, optional
-        The closed-loop run shown with a design (default: a step with the actuator rails of the
-        mode map, :data:`REPORT_RAILS_V`; a disturbance given here is marked on the plot).
+        The closed-loop run shown with a design (default: a step to the model's reference level
+        with the rails :func:`motorid.simulation.reference.default_rails`, the mode map's
+        :data:`REPORT_RAILS_V` on a command in volts; a disturbance given here is marked on the plot).
 
     Returns
     -------
@@ -107,7 +109,8 @@ def _design_view(ident: Identification, design: Mapping[str, Any] | None,
 
     view: dict[str, Any] = dict(design)
     des = controller_from_json(design)
-    run = settings if settings is not None else SimulationSettings(saturation_v=REPORT_RAILS_V)
+    # the paper's ±10 V on a command in volts; on a duty cycle the identification step's level
+    run = settings if settings is not None else SimulationSettings(saturation_v=default_rails(ident.model))
     try:
         view["simulation"] = _closed_loop_view(ident, des, run)
     except MotorIdError as exc:

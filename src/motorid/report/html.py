@@ -654,8 +654,8 @@ def design_section(inp: ReportInputs) -> dict[str, Any]:
     gains = d.get("design_gains")
     if d.get("mode_maps"):
         view["modes_png"] = figures.data_uri(figures.mode_maps(d["mode_maps"], gains))
-        view["modes_marker"] = (f"The star marks this design's own gains, Kp = {_cell(gains[0])} V/V, "
-                                f"Kv = {_cell(gains[1])} V/(V/s)." if gains is not None else
+        view["modes_marker"] = (f"The star marks this design's own gains, Kp = {_cell(gains[0])} {view['kp_unit']}, "
+                                f"Kv = {_cell(gains[1])} {view['kv_unit']}." if gains is not None else
                                 "This design has other states or integral action, so it is not a point of these maps.")
     elif d.get("modes_png"):
         view["modes_png"] = figures.data_uri(d["modes_png"])
@@ -724,7 +724,8 @@ def gain_units(units: Mapping[str, str]) -> dict[str, str]:
     if not units:
         return {"kp_unit": "V/V", "kv_unit": "V/(V/s)",
                 "units_sentence": "Voltages are as recorded on the scope (V)"}
-    per = f"V/{pos}" if pos else "V per unit of position"
+    inp = channel_unit(units, "input")  # the command's: V, or pwm / % for a logged duty cycle
+    per = f"{inp}/{pos}" if pos else f"{inp} per unit of position"
     listed = ", ".join(f"{ch} in {u}" for ch, u in units.items() if ch != "input")
-    return {"kp_unit": per, "kv_unit": f"V/({pos}/s)" if pos else "V per unit of position per second",
-            "units_sentence": f"The channels are in the data's units ({listed}; the input in V)"}
+    return {"kp_unit": per, "kv_unit": f"{inp}/({pos}/s)" if pos else f"{inp} per unit of position per second",
+            "units_sentence": f"The channels are in the data's units ({listed}; the input in {inp})"}

@@ -65,7 +65,7 @@ class SimulationSettings:
         Record length and control interval.
     reference : ReferenceSignal
     saturation_v : float or None
-        Actuator rails ±V (None: none).
+        Actuator rails ± in the input's unit (None: none).
     disturbance_v : float
         Load as an input-equivalent voltage opposing positive motion (the magnetic brake,
         report §2.2.2), applied from ``disturbance_start_s``.  On the trainer it becomes the
@@ -768,7 +768,8 @@ def simulate_closed_loop(model: MotorModel, design: Design | PidDesign, settings
                 feed[:-1] = meas[reduced.measured]
                 feed[-1] = u_obs
                 w = reduced.phi @ w + reduced.gam @ feed
-    warnings += _run_warnings(ys, r, xs, us, uraw, s, sat, integral=ki is not None, held=hold)
+    warnings += _run_warnings(ys, r, xs, us, uraw, s, sat, integral=ki is not None, held=hold,
+                              unit=channel_unit(model.units, "input"))
     metrics = response_metrics(t, ys, r, us, s.reference.kind == "step")
     designed = np.r_[design.closed_loop_poles, [] if design.observer_poles is None else design.observer_poles,
                      [] if design.reduced is None else design.reduced.poles]
@@ -785,7 +786,8 @@ def _plant_setup(model: MotorModel, s: SimulationSettings, plant: ClosedLoopPlan
         raise OptionError("dead-zone compensation needs a model with a static nonlinearity (identify several "
                           "step levels: --velocity once per level)")
     if nl is not None and nl.dead_zone_v > 0:
-        warnings.append(f"the model's dead-zone of {nl.dead_zone_v:.3g} V acts on the plant input"
+        warnings.append(f"the model's dead-zone of {nl.dead_zone_v:.3g} {channel_unit(model.units, 'input')} acts on "
+                        "the plant input"
                         + (" and is compensated by feed-forward" if s.dead_zone_compensation else ""))
     if s.plant != "trainer":
         return nl, None
@@ -797,8 +799,8 @@ def _plant_setup(model: MotorModel, s: SimulationSettings, plant: ClosedLoopPlan
 
 
 def _run_warnings(ys: np.ndarray, r: np.ndarray, xs: np.ndarray, us: np.ndarray, uraw: np.ndarray,
-                  s: SimulationSettings, sat: float, *, integral: bool, held: bool) -> list[str]:
-    """What a finished run says: divergence, saturation and a limit cycle between the rails."""
+                  s: SimulationSettings, sat: float, *, integral: bool, held: bool, unit: str = "V") -> list[str]:
+    """What a finished run says: divergence, saturation, a limit cycle between the rails (in the command's ``unit``)."""
     out: list[str] = []
     if not np.all(np.isfinite(ys)):
         out.append("the response diverged (non-finite values): the closed loop is unstable")
@@ -807,8 +809,8 @@ def _run_warnings(ys: np.ndarray, r: np.ndarray, xs: np.ndarray, us: np.ndarray,
         out.append("the response diverged (it grew a thousandfold beyond the reference): the closed loop is "
                    "unstable")
     if s.saturation_v is not None and np.any(np.abs(uraw) > sat):
-        out.append(f"the actuator saturated (|u| reached {np.nanmax(np.abs(uraw)):.3g} V > {sat:g} V)")
-        out += _rail_to_rail(us, sat, integral=integral, held=held)
+        out.append(f"the actuator saturated (|u| reached {np.nanmax(np.abs(uraw)):.3g} {unit} > {sat:g} {unit})")
+        out += _rail_to_rail(us, sat, integral=integral, held=held, unit=unit)
     return out
 
 
@@ -892,7 +894,8 @@ def _simulate_pid(model: MotorModel, pid: PidDesign, s: SimulationSettings,
                 if hold and i_z is not None and ((u_req > sat and pid.ki * e > 0) or (u_req < -sat and pid.ki * e < 0)):
                     new[i_z] = xc[i_z]
                 xc = new
-    warnings += _run_warnings(ys, r, xs, us, uraw, s, sat, integral=i_z is not None, held=hold)
+    warnings += _run_warnings(ys, r, xs, us, uraw, s, sat, integral=i_z is not None, held=hold,
+                              unit=channel_unit(model.units, "input"))
     metrics = response_metrics(t, ys, r, us, s.reference.kind == "step")
     return SimulationResult(t, r, ys, us, uraw, xs, None, zs, tuple(model.states), pid.output, metrics,
                             tuple(warnings), dict(model.units), bool(hold), level,
@@ -933,7 +936,7 @@ def step_check(model: MotorModel, pid: PidDesign, level: float = 1.0) -> Simulat
 LIMIT_CYCLE_SWINGS = 2
 
 
-def _rail_to_rail(u: np.ndarray, sat: float, *, integral: bool, held: bool) -> list[str]:
+def _rail_to_rail(u: np.ndarray, sat: float, *, integral: bool, held: bool, unit: str = "V") -> list[str]:
     """A warning when the command swings from rail to rail in the last half of the run (a limit cycle)."""
     tail = u[u.size // 2:]
     rails = np.where(tail >= sat * (1 - 1e-9), 1, np.where(tail <= -sat * (1 - 1e-9), -1, 0))
@@ -944,8 +947,8 @@ def _rail_to_rail(u: np.ndarray, sat: float, *, integral: bool, held: bool) -> l
     why = ("the integrator winds up while the command sits on a rail; simulate with anti-windup (the default "
            "with --saturation) or ask for slower poles" if integral and not held else
            "the loop is too fast for the rails: ask for slower poles, a smaller step, or wider rails")
-    return [f"the loop limit-cycles between the rails: the command swung from ±{sat:g} V to ∓{sat:g} V {swings} "
-            f"times in the last half of the run — {why}"]
+    return [f"the loop limit-cycles between the rails: the command swung from ±{sat:g} {unit} to ∓{sat:g} {unit} "
+            f"{swings} times in the last half of the run — {why}"]
 
 
 def simulation_figure(result: SimulationResult, title: str = "", *, rails_v: float | None = None,

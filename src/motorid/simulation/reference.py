@@ -1,4 +1,4 @@
-"""The closed loop's reference ``r(t)``, and its level when none is given.
+"""The closed loop's reference ``r(t)``, its level when none is given, and the rails a page starts from.
 
 The lab report steps its position loop to 5 V of the potentiometer (its Figs. 4–9), and that is
 the level on a model of a scope's volts.  On data in another unit a 5 is no set-point (5 rpm for
@@ -28,6 +28,7 @@ __all__ = [
     "REPORT_LEVEL_V",
     "ReferenceLevel",
     "ReferenceSignal",
+    "default_rails",
     "default_reference_level",
     "reference_values",
     "with_level",
@@ -37,6 +38,10 @@ __all__ = [
 REFERENCE_KINDS: tuple[str, ...] = ("step", "sine", "triangle", "square")
 #: The lab report's reference step, in volts of the output's sensor (its Figs. 4–9).
 REPORT_LEVEL_V = 5.0
+#: The paper's actuator rails, ±10 V (its Fig. 12), on a command in volts.
+PAPER_RAILS_V = 10.0
+#: Default rails on a command not in volts, in identification steps (:func:`default_rails`).
+RAILS_PER_STEP = 1.5
 #: Significant digits of a default level taken from the model.
 LEVEL_DIGITS = 2
 
@@ -160,6 +165,27 @@ def default_reference_level(model: MotorModel, output: str) -> ReferenceLevel:
                               f"covers in one time constant, {fo.time_constant_s + model.delay_s:.3g} s")
     return ReferenceLevel(REPORT_LEVEL_V, unit, f"5 {unit}: the model does not say what its identification step "
                                                  f"reached in {output}")
+
+
+def default_rails(model: MotorModel) -> float:
+    """The actuator rails (±, in the input's unit) a page or a report starts from.
+
+    Parameters
+    ----------
+    model : MotorModel
+        The identified model (its input unit and identification step).
+
+    Returns
+    -------
+    float
+        :data:`PAPER_RAILS_V` when the command is in volts (or the model does not say its step);
+        otherwise :data:`RAILS_PER_STEP` × the identification step's level, to two digits (153 pwm
+        → 230): the default reference needs that step's command when settled, and the rails leave
+        it room to accelerate, where 10 would be a few counts of duty.
+    """
+    if channel_unit(model.units, "input") == "V" or not model.step_volts:
+        return PAPER_RAILS_V
+    return _rounded(RAILS_PER_STEP * abs(float(model.step_volts)))
 
 
 def with_level(model: MotorModel, output: str, ref: ReferenceSignal) -> tuple[ReferenceSignal, ReferenceLevel]:

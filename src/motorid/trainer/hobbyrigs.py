@@ -36,6 +36,10 @@ writes the file the rig writes:
     An Arduino sketch printing ``millis(),volts,rpm`` and nothing else: no header row, the
     ``millis()`` stamps of a 10.24 ms loop; the user names the columns by position with
     ``--columns time=1,input=2,velocity=3`` and their unit with ``--units velocity=rpm``.
+``arduino-pwm``
+    An Arduino driving the motor with ``analogWrite`` (duty 0–255 of a 12 V supply) and logging
+    ``t_ms,pwm,rpm`` every 10 ms: the input is the duty in counts, not volts, so the gain is rpm
+    per count and every command (rails, dead-zone, peak) is in ``pwm``.
 
 The truth of each is that of :func:`motorid.trainer.realsetups.write_real_setup`: the
 incremental gain the identified step shows, the mean residence time (τ + dead time + sensor lag).
@@ -60,12 +64,12 @@ __all__ = ["COUNTED_SPEED_RIGS", "HOBBY_RIGS", "hobby_rig_config", "write_hobby_
 
 #: The presets of this module.
 HOBBY_RIGS: tuple[str, ...] = ("l298n-rpm", "arduino-millis", "host-loop", "encoder-counts", "staircase", "ms-time",
-                               "serial-plotter", "picoscope", "clock-stamps", "no-header")
+                               "serial-plotter", "picoscope", "clock-stamps", "no-header", "arduino-pwm")
 #: The presets whose speed column counts encoder edges over each logged interval (the mean speed
 #: since the last line; ``--counted-velocity`` describes it): their truth's ``sensor_lag_s`` is
 #: half that interval.
 COUNTED_SPEED_RIGS: tuple[str, ...] = ("l298n-rpm", "arduino-millis", "ms-time", "serial-plotter", "clock-stamps",
-                                       "no-header")
+                                       "no-header", "arduino-pwm")
 #: The fine grid the plant runs on before the rig samples it (s).
 FINE_S = 1e-4
 #: L298N rig: supply step, the bridge's drop, the firmware's dead time, encoder counts per output turn.
@@ -76,6 +80,8 @@ ARDUINO_LOOP_S = 0.01024
 EV3_DT_RANGE_S = (0.004, 0.022)
 #: Micromouse: counts per wheel turn and the log interval.
 MOUSE_COUNTS, MOUSE_DT_S, MOUSE_STEP_V = 1440, 0.005, 6.0
+#: Arduino PWM rig: the supply, the duty's full scale, the duty stepped to, the loop, encoder edges a turn.
+PWM_SUPPLY_V, PWM_FULL, PWM_DUTY, PWM_LOOP_S, PWM_COUNTS = 12.0, 255, 153, 0.01, 900
 #: Staircase: the levels and the time per level.
 STAIR_LEVELS_V, STAIR_LEVEL_S = (0.0, 2.0, 4.0, 6.0, 8.0), 3.0
 
@@ -104,7 +110,7 @@ def hobby_rig_config(name: str) -> TrainerConfig:
     """
     if name == "l298n-rpm":
         return _gearmotor(L298N_DROP_V, tau_m=0.08, dc=25.0)
-    if name in ("arduino-millis", "ms-time", "serial-plotter", "no-header"):
+    if name in ("arduino-millis", "ms-time", "serial-plotter", "no-header", "arduino-pwm"):
         return _gearmotor(0.3, tau_m=0.06, dc=20.0)
     if name == "picoscope":
         return replace(_gearmotor(0.2, tau_m=0.05, dc=30.0, noise=0.004), tacho_v_per_rad_s=0.01)
@@ -258,6 +264,31 @@ def _write_serial_plotter(folder: Path, cfg: TrainerConfig, rng: np.random.Gener
     return {"log": path}, ("--velocity", str(path)), truth, ARDUINO_LOOP_S
 
 
+def _write_arduino_pwm(folder: Path, cfg: TrainerConfig, rng: np.random.Generator, force: bool) -> Writer:
+    """``t_ms,pwm,rpm``: the duty stepped 0 → 153 of 255 on a 12 V supply, rpm counted over each 10 ms loop.
+
+    The motor sees the duty's mean voltage (the PWM's frequency is far above its electrical pole);
+    the truth's gain is in rpm per count of duty, its step in counts.
+    """
+    n = 300
+    t_ms = (2000 + 10 * np.arange(n)).astype(int)  # a steady 10 ms loop (delay(10)), stamped by millis()
+    t = t_ms / 1e3
+    k = int(rng.integers(60, 91))
+    volts = PWM_SUPPLY_V * PWM_DUTY / PWM_FULL
+    s = _run(cfg, t, _step(t[k], 0.0, volts))
+    counts = np.floor(s["motor_angle_rad"] / (2 * math.pi) * PWM_COUNTS + rng.uniform())
+    rpm = np.r_[0.0, np.diff(counts)] / PWM_COUNTS / PWM_LOOP_S * 60.0
+    duty = np.where(np.arange(n) >= k, PWM_DUTY, 0)
+    path = folder / "pwm_log.csv"
+    check_writable([path], force=force)
+    _write_csv(path, "t_ms,pwm,rpm", [t_ms, duty, rpm], [".0f", ".0f", ".1f"])
+    truth = _truth(cfg, from_v=0.0, to_v=volts, dead_time_s=0.0, sensor_lag_s=PWM_LOOP_S / 2, step_time_s=float(t[k]),
+                   units="rpm")
+    # per count of duty: the volts' gain times the volts a count is
+    truth = replace(_scaled(truth, RPM_PER_RAD_S * PWM_SUPPLY_V / PWM_FULL), step_volts=float(PWM_DUTY))
+    return {"log": path}, ("--velocity", str(path)), truth, PWM_LOOP_S
+
+
 def _write_no_header(folder: Path, cfg: TrainerConfig, rng: np.random.Generator, force: bool) -> Writer:
     millis, u, rpm, truth = _sketch_rpm(cfg, rng)
     path = folder / "sketch_log.csv"
@@ -348,5 +379,5 @@ def write_hobby_rig(name: str, folder: Path, rng: np.random.Generator, force: bo
     if name == "encoder-counts":
         return _write_encoder_counts(folder, cfg, rng, force)
     writers = {"serial-plotter": _write_serial_plotter, "picoscope": _write_picoscope,
-               "clock-stamps": _write_clock_stamps, "no-header": _write_no_header}
+               "clock-stamps": _write_clock_stamps, "no-header": _write_no_header, "arduino-pwm": _write_arduino_pwm}
     return writers.get(name, _write_staircase)(folder, cfg, rng, force)

@@ -206,8 +206,8 @@ def _design(tab: Tab, dform: Any) -> tuple[Any, Any]:
 
     assert tab.fit is not None
     model = tab.fit.model
-    sat = dform.saturation_v or 10.0
     ranges = slider_ranges(model)
+    sat = dform.saturation_v or ranges.rails
     # no level given: the model's default, the one the form showed (and the simulation uses)
     level = dform.level_v if dform.level_v is not None else (ranges.reference.value if ranges.reference else 5.0)
     key = (sat, level)

@@ -196,6 +196,11 @@ class SliderRanges:
     reference : ReferenceLevel or None
         The reference step at the start, in the output's unit, and where it comes from
         (:func:`motorid.simulation.reference.default_reference_level`).
+    input_unit : str
+        The command's unit (V; pwm or % for a logged duty cycle).
+    rails : float
+        The actuator rails at the start, in ``input_unit``
+        (:func:`motorid.simulation.reference.default_rails`).
     """
 
     damping: tuple[float, float, float, float]
@@ -203,6 +208,8 @@ class SliderRanges:
     duration_s: float
     observer_example: str = ""
     reference: ReferenceLevel | None = None
+    input_unit: str = "V"
+    rails: float = 10.0
 
 
 def slider_ranges(model: MotorModel) -> SliderRanges:
@@ -226,12 +233,15 @@ def slider_ranges(model: MotorModel) -> SliderRanges:
     step = float(f"{(hi - lo) / 300:.2g}")
     dur = float(f"{max(8.0 / (0.7 * start), 0.5):.2g}")
     observer = ",".join(f"{-(10 + 2 * i) * start:.3g}" for i in range(model.A.shape[0]))
-    from motorid.simulation.reference import default_reference_level
+    from motorid.model.units import channel_unit
+    from motorid.simulation.reference import default_rails, default_reference_level
 
     # the design's output by default (design_controller's choice): its unit, its level
     output = "position" if "position" in model.outputs else "velocity"
+    unit = channel_unit(model.units, "input")
+    rails = default_rails(model)
     return SliderRanges((0.2, 2.0, 0.01, 0.7), (float(f"{lo:.3g}"), float(f"{hi:.3g}"), step, float(f"{start:.3g}")),
-                        dur, observer, default_reference_level(model, output))
+                        dur, observer, default_reference_level(model, output), unit, rails)
 
 
 @dataclass(frozen=True, slots=True)
@@ -247,7 +257,8 @@ class DesignForm:
     observer_poles : str
         Comma-separated observer poles (empty: no observer).
     saturation_v : float or None
-        Actuator rails ±V of the simulation and the mode map (None: none; the map then uses 10 V).
+        Actuator rails ± of the simulation and the mode map, in the input's unit (None: none; the map
+        then uses the page's starting rails, :attr:`SliderRanges.rails`).
     level_v : float or None
         Reference step in the output's unit (None: the model's default,
         :func:`motorid.simulation.reference.default_reference_level`).
