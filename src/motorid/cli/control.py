@@ -525,7 +525,7 @@ def modes(
     model_file: Annotated[Path, typer.Argument(help="Model JSON.")],
     kp: Annotated[str, typer.Option("--kp", help="Kp grid START:STOP:COUNT, e.g. 0:200:200.")],
     kv: Annotated[str, typer.Option("--kv", help="Kv grid START:STOP:COUNT, e.g. 0:10:200.")],
-    step: Annotated[float, typer.Option(help="Reference step, V.")] = 1.0,
+    step: Annotated[float, typer.Option(help="Reference step, in the position's unit (V for scope volts).")] = 1.0,
     saturation: Annotated[float, typer.Option(
         help="Actuator rails ±, in the input's unit (V; pwm or % for a logged duty cycle).")] = 10.0,
     duration: Annotated[float | None, typer.Option(help="Record length, s (default 20 τm).")] = None,

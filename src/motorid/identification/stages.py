@@ -1370,6 +1370,8 @@ def select_order(
         When no structure could be fitted.
     """
     errors: list[str] = []
+    # the same failures in the evidence's words, (structure, why), said when another structure is kept
+    dropped: list[tuple[str, str]] = []
     skipped: list[str] = []
     left: list[str] = []  # candidates left far from the best when their evaluations ran out
     beyond: list[str] = []  # delay variants with more poles than the best fit without a delay
@@ -1406,9 +1408,11 @@ def select_order(
                     res, model, far = _candidate_fit(cond, start, structure, noise, with_delay, options, best_bic)
                 except IdentificationError as exc:
                     errors.append(f"{label}: {exc.message}")
+                    dropped.append((_describe(structure, with_delay), exc.message))
                     continue
                 if not np.isfinite(res.bic) or np.any(np.real(res.poles) >= 0):
                     errors.append(f"{label}: unstable or failed fit")
+                    dropped.append((_describe(structure, with_delay), "unstable or failed fit"))
                     continue
                 if far:
                     left.append(f"{_describe(structure, with_delay)} (BIC {res.bic - best_bic:.0f} "
@@ -1419,6 +1423,8 @@ def select_order(
                 roots = np.r_[res.poles, res.zeros]
                 if roots.size and np.max(np.abs(roots)) > fastest:
                     errors.append(f"{label}: a pole or zero beyond the sampling rate")
+                    dropped.append((_describe(structure, with_delay), "a pole or zero beyond the sampling rate, "
+                                    "faster than the record can show"))
                     continue
                 models[structure] = model
                 best_of[order] = min(best_of.get(order, np.inf), res.bic)
@@ -1459,7 +1465,7 @@ def select_order(
     model = best[4].replace(uncertainty=reading_allowances(widened, cond))
     runner = fits[1] if len(fits) > 1 else None
     if runner is None:
-        evidence = f"only {_describe(best[1], best[2])} could be fitted"
+        evidence = f"only {_describe(best[1], best[2])} {'remained' if dropped else 'could be fitted'}"
     elif abs(runner[0] - best[0]) < TIE_BIC:
         evidence = (f"BIC cannot tell {_describe(best[1], best[2])} from {_describe(runner[1], runner[2])} "
                     f"(|ΔBIC| = {abs(runner[0] - best[0]):.1f} < {TIE_BIC:g}, a tie): the simpler is kept")
@@ -1474,6 +1480,8 @@ def select_order(
     if len(variants) == 2:
         evidence += (f" (a dead time was tried: the data stay in their noise band for "
                      f"{1e3 * cond.dead_time_s:.3g} ms after the step)")
+    for why in dict.fromkeys(w for _, w in dropped):
+        evidence += f"; not kept ({why}): {', '.join(d for d, w in dropped if w == why)}"
     if skipped:
         evidence += f"; {', '.join(dict.fromkeys(skipped))} not fitted (one pole fewer did not lower BIC)"
     if beyond:
