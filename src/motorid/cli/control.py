@@ -215,6 +215,10 @@ def design(
         "--emit", help="Write the sampled controller as code: c, python or matlab (to the terminal, the rest "
                        "of the printout then going to stderr, or to --emit-file).")] = None,
     emit_file: Annotated[Path | None, typer.Option("--emit-file", help="Write the --emit code here.")] = None,
+    saturation: Annotated[float | None, typer.Option(
+        "--saturation", help="With --discrete: the actuator's rails ±, in the input's unit; the sampled controller "
+                             "clamps its command, feeds its observer the clamped one and holds its integrator against "
+                             "them, as simulate --saturation runs it (zoh only).")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """State feedback, integral action and observer (Tsiolakis 2022, §2-4) or a PID (--pid); code for a controller."""
@@ -233,14 +237,14 @@ def design(
             "--overshoot": overshoot is not None, "--integral": integral, "--ki": ki is not None,
             "--integral-pole": integral_pole is not None, "--observer-poles": observer_poles is not None,
             "--output": output is not None, "--sensors": sensors is not None, "--robust": robust is not None})
-        _check_code_options(discrete, discrete_method, emit, emit_file)
+        _check_code_options(discrete, discrete_method, emit, emit_file, saturation)
         _design_pid(model_file, json_out, force, pid_loop, pid_rule, pid_integral, tau_c, derivative_filter, damping,
-                    wn, code=(discrete, discrete_method, emit, emit_file))
+                    wn, code=(discrete, discrete_method, emit, emit_file), rails=saturation)
         return
     given = next((flag for flag, on in pid_options.items() if on), None)
     if given is not None:
         raise OptionError(f"{given} goes with --pid")
-    _check_code_options(discrete, discrete_method, emit, emit_file)
+    _check_code_options(discrete, discrete_method, emit, emit_file, saturation)
     # code on the terminal is the standard output alone (``> controller.c``); the printout goes to stderr
     code_to_stdout = emit is not None and emit_file is None
 
@@ -300,8 +304,8 @@ def design(
         say(f"warning: {w}")
     from motorid.control.emit import discretise_design
 
-    _write_with_code(d.to_json(), lambda ts, how: discretise_design(model, d, ts, how), model_file, json_out,
-                     force, discrete, discrete_method, emit, emit_file, say)
+    _write_with_code(d.to_json(), lambda ts, how: discretise_design(model, d, ts, how, rails=saturation), model_file,
+                     json_out, force, discrete, discrete_method, emit, emit_file, say)
 
 
 def _write_with_code(data: dict, discretised, model_file: Path, json_out: Path | None, force: bool,
@@ -340,11 +344,18 @@ def _write_with_code(data: dict, discretised, model_file: Path, json_out: Path |
 _LANGUAGE_NAMES = {"c": "C", "python": "Python", "matlab": "MATLAB"}
 
 
-def _check_code_options(discrete: float | None, method: str | None, emit: str | None, emit_file: Path | None) -> None:
+def _check_code_options(discrete: float | None, method: str | None, emit: str | None, emit_file: Path | None,
+                        rails: float | None = None) -> None:
     """Refuse, before any work, the code options that do not go together or name nothing known."""
     from motorid.control.emit import LANGUAGES, METHODS
 
-    _check_numbers({"--discrete": discrete}, positive=("--discrete",))
+    _check_numbers({"--discrete": discrete, "--saturation": rails}, positive=("--discrete", "--saturation"))
+    if rails is not None and discrete is None:
+        raise OptionError("--saturation needs --discrete TS: the rails are those of the sampled controller's code "
+                          "(simulate --saturation runs a design with rails)")
+    if rails is not None and method not in (None, "zoh"):
+        raise OptionError(f"--saturation with --discrete-method {method}: the rails need the zero-order-hold form "
+                          "(zoh, the default)")
     if method is not None and method not in METHODS:
         raise OptionError(f"--discrete-method {method!r}: use one of {', '.join(METHODS)}")
     if emit is not None and emit not in LANGUAGES:
@@ -366,6 +377,10 @@ def _print_discrete(dc, say) -> None:
                  f"{sig(dc.ts_max_s)} s")
     if dc.loop_spectral_radius is not None:
         line += f"; sampled loop's largest |z| = {sig(dc.loop_spectral_radius)}"
+    if dc.rails is not None:
+        line += (f"; its command clamped to ±{sig(dc.rails)} {dc.units.get('u', '')}".rstrip()
+                 + (", the integrator held against the rails" if dc.integrator is not None else "")
+                 + (", the observer fed the clamped command" if dc.applied_column().any() else ""))
     say(line)
     for w in dc.warnings:
         say(f"warning: {w}")
@@ -376,10 +391,10 @@ def _print_discrete(dc, say) -> None:
 def _design_pid(model_file: Path, json_out: Path | None, force: bool, loop: str | None, rule: str | None,
                 integral: bool, tau_c: float | None, derivative_filter: float | None, damping: float | None,
                 wn: float | None, code: tuple[float | None, str | None, str | None, Path | None] = (None,) * 4,
-                ) -> None:
+                rails: float | None = None) -> None:
     """``motorid design --pid``: tune, print the gains, the controller, margins, poles and a step's metrics.
 
-    ``code``: ``--discrete``, ``--discrete-method``, ``--emit``, ``--emit-file``.
+    ``code``: ``--discrete``, ``--discrete-method``, ``--emit``, ``--emit-file``; ``rails``: ``--saturation``.
     """
     discrete, discrete_method, emit, emit_file = code
     code_to_stdout = emit is not None and emit_file is None
@@ -425,8 +440,8 @@ def _design_pid(model_file: Path, json_out: Path | None, force: bool, loop: str 
         say(f"warning: {w}")
     from motorid.control.emit import discretise_pid
 
-    _write_with_code(p.to_json(), lambda ts, how: discretise_pid(model, p, ts, how), model_file, json_out, force,
-                     discrete, discrete_method, emit, emit_file, say)
+    _write_with_code(p.to_json(), lambda ts, how: discretise_pid(model, p, ts, how, rails=rails), model_file,
+                     json_out, force, discrete, discrete_method, emit, emit_file, say)
 
 
 #: The simulation metrics printed, in order, with their units (``output``: the output channel's).

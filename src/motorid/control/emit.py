@@ -11,6 +11,13 @@ checks the interval against the loop it closes.  :func:`emit_c`, :func:`emit_pyt
 unrolled, every coefficient with ``%.17g`` (a double read back exactly), as a small C99
 function with its state (ready for an Arduino loop), a Python module or a MATLAB function.
 
+Actuator rails.  Given ``rails`` (``motorid design --discrete TS --saturation U``), the emitted
+step clamps the command to ``±U`` and runs the rest of the controller as ``motorid simulate
+--saturation U`` runs it: the observer is fed the command applied (the clamped one, not the one
+asked for), and the integrator holds while the command is beyond a rail and its increment would
+push it further (conditional integration).  Only the zero-order-hold form keeps the controller's
+states apart for that (the integrator a state of its own, the observer's input column known).
+
 Sample-rate limits.  The loop's fastest pole ``|p|`` (closed loop, observer, the controller's
 own) sets them: an interval with ``TS·|p| > 0.2`` is warned about (Åström & Wittenmark,
 *Computer-Controlled Systems*, 3rd ed., 1997: choose the sampling period so that ``ω h`` is
@@ -26,7 +33,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -99,6 +106,14 @@ class DiscreteController:
     how : str
         How it was sampled, in words (default: ``method`` by python-control's ``c2d``;
         :func:`discretise_design` says so when it placed the observer on the sampled motor).
+    rails : float or None
+        The actuator rails ``±rails`` the emitted step clamps the command to (None: none).
+    command_column : ndarray or None
+        How the command enters the next state (the observer's input column, shape
+        ``(nstates,)``): with rails the emitted step feeds it the clamped command.  None: the
+        command enters no state (no observer).
+    integrator : int or None
+        The index of the integrator's state, held against the rails (None: none).
     """
 
     system: Any
@@ -111,6 +126,9 @@ class DiscreteController:
     notes: tuple[str, ...] = ()
     warnings: tuple[str, ...] = ()
     how: str = ""
+    rails: float | None = None
+    command_column: np.ndarray | None = field(default=None, compare=False)
+    integrator: int | None = None
 
     def description(self) -> str:
         """How it was sampled, in words: :attr:`how`, else ``"<method> (python-control c2d)"``.
@@ -164,7 +182,8 @@ class DiscreteController:
         dict
             ``ts_s``, ``method``, ``Ad``, ``Bd``, ``Cd``, ``Dd`` (lists of rows), ``inputs``,
             ``outputs``, ``states``, ``units``, ``fastest_pole_rad_s``, ``ts_max_s``,
-            ``loop_spectral_radius``, ``rule`` and ``warnings``.
+            ``loop_spectral_radius``, ``rule``, ``warnings`` and, with rails, ``rails``,
+            ``command_column`` and ``integrator``.
         """
         def rows(m: np.ndarray) -> list[list[float]]:
             return [[float(v) for v in row] for row in m]
@@ -174,10 +193,36 @@ class DiscreteController:
                 "outputs": list(self.outputs), "states": list(self.states), "units": dict(self.units),
                 "fastest_pole_rad_s": self.fastest_pole_rad_s, "ts_max_s": self.ts_max_s,
                 "loop_spectral_radius": self.loop_spectral_radius,
-                "rule": f"TS*|p| <= {SAMPLING_RULE} ({RULE_SOURCE})", "warnings": list(self.warnings)}
+                "rule": f"TS*|p| <= {SAMPLING_RULE} ({RULE_SOURCE})", "warnings": list(self.warnings),
+                **({} if self.rails is None else {
+                    "rails": float(self.rails), "command_column": [float(v) for v in self.applied_column()],
+                    "integrator": self.integrator})}
+
+    def applied_column(self) -> np.ndarray:
+        """:attr:`command_column`, zeros when the command enters no state.
+
+        Returns
+        -------
+        ndarray, shape (nstates,)
+        """
+        n = self.Ad.shape[0]
+        return np.zeros(n) if self.command_column is None else np.asarray(self.command_column, dtype=float).ravel()
+
+    def open_matrices(self) -> tuple[np.ndarray, np.ndarray]:
+        """``Ad − b_u Cd`` and ``Bd − b_u Dd``: the next state with the command as an input of its own.
+
+        ``x[k+1] = A0 x[k] + B0 in[k] + b_u u_applied[k]``; with ``u_applied = u`` (no rails) it is
+        :attr:`Ad`, :attr:`Bd`'s update.
+
+        Returns
+        -------
+        (ndarray, ndarray)
+        """
+        bu = self.applied_column().reshape(-1, 1)
+        return self.Ad - bu @ self.Cd, self.Bd - bu @ self.Dd
 
     def difference(self, inputs: np.ndarray, x0: np.ndarray | None = None) -> np.ndarray:
-        """Run the difference equations on an input sequence (one row per sample).
+        """Run the difference equations on an input sequence (one row per sample), with the rails if any.
 
         Parameters
         ----------
@@ -194,10 +239,42 @@ class DiscreteController:
         w = np.asarray(inputs, dtype=float).reshape(len(inputs), -1)
         x = np.zeros(self.Ad.shape[0]) if x0 is None else np.asarray(x0, dtype=float)
         out = np.empty((w.shape[0], self.Cd.shape[0]))
+        if self.rails is None:
+            for k, row in enumerate(w):
+                out[k] = self.Cd @ x + self.Dd @ row
+                x = self.Ad @ x + self.Bd @ row
+            return out
+        a0, b0 = self.open_matrices()
+        bu, rail, iz = self.applied_column(), float(self.rails), self.integrator
         for k, row in enumerate(w):
-            out[k] = self.Cd @ x + self.Dd @ row
-            x = self.Ad @ x + self.Bd @ row
+            u_raw = float((self.Cd @ x + self.Dd @ row)[0])
+            u = min(max(u_raw, -rail), rail)
+            out[k] = u
+            nxt = a0 @ x + b0 @ row + bu * u
+            if iz is not None and held(u_raw, rail, float(self.Cd[0, iz]) * (nxt[iz] - x[iz])):
+                nxt[iz] = x[iz]
+            x = nxt
         return out
+
+
+def held(u_raw: float, rails: float, push: float) -> bool:
+    """Conditional integration: whether the integrator holds this sample.
+
+    Parameters
+    ----------
+    u_raw : float
+        The command asked for (before the rails).
+    rails : float
+        The rails ``±rails``.
+    push : float
+        How the integrator's increment would move the command (its ``Cd`` entry × the increment).
+
+    Returns
+    -------
+    bool
+        True while the command is beyond a rail and the increment would push it further.
+    """
+    return (u_raw > rails and push > 0) or (u_raw < -rails and push < 0)
 
 
 def _check_ts(ts: float, method: str) -> None:
@@ -282,7 +359,8 @@ def plant_system(model: MotorModel, design: Design) -> control.StateSpace:
                       inputs=[COMMAND], outputs=outputs, name="motor")
 
 
-def discretise_design(model: MotorModel, design: Design, ts: float, method: str = "zoh") -> DiscreteController:
+def discretise_design(model: MotorModel, design: Design, ts: float, method: str = "zoh", *,
+                      rails: float | None = None) -> DiscreteController:
     """The controller of ``design`` sampled at ``ts``, checked against the loop it closes on ``model``.
 
     Parameters
@@ -294,6 +372,9 @@ def discretise_design(model: MotorModel, design: Design, ts: float, method: str 
         Sampling interval, s.
     method : str
         One of :data:`METHODS`.
+    rails : float, optional
+        Actuator rails ``±rails`` in the command's unit: the emitted step clamps the command,
+        feeds the observer the clamped one and holds the integrator against them (``zoh`` only).
 
     Returns
     -------
@@ -305,7 +386,7 @@ def discretise_design(model: MotorModel, design: Design, ts: float, method: str 
     OptionError
         ``ts`` not > 0, at or beyond the Nyquist limit ``π/|p|`` of the loop's fastest pole, or
         making the sampled loop unstable; an unknown method; a design whose continuous loop is
-        already unstable.
+        already unstable; rails not > 0, or with a method other than ``zoh``.
 
     References
     ----------
@@ -313,6 +394,7 @@ def discretise_design(model: MotorModel, design: Design, ts: float, method: str 
     ``ω h ≈ 0.1–0.6`` for the sampling period.
     """
     _check_ts(ts, method)
+    _check_rails(rails, method)
     designed = design.output_feedback_poles if design.output_feedback_poles is not None else design.closed_loop_poles
     if designed is not None and np.size(designed) and float(np.max(np.real(designed))) >= 0:
         # sampling cannot make an unstable loop stable: the interval is not what is wrong
@@ -323,21 +405,28 @@ def discretise_design(model: MotorModel, design: Design, ts: float, method: str 
     units = {name: signal_unit(name, design.units, output=design.output)
              for name in (*csys.input_labels, *csys.output_labels)}
     sampled = None
+    column = None  # without an observer the command enters no state of the controller
     limiting: tuple[Any, ...] = (design.closed_loop_poles, design.observer_poles, design.output_feedback_poles,
                                  csys.poles())
     if method == "zoh" and (design.L is not None or design.reduced is not None):
-        from motorid.control.sampled import sampled_controller
+        from motorid.control.sampled import sampled_controller_parts
 
         # the observer placed on the motor behind the hold, not c2d's hold of the measured signals: its
         # poles map to e^{p·TS} exactly, so only the state feedback's (held command) limit the interval
-        sampled = sampled_controller(model, design, ts)
+        sampled, column = sampled_controller_parts(model, design, ts)
         limiting = (design.closed_loop_poles,)
     poles = [np.asarray(p, dtype=complex).ravel() for p in limiting if p is not None]
-    return _sampled(csys, plant_system(model, design), float(model.delay_s), poles, ts, method, units,
-                    _design_notes(model, design), sampled=sampled)
+    dc = _sampled(csys, plant_system(model, design), float(model.delay_s), poles, ts, method, units,
+                  _design_notes(model, design), sampled=sampled)
+    if rails is None:
+        return dc
+    states = list(dc.states)
+    return replace(dc, rails=float(rails), command_column=column,
+                   integrator=states.index("z") if design.ki is not None and "z" in states else None)
 
 
-def discretise_pid(model: MotorModel, pid: PidDesign, ts: float, method: str = "zoh") -> DiscreteController:
+def discretise_pid(model: MotorModel, pid: PidDesign, ts: float, method: str = "zoh", *,
+                   rails: float | None = None) -> DiscreteController:
     """A PID design sampled at ``ts``, checked as :func:`discretise_design` checks state feedback.
 
     The controller is :meth:`~motorid.control.pid.PidDesign.system` (inputs ``r`` and the channel).
@@ -351,6 +440,9 @@ def discretise_pid(model: MotorModel, pid: PidDesign, ts: float, method: str = "
         Sampling interval, s.
     method : str
         One of :data:`METHODS`.
+    rails : float, optional
+        Actuator rails ``±rails`` in the command's unit: the emitted step clamps the command and
+        holds the integrator against them (``zoh`` only), as :func:`discretise_design`.
 
     Returns
     -------
@@ -364,8 +456,10 @@ def discretise_pid(model: MotorModel, pid: PidDesign, ts: float, method: str = "
     import control
 
     from motorid.control.pid import channel_system
+    from motorid.model.units import channel_unit
 
     _check_ts(ts, method)
+    _check_rails(rails, method)
     csys = pid.system()
     plant = channel_system(model, pid.loop)[0]
     # the loop's poles without the dead time's Padé poles (they are not the controller's business)
@@ -376,13 +470,27 @@ def discretise_pid(model: MotorModel, pid: PidDesign, ts: float, method: str = "
     if designed.size and float(np.max(designed.real)) >= 0:
         raise OptionError("--discrete: the PID loop itself is unstable without its dead time; fix the design "
                           "before sampling it")
-    units = {REFERENCE: pid.output_unit, pid.output: pid.output_unit, COMMAND: "V"}
+    units = {REFERENCE: pid.output_unit, pid.output: pid.output_unit, COMMAND: channel_unit(model.units, "input")}
     motor = control.ss(plant.A, plant.B, plant.C, plant.D, inputs=[COMMAND], outputs=[pid.output], name="motor")
     notes = (f"Model: {model.method}, order {model.A.shape[0]}, outputs {', '.join(model.outputs)}",
              f"Design: {pid.kind} on the {pid.loop}, u = kp (r - y) + ki integral(r - y) - kd s/(tf s + 1) y; "
              f"y = {pid.output}",
              f"  kp = {pid.kp:.6g}, ki = {pid.ki:.6g}, kd = {pid.kd:.6g}, tf = {pid.tf_s:.6g} s")
-    return _sampled(csys, motor, float(model.delay_s), [designed, csys.poles()], ts, method, units, notes)
+    dc = _sampled(csys, motor, float(model.delay_s), [designed, csys.poles()], ts, method, units, notes)
+    # zoh keeps the PID's states (e^{A·TS}): its integrator is still pid.matrices()'s
+    return dc if rails is None else replace(dc, rails=float(rails), integrator=pid.matrices()[4])
+
+
+def _check_rails(rails: float | None, method: str) -> None:
+    """Refuse rails that are no positive number, or with a sampling that mixes the controller's states."""
+    if rails is None:
+        return
+    if isinstance(rails, bool) or not isinstance(rails, (int, float)) or not (math.isfinite(rails) and rails > 0):
+        raise OptionError(f"--saturation must be the actuator's rails, a number > 0, got {rails!r}")
+    if method != "zoh":
+        raise OptionError(f"--saturation with --discrete-method {method}: the rails need the zero-order-hold form "
+                          "(zoh, the default), whose integrator is a state of its own and whose observer is fed "
+                          "the command applied")
 
 
 def _sampled(csys: control.StateSpace, motor_c: control.StateSpace, tau: float, poles: list[np.ndarray],
@@ -516,6 +624,17 @@ class _Equations:
     outputs: tuple[str, ...]  # identifiers
     output_rhs: tuple[str, ...]
     state_rhs: tuple[str, ...]
+    # with rails: the command asked for (output_rhs), the states' update with the applied command
+    # (state_rhs), the integrator's increment and how much of it reaches the command
+    rails: float | None = None
+    integrator: int | None = None
+    increment_rhs: str = ""
+    push: float = 0.0
+
+    @property
+    def raw(self) -> str:
+        """The name of the command asked for, before the rails."""
+        return f"{self.outputs[0]}_raw"
 
 
 def _as_discrete(dc: Any) -> DiscreteController:
@@ -541,12 +660,23 @@ def _equations(dc: DiscreteController) -> _Equations:
     if not all(np.all(np.isfinite(m)) for m in (ad, bd, cd, dd)):
         raise OptionError("the discretised controller has non-finite coefficients")
 
-    def row(a_row: np.ndarray, b_row: np.ndarray) -> str:
-        return _sum([*zip(a_row, states, strict=True), *zip(b_row, inputs, strict=True)])
+    def row(a_row: np.ndarray, b_row: np.ndarray, extra: Sequence[tuple[float, str]] = ()) -> str:
+        return _sum([*zip(a_row, states, strict=True), *zip(b_row, inputs, strict=True), *extra])
 
-    return _Equations(inputs, states, outputs,
-                      tuple(row(cd[i], dd[i]) for i in range(cd.shape[0])),
-                      tuple(row(ad[i], bd[i]) for i in range(ad.shape[0])))
+    outs = tuple(row(cd[i], dd[i]) for i in range(cd.shape[0]))
+    if dc.rails is None:
+        return _Equations(inputs, states, outputs, outs, tuple(row(ad[i], bd[i]) for i in range(ad.shape[0])))
+    # the command enters the states as applied (clamped): x[k+1] = A0 x + B0 in + b_u u
+    a0, b0 = dc.open_matrices()
+    bu = dc.applied_column()
+    rows = tuple(row(a0[i], b0[i], [(bu[i], outputs[0])]) for i in range(a0.shape[0]))
+    iz = dc.integrator
+    increment, push = "", 0.0
+    if iz is not None:
+        step = a0[iz].copy()
+        step[iz] -= 1.0  # the increment: the update less the state itself
+        increment, push = row(step, b0[iz], [(bu[iz], outputs[0])]), float(cd[0, iz])
+    return _Equations(inputs, states, outputs, outs, rows, float(dc.rails), iz, increment, push)
 
 
 def _header(dc: DiscreteController, name: str, source: str | None) -> list[str]:
@@ -571,8 +701,19 @@ def _header(dc: DiscreteController, name: str, source: str | None) -> list[str]:
         lines.append("Sampled loop (motor behind a zero-order hold, its dead time included, + this controller): "
                      f"largest |z| = {dc.loop_spectral_radius:.6g}")
     lines += [f"WARNING: {w}" for w in dc.warnings]
-    lines += ["", "x[k+1] = Ad x[k] + Bd in[k],  u[k] = Cd x[k] + Dd in[k],  in = ["
-              + ", ".join(dc.inputs) + "]; coefficients printed with %.17g."]
+    if dc.rails is None:
+        lines += ["", "x[k+1] = Ad x[k] + Bd in[k],  u[k] = Cd x[k] + Dd in[k],  in = ["
+                  + ", ".join(dc.inputs) + "]; coefficients printed with %.17g."]
+    else:
+        unit = dc.units.get(COMMAND) or ""
+        lines += [f"Rails: the command is clamped to +-{dc.rails:g} {unit}".rstrip()
+                  + (", the observer fed the clamped command" if np.any(dc.applied_column()) else "")
+                  + ("; the integrator holds while the command is beyond a rail and its increment would push it "
+                     "further (conditional integration)" if dc.integrator is not None else "")
+                  + f": as motorid simulate --saturation {dc.rails:g} runs it",
+                  "", "u_raw[k] = Cd x[k] + Dd in[k],  u[k] = clamp(u_raw[k]),  x[k+1] = (Ad - b_u Cd) x[k] + "
+                  "(Bd - b_u Dd) in[k] + b_u u[k],  in = [" + ", ".join(dc.inputs) + "]; coefficients printed "
+                  "with %.17g."]
     return [_ascii(line) for line in lines]
 
 
@@ -631,6 +772,7 @@ def emit_c(dc: DiscreteController | control.StateSpace, *, name: str = "motor_co
             "",
             f"#define {upper}_TS {_number(dc.ts_s)}",
             f"#define {upper}_NSTATES {n}",
+            *([] if dc.rails is None else [f"#define {upper}_RAILS {_number(dc.rails)}"]),
             "",
             "typedef struct {",
             f"    double x[{max(n, 1)}];  /* "
@@ -644,8 +786,24 @@ def emit_c(dc: DiscreteController | control.StateSpace, *, name: str = "motor_co
             f"double {ident}_step({ident}_state *s, " + ", ".join(f"double {v}" for v in eq.inputs) + ")",
             "{"]
     out += [f"    const double {v} = s->x[{i}];" for i, v in enumerate(eq.states)]
-    out += [f"    const double {eq.outputs[0]} = {eq.output_rhs[0]};"]
-    out += [f"    s->x[{i}] = {rhs};" for i, rhs in enumerate(eq.state_rhs)]
+    if eq.rails is None:
+        out += [f"    const double {eq.outputs[0]} = {eq.output_rhs[0]};"]
+        out += [f"    s->x[{i}] = {rhs};" for i, rhs in enumerate(eq.state_rhs)]
+    else:
+        u, raw, rail = eq.outputs[0], eq.raw, f"{upper}_RAILS"
+        out += [f"    const double {raw} = {eq.output_rhs[0]};",
+                f"    const double {u} = {raw} > {rail} ? {rail} : ({raw} < -{rail} ? -{rail} : {raw});  "
+                "/* the actuator's rails */"]
+        if eq.integrator is not None:
+            out += [f"    const double dz = {eq.increment_rhs};  /* the integrator's increment */",
+                    "    /* conditional integration: hold while the command is beyond a rail and dz would push it "
+                    "further */",
+                    f"    const int hold = ({raw} > {rail} && {_number(eq.push)}*dz > 0.0) || "
+                    f"({raw} < -{rail} && {_number(eq.push)}*dz < 0.0);"]
+        out += [f"    s->x[{i}] = {rhs};" for i, rhs in enumerate(eq.state_rhs) if i != eq.integrator]
+        if eq.integrator is not None:
+            iz = eq.integrator
+            out += [f"    s->x[{iz}] = hold ? {eq.states[iz]} : {eq.states[iz]} + dz;"]
     if n == 0:
         out += ["    (void)s;"]
     out += [f"    return {eq.outputs[0]};", "}", ""]
@@ -680,13 +838,29 @@ def emit_python(dc: DiscreteController | control.StateSpace, *, name: str = "mot
     header = [raw.replace("\\", "/").replace('"""', "'''") for raw in _header(dc, ident, source)[1:]]
     lines += [line for raw in header for line in _wrap(raw, "")]
     lines += ["", f"Use: x = {ident}_init(), then every TS seconds u = {ident}_step(x, {', '.join(eq.inputs)}).",
-              '"""', "", f"TS = {_number(dc.ts_s)}", f"INPUTS = {tuple(dc.inputs)!r}", "", "",
+              '"""', "", f"TS = {_number(dc.ts_s)}", f"INPUTS = {tuple(dc.inputs)!r}",
+              *([] if dc.rails is None else [f"RAILS = {_number(dc.rails)}"]), "", "",
               f"def {ident}_init():", '    """The state x[0]: zeros."""', f"    return [0.0] * {max(n, 1)}", "", "",
               f"def {ident}_step(x, {', '.join(eq.inputs)}):",
               '    """One sample: the command u[k]; x becomes x[k+1] in place."""']
     lines += [f"    {v} = x[{i}]" for i, v in enumerate(eq.states)]
-    lines += [f"    {eq.outputs[0]} = {eq.output_rhs[0]}"]
-    lines += [f"    x[{i}] = {rhs}" for i, rhs in enumerate(eq.state_rhs)]
+    if eq.rails is None:
+        lines += [f"    {eq.outputs[0]} = {eq.output_rhs[0]}"]
+        lines += [f"    x[{i}] = {rhs}" for i, rhs in enumerate(eq.state_rhs)]
+    else:
+        u, raw = eq.outputs[0], eq.raw
+        lines += [f"    {raw} = {eq.output_rhs[0]}",
+                  f"    {u} = min(max({raw}, -RAILS), RAILS)  # the actuator's rails"]
+        if eq.integrator is not None:
+            lines += [f"    dz = {eq.increment_rhs}  # the integrator's increment",
+                      "    # conditional integration: hold while the command is beyond a rail and dz would push it "
+                      "further",
+                      f"    hold = ({raw} > RAILS and {_number(eq.push)}*dz > 0.0) or "
+                      f"({raw} < -RAILS and {_number(eq.push)}*dz < 0.0)"]
+        lines += [f"    x[{i}] = {rhs}" for i, rhs in enumerate(eq.state_rhs) if i != eq.integrator]
+        if eq.integrator is not None:
+            iz = eq.integrator
+            lines += [f"    x[{iz}] = {eq.states[iz]} if hold else {eq.states[iz]} + dz"]
     lines += [f"    return {eq.outputs[0]}", ""]
     return "\n".join(lines)
 
@@ -718,8 +892,21 @@ def emit_matlab(dc: DiscreteController | control.StateSpace, *, name: str = "mot
     lines += ["%", f"% Use: x = zeros({max(n, 1)}, 1); then every TS = {dc.ts_s:g} s "
                    f"[{eq.outputs[0]}, x] = {ident}_step(x, {', '.join(eq.inputs)});"]
     lines += [f"{v} = x({i + 1});" for i, v in enumerate(eq.states)]
-    lines += [f"{eq.outputs[0]} = {eq.output_rhs[0]};"]
-    lines += [f"x({i + 1}) = {rhs};" for i, rhs in enumerate(eq.state_rhs)]
+    if eq.rails is None:
+        lines += [f"{eq.outputs[0]} = {eq.output_rhs[0]};"]
+        lines += [f"x({i + 1}) = {rhs};" for i, rhs in enumerate(eq.state_rhs)]
+    else:
+        u, raw, rail = eq.outputs[0], eq.raw, _number(eq.rails)
+        lines += [f"{raw} = {eq.output_rhs[0]};", f"{u} = min(max({raw}, -{rail}), {rail});  % the actuator's rails"]
+        if eq.integrator is not None:
+            lines += [f"dz = {eq.increment_rhs};  % the integrator's increment",
+                      "% conditional integration: hold while the command is beyond a rail and dz would push it further",
+                      f"hold = ({raw} > {rail} && {_number(eq.push)}*dz > 0) || ({raw} < -{rail} && "
+                      f"{_number(eq.push)}*dz < 0);"]
+        lines += [f"x({i + 1}) = {rhs};" for i, rhs in enumerate(eq.state_rhs) if i != eq.integrator]
+        if eq.integrator is not None:
+            iz = eq.integrator
+            lines += [f"if hold, x({iz + 1}) = {eq.states[iz]}; else, x({iz + 1}) = {eq.states[iz]} + dz; end"]
     lines += ["end", ""]
     return "\n".join(lines)
 

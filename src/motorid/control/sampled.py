@@ -48,7 +48,8 @@ if TYPE_CHECKING:
     from motorid.control.design import Design
     from motorid.model import MotorModel
 
-__all__ = ["design_observer_poles", "sampled_controller", "sampled_observer", "sampled_reduced_observer"]
+__all__ = ["design_observer_poles", "sampled_controller", "sampled_controller_parts", "sampled_observer",
+           "sampled_reduced_observer"]
 
 
 def design_observer_poles(design: Design, a: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -128,6 +129,29 @@ def sampled_reduced_observer(a: np.ndarray, b: np.ndarray, obs: ReducedObserver,
 def sampled_controller(model: MotorModel, design: Design, ts: float) -> control.StateSpace:
     """The controller of a design with an observer, run every ``ts``, as a discrete-time system.
 
+    :func:`sampled_controller_parts`' system (see there).
+
+    Parameters
+    ----------
+    model : MotorModel
+        The model the design was made for.
+    design : Design
+        A design with an observer (``design.L`` or ``design.reduced``).
+    ts : float
+        The control interval, s.
+
+    Returns
+    -------
+    control.StateSpace
+        Discrete-time (``dt = ts``).
+    """
+    return sampled_controller_parts(model, design, ts)[0]
+
+
+def sampled_controller_parts(model: MotorModel, design: Design, ts: float,
+                             ) -> tuple[control.StateSpace, np.ndarray]:
+    """The controller of a design with an observer, run every ``ts``, and how the command enters its states.
+
     Its inputs, output and states are :func:`~motorid.control.controller.controller_system`'s;
     the observer is :func:`sampled_observer` or :func:`sampled_reduced_observer`, the command
     ``u = −K x̂ + kr r`` (``− ki z``) computed from the latest estimate and held until the next
@@ -144,8 +168,11 @@ def sampled_controller(model: MotorModel, design: Design, ts: float) -> control.
 
     Returns
     -------
-    control.StateSpace
-        Discrete-time (``dt = ts``).
+    (control.StateSpace, ndarray)
+        The discrete-time system (``dt = ts``), and the column by which the command enters its
+        next state (the observer's ``H`` or ``Γ``, 0 for the integrator): the system is the
+        controller with ``u`` fed back through that column, which a controller with actuator
+        rails feeds the clamped command instead.
 
     Raises
     ------
@@ -168,6 +195,7 @@ def sampled_controller(model: MotorModel, design: Design, ts: float) -> control.
         names = [f"w_{s}" for s in red.estimated]
         y_row = np.zeros((1, nm))
         h_ki = red.H * (ki or 0.0)
+        column = np.asarray(red.H, dtype=float).ravel()
         if ki is not None:
             y_row[0, list(red.measured).index(design.output)] = 1.0
     elif design.L is not None:
@@ -181,6 +209,7 @@ def sampled_controller(model: MotorModel, design: Design, ts: float) -> control.
         names = [f"x̂_{s}" for s in design.states]
         y_row = np.ones((1, 1))
         h_ki = g * (ki or 0.0)
+        column = np.asarray(g, dtype=float).ravel()
     else:
         raise ValueError("sampled_controller is for a design with an observer")
     if ki is not None:
@@ -189,5 +218,6 @@ def sampled_controller(model: MotorModel, design: Design, ts: float) -> control.
         b_d = np.vstack([b_d, np.hstack([[[-ts]], ts * y_row])])
         c_d = np.hstack([c_d, [[-ki]]])
         names.append("z")
+        column = np.r_[column, 0.0]
     return control.ss(a_d, b_d, c_d, d_d, float(ts), inputs=inputs, outputs=[COMMAND], states=names,
-                      name="controller")
+                      name="controller"), column
