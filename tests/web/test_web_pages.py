@@ -405,3 +405,30 @@ def test_the_page_fits_a_counted_speed_when_its_box_is_ticked(client, tmp_path):
     want = mi.identify(mi.read_experiment(velocity=rec.files["log"], counted_velocity=True)).model
     assert model["timing"]["velocity"]["window_s"] == pytest.approx(0.01)
     assert model["delay_s"] == pytest.approx(want.delay_s, rel=1e-9)
+
+
+def test_the_design_panel_downloads_its_controller_as_code(client, demo_files, demo_fit):
+    """The panel's controller, sampled at its control interval with its rails, as ``design --emit`` writes it;
+    the panel's closed loop runs at that interval too (the loop the code will close)."""
+    from motorid.control.emit import discretise_design, emit
+
+    tab = _identified_tab(client, demo_files)
+    form = {"damping": "0.8", "wn": "6", "integral": "on", "saturation": "5", "level": "2", "duration": "3",
+            "dt": "0.002"}
+    res = client.post(f"/tab/{tab}/design", data=form)
+    assert res.status_code == 200, res.text
+    assert "controller code, every 0.002 s, rails ±5 V" in html.unescape(res.text)
+    des = mi.design(demo_fit.model, damping=0.8, wn=6.0, integral=True)
+    sim = mi.simulate(demo_fit.model, des, duration_s=3.0, level_v=2.0, saturation=5.0, dt_s=0.002)
+    shown = re.search(r"overshoot</td><td>([^ ]+) %", res.text).group(1)
+    assert float(shown) == pytest.approx(sim.metrics.overshoot_pct, rel=1e-2, abs=1e-3)
+    dc = discretise_design(demo_fit.model, des, 0.002, rails=5.0)
+    for name, language in (("controller.c", "c"), ("controller.py", "python"), ("controller.m", "matlab")):
+        got = client.get(f"/tab/{tab}/download/{name}")
+        assert got.status_code == 200 and f'filename="motorid-{name}"' in got.headers["content-disposition"]
+        want = emit(dc, language, source="From: elsewhere")
+        # the same equations, the header's source line aside
+        assert [ln for ln in got.text.splitlines() if "From:" not in ln] == \
+            [ln for ln in want.splitlines() if "From:" not in ln]
+    code = client.get(f"/tab/{tab}/download/controller.c").text
+    assert "#define MOTOR_CONTROLLER_TS 0.002" in code and "#define MOTOR_CONTROLLER_RAILS 5" in code

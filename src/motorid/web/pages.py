@@ -31,7 +31,12 @@ DOWNLOADS: dict[str, str] = {
     "model.m": "text/plain",
     "design.json": "application/json",
     "report.html": "text/html",
+    "controller.c": "text/x-csrc",
+    "controller.py": "text/x-python",
+    "controller.m": "text/plain",
 }
+#: The controller code's language by download name.
+_CODE = {"controller.c": "c", "controller.py": "python", "controller.m": "matlab"}
 
 
 def _render(request: Request, name: str, status_code: int = 200, headers: dict[str, str] | None = None,
@@ -267,6 +272,10 @@ async def download(request: Request, tab_id: str, name: str) -> Response:
         if tab.design is None:
             raise OptionError("design a controller first (move a slider in the design panel)")
         path.write_text(tab.design.to_json_text() + "\n", encoding="utf-8")
+    elif name in _CODE:
+        if tab.design is None or tab.design_form is None:
+            raise OptionError("design a controller first (move a slider in the design panel)")
+        path.write_text(_controller_code(tab.fit.model, tab.design, tab.design_form, _CODE[name]), encoding="utf-8")
     else:
         validation = [e.files.reader_argument() for e in tab.captures
                       if tab.roles.get(e.cid) == "validation" and e.summary is not None]
@@ -274,6 +283,17 @@ async def download(request: Request, tab_id: str, name: str) -> Response:
                           tab.design, validation, tab.simulation or None, tab.folder)
         path.write_text(_uploaded_names(path.read_text(encoding="utf-8"), tab.folder), encoding="utf-8")
     return FileResponse(path, media_type=DOWNLOADS[name], filename=path.name)
+
+
+def _controller_code(model: Any, design: Any, form: Any, language: str) -> str:
+    """The design panel's controller as code: sampled every ``dt`` with the panel's rails (as ``design --emit``)."""
+    from motorid.control.emit import discretise_design, emit
+
+    dc = discretise_design(model, design, form.dt_s, "zoh", rails=form.saturation_v)
+    where = (f"From: motorid serve, the design panel (damping {form.damping:g}, wn {form.wn:g} rad/s"
+             + (", integral action" if form.integral else "")
+             + (f", observer poles {form.observer_poles}" if form.observer_poles else "") + ")")
+    return emit(dc, language, source=where)
 
 
 def _uploaded_names(text: str, folder: Path) -> str:

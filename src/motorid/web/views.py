@@ -264,6 +264,8 @@ class DesignForm:
         :func:`motorid.simulation.reference.default_reference_level`).
     duration_s : float
         Record length [s].
+    dt_s : float
+        Control interval [s]: the simulation's, and the downloaded controller code's.
     """
 
     damping: float
@@ -273,6 +275,7 @@ class DesignForm:
     saturation_v: float | None = 10.0
     level_v: float | None = None
     duration_s: float = 3.0
+    dt_s: float = 1e-3
 
     def simulate_options(self) -> dict[str, Any]:
         """The :func:`motorid.simulate` options of this form (the report simulates the same run).
@@ -280,9 +283,10 @@ class DesignForm:
         Returns
         -------
         dict
-            ``duration_s``, ``level_v``, ``saturation``.
+            ``duration_s``, ``level_v``, ``saturation``, ``dt_s``.
         """
-        return {"duration_s": self.duration_s, "level_v": self.level_v, "saturation": self.saturation_v}
+        return {"duration_s": self.duration_s, "level_v": self.level_v, "saturation": self.saturation_v,
+                "dt_s": self.dt_s}
 
     def fields(self) -> dict[str, str]:
         """The form fields that :meth:`from_fields` reads back into this form.
@@ -295,14 +299,15 @@ class DesignForm:
         return {"damping": repr(self.damping), "wn": repr(self.wn), "integral": "on" if self.integral else "",
                 "observer_poles": self.observer_poles,
                 "saturation": "" if self.saturation_v is None else repr(self.saturation_v),
-                "level": "" if self.level_v is None else repr(self.level_v), "duration": repr(self.duration_s)}
+                "level": "" if self.level_v is None else repr(self.level_v), "duration": repr(self.duration_s),
+                "dt": repr(self.dt_s)}
 
     @classmethod
     def from_fields(cls, fields: Mapping[str, str]) -> DesignForm:
         """Read the form fields.
 
         ``damping``, ``wn``, ``integral``, ``observer_poles``, ``saturation``, ``level``,
-        ``duration``.
+        ``duration``, ``dt``.
 
         Raises
         ------
@@ -325,12 +330,15 @@ class DesignForm:
         wn = number("wn", 1.0, positive=True)
         level = number("level", None)
         duration = number("duration", 3.0, positive=True)
-        assert damping is not None and wn is not None and duration is not None
+        dt = number("dt", 1e-3, positive=True)
+        assert damping is not None and wn is not None and duration is not None and dt is not None
         if duration > 120:
             raise OptionError(f"duration={duration:g}: at most 120 s on this page")
+        if not dt <= min(1.0, duration / 10):
+            raise OptionError(f"dt={dt:g}: the control interval must be at most 1 s and a tenth of the record")
         return cls(damping, wn, fields.get("integral", "") in ("on", "true", "1"),
                    (fields.get("observer_poles") or "").strip(), number("saturation", None, positive=True),
-                   level, duration)
+                   level, duration, dt)
 
 
 @dataclass(frozen=True, slots=True)
