@@ -124,3 +124,25 @@ def test_the_web_form_and_the_report_use_the_same_level(rigs, tmp_path):
 
     words = _reference_words(ranges.reference.to_dict())
     assert words.startswith(f"The reference steps to {ranges.reference.value:.4g} rpm (about the speed")
+
+
+def test_a_waves_amplitude_follows_its_level(rigs):
+    """The report's 5 + 2 sin ωt on scope volts (amplitude 2 as before); 0.4 × the level elsewhere (it was 2 rpm)."""
+    rec = run_experiment("paper", seed=0, validation=False)
+    volts = mi.identify(mi.Experiment(captures=dict(rec.captures)), method="pinv").model
+    ref, level = with_level(volts, "position", ReferenceSignal(kind="sine"))
+    assert (ref.level_v, ref.amplitude_v, level.amplitude) == (5.0, 2.0, 2.0)
+    model = MotorModel.from_json(json.loads(rigs["l298n-rpm"].read_text()))
+    sim = mi.simulate(model, mi.design(model, poles=[-20.0]), duration_s=8.0, reference="sine")
+    level = default_reference_level(model, "velocity").value
+    assert sim.reference_level is not None and sim.reference_level.amplitude == pytest.approx(0.4 * level)
+    assert float(np.max(sim.reference_v)) == pytest.approx(1.4 * level, rel=1e-6)
+    assert float(np.min(sim.reference_v)) == pytest.approx(0.6 * level, rel=1e-6)
+
+
+def test_a_wave_prints_no_step_metrics(rigs, tmp_path):
+    model_file = rigs["l298n-rpm"]
+    motorid_ok("design", model_file, "--poles", "-20", "--json", tmp_path / "d.json")
+    out = motorid_ok("simulate", model_file, tmp_path / "d.json", "--reference", "sine", "--duration", "8").out
+    assert "nan" not in out and "overshoot" not in out and "tracking error (RMS)" in out
+    assert "a wave of amplitude" in out.splitlines()[0]

@@ -465,7 +465,8 @@ def simulate(
         help="Step level / sinusoid offset, in the output's unit (default: 5 on scope volts, the report's; "
              "on data in another unit, what the identification's step reached).")] = defaults(SIMULATE)["level_v"],
     initial_ref: Annotated[float, typer.Option("--initial-ref", help="Reference before --start, output's unit.")] = 0.0,
-    amplitude: Annotated[float, typer.Option(help="Wave amplitude, output's unit (report: 2).")] = 2.0,
+    amplitude: Annotated[float | None, typer.Option(
+        help="Wave amplitude, output's unit (default: 0.4 × the level, the report's 5 + 2 sin ωt).")] = None,
     frequency: Annotated[float, typer.Option(help="Wave frequency, Hz (report: ω = π/2 → 0.25).")] = 0.25,
     start: Annotated[float, typer.Option(help="Reference start time, s.")] = 0.0,
     duration: Annotated[float, typer.Option(help="Record length, s.")] = defaults(SIMULATE)["duration_s"],
@@ -514,9 +515,12 @@ def simulate(
     m = res.metrics
     if res.reference_level is not None:
         typer.echo(res.reference_level.text())
+    # a wave has no rise, settling, overshoot or final value: its tracking error and peak command say it
+    shown = _METRIC_UNITS if reference == "step" else tuple(
+        (key, unit) for key, unit in _METRIC_UNITS if key in ("tracking_rms_v", "peak_control_v"))
     typer.echo(", ".join(_metric_text(key, getattr(m, key), {"output": res.output_unit,
                                                               "input": res.input_unit}.get(unit, unit))
-                         for key, unit in _METRIC_UNITS))
+                         for key, unit in shown))
     # the design's own numbers (design --robust's "the model itself") are the continuous loop's; what
     # sampling did to its damping is measured, not assumed
     if res.sampled_damping is not None:

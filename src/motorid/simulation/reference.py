@@ -25,6 +25,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "REFERENCE_KINDS",
+    "REPORT_AMPLITUDE_RATIO",
     "REPORT_LEVEL_V",
     "ReferenceLevel",
     "ReferenceSignal",
@@ -42,6 +43,8 @@ REPORT_LEVEL_V = 5.0
 PAPER_RAILS_V = 10.0
 #: Default rails on a command not in volts, in identification steps (:func:`default_rails`).
 RAILS_PER_STEP = 1.5
+#: A wave's default amplitude over its mean: the lab report's 5 + 2 sin ωt (§2.2.3).
+REPORT_AMPLITUDE_RATIO = 0.4
 #: Significant digits of a default level taken from the model.
 LEVEL_DIGITS = 2
 
@@ -58,13 +61,16 @@ class ReferenceSignal:
     level_v : float or None
         The step's level or the wave's mean; None: the model's default
         (:func:`default_reference_level`), chosen when the loop is simulated.
-    initial_v, amplitude_v, frequency_hz, start_s : float
+    amplitude_v : float or None
+        The wave's amplitude; None: :data:`REPORT_AMPLITUDE_RATIO` × the level (the report's
+        ``5 + 2 sin ωt``), chosen with it.
+    initial_v, frequency_hz, start_s : float
     """
 
     kind: str = "step"
     level_v: float | None = None
     initial_v: float = 0.0
-    amplitude_v: float = 2.0
+    amplitude_v: float | None = None
     frequency_hz: float = 0.25
     start_s: float = 0.0
 
@@ -92,11 +98,14 @@ class ReferenceLevel:
     source : str
         ``given``, or in words why this default (e.g. "the speed the identification's 12 V
         step reached").
+    amplitude : float or None
+        A wave's amplitude about the level, in :attr:`unit` (None for a step).
     """
 
     value: float
     unit: str
     source: str
+    amplitude: float | None = None
 
     @property
     def given(self) -> bool:
@@ -113,6 +122,8 @@ class ReferenceLevel:
             --level sets it)``.
         """
         head = f"reference level {self.value:.6g} {self.unit}"
+        if self.amplitude is not None:
+            head += f", a wave of amplitude {self.amplitude:.6g} {self.unit} about it"
         return head if self.given else f"{head} ({self.source}; --level sets it)"
 
     def to_dict(self) -> dict[str, object]:
@@ -121,9 +132,10 @@ class ReferenceLevel:
         Returns
         -------
         dict
-            ``value``, ``unit`` and ``source``.
+            ``value``, ``unit``, ``source`` and, for a wave, ``amplitude``.
         """
-        return {"value": self.value, "unit": self.unit, "source": self.source}
+        return {"value": self.value, "unit": self.unit, "source": self.source,
+                **({} if self.amplitude is None else {"amplitude": self.amplitude})}
 
 
 def _rounded(x: float) -> float:
@@ -189,7 +201,7 @@ def default_rails(model: MotorModel) -> float:
 
 
 def with_level(model: MotorModel, output: str, ref: ReferenceSignal) -> tuple[ReferenceSignal, ReferenceLevel]:
-    """``ref`` with its level filled in (:func:`default_reference_level` when it has none).
+    """``ref`` with its level filled in (:func:`default_reference_level` when it has none), and its amplitude.
 
     Parameters
     ----------
@@ -203,12 +215,17 @@ def with_level(model: MotorModel, output: str, ref: ReferenceSignal) -> tuple[Re
     Returns
     -------
     tuple of ReferenceSignal and ReferenceLevel
-        The reference with a level, and that level with its source.
+        The reference with a level and an amplitude (:data:`REPORT_AMPLITUDE_RATIO` × the level
+        when it has none), and the level with its source.
     """
     if ref.level_v is not None:
-        return ref, ReferenceLevel(float(ref.level_v), channel_unit(model.units, output), "given")
-    level = default_reference_level(model, output)
-    return replace(ref, level_v=level.value), level
+        level = ReferenceLevel(float(ref.level_v), channel_unit(model.units, output), "given")
+    else:
+        level = default_reference_level(model, output)
+    amplitude = ref.amplitude_v if ref.amplitude_v is not None else REPORT_AMPLITUDE_RATIO * level.value
+    if ref.kind != "step":
+        level = replace(level, amplitude=float(amplitude))
+    return replace(ref, level_v=level.value, amplitude_v=amplitude), level
 
 
 def reference_values(ref: ReferenceSignal, time_s: np.ndarray) -> np.ndarray:
@@ -231,8 +248,9 @@ def reference_values(ref: ReferenceSignal, time_s: np.ndarray) -> np.ndarray:
     OptionError
         A reference without a level.
     """
-    if ref.level_v is None:
-        raise OptionError("the reference has no level: give one, or fill in the model's default (with_level)")
+    if ref.level_v is None or ref.amplitude_v is None:
+        raise OptionError("the reference has no level or amplitude: give them, or fill in the model's defaults "
+                          "(with_level)")
     t = np.asarray(time_s, dtype=float)
     if ref.kind == "step":
         return np.where(t >= ref.start_s, ref.level_v, ref.initial_v)
