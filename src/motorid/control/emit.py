@@ -34,7 +34,7 @@ import math
 import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -786,24 +786,7 @@ def emit_c(dc: DiscreteController | control.StateSpace, *, name: str = "motor_co
             f"double {ident}_step({ident}_state *s, " + ", ".join(f"double {v}" for v in eq.inputs) + ")",
             "{"]
     out += [f"    const double {v} = s->x[{i}];" for i, v in enumerate(eq.states)]
-    if eq.rails is None:
-        out += [f"    const double {eq.outputs[0]} = {eq.output_rhs[0]};"]
-        out += [f"    s->x[{i}] = {rhs};" for i, rhs in enumerate(eq.state_rhs)]
-    else:
-        u, raw, rail = eq.outputs[0], eq.raw, f"{upper}_RAILS"
-        out += [f"    const double {raw} = {eq.output_rhs[0]};",
-                f"    const double {u} = {raw} > {rail} ? {rail} : ({raw} < -{rail} ? -{rail} : {raw});  "
-                "/* the actuator's rails */"]
-        if eq.integrator is not None:
-            out += [f"    const double dz = {eq.increment_rhs};  /* the integrator's increment */",
-                    "    /* conditional integration: hold while the command is beyond a rail and dz would push it "
-                    "further */",
-                    f"    const int hold = ({raw} > {rail} && {_number(eq.push)}*dz > 0.0) || "
-                    f"({raw} < -{rail} && {_number(eq.push)}*dz < 0.0);"]
-        out += [f"    s->x[{i}] = {rhs};" for i, rhs in enumerate(eq.state_rhs) if i != eq.integrator]
-        if eq.integrator is not None:
-            iz = eq.integrator
-            out += [f"    s->x[{iz}] = hold ? {eq.states[iz]} : {eq.states[iz]} + dz;"]
+    out += _body(eq, _Dialect.C, rails=f"{upper}_RAILS")
     if n == 0:
         out += ["    (void)s;"]
     out += [f"    return {eq.outputs[0]};", "}", ""]
@@ -844,23 +827,7 @@ def emit_python(dc: DiscreteController | control.StateSpace, *, name: str = "mot
               f"def {ident}_step(x, {', '.join(eq.inputs)}):",
               '    """One sample: the command u[k]; x becomes x[k+1] in place."""']
     lines += [f"    {v} = x[{i}]" for i, v in enumerate(eq.states)]
-    if eq.rails is None:
-        lines += [f"    {eq.outputs[0]} = {eq.output_rhs[0]}"]
-        lines += [f"    x[{i}] = {rhs}" for i, rhs in enumerate(eq.state_rhs)]
-    else:
-        u, raw = eq.outputs[0], eq.raw
-        lines += [f"    {raw} = {eq.output_rhs[0]}",
-                  f"    {u} = min(max({raw}, -RAILS), RAILS)  # the actuator's rails"]
-        if eq.integrator is not None:
-            lines += [f"    dz = {eq.increment_rhs}  # the integrator's increment",
-                      "    # conditional integration: hold while the command is beyond a rail and dz would push it "
-                      "further",
-                      f"    hold = ({raw} > RAILS and {_number(eq.push)}*dz > 0.0) or "
-                      f"({raw} < -RAILS and {_number(eq.push)}*dz < 0.0)"]
-        lines += [f"    x[{i}] = {rhs}" for i, rhs in enumerate(eq.state_rhs) if i != eq.integrator]
-        if eq.integrator is not None:
-            iz = eq.integrator
-            lines += [f"    x[{iz}] = {eq.states[iz]} if hold else {eq.states[iz]} + dz"]
+    lines += _body(eq, _Dialect.PYTHON, rails="RAILS")
     lines += [f"    return {eq.outputs[0]}", ""]
     return "\n".join(lines)
 
@@ -892,23 +859,65 @@ def emit_matlab(dc: DiscreteController | control.StateSpace, *, name: str = "mot
     lines += ["%", f"% Use: x = zeros({max(n, 1)}, 1); then every TS = {dc.ts_s:g} s "
                    f"[{eq.outputs[0]}, x] = {ident}_step(x, {', '.join(eq.inputs)});"]
     lines += [f"{v} = x({i + 1});" for i, v in enumerate(eq.states)]
-    if eq.rails is None:
-        lines += [f"{eq.outputs[0]} = {eq.output_rhs[0]};"]
-        lines += [f"x({i + 1}) = {rhs};" for i, rhs in enumerate(eq.state_rhs)]
-    else:
-        u, raw, rail = eq.outputs[0], eq.raw, _number(eq.rails)
-        lines += [f"{raw} = {eq.output_rhs[0]};", f"{u} = min(max({raw}, -{rail}), {rail});  % the actuator's rails"]
-        if eq.integrator is not None:
-            lines += [f"dz = {eq.increment_rhs};  % the integrator's increment",
-                      "% conditional integration: hold while the command is beyond a rail and dz would push it further",
-                      f"hold = ({raw} > {rail} && {_number(eq.push)}*dz > 0) || ({raw} < -{rail} && "
-                      f"{_number(eq.push)}*dz < 0);"]
-        lines += [f"x({i + 1}) = {rhs};" for i, rhs in enumerate(eq.state_rhs) if i != eq.integrator]
-        if eq.integrator is not None:
-            iz = eq.integrator
-            lines += [f"if hold, x({iz + 1}) = {eq.states[iz]}; else, x({iz + 1}) = {eq.states[iz]} + dz; end"]
+    lines += _body(eq, _Dialect.MATLAB, rails=_number(eq.rails) if eq.rails is not None else "")
     lines += ["end", ""]
     return "\n".join(lines)
+
+
+@dataclass(frozen=True, slots=True)
+class _Dialect:
+    """How one language writes the step's statements (``{…}`` filled by :func:`_body`)."""
+
+    let: str        # a local from an expression: {name}, {rhs}
+    state: str      # the next state {i} (0-based) from {rhs}
+    clamp: str      # {u} from {raw} within ±{rails}
+    hold: str       # the flag from {raw}, {rails}, {push}
+    held: str       # the integrator {i} from {x} (itself) and dz, unless held
+    comment: str    # a comment line: {text}
+    note: str       # a comment after a statement: {text}
+
+    C: ClassVar[_Dialect]
+    PYTHON: ClassVar[_Dialect]
+    MATLAB: ClassVar[_Dialect]
+
+
+_Dialect.C = _Dialect(
+    "    const double {name} = {rhs};", "    s->x[{i}] = {rhs};",
+    "    const double {u} = {raw} > {rails} ? {rails} : ({raw} < -{rails} ? -{rails} : {raw});",
+    "    const int hold = ({raw} > {rails} && {push}*dz > 0.0) || ({raw} < -{rails} && {push}*dz < 0.0);",
+    "    s->x[{i}] = hold ? {x} : {x} + dz;", "    /* {text} */", "  /* {text} */")
+_Dialect.PYTHON = _Dialect(
+    "    {name} = {rhs}", "    x[{i}] = {rhs}", "    {u} = min(max({raw}, -{rails}), {rails})",
+    "    hold = ({raw} > {rails} and {push}*dz > 0.0) or ({raw} < -{rails} and {push}*dz < 0.0)",
+    "    x[{i}] = {x} if hold else {x} + dz", "    # {text}", "  # {text}")
+_Dialect.MATLAB = _Dialect(
+    "{name} = {rhs};", "x({i1}) = {rhs};", "{u} = min(max({raw}, -{rails}), {rails});",
+    "hold = ({raw} > {rails} && {push}*dz > 0) || ({raw} < -{rails} && {push}*dz < 0);",
+    "if hold, x({i1}) = {x}; else, x({i1}) = {x} + dz; end", "% {text}", "  % {text}")
+
+
+def _body(eq: _Equations, d: _Dialect, *, rails: str) -> list[str]:
+    """The step's statements: the command (clamped to the rails, if any) and the next state.
+
+    One generator for the three languages (their syntax in ``d``), so that the C, Python and
+    MATLAB controllers stay the same equations.
+    """
+    u = eq.outputs[0]
+    if eq.rails is None:
+        return [d.let.format(name=u, rhs=eq.output_rhs[0]),
+                *(d.state.format(i=i, i1=i + 1, rhs=rhs) for i, rhs in enumerate(eq.state_rhs))]
+    raw, push, iz = eq.raw, _number(eq.push), eq.integrator
+    out = [d.let.format(name=raw, rhs=eq.output_rhs[0]),
+           d.clamp.format(u=u, raw=raw, rails=rails) + d.note.format(text="the actuator's rails")]
+    if iz is not None:
+        out += [d.let.format(name="dz", rhs=eq.increment_rhs) + d.note.format(text="the integrator's increment"),
+                d.comment.format(text="conditional integration: hold while the command is beyond a rail and dz "
+                                      "would push it further"),
+                d.hold.format(raw=raw, rails=rails, push=push)]
+    out += [d.state.format(i=i, i1=i + 1, rhs=rhs) for i, rhs in enumerate(eq.state_rhs) if i != iz]
+    if iz is not None:
+        out.append(d.held.format(i=iz, i1=iz + 1, x=eq.states[iz]))
+    return out
 
 
 _EMITTERS: dict[str, Callable[..., str]] = {"c": emit_c, "python": emit_python, "matlab": emit_matlab}
