@@ -285,7 +285,7 @@ def simulate_options(body: Mapping[str, Any]) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for name in ("duration_s", "level_v", "saturation", "disturbance", "disturbance_start_s", "dt_s", "z0"):
         if name in body:
-            value = _json_number(name, body[name], optional=name in ("saturation", "disturbance", "dt_s"))
+            value = _json_number(name, body[name], optional=name in ("saturation", "disturbance", "dt_s", "level_v"))
             if value is not None:
                 out[name] = value
     if "duration_s" in out and not 0 < out["duration_s"] <= 600:
