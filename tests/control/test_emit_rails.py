@@ -109,6 +109,8 @@ def test_the_cli_writes_the_rails_into_the_code_and_the_json(tmp_path):
     assert "its command clamped to ±6 V, the integrator held against the rails, the observer fed the clamped" in res.out
     code = (tmp_path / "ctl.c").read_text()
     assert "#define MOTOR_CONTROLLER_RAILS 6" in code and "const int hold" in code
+    # how the volts reach an H-bridge (the sign its direction), said in the header
+    assert "analogWrite(PWM_PIN, (int)(255.0 * fabs(u) / VS));  digitalWrite(DIR_PIN, u >= 0.0);" in code
     doc = json.loads((tmp_path / "d.json").read_text())
     assert doc["discrete"]["rails"] == 6.0 and doc["discrete"]["integrator"] is not None
     from jsonschema import validate

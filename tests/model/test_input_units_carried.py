@@ -53,6 +53,9 @@ def test_simulate_and_design_give_the_command_in_pwm(rig):
     designed = motorid_ok("design", model_file, "--damping", "1", "--wn", "30", "--integral", "--json",
                           folder / "d.json", "--force").out
     assert "pwm per (rpm·s)" in designed and not VOLTS.search(designed)
+    code = motorid_ok("design", model_file, "--damping", "1", "--wn", "30", "--discrete", "0.001", "--saturation",
+                      "255", "--emit", "c").out
+    assert "u [pwm]" in code and "analogWrite(PWM_PIN, (int)fabs(u));  digitalWrite(DIR_PIN, u >= 0.0);" in code
     tight = motorid_ok("simulate", model_file, folder / "d.json", "--saturation", "10").out
     assert re.search(r"the actuator saturated \(\|u\| reached [0-9.]+ pwm > 10 pwm\)", tight)
     assert not VOLTS.search(tight)

@@ -766,6 +766,7 @@ def emit_c(dc: DiscreteController | control.StateSpace, *, name: str = "motor_co
             f" *   every {dc.ts_s:g} s (a timer, or micros()):  read the sensors, then",
             f" *   double {eq.outputs[0]} = {ident}_step(&ctl, {', '.join(eq.inputs)});",
             " *   and write it to the amplifier.",
+            *_amplifier_hint(dc.units.get(COMMAND) or "", eq.outputs[0]),
             " * On 8-bit AVR boards (Uno, Nano) double is 32 bits: the coefficients round to about 7 digits;",
             " * check the loop there, or use a board with a 64-bit double (32-bit ARM: Due, Teensy).",
             " */",
@@ -951,6 +952,17 @@ def emit(dc: DiscreteController | control.StateSpace, language: str, *, name: st
     if language not in _EMITTERS:
         raise OptionError(f"--emit {language!r}: use one of {', '.join(LANGUAGES)}")
     return _EMITTERS[language](dc, name=name, source=source)
+
+
+def _amplifier_hint(unit: str, u: str) -> list[str]:
+    """How the command reaches an H-bridge on an Arduino, for the C header (its sign is the direction)."""
+    if unit.lower() in ("pwm", "duty", "counts"):  # a duty in analogWrite's counts, as the model's input was logged
+        return [" *   With an H-bridge (its magnitude the duty, 0..255: --saturation 255):",
+                f" *     analogWrite(PWM_PIN, (int)fabs({u}));  digitalWrite(DIR_PIN, {u} >= 0.0);"]
+    if unit == "V":  # volts across the motor, from a supply of VS volts
+        return [f" *   With an H-bridge on a supply of VS volts (--saturation VS keeps |{u}| <= VS):",
+                f" *     analogWrite(PWM_PIN, (int)(255.0 * fabs({u}) / VS));  digitalWrite(DIR_PIN, {u} >= 0.0);"]
+    return []
 
 
 def _c_name(name: str) -> str:
