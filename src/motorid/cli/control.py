@@ -347,15 +347,13 @@ _LANGUAGE_NAMES = {"c": "C", "python": "Python", "matlab": "MATLAB"}
 def _check_code_options(discrete: float | None, method: str | None, emit: str | None, emit_file: Path | None,
                         rails: float | None = None) -> None:
     """Refuse, before any work, the code options that do not go together or name nothing known."""
-    from motorid.control.emit import LANGUAGES, METHODS
+    from motorid.control.emit import LANGUAGES, METHODS, check_rails
 
     _check_numbers({"--discrete": discrete, "--saturation": rails}, positive=("--discrete", "--saturation"))
     if rails is not None and discrete is None:
         raise OptionError("--saturation needs --discrete TS: the rails are those of the sampled controller's code "
                           "(simulate --saturation runs a design with rails)")
-    if rails is not None and method not in (None, "zoh"):
-        raise OptionError(f"--saturation with --discrete-method {method}: the rails need the zero-order-hold form "
-                          "(zoh, the default)")
+    check_rails(rails, method or "zoh")
     if method is not None and method not in METHODS:
         raise OptionError(f"--discrete-method {method!r}: use one of {', '.join(METHODS)}")
     if emit is not None and emit not in LANGUAGES:

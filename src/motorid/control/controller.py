@@ -34,12 +34,32 @@ if TYPE_CHECKING:
     from motorid.control.design import Design
     from motorid.model import MotorModel
 
-__all__ = ["COMMAND", "REFERENCE", "controller_system", "loop_parts", "signal_unit"]
+__all__ = ["COMMAND", "REFERENCE", "controller_system", "integrator_holds", "loop_parts", "signal_unit"]
 
 #: The controller's output: the motor's command (amplifier input).
 COMMAND = "u"
 #: The controller's first input: the reference of the measured channel.
 REFERENCE = "r"
+
+
+def integrator_holds(u_raw: float, rails: float, push: float) -> bool:
+    """Conditional integration: whether the integrator holds this sample (the simulation's and the emitted code's rule).
+
+    Parameters
+    ----------
+    u_raw : float
+        The command asked for (before the rails).
+    rails : float
+        The rails ``±rails``.
+    push : float
+        How the integrator's increment would move the command (its gain on the command × the increment).
+
+    Returns
+    -------
+    bool
+        True while the command is beyond a rail and the increment would push it further.
+    """
+    return (u_raw > rails and push > 0) or (u_raw < -rails and push < 0)
 
 
 def signal_unit(name: str, units: Mapping[str, str] | None = None, *, output: str | None = None) -> str:

@@ -40,7 +40,8 @@ from motorid.errors import OptionError
 from motorid.model import MotorModel
 from motorid.model.units import channel_unit
 
-__all__ = ["LARGE_GAIN", "SCHEMA", "Design", "DesignSettings", "design_controller", "design_model", "output_row"]
+__all__ = ["LARGE_GAIN", "SCHEMA", "Design", "DesignSettings", "default_output", "design_controller", "design_model",
+           "output_row"]
 
 SCHEMA = "motorid.design/1"
 #: A state-feedback gain above this (volts of input per volt of a sensor) gets a warning: it
@@ -512,6 +513,20 @@ def _matrix_row(row: Any, key: str, n: int) -> np.ndarray:
     return arr
 
 
+def default_output(model: MotorModel) -> str:
+    """The channel a design reads when none is named: the position if the model has it, else the velocity.
+
+    Parameters
+    ----------
+    model : MotorModel
+
+    Returns
+    -------
+    str
+    """
+    return "position" if "position" in model.outputs else "velocity"
+
+
 def output_row(model: MotorModel, output: str | None) -> tuple[str, np.ndarray]:
     """The measured channel's name and ``C`` row (position by default, else velocity).
 
@@ -532,7 +547,7 @@ def output_row(model: MotorModel, output: str | None) -> tuple[str, np.ndarray]:
     OptionError
         For a channel the model does not have, or a direct feed-through on it.
     """
-    name = output or ("position" if "position" in model.outputs else "velocity")
+    name = output or default_output(model)
     if name not in model.outputs:
         raise OptionError(f"--output {name!r}: the model's outputs are {list(model.outputs)}")
     i = model.outputs.index(name)

@@ -34,11 +34,11 @@ import math
 import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from motorid.control.controller import COMMAND, REFERENCE, controller_system, signal_unit
+from motorid.control.controller import COMMAND, REFERENCE, controller_system, integrator_holds, signal_unit
 from motorid.control.margins import PADE_ORDER
 from motorid.errors import OptionError
 
@@ -54,6 +54,7 @@ __all__ = [
     "METHODS",
     "SAMPLING_RULE",
     "DiscreteController",
+    "check_rails",
     "discretise",
     "discretise_design",
     "discretise_pid",
@@ -251,30 +252,10 @@ class DiscreteController:
             u = min(max(u_raw, -rail), rail)
             out[k] = u
             nxt = a0 @ x + b0 @ row + bu * u
-            if iz is not None and held(u_raw, rail, float(self.Cd[0, iz]) * (nxt[iz] - x[iz])):
+            if iz is not None and integrator_holds(u_raw, rail, float(self.Cd[0, iz]) * (nxt[iz] - x[iz])):
                 nxt[iz] = x[iz]
             x = nxt
         return out
-
-
-def held(u_raw: float, rails: float, push: float) -> bool:
-    """Conditional integration: whether the integrator holds this sample.
-
-    Parameters
-    ----------
-    u_raw : float
-        The command asked for (before the rails).
-    rails : float
-        The rails ``±rails``.
-    push : float
-        How the integrator's increment would move the command (its ``Cd`` entry × the increment).
-
-    Returns
-    -------
-    bool
-        True while the command is beyond a rail and the increment would push it further.
-    """
-    return (u_raw > rails and push > 0) or (u_raw < -rails and push < 0)
 
 
 def _check_ts(ts: float, method: str) -> None:
@@ -394,7 +375,7 @@ def discretise_design(model: MotorModel, design: Design, ts: float, method: str 
     ``ω h ≈ 0.1–0.6`` for the sampling period.
     """
     _check_ts(ts, method)
-    _check_rails(rails, method)
+    check_rails(rails, method)
     designed = design.output_feedback_poles if design.output_feedback_poles is not None else design.closed_loop_poles
     if designed is not None and np.size(designed) and float(np.max(np.real(designed))) >= 0:
         # sampling cannot make an unstable loop stable: the interval is not what is wrong
@@ -459,7 +440,7 @@ def discretise_pid(model: MotorModel, pid: PidDesign, ts: float, method: str = "
     from motorid.model.units import channel_unit
 
     _check_ts(ts, method)
-    _check_rails(rails, method)
+    check_rails(rails, method)
     csys = pid.system()
     plant = channel_system(model, pid.loop)[0]
     # the loop's poles without the dead time's Padé poles (they are not the controller's business)
@@ -481,8 +462,21 @@ def discretise_pid(model: MotorModel, pid: PidDesign, ts: float, method: str = "
     return dc if rails is None else replace(dc, rails=float(rails), integrator=pid.matrices()[4])
 
 
-def _check_rails(rails: float | None, method: str) -> None:
-    """Refuse rails that are no positive number, or with a sampling that mixes the controller's states."""
+def check_rails(rails: float | None, method: str) -> None:
+    """Refuse rails that are no positive number, or with a sampling that mixes the controller's states.
+
+    Parameters
+    ----------
+    rails : float or None
+        The actuator rails ``±rails`` (None: none, nothing to check).
+    method : str
+        The discretisation method.
+
+    Raises
+    ------
+    OptionError
+        Rails not a finite number > 0, or a method other than ``zoh``.
+    """
     if rails is None:
         return
     if isinstance(rails, bool) or not isinstance(rails, (int, float)) or not (math.isfinite(rails) and rails > 0):
@@ -787,7 +781,7 @@ def emit_c(dc: DiscreteController | control.StateSpace, *, name: str = "motor_co
             f"double {ident}_step({ident}_state *s, " + ", ".join(f"double {v}" for v in eq.inputs) + ")",
             "{"]
     out += [f"    const double {v} = s->x[{i}];" for i, v in enumerate(eq.states)]
-    out += _body(eq, _Dialect.C, rails=f"{upper}_RAILS")
+    out += _body(eq, _C, rails=f"{upper}_RAILS")
     if n == 0:
         out += ["    (void)s;"]
     out += [f"    return {eq.outputs[0]};", "}", ""]
@@ -828,7 +822,7 @@ def emit_python(dc: DiscreteController | control.StateSpace, *, name: str = "mot
               f"def {ident}_step(x, {', '.join(eq.inputs)}):",
               '    """One sample: the command u[k]; x becomes x[k+1] in place."""']
     lines += [f"    {v} = x[{i}]" for i, v in enumerate(eq.states)]
-    lines += _body(eq, _Dialect.PYTHON, rails="RAILS")
+    lines += _body(eq, _PYTHON, rails="RAILS")
     lines += [f"    return {eq.outputs[0]}", ""]
     return "\n".join(lines)
 
@@ -860,7 +854,7 @@ def emit_matlab(dc: DiscreteController | control.StateSpace, *, name: str = "mot
     lines += ["%", f"% Use: x = zeros({max(n, 1)}, 1); then every TS = {dc.ts_s:g} s "
                    f"[{eq.outputs[0]}, x] = {ident}_step(x, {', '.join(eq.inputs)});"]
     lines += [f"{v} = x({i + 1});" for i, v in enumerate(eq.states)]
-    lines += _body(eq, _Dialect.MATLAB, rails=_number(eq.rails) if eq.rails is not None else "")
+    lines += _body(eq, _MATLAB, rails=_number(eq.rails) if eq.rails is not None else "")
     lines += ["end", ""]
     return "\n".join(lines)
 
@@ -877,21 +871,17 @@ class _Dialect:
     comment: str    # a comment line: {text}
     note: str       # a comment after a statement: {text}
 
-    C: ClassVar[_Dialect]
-    PYTHON: ClassVar[_Dialect]
-    MATLAB: ClassVar[_Dialect]
 
-
-_Dialect.C = _Dialect(
+_C = _Dialect(
     "    const double {name} = {rhs};", "    s->x[{i}] = {rhs};",
     "    const double {u} = {raw} > {rails} ? {rails} : ({raw} < -{rails} ? -{rails} : {raw});",
     "    const int hold = ({raw} > {rails} && {push}*dz > 0.0) || ({raw} < -{rails} && {push}*dz < 0.0);",
     "    s->x[{i}] = hold ? {x} : {x} + dz;", "    /* {text} */", "  /* {text} */")
-_Dialect.PYTHON = _Dialect(
+_PYTHON = _Dialect(
     "    {name} = {rhs}", "    x[{i}] = {rhs}", "    {u} = min(max({raw}, -{rails}), {rails})",
     "    hold = ({raw} > {rails} and {push}*dz > 0.0) or ({raw} < -{rails} and {push}*dz < 0.0)",
     "    x[{i}] = {x} if hold else {x} + dz", "    # {text}", "  # {text}")
-_Dialect.MATLAB = _Dialect(
+_MATLAB = _Dialect(
     "{name} = {rhs};", "x({i1}) = {rhs};", "{u} = min(max({raw}, -{rails}), {rails});",
     "hold = ({raw} > {rails} && {push}*dz > 0) || ({raw} < -{rails} && {push}*dz < 0);",
     "if hold, x({i1}) = {x}; else, x({i1}) = {x} + dz; end", "% {text}", "  % {text}")

@@ -22,8 +22,9 @@ poles only, :data:`motorid.control.emit.SAMPLING_RULE`).
 - :func:`sampled_reduced_observer`: the reduced-order observer in the same form as the
   continuous one (``w[k+1] = F w[k] + G z_m[k] + H u[k]``, ``ẑ_u = w + L z_m``), the estimate
   using the sample just read;
-- :func:`sampled_controller`: the whole controller of a design with an observer as a
-  discrete-time system, with the signals of :func:`motorid.control.controller.controller_system`.
+- :func:`sampled_controller_parts`: the whole controller of a design with an observer as a
+  discrete-time system, with the signals of :func:`motorid.control.controller.controller_system`,
+  and the column by which its command enters its states (for a controller with rails).
 
 References
 ----------
@@ -48,8 +49,7 @@ if TYPE_CHECKING:
     from motorid.control.design import Design
     from motorid.model import MotorModel
 
-__all__ = ["design_observer_poles", "sampled_controller", "sampled_controller_parts", "sampled_observer",
-           "sampled_reduced_observer"]
+__all__ = ["design_observer_poles", "sampled_controller_parts", "sampled_observer", "sampled_reduced_observer"]
 
 
 def design_observer_poles(design: Design, a: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -126,28 +126,6 @@ def sampled_reduced_observer(a: np.ndarray, b: np.ndarray, obs: ReducedObserver,
     return placed_observer(phi, gam, states, obs.measured, np.exp(np.asarray(obs.poles, dtype=complex) * ts))
 
 
-def sampled_controller(model: MotorModel, design: Design, ts: float) -> control.StateSpace:
-    """The controller of a design with an observer, run every ``ts``, as a discrete-time system.
-
-    :func:`sampled_controller_parts`' system (see there).
-
-    Parameters
-    ----------
-    model : MotorModel
-        The model the design was made for.
-    design : Design
-        A design with an observer (``design.L`` or ``design.reduced``).
-    ts : float
-        The control interval, s.
-
-    Returns
-    -------
-    control.StateSpace
-        Discrete-time (``dt = ts``).
-    """
-    return sampled_controller_parts(model, design, ts)[0]
-
-
 def sampled_controller_parts(model: MotorModel, design: Design, ts: float,
                              ) -> tuple[control.StateSpace, np.ndarray]:
     """The controller of a design with an observer, run every ``ts``, and how the command enters its states.
@@ -211,7 +189,7 @@ def sampled_controller_parts(model: MotorModel, design: Design, ts: float,
         h_ki = g * (ki or 0.0)
         column = np.asarray(g, dtype=float).ravel()
     else:
-        raise ValueError("sampled_controller is for a design with an observer")
+        raise ValueError("sampled_controller_parts is for a design with an observer")
     if ki is not None:
         # z[k+1] = z[k] + ts·(y[k] − r[k]); the command's −ki z reaches the estimate through its u
         a_d = np.block([[a_d, -h_ki], [np.zeros((1, nu)), np.ones((1, 1))]])

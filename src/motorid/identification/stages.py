@@ -1296,6 +1296,8 @@ def _order_stalled(best_of: dict[int, float], order: int) -> bool:
     return len(fitted) >= 2 and best_of[fitted[-1]] >= best_of[fitted[-2]]
 
 
+#: Why a candidate whose pole or zero is faster than half a recorded sample is not kept.
+BEYOND_SAMPLING = "a pole or zero beyond the sampling rate, faster than the record can show"
 #: A candidate structure whose BIC is this much above the best one's is not worth finishing
 #: (Kass & Raftery 1995: "very strong" evidence against it; its BIC weight is under 1 %).
 FAR_BIC = 10.0
@@ -1369,9 +1371,9 @@ def select_order(
     IdentificationError
         When no structure could be fitted.
     """
-    errors: list[str] = []
-    # the same failures in the evidence's words, (structure, why), said when another structure is kept
-    dropped: list[tuple[str, str]] = []
+    # the structures fitted and not kept, (structure, with a dead time, why): the error when none is kept,
+    # the evidence's words when another is
+    dropped: list[tuple[tuple[int, int], bool, str]] = []
     skipped: list[str] = []
     left: list[str] = []  # candidates left far from the best when their evaluations ran out
     beyond: list[str] = []  # delay variants with more poles than the best fit without a delay
@@ -1402,17 +1404,14 @@ def select_order(
                 start = models.get((structure[0], structure[1] + 1))
                 if start is None:
                     start = quick if structure[0] <= n_quick and not with_delay else init
-                label = f"{structure}{' + delay' if with_delay else ''}"
                 best_bic = min((f[0] for f in fits), default=np.inf)
                 try:
                     res, model, far = _candidate_fit(cond, start, structure, noise, with_delay, options, best_bic)
                 except IdentificationError as exc:
-                    errors.append(f"{label}: {exc.message}")
-                    dropped.append((_describe(structure, with_delay), exc.message))
+                    dropped.append((structure, with_delay, exc.message))
                     continue
                 if not np.isfinite(res.bic) or np.any(np.real(res.poles) >= 0):
-                    errors.append(f"{label}: unstable or failed fit")
-                    dropped.append((_describe(structure, with_delay), "unstable or failed fit"))
+                    dropped.append((structure, with_delay, "unstable or failed fit"))
                     continue
                 if far:
                     left.append(f"{_describe(structure, with_delay)} (BIC {res.bic - best_bic:.0f} "
@@ -1422,9 +1421,7 @@ def select_order(
                 # fit parked a superfluous parameter there (and its realisation is ill-conditioned)
                 roots = np.r_[res.poles, res.zeros]
                 if roots.size and np.max(np.abs(roots)) > fastest:
-                    errors.append(f"{label}: a pole or zero beyond the sampling rate")
-                    dropped.append((_describe(structure, with_delay), "a pole or zero beyond the sampling rate, "
-                                    "faster than the record can show"))
+                    dropped.append((structure, with_delay, BEYOND_SAMPLING))
                     continue
                 models[structure] = model
                 best_of[order] = min(best_of.get(order, np.inf), res.bic)
@@ -1433,6 +1430,9 @@ def select_order(
         onsets = [f"{role} at {r.edge.time_s:.6g} s" for role, r in cond.responses.items() if r.timing == "onset"]
         hint = ("; the step instant was read off the response itself (" + ", ".join(onsets) + "): if the motion "
                 "starts elsewhere, give it with --t0") if onsets else ""
+        errors = [f"{structure}{' + delay' if with_delay else ''}: "
+                  + ("a pole or zero beyond the sampling rate" if why == BEYOND_SAMPLING else why)
+                  for structure, with_delay, why in dropped]
         raise IdentificationError("the output-error fit failed for every order: " + "; ".join(errors) + hint)
     fits.sort(key=lambda f: f[0])
     fits, _ = _simplest_of_ties(fits)
@@ -1480,8 +1480,8 @@ def select_order(
     if len(variants) == 2:
         evidence += (f" (a dead time was tried: the data stay in their noise band for "
                      f"{1e3 * cond.dead_time_s:.3g} ms after the step)")
-    for why in dict.fromkeys(w for _, w in dropped):
-        evidence += f"; not kept ({why}): {', '.join(d for d, w in dropped if w == why)}"
+    for why in dict.fromkeys(w for _, _, w in dropped):
+        evidence += f"; not kept ({why}): {', '.join(_describe(s, d) for s, d, w in dropped if w == why)}"
     if skipped:
         evidence += f"; {', '.join(dict.fromkeys(skipped))} not fitted (one pole fewer did not lower BIC)"
     if beyond:

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 
 from motorid._threads import single_blas_thread
+from motorid.control.controller import integrator_holds
 from motorid.control.design import Design, design_model, output_row
 from motorid.control.pid import PidDesign
 from motorid.errors import OptionError
@@ -757,7 +758,7 @@ def simulate_closed_loop(model: MotorModel, design: Design | PidDesign, settings
                 e = y - r[i]
                 # conditional integration: integrating e moves the command by −ki·e·dt; hold
                 # the integrator while the command is beyond a rail and e would push it further
-                if hold and ki is not None and ((u_req > sat and ki * e < 0) or (u_req < -sat and ki * e > 0)):
+                if hold and ki is not None and integrator_holds(u_req, sat, -ki * e):
                     e = 0.0
                 z += s.dt_s * e  # exact: y − r is held over the interval
             if use_obs:
@@ -891,7 +892,7 @@ def _simulate_pid(model: MotorModel, pid: PidDesign, s: SimulationSettings,
                 new = phi_c @ xc + gam_c @ np.array([r[i], y])
                 # conditional integration: ż = e moves the command by ki·e·dt; hold z while the
                 # command is beyond a rail and e would push it further
-                if hold and i_z is not None and ((u_req > sat and pid.ki * e > 0) or (u_req < -sat and pid.ki * e < 0)):
+                if hold and i_z is not None and integrator_holds(u_req, sat, pid.ki * e):
                     new[i_z] = xc[i_z]
                 xc = new
     warnings += _run_warnings(ys, r, xs, us, uraw, s, sat, integral=i_z is not None, held=hold,

@@ -233,11 +233,12 @@ def slider_ranges(model: MotorModel) -> SliderRanges:
     step = float(f"{(hi - lo) / 300:.2g}")
     dur = float(f"{max(8.0 / (0.7 * start), 0.5):.2g}")
     observer = ",".join(f"{-(10 + 2 * i) * start:.3g}" for i in range(model.A.shape[0]))
+    from motorid.control.design import default_output
     from motorid.model.units import channel_unit
     from motorid.simulation.reference import default_rails, default_reference_level
 
-    # the design's output by default (design_controller's choice): its unit, its level
-    output = "position" if "position" in model.outputs else "velocity"
+    # the design's output by default: its unit, its level
+    output = default_output(model)
     unit = channel_unit(model.units, "input")
     rails = default_rails(model)
     return SliderRanges((0.2, 2.0, 0.01, 0.7), (float(f"{lo:.3g}"), float(f"{hi:.3g}"), step, float(f"{start:.3g}")),
